@@ -1,0 +1,28 @@
+"""inkray: depth maps and bas-relief meshes from hand-drawn line drawings.
+
+Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
+(In)equalities" (CGF 2010) and "Ink-and-Ray: Bas-Relief Meshes for Adding
+Global Illumination Effects to Hand-Drawn Characters" (TOG 2014), with
+LazyBrush segmentation (Sýkora, Dingliana, Collins, CGF 2009).
+
+The pipeline is one module per stage; this namespace re-exports the public
+functions so that ``import inkray`` mirrors the command line.
+"""
+
+__version__ = "0.1.0"
+
+from .annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
+                          load_annotations, parse_annotations, rescale_annotations)
+from .drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
+from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
+from .inputs import load_input  # noqa: E402
+from .scribbles import load_scribble_layer, seed_image  # noqa: E402
+
+__all__ = [
+    "__version__",
+    "Annotations", "Boundary", "Equal", "Order", "Region",
+    "load_annotations", "parse_annotations", "rescale_annotations",
+    "Drawing", "drawing_from_array", "load_drawing",
+    "InkrayError", "InputError", "StageError", "StageMissing",
+    "load_input", "load_scribble_layer", "seed_image",
+]

@@ -1,0 +1,223 @@
+"""The ``inkray`` command line.
+
+Exit codes: 0 ok, 1 failed on valid input, 2 bad input or usage. Errors are
+one line on stderr (``--debug`` shows the traceback). Every command validates
+its whole input before it writes anything, and writes through
+:func:`inkray.io.atomic_outputs`.
+"""
+
+import argparse
+import sys
+import traceback
+from pathlib import Path
+
+from . import __version__
+from .errors import InkrayError, InputError, StageMissing
+from .progress import Progress
+
+__all__ = ["main"]
+
+
+class _UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2, instead of usage + message
+        raise _UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+
+
+def _add_input(p):
+    p.add_argument("annotation", metavar="ANN", help="annotation file (.inkray.json)")
+    p.add_argument("--drawing", metavar="PATH", help="drawing file (overrides the 'drawing' key)")
+    p.add_argument("--rescale", action="store_true",
+                   help="scale the annotation when the drawing's size differs from its 'size'")
+    p.add_argument("--scribbles", metavar="PNG",
+                   help="scribble layer: transparent PNG, one flat colour per region")
+    p.add_argument("--legend", metavar="JSON",
+                   help="colour legend for --scribbles: {\"#rrggbb\": \"name\", ...}")
+
+
+def _load(args):
+    from .inputs import load_input
+
+    return load_input(args.annotation, drawing=args.drawing, rescale=args.rescale,
+                      scribble_layer=args.scribbles, legend=args.legend)
+
+
+def _check_output(path, allowed):
+    suffix = Path(path).suffix.lower()
+    if suffix not in allowed:
+        raise InputError(f"-o {path}: unsupported output type {suffix or '(none)'} "
+                         f"(expected {', '.join(allowed)})")
+
+
+# -- commands ----------------------------------------------------------------
+
+def _cmd_validate(args, progress):
+    ann, drawing = _load(args)
+    w, h = ann.size
+    print(f"{args.annotation}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
+          f"{len(ann.background)} background scribbles, {len(ann.order)} order, "
+          f"{len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
+    return 0
+
+
+def _cmd_segment(args, progress):
+    _check_output(args.output, (".png",))
+    _load(args)
+    raise StageMissing("segment", 3)
+
+
+def _cmd_regions(args, progress):
+    _check_output(args.output, (".json",))
+    _load(args)
+    raise StageMissing("regions", 5)
+
+
+def _cmd_depth(args, progress):
+    _check_output(args.output, (".png",))
+    _load(args)
+    raise StageMissing("depth", 4)
+
+
+def _cmd_relief(args, progress):
+    _check_output(args.output, (".glb", ".obj", ".ply"))
+    _load(args)
+    raise StageMissing("relief", 7)
+
+
+def _cmd_render(args, progress):
+    _check_output(args.output, (".png",))
+    raise StageMissing("render", 9)
+
+
+def _cmd_check(args, progress):
+    raise StageMissing("check", 8)
+
+
+def _cmd_demo(args, progress):
+    from .examples import example_path
+
+    ann = example_path(args.example)
+    out = Path(args.output)
+    steps = [
+        ("validate", ["validate", str(ann)]),
+        ("segment", ["segment", str(ann), "-o", str(out / "labels.png")]),
+        ("depth", ["depth", str(ann), "-o", str(out / "depth.png")]),
+        ("regions", ["regions", str(ann), "-o", str(out / "regions.json")]),
+        ("relief", ["relief", str(ann), "-o", str(out / "relief.glb")]),
+        ("render", ["render", str(out / "relief.glb"), "-o", str(out / "shaded.png")]),
+    ]
+    flags = (["--quiet"] if args.quiet else []) + (["--debug"] if args.debug else [])
+    print(f"demo: {args.example} -> {out}/")
+    for name, argv in steps:
+        try:
+            code = _run(flags + argv, progress)
+        except StageMissing as e:
+            print(f"demo: stopped at '{name}': {e}; the stages before it ran")
+            return 0
+        if code != 0:
+            return code
+    return 0
+
+
+_COMMANDS = {
+    "validate": (_cmd_validate, "check an annotation file and its drawing"),
+    "segment": (_cmd_segment, "segment the drawing into regions from the scribbles"),
+    "regions": (_cmd_regions, "complete regions under occluders and predict depth order"),
+    "depth": (_cmd_depth, "depth map from sparse depth (in)equalities"),
+    "relief": (_cmd_relief, "bas-relief mesh (GLB, OBJ or PLY)"),
+    "render": (_cmd_render, "render a relief mesh"),
+    "check": (_cmd_check, "mesh-quality report"),
+    "demo": (_cmd_demo, "run the main job on a bundled example"),
+}
+
+
+def _parser():
+    def flags(default):
+        common = argparse.ArgumentParser(add_help=False)
+        common.add_argument("--debug", action="store_true", default=default, help="show tracebacks")
+        common.add_argument("--quiet", action="store_true", default=default,
+                            help="no progress output")
+        return common
+
+    # Subcommands must not reset a flag given before the command name.
+    common = flags(argparse.SUPPRESS)
+    parser = _Parser(prog="inkray", parents=[flags(False)],
+                     description="Depth maps and bas-relief meshes from hand-drawn line drawings.")
+    parser.add_argument("--version", action="version", version=f"inkray {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    p = {}
+    for name, (_, help_) in _COMMANDS.items():
+        p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
+    for name in ("validate", "segment", "regions", "depth", "relief"):
+        _add_input(p[name])
+    for name in ("segment", "regions", "depth", "relief"):
+        p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
+    p["render"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
+    p["render"].add_argument("-o", "--output", required=True, metavar="PNG", help="output image")
+    p["check"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
+    p["check"].add_argument("-o", "--output", metavar="JSON", help="write the report as JSON")
+    p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
+                           help="output folder (default: inkray-demo)")
+    p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
+    return parser
+
+
+def _run(argv, progress=None):
+    args = _parser().parse_args(argv)
+    if progress is None:
+        progress = Progress(quiet=args.quiet)
+    return _COMMANDS[args.command][0](args, progress)
+
+
+def main(argv=None):
+    """Run the ``inkray`` command line; returns the exit code.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 ok, 1 failed on valid input, 2 bad input or usage.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    try:
+        return _run(argv)
+    except SystemExit as e:  # --help and --version
+        return e.code if isinstance(e.code, int) else 0
+    except _UsageError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except InkrayError as e:
+        if debug:
+            traceback.print_exc()
+        print(f"inkray: error: {_one_line(e)}", file=sys.stderr)
+        return e.exit_code
+    except KeyboardInterrupt:
+        print("inkray: interrupted; nothing was written", file=sys.stderr)
+        return 130
+    except MemoryError:
+        print("inkray: error: out of memory (try a smaller drawing)", file=sys.stderr)
+        return 1
+    except Exception as e:  # a bug: still one line unless --debug
+        if debug:
+            traceback.print_exc()
+        print(f"inkray: internal error: {type(e).__name__}: {_one_line(e)} "
+              f"(run with --debug for the traceback)", file=sys.stderr)
+        return 1
+
+
+def _one_line(e):
+    return " ".join(str(e).split())
+
+
+def entry():
+    """Console-script entry point."""
+    sys.exit(main())
