@@ -1,0 +1,183 @@
+"""CLI contract: exit codes, one-line errors, nothing written on failure."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+from PIL import Image
+
+from inkray import cli
+from inkray.errors import StageMissing
+from inkray.io import atomic_outputs, write_text
+
+
+@pytest.fixture
+def annotated(tmp_path, minimal_doc):
+    Image.fromarray(np.full((8, 10), 255, np.uint8)).save(tmp_path / "d.png")
+    path = tmp_path / "a.inkray.json"
+    path.write_text(json.dumps(minimal_doc))
+    return path
+
+
+def _run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_validate_ok(annotated, capsys):
+    code, out, err = _run(capsys, "validate", str(annotated))
+    assert code == 0 and err == ""
+    assert "ok: 10x8 drawing" in out and "2 regions" in out and "1 order" in out
+
+
+def test_validate_bad_key_path_exit_2_one_line(annotated, minimal_doc, capsys):
+    minimal_doc["regions"][1]["scribbles"] = [[[1, 1], [13, 2]]]
+    annotated.write_text(json.dumps(minimal_doc))
+    code, out, err = _run(capsys, "validate", str(annotated))
+    assert code == 2
+    assert err == ("inkray: error: regions[1].scribbles[0][1]: point (13, 2) lies outside "
+                   "the 10x8 drawing\n")
+    assert "Traceback" not in err
+
+
+def test_usage_errors_exit_2_one_line(capsys):
+    for argv in (["nonsense"], ["segment", "a.json"], [], ["validate"]):
+        code, out, err = _run(capsys, *argv)
+        assert code == 2, argv
+        assert err.count("\n") == 1 and err.startswith("error: inkray"), err
+
+
+def test_help_and_version(capsys):
+    assert _run(capsys, "--help")[0] == 0
+    code, out, _ = _run(capsys, "--version")
+    assert code == 0 and out.startswith("inkray ")
+
+
+def test_wrong_output_suffix_is_rejected_before_work(annotated, tmp_path, capsys):
+    code, _, err = _run(capsys, "relief", str(annotated), "-o", str(tmp_path / "x.stl"))
+    assert code == 2 and "unsupported output type .stl" in err
+    assert not (tmp_path / "x.stl").exists()
+
+
+def test_missing_stage_exits_2_and_says_so(monkeypatch, capsys):
+    def missing(args, progress):
+        raise StageMissing("check", 8)
+    monkeypatch.setitem(cli._COMMANDS, "check", (missing, "x"))
+    code, _, err = _run(capsys, "check", "m.glb")
+    assert code == 2
+    assert err == "inkray: error: the 'check' stage is not implemented yet (tracked in issue #8)\n"
+
+
+def test_internal_error_is_one_line_and_debug_shows_traceback(monkeypatch, capsys):
+    def boom(args, progress):
+        raise ZeroDivisionError("division by zero")
+    monkeypatch.setitem(cli._COMMANDS, "check", (boom, "x"))
+    code, _, err = _run(capsys, "check", "m.glb")
+    assert code == 1 and err.count("\n") == 1 and "internal error: ZeroDivisionError" in err
+    code, _, err = _run(capsys, "--debug", "check", "m.glb")
+    assert code == 1 and "Traceback" in err
+    code, _, err = _run(capsys, "check", "--debug", "m.glb")
+    assert "Traceback" in err
+
+
+def test_flags_before_the_command_are_kept():
+    args = cli._parser().parse_args(["--quiet", "validate", "a.json"])
+    assert args.quiet is True and args.debug is False
+    args = cli._parser().parse_args(["validate", "--debug", "a.json"])
+    assert args.debug is True and args.quiet is False
+
+
+def test_demo_runs_what_exists(tmp_path, capsys):
+    code, out, err = _run(capsys, "demo", "-o", str(tmp_path / "demo"))
+    assert code == 0, err
+    assert "turtle" in out and "ok:" in out
+    code, _, err = _run(capsys, "demo", "--example", "dragon")
+    assert code == 2 and "no such bundled example" in err
+
+
+def test_console_script_exit_code(annotated):
+    exe = os.path.join(os.path.dirname(sys.executable), "inkray")
+    if not os.path.exists(exe):
+        pytest.skip("the inkray console script is not installed in this environment")
+    r = subprocess.run([exe, "validate", str(annotated.parent / "missing.json")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.strip().endswith("no such annotation file")
+
+
+# -- atomic writes -----------------------------------------------------------
+
+def test_atomic_outputs_all_or_nothing(tmp_path):
+    with atomic_outputs() as out:
+        out.write_text(tmp_path / "a.txt", "A")
+        out.write_bytes(tmp_path / "sub" / "b.bin", b"B")
+    assert (tmp_path / "a.txt").read_text() == "A" and (tmp_path / "sub" / "b.bin").read_bytes() == b"B"
+
+    with pytest.raises(RuntimeError):
+        with atomic_outputs() as out:
+            out.write_text(tmp_path / "c.txt", "C")
+            np.save(out.path(tmp_path / "d.npy"), np.zeros(3))
+            raise RuntimeError("stage failed half way")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "sub"]  # no c, no d, no temps
+
+
+def test_atomic_replace_keeps_old_file_until_done(tmp_path):
+    target = tmp_path / "r.json"
+    write_text(target, "old")
+    with pytest.raises(KeyError):
+        with atomic_outputs() as out:
+            out.write_text(target, "new")
+            assert target.read_text() == "old"  # not visible before commit
+            raise KeyError
+    assert target.read_text() == "old"
+    write_text(target, "new")
+    assert target.read_text() == "new"
+
+
+def test_temp_path_keeps_suffix(tmp_path):
+    with atomic_outputs() as out:
+        p = out.path(tmp_path / "img.png")
+        assert p.suffix == ".png" and p.parent == tmp_path
+        Image.fromarray(np.zeros((2, 2), np.uint8)).save(p)
+    assert Image.open(tmp_path / "img.png").size == (2, 2)
+
+
+# -- property-based: malformed JSON never gives a traceback -------------------
+
+_json = st.recursive(
+    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(max_size=12),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(
+        st.sampled_from(["format", "version", "size", "regions", "name", "scribbles", "order",
+                         "front", "back", "equal", "a", "b", "boundaries", "type", "path",
+                         "background", "drawing", "inflation", "profile", "x"]),
+        children, max_size=6),
+    max_leaves=25)
+
+
+def _mutations(doc):
+    """Structured documents that are almost valid: one subtree replaced."""
+    keys = ["format", "version", "size", "regions", "order", "equal", "boundaries", "background"]
+    return st.tuples(st.sampled_from(keys), _json).map(lambda kv: {**doc, kv[0]: kv[1]})
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_validate_never_crashes_on_malformed_json(tmp_path, minimal_doc, data, capsys):
+    Image.fromarray(np.full((8, 10), 255, np.uint8)).save(tmp_path / "d.png")
+    doc = data.draw(_json | _mutations(minimal_doc) | st.binary(max_size=40))
+    path = tmp_path / "fuzz.inkray.json"
+    if isinstance(doc, bytes):
+        path.write_bytes(doc)
+    else:
+        path.write_text(json.dumps(doc))
+    code = cli.main(["validate", str(path)])
+    out, err = capsys.readouterr()
+    assert code in (0, 2)
+    if code == 2:
+        assert err.startswith("inkray: error: ") and err.count("\n") == 1, err
+    assert "Traceback" not in err and "internal error" not in err
