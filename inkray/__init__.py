@@ -16,6 +16,7 @@ from .annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: 
 from .drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
 from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
 from .inputs import load_input  # noqa: E402
+from .rasterize import Raster, fit_view, rasterize  # noqa: E402
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
 
 __all__ = [
@@ -25,4 +26,5 @@ __all__ = [
     "Drawing", "drawing_from_array", "load_drawing",
     "InkrayError", "InputError", "StageError", "StageMissing",
     "load_input", "load_scribble_layer", "seed_image",
+    "Raster", "fit_view", "rasterize",
 ]
