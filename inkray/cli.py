@@ -93,7 +93,23 @@ def _cmd_render(args, progress):
 
 
 def _cmd_check(args, progress):
-    raise StageMissing("check", 8)
+    from .check import check_file, failed_requirements, format_report, parse_requirements
+    from .io import write_text
+
+    if args.output:
+        _check_output(args.output, (".json",))
+    required = parse_requirements(args.require or "")
+    with progress.stage("check"):
+        report = check_file(args.mesh)
+    if args.output:
+        import json
+
+        write_text(args.output, json.dumps(report, indent=2) + "\n")
+    print(format_report(report))
+    failed = failed_requirements(report, required)
+    for req, parts in failed:
+        print(f"inkray: check: requirement '{req}' failed for {', '.join(parts)}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _cmd_demo(args, progress):
@@ -160,6 +176,10 @@ def _parser():
     p["render"].add_argument("-o", "--output", required=True, metavar="PNG", help="output image")
     p["check"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
     p["check"].add_argument("-o", "--output", metavar="JSON", help="write the report as JSON")
+    p["check"].add_argument("--require", metavar="LIST",
+                            help="exit 1 unless every part meets these, comma-separated: "
+                                 "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
+                                 "no-self-intersections, no-degenerate, no-duplicates")
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
