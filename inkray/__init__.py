@@ -18,6 +18,7 @@ from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E
 from .inputs import load_input  # noqa: E402
 from .rasterize import Raster, fit_view, rasterize  # noqa: E402
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
+from .segment import Segmentation, lazybrush, segment  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -26,5 +27,6 @@ __all__ = [
     "Drawing", "drawing_from_array", "load_drawing",
     "InkrayError", "InputError", "StageError", "StageMissing",
     "load_input", "load_scribble_layer", "seed_image",
+    "Segmentation", "lazybrush", "segment",
     "Raster", "fit_view", "rasterize",
 ]

@@ -64,9 +64,52 @@ def _cmd_validate(args, progress):
 
 
 def _cmd_segment(args, progress):
+    import json
+
+    import numpy as np
+    from PIL import Image
+
+    from .io import atomic_outputs
+    from .segment import label_palette, segment
+
     _check_output(args.output, (".png",))
-    _load(args)
-    raise StageMissing("segment", 3)
+    if args.npy is not None and Path(args.npy).suffix.lower() != ".npy":
+        raise InputError(f"--npy {args.npy}: expected a .npy file")
+    ann, drawing = _load(args)
+    with progress.stage("segment"):
+        seg = segment(ann, drawing, progress=progress)
+    for warning in seg.warnings:
+        print(f"inkray: warning: {warning}", file=sys.stderr)
+    png = Path(args.output)
+    legend_path = png.with_suffix(".json")
+    palette = label_palette(len(seg.names))
+    index = seg.labels + 1  # palette index: 0 background, i + 1 region i
+    if len(palette) <= 256:
+        image = Image.fromarray(index.astype(np.uint8))
+        image.putpalette(palette.ravel().tolist())  # makes it an indexed ("P") image
+    else:
+        image = Image.fromarray(palette[index])
+    hexes = [f"#{r:02x}{g:02x}{b:02x}" for r, g, b in palette.tolist()]
+    counts = np.bincount(index.ravel(), minlength=len(palette))
+    legend = {
+        "format": "inkray-labels", "version": 1, "image": png.name,
+        "size": [int(seg.labels.shape[1]), int(seg.labels.shape[0])],
+        "background": {"label": -1, "index": 0, "colour": hexes[0], "pixels": int(counts[0])},
+        "regions": {name: {"label": i, "index": i + 1, "colour": hexes[i + 1],
+                           "pixels": int(counts[i + 1])}
+                    for i, name in enumerate(seg.names)},
+        "warnings": seg.warnings,
+    }
+    with atomic_outputs() as out:
+        image.save(out.path(png))
+        out.write_text(legend_path, json.dumps(legend, indent=2, ensure_ascii=False) + "\n")
+        if args.npy is not None:
+            np.save(out.path(args.npy), seg.labels.astype(np.int32))
+    progress.summary()
+    extra = f" and {args.npy}" if args.npy is not None else ""
+    print(f"{png}: {len(seg.names)} regions and background (legend {legend_path}{extra}), "
+          f"{len(seg.warnings)} warnings")
+    return 0
 
 
 def _cmd_regions(args, progress):
@@ -172,6 +215,8 @@ def _parser():
         _add_input(p[name])
     for name in ("segment", "regions", "depth", "relief"):
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
+    p["segment"].add_argument("--npy", metavar="NPY",
+                              help="also write the labels as an int32 array (-1 background)")
     p["render"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
     p["render"].add_argument("-o", "--output", required=True, metavar="PNG", help="output image")
     p["check"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
