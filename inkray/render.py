@@ -1,0 +1,751 @@
+"""Pictures of a relief: shading, normal and depth maps, stereo, global illumination.
+
+The point of Ink-and-Ray (Sýkora et al., "Ink-and-Ray: Bas-Relief Meshes for
+Adding Global Illumination Effects to Hand-Drawn Characters", TOG 2014) is the
+picture: the relief, textured with the drawing's colours, is lit with global
+illumination (soft shadows, self-shadowing, colour bleeding, glossy
+reflections) and the drawing's ink is composited over the result with a
+multiply, so the lines stay as crisp as drawn. The paper also names cheaper
+uses of the same relief: 3D-like shading from its normals, normal and depth
+maps for 2D compositing, and stereoscopic images; all are here.
+
+Modes (see :func:`render`):
+
+- ``shade``: Lambert + ambient + a small highlight from the interpolated
+  normals (:mod:`inkray.rasterize`), ink multiplied on top.
+- ``normals``: the front normal map (RGB = (n + 1) / 2, OpenGL convention:
+  x right, y up, z toward the viewer).
+- ``depth``: a 16-bit depth map, 0 = background, 1..65535 = far..near.
+- ``stereo``: left/right ``shade`` views of an off-axis (sheared) camera pair
+  and their red-cyan anaglyph; zero disparity at the drawing plane.
+- ``gi``: a path-traced render with Mitsuba 3 (``scalar_rgb``): relief on a
+  backdrop, a soft area light plus a dim sky, ink multiplied on top.
+
+Frames: the light direction is given as ``(x right, y up, z toward the
+viewer)``; a turntable ``yaw`` (degrees) moves an orthographic camera around
+the vertical axis through the drawing's centre (positive: to the viewer's
+right), the light stays with the relief.
+"""
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, StageError
+from .io import atomic_outputs
+from .rasterize import fit_view, rasterize
+from .relief import Part, Relief
+
+__all__ = ["MODES", "Rendering", "has_mitsuba", "render", "render_turntable",
+           "write_renderings"]
+
+MODES = ("shade", "normals", "depth", "stereo", "gi")
+
+_SUPERSAMPLE = 2  # shade/stereo/ink: rasterized at 2x and box-filtered (antialiasing)
+_INK_LEVEL = 0.6  # brightest channel (paper = 1) at and above which a pixel is not ink
+_SPECULAR = 0.12
+_SHININESS = 40.0
+# Flat colours for parts whose drawing colour is (near) white: soft, distinct.
+_PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
+                     [0.90, 0.55, 0.50], [0.75, 0.60, 0.85], [0.95, 0.85, 0.55],
+                     [0.50, 0.80, 0.75], [0.85, 0.65, 0.45]])
+_GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
+
+
+@dataclass
+class Rendering:
+    """One rendered picture.
+
+    Attributes
+    ----------
+    mode : str
+    image : array
+        ``(h, w, 4)`` uint8 RGBA (alpha = relief coverage; opaque for ``gi``
+        with a backdrop), or ``(h, w)`` uint16 for ``depth``. For ``stereo``
+        the anaglyph.
+    mask : (h, w) bool array
+        Pixels the relief covers (for ``stereo``: in either view).
+    views : dict
+        ``stereo``: ``{"left": rgba, "right": rgba}``; empty otherwise.
+    depth_range : (float, float) or None
+        ``depth``: the view depths (drawing pixels) mapped to 1 and 65535.
+    """
+
+    mode: str
+    image: np.ndarray
+    mask: np.ndarray
+    views: dict = field(default_factory=dict)
+    depth_range: tuple = None
+
+
+def has_mitsuba():
+    """True when Mitsuba 3 with the ``scalar_rgb`` variant can be imported.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> isinstance(has_mitsuba(), bool)
+    True
+    """
+    try:
+        _mitsuba()
+    except StageError:
+        return False
+    return True
+
+
+def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
+           flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
+           progress=None):
+    """Render a relief seen from the front (or from ``yaw`` degrees to the side).
+
+    Parameters
+    ----------
+    relief : inkray.relief.Relief
+    mode : {"shade", "normals", "depth", "stereo", "gi"}, optional
+    size : (int, int), optional
+        ``(width, height)`` of the image; the drawing is fitted and centred.
+        Default: the drawing's size.
+    light : (3,) float, optional
+        Direction toward the light, ``x`` right, ``y`` up, ``z`` toward the
+        viewer (default: upper left, in front).
+    ambient : float, optional
+        ``shade``/``stereo``: the light a surface facing away still gets (0..1).
+    flat_colors : bool, optional
+        Colour each part with one colour (its drawing colour, or a palette
+        colour where the drawing is white) instead of the drawing's colours.
+    disparity : float, optional
+        ``stereo``: horizontal shift in output pixels between the views at the
+        relief's highest point (zero at height 0). Default: 2% of the width.
+    spp : int, optional
+        ``gi``: samples per pixel.
+    backdrop : bool, optional
+        ``gi``: put a matte backdrop behind the relief to catch its shadows.
+        Without it the background is transparent.
+    yaw : float, optional
+        Camera angle (degrees) around the vertical axis through the drawing's
+        centre; positive moves the camera to the viewer's right.
+    seed : int, optional
+        ``gi``: sampler seed (renders are deterministic for a seed).
+    progress : inkray.progress.Progress, optional
+        ``gi`` reports its passes on it.
+
+    Returns
+    -------
+    Rendering
+
+    Raises
+    ------
+    InputError
+        An argument is out of range.
+    StageError
+        ``gi`` without Mitsuba 3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief import Part, Relief
+    >>> v = np.array([[2, 2, 3], [8, 2, 3], [8, 8, 3], [2, 8, 3]], float)
+    >>> sq = Part("square", v, np.array([[0, 3, 2], [0, 2, 1]]))
+    >>> r = render(Relief([sq], size=(10, 10)), mode="shade", size=(20, 20))
+    >>> r.image.shape, int(r.mask.sum())
+    ((20, 20, 4), 144)
+    """
+    relief, size, light, yaw = _check(relief, mode, size, light, ambient, disparity, spp, yaw)
+    if mode == "normals":
+        return _normals(relief, size, yaw)
+    if mode == "depth":
+        return _depth(relief, size, yaw)
+    layers = _Layers(relief, flat_colors)
+    if mode == "shade":
+        rgba = _shade(relief, layers, size, yaw, light, ambient)
+        return Rendering("shade", rgba, rgba[..., 3] > 0)
+    if mode == "stereo":
+        return _stereo(relief, layers, size, yaw, light, ambient, disparity)
+    return _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress)
+
+
+def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=None, **options):
+    """Frames of a camera swinging around the vertical axis (small angles).
+
+    The yaw of frame ``k`` is ``angle * sin(2 pi k / frames)``: the sequence
+    starts frontal and loops smoothly.
+
+    Parameters
+    ----------
+    relief : inkray.relief.Relief
+    frames : int, optional
+        Number of frames (>= 1).
+    angle : float, optional
+        Largest yaw in degrees (0..60: a relief is meant for near-frontal views).
+    mode : str, optional
+        As for :func:`render`.
+    progress : inkray.progress.Progress, optional
+        Reports frames done.
+    **options
+        Passed to :func:`render` (everything but ``yaw``).
+
+    Returns
+    -------
+    list of Rendering
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief import Part, Relief
+    >>> v = np.array([[2, 2, 3], [8, 2, 3], [8, 8, 3], [2, 8, 3]], float)
+    >>> sq = Part("square", v, np.array([[0, 3, 2], [0, 2, 1]]))
+    >>> len(render_turntable(Relief([sq], size=(10, 10)), frames=3))
+    3
+    """
+    if not (isinstance(frames, (int, np.integer)) and frames >= 1):
+        raise InputError(f"turntable: frames must be a positive integer, got {frames!r}")
+    if not (np.isfinite(angle) and 0 <= angle <= 60):
+        raise InputError(f"turntable: angle must be within 0..60 degrees, got {angle!r}")
+    if "yaw" in options:
+        raise InputError("turntable: 'yaw' is set per frame; pass 'angle' instead")
+    out = []
+    for k in range(frames):
+        yaw = float(angle) * np.sin(2 * np.pi * k / frames)
+        inner = progress if mode == "gi" and frames == 1 else None
+        out.append(render(relief, mode=mode, yaw=yaw, progress=inner, **options))
+        if progress is not None:
+            progress.update(k + 1, frames)
+    return out
+
+
+def write_renderings(renderings, path, *, fps=12):
+    """Write renderings as PNG(s) or an animated GIF, all files or none.
+
+    One rendering to ``X.png`` writes ``X.png``; ``stereo`` also writes the
+    views ``X-left.png`` and ``X-right.png``. Several renderings (a turntable)
+    to ``X.png`` write frames ``X-000.png``, ``X-001.png``, ...; to ``X.gif``
+    an animation over white. Depth maps are 16-bit greyscale PNGs whose text
+    chunk ``inkray:depth`` records the depth range.
+
+    Parameters
+    ----------
+    renderings : Rendering or list of Rendering
+    path : str or Path
+        ``.png`` or (several renderings) ``.gif``.
+    fps : int, optional
+        GIF frame rate.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> img = np.zeros((2, 3, 4), np.uint8)
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "a.png"
+    >>> [p.name for p in write_renderings(Rendering("shade", img, img[..., 3] > 0), out)]
+    ['a.png']
+    """
+    from PIL import Image
+
+    items = [renderings] if isinstance(renderings, Rendering) else list(renderings)
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if not items:
+        raise InputError(f"{path}: nothing to write")
+    if suffix not in (".png", ".gif") or (suffix == ".gif" and len(items) == 1):
+        raise InputError(f"-o {path}: expected .png" + (" or .gif" if len(items) > 1 else ""))
+    files = {}
+    if suffix == ".gif":
+        files[path] = [_gif_frame(r) for r in items]
+    elif len(items) == 1:
+        files[path] = items[0]
+        for side, rgba in items[0].views.items():
+            files[path.with_name(f"{path.stem}-{side}.png")] = rgba
+    else:
+        for k, r in enumerate(items):
+            files[path.with_name(f"{path.stem}-{k:03d}.png")] = r
+    with atomic_outputs() as out:
+        for target, item in files.items():
+            tmp = out.path(target)
+            if isinstance(item, list):
+                item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
+                             duration=round(1000 / fps), loop=0, optimize=False)
+            elif isinstance(item, np.ndarray):
+                Image.fromarray(item).save(tmp, format="PNG")
+            else:
+                _save_png(item, tmp)
+    return list(files)
+
+
+# -- validation ----------------------------------------------------------------
+
+def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
+    if not isinstance(relief, Relief):
+        raise InputError(f"render: expected an inkray.relief.Relief, got {type(relief).__name__}")
+    if mode not in MODES:
+        raise InputError(f"render: unknown mode {mode!r} (expected one of {', '.join(MODES)})")
+    if not relief.parts or not any(len(p.faces) for p in relief.parts):
+        raise InputError("render: the relief has no triangles")
+    if size is None:
+        size = tuple(int(s) for s in relief.size)
+    if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
+            or not all(1 <= s <= 16384 for s in size)):
+        raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
+    light = np.asarray(light, float)
+    if light.shape != (3,) or not np.all(np.isfinite(light)) or not np.linalg.norm(light) > 0:
+        raise InputError(f"render: light must be a non-zero direction (x, y, z), got {light!r}")
+    if not (np.isfinite(ambient) and 0 <= ambient <= 1):
+        raise InputError(f"render: ambient must be within 0..1, got {ambient!r}")
+    if disparity is not None and not (np.isfinite(disparity) and abs(disparity) <= size[0]):
+        raise InputError(f"render: disparity must be a number of pixels within the width, "
+                         f"got {disparity!r}")
+    if not (isinstance(spp, (int, np.integer)) and 1 <= spp <= 65536):
+        raise InputError(f"render: spp must be an integer in 1..65536, got {spp!r}")
+    if not (np.isfinite(yaw) and abs(yaw) <= 90):
+        raise InputError(f"render: yaw must be within -90..90 degrees, got {yaw!r}")
+    return relief, (int(size[0]), int(size[1])), light / np.linalg.norm(light), float(yaw)
+
+
+# -- camera --------------------------------------------------------------------
+
+def _yaw_view(relief, yaw):
+    """Affine view of a camera turned by ``yaw`` degrees about the vertical centre axis."""
+    a = np.radians(yaw)
+    c, s = np.cos(a), np.sin(a)
+    cx = relief.size[0] / 2.0
+    return np.array([[c, 0, -s, cx - c * cx], [0, 1, 0, 0], [s, 0, c, -s * cx]])
+
+
+def _raster(relief, size, yaw, factor=1, shear=0.0):
+    """Rasterize at ``factor`` times ``size``, fitted and centred like the final image."""
+    w, h = size
+    scale, offset = fit_view(relief.size, size)
+    view = _yaw_view(relief, yaw)
+    view[0] += shear * view[2]  # x += shear * depth: an off-axis stereo camera
+    return rasterize(relief, size=(w * factor, h * factor), scale=scale * factor,
+                     offset=(offset[0] * factor, offset[1] * factor), view=view)
+
+
+def _downsample(a, factor):
+    h, w = a.shape[0] // factor, a.shape[1] // factor
+    return a.reshape(h, factor, w, factor, *a.shape[2:]).mean(axis=(1, 3))
+
+
+# -- colours and ink -------------------------------------------------------------
+
+def _srgb_to_linear(c):
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _linear_to_srgb(c):
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
+class _Layers:
+    """The drawing split into a fill texture (ink removed) and an ink multiplier.
+
+    Ink is what is darker, in its brightest channel, than ``_INK_LEVEL`` of
+    the paper (so saturated colours are not ink); the multiplier falls
+    linearly from 1 there to 0 at black, keeping the
+    antialiased edges of the strokes. Under ink the fill takes the colour of
+    the nearest non-ink pixel, so shading and light bounces see the colours
+    of the regions and not the lines.
+    """
+
+    def __init__(self, relief, flat_colors):
+        from scipy import ndimage
+
+        tex = relief.texture
+        if tex is None:
+            self.fill = np.ones((1, 1, 3))
+            self.ink = np.ones((1, 1))
+        else:
+            tex = np.asarray(tex)
+            if tex.ndim == 2:
+                tex = np.repeat(tex[..., None], 3, axis=2)
+            tex = tex[..., :3].astype(float) / (255.0 if tex.dtype == np.uint8 else 1.0)
+            value = tex.max(axis=2)  # dark in every channel: saturated colours are not ink
+            paper = max(float(np.percentile(value, 95)), 1e-3)
+            self.ink = np.clip(value / (paper * _INK_LEVEL), 0.0, 1.0)
+            clean = self.ink >= 1.0
+            if clean.any():
+                idx = ndimage.distance_transform_edt(~clean, return_distances=False,
+                                                     return_indices=True)
+                tex = tex[idx[0], idx[1]]
+            self.fill = tex
+        self.part_colors = self._part_colors(relief) if flat_colors else None
+
+    def _part_colors(self, relief):
+        front = rasterize(relief, size=(self.fill.shape[1], self.fill.shape[0]))
+        colors = np.empty((len(relief.parts), 3))
+        for i in range(len(relief.parts)):
+            seen = front.part == i
+            c = np.median(self.fill[seen], axis=0) if seen.any() else np.ones(3)
+            colors[i] = _PALETTE[i % len(_PALETTE)] if c.min() > 0.85 else c
+        return colors
+
+    def sample(self, raster):
+        """Linear albedo and ink multiplier at every pixel of a raster (1 where empty)."""
+        m = raster.mask
+        albedo = np.zeros(m.shape + (3,))
+        ink = np.ones(m.shape)
+        if self.part_colors is not None:
+            albedo[m] = self.part_colors[raster.part[m]]
+        else:
+            albedo[m] = _sample(self.fill, raster.uv[m])
+        ink[m] = _sample(self.ink, raster.uv[m])
+        return _srgb_to_linear(albedo), ink
+
+
+def _sample(image, uv):
+    """Bilinear lookup of ``image`` at planar texture coordinates (v up)."""
+    from scipy import ndimage
+
+    h, w = image.shape[:2]
+    rows = (1.0 - uv[:, 1]) * h - 0.5
+    cols = uv[:, 0] * w - 0.5
+    if image.ndim == 2:
+        return ndimage.map_coordinates(image, [rows, cols], order=1, mode="nearest")
+    return np.stack([ndimage.map_coordinates(image[..., c], [rows, cols], order=1,
+                                             mode="nearest") for c in range(image.shape[2])], 1)
+
+
+# -- raster modes ------------------------------------------------------------------
+
+def _normals(relief, size, yaw):
+    r = _raster(relief, size, yaw)
+    n = r.normal * [1, -1, 1]  # relief frame (y down) -> OpenGL (y up)
+    rgba = np.zeros(r.mask.shape + (4,), np.uint8)
+    rgba[..., :3] = np.where(r.mask[..., None], np.rint((n + 1) * 127.5), 0).astype(np.uint8)
+    rgba[..., 3] = np.where(r.mask, 255, 0)
+    return Rendering("normals", rgba, r.mask)
+
+
+def _depth(relief, size, yaw):
+    r = _raster(relief, size, yaw)
+    d = r.depth[r.mask]
+    lo, hi = float(d.min()), float(d.max())
+    t = (r.depth - lo) / (hi - lo) if hi > lo else np.ones(r.mask.shape)
+    img = np.where(r.mask, 1 + np.rint(np.clip(t, 0, 1) * 65534), 0).astype(np.uint16)
+    return Rendering("depth", img, r.mask, depth_range=(lo, hi))
+
+
+def _shade(relief, layers, size, yaw, light, ambient, shear=0.0):
+    r = _raster(relief, size, yaw, _SUPERSAMPLE, shear)
+    albedo, ink = layers.sample(r)
+    l_dir = light * [1, -1, 1]  # user frame (y up) -> relief frame (y down)
+    n = r.normal
+    diffuse = np.clip(n @ l_dir, 0, None)
+    half = l_dir + [0, 0, 1]
+    half /= np.linalg.norm(half)
+    spec = _SPECULAR * np.clip(n @ half, 0, None) ** _SHININESS
+    lin = albedo * (ambient + (1 - ambient) * diffuse)[..., None] + spec[..., None]
+    srgb = _linear_to_srgb(lin) * ink[..., None]
+    cover = r.mask.astype(float)
+    # premultiplied box filter, then un-premultiply
+    rgb = _downsample(srgb * cover[..., None], _SUPERSAMPLE)
+    alpha = _downsample(cover, _SUPERSAMPLE)
+    rgb = np.divide(rgb, alpha[..., None], out=np.zeros_like(rgb), where=alpha[..., None] > 0)
+    return _rgba8(rgb, alpha)
+
+
+def _rgba8(rgb, alpha):
+    out = np.empty(alpha.shape + (4,), np.uint8)
+    out[..., :3] = np.rint(np.clip(rgb, 0, 1) * 255)
+    out[..., 3] = np.rint(np.clip(alpha, 0, 1) * 255)
+    return out
+
+
+def _stereo(relief, layers, size, yaw, light, ambient, disparity):
+    if disparity is None:
+        disparity = 0.02 * size[0]
+    scale, _ = fit_view(relief.size, size)
+    top = max(float(np.max(np.abs(p.vertices[:, 2]))) for p in relief.parts if len(p.vertices))
+    # x shift (drawing pixels) per unit depth, half to each eye; near points
+    # move right in the left view (crossed disparity: in front of the screen).
+    shear = disparity / (2 * top * scale) if top > 0 else 0.0
+    left = _shade(relief, layers, size, yaw, light, ambient, shear=shear)
+    right = _shade(relief, layers, size, yaw, light, ambient, shear=-shear)
+    # Each view over white; red from the left eye's luminance, green and blue
+    # from the right eye's colour.
+    lf, rf = (_over_white(v) for v in (left, right))
+    rgb = np.stack([lf @ [0.299, 0.587, 0.114], rf[..., 1], rf[..., 2]], axis=-1)
+    alpha = np.maximum(left[..., 3], right[..., 3]) / 255.0
+    return Rendering("stereo", _rgba8(rgb, alpha), alpha > 0,
+                     views={"left": left, "right": right})
+
+
+def _over_white(rgba):
+    a = rgba[..., 3:4] / 255.0
+    return rgba[..., :3] / 255.0 * a + (1 - a)
+
+
+# -- global illumination (Mitsuba 3) ------------------------------------------------
+
+def _mitsuba():
+    try:
+        import mitsuba as mi
+
+        mi.set_variant("scalar_rgb")
+    except (ImportError, AttributeError, ValueError) as e:
+        raise StageError("the 'gi' mode needs Mitsuba 3 with the scalar_rgb variant: "
+                         f"pip install 'inkray[render]' ({type(e).__name__}: {e})") from e
+    return mi
+
+
+def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
+    mi = _mitsuba()
+    mi.set_log_level(mi.LogLevel.Warn)
+    w, h = size
+    scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
+    passes = min(_GI_PASSES, spp)
+    counts = [spp // passes + (k < spp % passes) for k in range(passes)]
+    acc = np.zeros((h, w, 4))
+    for k, n in enumerate(counts):
+        img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
+        acc += img * n
+        if progress is not None:
+            progress.update(k + 1, passes)
+    img = acc / spp
+    # The ink is applied in screen space through the relief's own texture
+    # coordinates, supersampled, so lines are as sharp as the output allows.
+    r = _raster(relief, size, yaw, _SUPERSAMPLE)
+    _, ink = layers.sample(r)
+    ink = _downsample(ink, _SUPERSAMPLE)
+    rgb = _linear_to_srgb(img[..., :3]) * ink[..., None]
+    cover = _downsample(r.mask.astype(float), _SUPERSAMPLE)
+    alpha = np.ones((h, w)) if backdrop else np.clip(img[..., 3], 0, 1)
+    if not backdrop:
+        rgb = np.divide(rgb, alpha[..., None], out=np.zeros_like(rgb),
+                        where=alpha[..., None] > 0)
+    return Rendering("gi", _rgba8(rgb, alpha), cover > 0)
+
+
+def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
+    """Mitsuba scene dict. World: y up, z toward the viewer, image half-width = 1."""
+    from mitsuba import ScalarTransform4f as T
+
+    w, h = size
+    scale, _ = fit_view(relief.size, size)
+    k = 2.0 / w * scale  # drawing pixels -> world units (orthographic film spans x in [-1, 1])
+    cx, cy = relief.size[0] / 2.0, relief.size[1] / 2.0
+    a = np.radians(yaw)
+    eye = [10 * np.sin(a), 0.0, 10 * np.cos(a)]
+    scene = {
+        "type": "scene",
+        # hidden emitters: the sky lights the scene but leaves alpha 0 where nothing is hit
+        "integrator": {"type": "path", "max_depth": 8, "hide_emitters": True},
+        "sensor": {"type": "orthographic",
+                   "to_world": T().look_at(origin=eye, target=[0, 0, 0], up=[0, 1, 0]),
+                   "near_clip": 0.01, "far_clip": 100.0,
+                   "film": {"type": "hdrfilm", "width": w, "height": h,
+                            "pixel_format": "rgba", "rfilter": {"type": "gaussian"}},
+                   "sampler": {"type": "independent"}},
+        # a dim sky for soft ambient light
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 0.25}},
+    }
+    # a soft area light toward `light`, facing the relief, irradiance ~0.75*pi
+    dist, half = 6.0, 1.0
+    pos = light * dist
+    scene["sun"] = {"type": "rectangle",
+                    "to_world": T().look_at(origin=pos.tolist(), target=[0, 0, 0],
+                                            up=[0, 1, 0] if abs(light[1]) < 0.99 else [0, 0, 1])
+                    @ T().scale([half, half, 1]),
+                    "emitter": {"type": "area", "radiance": {
+                        "type": "rgb", "value": 0.75 * np.pi * dist ** 2 / (2 * half) ** 2}}}
+    if layers.part_colors is None:
+        fill = _srgb_to_linear(layers.fill).astype(np.float32)
+        texture = {"type": "bitmap", "bitmap": mi.Bitmap(np.ascontiguousarray(fill)),
+                   "filter_type": "bilinear", "wrap_mode": "clamp"}
+    zmin = 0.0
+    for i, p in enumerate(relief.parts):
+        if not len(p.faces):
+            continue
+        v = np.asarray(p.vertices, float)
+        zmin = min(zmin, float(v[:, 2].min()))
+        world = np.stack([(v[:, 0] - cx) * k, (cy - v[:, 1]) * k, v[:, 2] * k], axis=1)
+        normals = _vertex_normals_world(v, np.asarray(p.faces))
+        if layers.part_colors is None:
+            color = texture
+        else:
+            color = {"type": "rgb", "value": _srgb_to_linear(layers.part_colors[i]).tolist()}
+        bsdf = mi.load_dict({"type": "twosided", "bsdf": {
+            "type": "roughplastic", "distribution": "ggx", "alpha": 0.3,
+            "diffuse_reflectance": color}})
+        # Mitsuba's bitmap rows run top to bottom: v = y / H.
+        uv = np.stack([v[:, 0] / relief.size[0], v[:, 1] / relief.size[1]], axis=1)
+        scene[f"part{i}"] = _mesh(mi, f"part{i}", world, np.asarray(p.faces), normals, uv, bsdf)
+    if backdrop:
+        # just behind the lowest point, so the relief rests on it with contact shadows
+        z = zmin * k - 1e-3
+        scene["backdrop"] = {"type": "rectangle",
+                             "to_world": T().translate([0, 0, z]) @ T().scale([20, 20, 1]),
+                             "bsdf": {"type": "diffuse",
+                                      "reflectance": {"type": "rgb", "value": [0.8, 0.8, 0.78]}}}
+    return scene
+
+
+def _vertex_normals_world(v, f):
+    """Area-weighted vertex normals, relief faces, in the y-up world frame."""
+    fn = -np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n = np.zeros_like(v)
+    for c in range(3):
+        n[:, c] = sum(np.bincount(f[:, j], weights=fn[:, c], minlength=len(v)) for j in range(3))
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.divide(n, length, out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=length > 0)
+    return n * [1, -1, 1]
+
+
+def _mesh(mi, name, vertices, faces, normals, uv, bsdf):
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=True,
+                   has_vertex_texcoords=True)
+    params = mi.traverse(mesh)
+    for key, data in (("vertex_positions", vertices), ("vertex_normals", normals),
+                      ("vertex_texcoords", uv)):
+        params[key] = type(params[key])(np.ascontiguousarray(data, np.float32).ravel())
+    params["faces"] = type(params["faces"])(np.ascontiguousarray(faces, np.uint32).ravel())
+    params.update()
+    return mesh
+
+
+# -- files -----------------------------------------------------------------------
+
+def _gif_frame(r):
+    from PIL import Image
+
+    if r.image.ndim == 2:  # depth: 16 -> 8 bit
+        return Image.fromarray((r.image >> 8).astype(np.uint8)).convert("RGB")
+    return Image.fromarray(np.rint(_over_white(r.image) * 255).astype(np.uint8))
+
+
+def _save_png(r, target):
+    from PIL import Image, PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    if r.depth_range is not None:
+        info.add_text("inkray:depth", json.dumps(
+            {"background": 0, "far": [1, r.depth_range[0]], "near": [65535, r.depth_range[1]],
+             "units": "drawing pixels"}))
+        Image.fromarray(r.image.astype(np.uint16)).save(target, format="PNG", pnginfo=info)
+    else:
+        Image.fromarray(r.image).save(target, format="PNG")
+
+
+def _read_relief(path):
+    """A relief from a GLB/glTF, OBJ or PLY file (inkray's scene frame, see below).
+
+    inkray's files are y-up, +z toward the viewer, ``units_per_pixel`` scene
+    units per drawing pixel with the drawing's centre (or top-left corner) at
+    the origin, recorded in GLB scene extras or PLY header comments. Files
+    without that record are placed by their texture coordinates when they
+    have a texture, else scaled so their longer side spans 512 pixels.
+    """
+    import trimesh
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".glb", ".gltf", ".obj", ".ply"):
+        raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
+                         f"(expected .glb, .gltf, .obj, .ply)")
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        scene = trimesh.load_scene(path, process=False)
+    except Exception as e:  # any parser failure means the same: not a readable mesh
+        raise InputError(f"{path}: cannot read {suffix[1:].upper()}: "
+                         f"{type(e).__name__}: {' '.join(str(e).split())}") from e
+    meshes, texture = [], None
+    for node in scene.graph.nodes_geometry:
+        transform, geom_name = scene.graph[node]
+        geom = scene.geometry[geom_name]
+        if not hasattr(geom, "faces") or not len(geom.faces):
+            continue
+        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
+        f = np.asarray(geom.faces, np.int64)
+        if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node flips the winding
+            f = f[:, ::-1]
+        uv = getattr(geom.visual, "uv", None)
+        meshes.append((str(node), v, f, None if uv is None else np.asarray(uv, float)))
+        material = getattr(geom.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if texture is None and image is not None:
+            texture = np.asarray(image.convert("RGB"))
+    if not meshes:
+        raise InputError(f"{path}: holds no triangles")
+    frame = _frame(scene, path)
+    if frame is not None:
+        (w, h), s, anchor = frame
+        x0, y0 = (w / 2, h / 2) if anchor == "center" else (0.0, 0.0)
+
+        def to_pixels(v, uv):
+            return np.stack([v[:, 0] / s + x0, y0 - v[:, 1] / s, v[:, 2] / s], axis=1)
+    elif texture is not None and all(m[3] is not None for m in meshes):
+        h, w = texture.shape[:2]
+        to_pixels = _uv_fit(meshes, w, h, path)
+    else:
+        allv = np.concatenate([m[1] for m in meshes])
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
+        s = max(float(np.max(hi[:2] - lo[:2])), 1e-12) / 512
+        w, h = (max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
+
+        def to_pixels(v, uv):
+            return np.stack([(v[:, 0] - lo[0]) / s, (hi[1] - v[:, 1]) / s, v[:, 2] / s], axis=1)
+    parts = [Part(name, to_pixels(v, uv), f) for name, v, f, uv in meshes]
+    return Relief(parts, size=(int(w), int(h)), texture=texture)
+
+
+def _frame(scene, path):
+    """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
+    meta = scene.metadata or {}
+    info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
+    if info is None and path.suffix.lower() == ".ply":
+        with open(path, "rb") as fh:
+            for raw in fh:
+                line = raw.decode("ascii", "replace").strip()
+                if line == "end_header":
+                    break
+                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
+                             r"(\S+)(?: anchor (\S+))?$", line)
+                if m:
+                    info = {"drawing_size": [int(m[1]), int(m[2])],
+                            "units_per_pixel": float(m[3]), "anchor": m[4] or "center"}
+    if info is None:
+        return None
+    try:
+        w, h = (int(x) for x in info["drawing_size"])
+        s = float(info["units_per_pixel"])
+        anchor = info.get("anchor", "center")
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"{path}: extras.inkray: malformed ({e})") from e
+    if w <= 0 or h <= 0 or not s > 0 or anchor not in ("center", "top-left"):
+        raise InputError(f"{path}: extras.inkray: drawing_size {info.get('drawing_size')}, "
+                         f"units_per_pixel {s}, anchor {anchor!r} out of range")
+    return (w, h), s, anchor
+
+
+def _uv_fit(meshes, w, h, path):
+    """Scene -> pixel map fitted to the planar texture coordinates (x = u W, y = (1 - v) H)."""
+    v = np.concatenate([m[1] for m in meshes])
+    uv = np.concatenate([m[3] for m in meshes])
+    target = np.stack([uv[:, 0] * w, (1 - uv[:, 1]) * h], axis=1)
+    coef = []
+    for axis in range(2):
+        a = np.column_stack([v[:, axis], np.ones(len(v))])
+        c, *_ = np.linalg.lstsq(a, target[:, axis], rcond=None)
+        coef.append(c)
+    s = (abs(coef[0][0]) + abs(coef[1][0])) / 2
+    if not s > 0:
+        raise InputError(f"{path}: texture coordinates do not vary with position")
+
+    def to_pixels(p, _uv):
+        return np.stack([coef[0][0] * p[:, 0] + coef[0][1], coef[1][0] * p[:, 1] + coef[1][1],
+                         p[:, 2] * s], axis=1)
+    return to_pixels
