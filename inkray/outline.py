@@ -53,6 +53,8 @@ _MARK_KIND = {"stitch": STITCH, "graft": GRAFT, "flat": FLAT}
 #: Default maximum triangle area in px^2 (the resolution knob).
 DEFAULT_MAX_AREA = 50.0
 _SMOOTH_STEP = 0.5  # px between resampled contour points
+_CORNER_SPAN = 3.0  # px each side over which a corner's turning angle is measured
+_CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~8 px has none)
 
 #: Default distance (px) within which a ``boundaries`` path snaps to an outline.
 DEFAULT_SNAP = 4.0
@@ -179,7 +181,8 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         Target distance between stations of a ``boundaries`` entry (px); every
         region that must share stations must use the same value.
     smoothing : float, default 1
-        Gaussian smoothing of the contour along its arc length (px, sigma).
+        Gaussian smoothing of the contour along its arc length (px, sigma);
+        corners turning by more than 45 degrees within 3 px are kept sharp.
     tolerance : float, default 0.3
         Simplification tolerance (px, Douglas-Peucker).
     snap : float, default 4
@@ -208,6 +211,8 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     name = name if name is not None else f"region{region if region is not None else ''}"
     spacing = float(spacing) if spacing is not None else edge_length(max_area)
     station_spacing = float(station_spacing) if station_spacing is not None else edge_length(max_area)
+    if not max_area > 0:
+        raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
     if not (spacing > 0 and station_spacing > 0 and smoothing >= 0 and tolerance > 0 and snap > 0):
         raise InputError(f"region {name}: spacing, station_spacing, tolerance and snap must be "
                          f"positive and smoothing non-negative")
@@ -347,18 +352,44 @@ def _contours(mask, speckle):
 
 
 def _smooth(p, w, h, sigma):
-    """Gaussian smoothing along the arc length; points on the image frame stay put."""
+    """Gaussian smoothing along the arc length that keeps corners and the image frame."""
     if sigma == 0 or _on_frame(p, w, h).all():
         return p
     # Marching-squares points are unevenly spaced; smooth on a uniform resampling.
     s = _cumlen(p, closed=True)
     n = max(8, math.ceil(s[-1] / _SMOOTH_STEP))
+    step = s[-1] / n
     t = np.linspace(0.0, s[-1], n, endpoint=False)
     q = np.stack([np.interp(t, s, np.r_[p[:, i], p[0, i]]) for i in (0, 1)], axis=1)
+    corners = _corners(q, max(1, round(_CORNER_SPAN / step)))
+    if len(corners) == 0:
+        sm = gaussian_filter1d(q, sigma / step, axis=0, mode="wrap")
+    else:
+        # Smooth each stretch between corners on its own, corners pinned, so that
+        # sharp input corners stay sharp instead of being cut by the filter.
+        sm = q.copy()
+        for a, b in zip(corners, np.r_[corners[1:], corners[0] + n]):
+            idx = np.arange(a, b + 1) % n
+            piece = gaussian_filter1d(q[idx], sigma / step, axis=0, mode="nearest")
+            sm[idx[1:-1]] = piece[1:-1]
     on_frame = _on_frame(q, w, h)
-    sm = gaussian_filter1d(q, sigma / (s[-1] / n), axis=0, mode="wrap")
     sm[on_frame] = q[on_frame]
     return sm
+
+
+def _corners(q, k):
+    """Indices where the loop turns by more than _CORNER_ANGLE over +-k samples."""
+    a = q - np.roll(q, k, axis=0)
+    b = np.roll(q, -k, axis=0) - q
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    turn = np.abs(np.arctan2(cross, (a * b).sum(1)))
+    peak = turn >= np.max([np.roll(turn, j) for j in range(-k, k + 1)], axis=0)
+    # Ties on a plateau: keep the first index of each run.
+    cand = np.flatnonzero(peak & (turn > math.radians(_CORNER_ANGLE)))
+    keep = [c for i, c in enumerate(cand) if i == 0 or c - cand[i - 1] > k]
+    if len(keep) > 1 and keep[0] + len(q) - keep[-1] <= k:
+        keep.pop()
+    return np.array(keep, int)
 
 
 def _on_frame(p, w, h):
@@ -425,7 +456,7 @@ def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
         if any(_in_arc((a + b) / 2, m["lo"], m["hi"], length) for m in marks):
             continue
         cand += [(t, 0) for t in _simplified(d, s, length, a, b, spacing, tolerance)]
-    params = _thin(cand, length, gap=min(0.3 * spacing, 2.0))
+    params = _thin(cand, length, gap=min(0.3 * spacing, 0.5))
     params = np.array(params)
 
     pts = np.stack([np.interp(params, np.r_[s, length], np.r_[d[:, i], d[0, i]]) for i in (0, 1)], axis=1)
