@@ -14,7 +14,10 @@ __version__ = "0.1.0"
 from .annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
                           load_annotations, parse_annotations, rescale_annotations)
 from .drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
+from .check import check_file, failed_requirements, mesh_quality, quality_report  # noqa: E402
 from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
+from .export import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
+                     scene_coordinates)
 from .inputs import load_input  # noqa: E402
 from .rasterize import Raster, fit_view, rasterize  # noqa: E402
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
@@ -26,6 +29,8 @@ __all__ = [
     "load_annotations", "parse_annotations", "rescale_annotations",
     "Drawing", "drawing_from_array", "load_drawing",
     "InkrayError", "InputError", "StageError", "StageMissing",
+    "NamedMesh", "export_relief", "pixel_coordinates", "read_meshes", "scene_coordinates",
+    "check_file", "failed_requirements", "mesh_quality", "quality_report",
     "load_input", "load_scribble_layer", "seed_image",
     "Segmentation", "lazybrush", "segment",
     "Raster", "fit_view", "rasterize",
