@@ -447,8 +447,11 @@ def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
     cand = []
     for m in marks:
         cand += [(float(t % length), 2) for t in m["stations"]]
+    # Both ends of every provenance change are vertices, so an outline edge never
+    # spans two kinds (a Dirichlet end would pin a whole Neumann edge).
     change = np.flatnonzero(base_kind != np.roll(base_kind, 1))
-    cand += [(float(s[i]), 1) for i in change
+    ends = np.unique(np.r_[change, change - 1] % len(s)) if len(change) else change
+    cand += [(float(s[i]), 1) for i in ends
              if not any(_in_arc(s[i], m["lo"], m["hi"], length) for m in marks)]
     cand = cand or [(0.0, 1)]
     fixed = sorted(t for t, _ in cand) or [0.0]
@@ -527,7 +530,7 @@ def _thin(cand, length, gap):
     for t, pri in sorted(cand, key=lambda c: (-c[1], c[0])):
         i = bisect_left(accepted, t)
         near = [accepted[i % len(accepted)], accepted[i - 1]] if accepted else []
-        too_close = any(_cyclic(t - u, length) < (1e-6 if pri == 2 else gap) for u in near)
+        too_close = any(_cyclic(t - u, length) < (1e-6 if pri else gap) for u in near)
         if not too_close:
             accepted.insert(i, t)
     return accepted
