@@ -19,8 +19,12 @@ from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E
 from .export import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
                      scene_coordinates)
 from .inputs import load_input  # noqa: E402
+from .inflate import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E402
+                      dirichlet_vertices, inflate_mesh, inflate_region)
+from .outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
 from .rasterize import Raster, fit_view, rasterize  # noqa: E402
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
+from .triangulate import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
 from .segment import Segmentation, lazybrush, segment  # noqa: E402
 
 __all__ = [
@@ -32,6 +36,10 @@ __all__ = [
     "NamedMesh", "export_relief", "pixel_coordinates", "read_meshes", "scene_coordinates",
     "check_file", "failed_requirements", "mesh_quality", "quality_report",
     "load_input", "load_scribble_layer", "seed_image",
+    "RegionOutline", "region_outline", "check_boundaries",
+    "RegionMesh", "triangulate_outline", "mesh_region",
+    "InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh",
+    "inflate_region",
     "Segmentation", "lazybrush", "segment",
     "Raster", "fit_view", "rasterize",
 ]
