@@ -119,9 +119,23 @@ def _cmd_regions(args, progress):
 
 
 def _cmd_depth(args, progress):
+    from .depth import depth, write_depth_outputs
+
     _check_output(args.output, (".png",))
-    _load(args)
-    raise StageMissing("depth", 4)
+    for flag, path, allowed in (("--npy", args.npy, (".npy",)), ("--normals", args.normals, (".png",)),
+                                ("--shading", args.shading, (".png",))):
+        if path is not None and Path(path).suffix.lower() not in allowed:
+            raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
+    ann, drawing = _load(args)
+    result = depth(ann, drawing, method=args.method, epsilon=args.epsilon, progress=progress)
+    written = write_depth_outputs(result, args.output, npy=args.npy, normals=args.normals,
+                                  shading=args.shading, drawing=drawing)
+    progress.summary()
+    d = result.depth
+    print(f"{args.output}: {args.method} depth of {len(ann.order)} order and {len(ann.equal)} equal "
+          f"entries, range {float(d.min()):.4g} .. {float(d.max()):.4g} "
+          f"(wrote {', '.join(str(p) for p in written)})")
+    return 0
 
 
 def _cmd_relief(args, progress):
@@ -131,8 +145,48 @@ def _cmd_relief(args, progress):
 
 
 def _cmd_render(args, progress):
-    _check_output(args.output, (".png",))
-    raise StageMissing("render", 9)
+    from .render import (output_size, read_relief, render, render_turntable,
+                         write_renderings)
+
+    _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
+
+    def numbers(opt, text, n):
+        try:
+            values = [float(v) for v in text.replace("x", ",").split(",")]
+        except ValueError:
+            values = []
+        if len(values) != n:
+            raise InputError(f"{opt} {text}: expected {n} numbers separated by "
+                             f"{'x' if opt == '--size' else ','}")
+        return values
+
+    size = None
+    if args.size is not None:
+        w, h = numbers("--size", args.size, 2)
+        if not (w.is_integer() and h.is_integer()):
+            raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels")
+        size = (int(w), int(h))
+    light = numbers("--light", args.light, 3) if args.light is not None else (-1.0, 1.0, 1.5)
+    if args.turntable is not None and args.turntable < 1:
+        raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
+    with progress.stage("read"):
+        relief = read_relief(args.mesh)
+    size = output_size(relief.size, size=size, width=args.width, height=args.height,
+                       max_side=800 if args.mode == "gi" else None)
+    options = dict(mode=args.mode, size=size, light=light, ambient=args.ambient,
+                   flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
+                   backdrop=not args.no_backdrop, seed=args.seed, progress=progress)
+    with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
+        if args.turntable is not None:
+            frames = render_turntable(relief, frames=args.turntable, angle=args.angle,
+                                      **options)
+        else:
+            frames = render(relief, **options)
+    with progress.stage("write"):
+        written = write_renderings(frames, args.output)
+    progress.summary()
+    print(f"{args.mesh}: {args.mode} -> {', '.join(str(p) for p in written)}")
+    return 0
 
 
 def _cmd_check(args, progress):
@@ -217,8 +271,42 @@ def _parser():
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
     p["segment"].add_argument("--npy", metavar="NPY",
                               help="also write the labels as an int32 array (-1 background)")
-    p["render"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
-    p["render"].add_argument("-o", "--output", required=True, metavar="PNG", help="output image")
+    p["depth"].add_argument("--method", choices=("exact", "fast"), default="exact",
+                            help="exact QP or the interactive approximation (default: exact)")
+    p["depth"].add_argument("--epsilon", type=float, default=1.0, metavar="E",
+                            help="depth step of an order entry (default: 1)")
+    p["depth"].add_argument("--npy", metavar="NPY", help="also write the float depth (.npy)")
+    p["depth"].add_argument("--normals", metavar="PNG", help="also write a normal map")
+    p["depth"].add_argument("--shading", metavar="PNG",
+                            help="also write a Lambert-shaded preview")
+    r = p["render"]
+    r.add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
+    r.add_argument("-o", "--output", required=True, metavar="PNG",
+                   help="output image (.png; with --turntable also .gif)")
+    r.add_argument("--mode", choices=("shade", "normals", "depth", "stereo", "gi"),
+                   default="shade", help="what to render (default: shade)")
+    r.add_argument("--size", metavar="WxH", help="image size (default: the drawing's; "
+                   "gi: shrunk to fit 800)")
+    r.add_argument("--width", type=int, metavar="PX", help="image width, height to match")
+    r.add_argument("--height", type=int, metavar="PX", help="image height, width to match")
+    r.add_argument("--light", metavar="X,Y,Z",
+                   help="direction toward the light, x right, y up, z toward the viewer "
+                        "(default: -1,1,1.5, upper left)")
+    r.add_argument("--ambient", type=float, default=0.3,
+                   help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
+    r.add_argument("--flat-colors", action="store_true",
+                   help="one colour per part instead of the drawing's colours")
+    r.add_argument("--spp", type=int, default=64, help="gi: samples per pixel (default: 64)")
+    r.add_argument("--no-backdrop", action="store_true",
+                   help="gi: no backdrop behind the relief (transparent background)")
+    r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
+    r.add_argument("--disparity", type=float, metavar="PX",
+                   help="stereo: disparity of the highest point in pixels (default: 2%% of "
+                        "the width)")
+    r.add_argument("--turntable", type=int, metavar="N",
+                   help="N frames swinging around the vertical axis: X-000.png ... or a GIF")
+    r.add_argument("--angle", type=float, default=15.0,
+                   help="turntable: largest angle in degrees (default: 15)")
     p["check"].add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
     p["check"].add_argument("-o", "--output", metavar="JSON", help="write the report as JSON")
     p["check"].add_argument("--require", metavar="LIST",

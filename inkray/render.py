@@ -39,8 +39,8 @@ from .io import atomic_outputs
 from .rasterize import fit_view, rasterize
 from .relief import Part, Relief
 
-__all__ = ["MODES", "Rendering", "has_mitsuba", "render", "render_turntable",
-           "write_renderings"]
+__all__ = ["MODES", "Rendering", "has_mitsuba", "output_size", "read_relief", "render",
+           "render_turntable", "write_renderings"]
 
 MODES = ("shade", "normals", "depth", "stereo", "gi")
 
@@ -53,6 +53,7 @@ _PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
                      [0.90, 0.55, 0.50], [0.75, 0.60, 0.85], [0.95, 0.85, 0.55],
                      [0.50, 0.80, 0.75], [0.85, 0.65, 0.45]])
 _GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
+_GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
 
 
 @dataclass
@@ -100,6 +101,49 @@ def has_mitsuba():
     return True
 
 
+def output_size(drawing_size, *, size=None, width=None, height=None, max_side=None):
+    """The image size for a drawing: given, or derived with its aspect ratio kept.
+
+    Parameters
+    ----------
+    drawing_size : (int, int)
+        ``(W, H)`` of the drawing.
+    size : (int, int), optional
+        Both sides; excludes ``width`` and ``height``.
+    width, height : int, optional
+        One side; the other follows the drawing's aspect ratio.
+    max_side : int, optional
+        With nothing given: shrink the drawing's size to fit this.
+
+    Returns
+    -------
+    (int, int)
+
+    Examples
+    --------
+    >>> output_size((200, 100), width=50)
+    (50, 25)
+    >>> output_size((2000, 1000), max_side=800)
+    (800, 400)
+    """
+    dw, dh = (int(v) for v in drawing_size)
+    for name, v in (("width", width), ("height", height)):
+        if v is not None and not (isinstance(v, (int, np.integer)) and 1 <= v <= 16384):
+            raise InputError(f"--{name}: expected an integer in 1..16384, got {v!r}")
+    if size is not None:
+        if width is not None or height is not None:
+            raise InputError("--size: give either --size or --width/--height, not both")
+        return int(size[0]), int(size[1])
+    if width is not None and height is not None:
+        return int(width), int(height)
+    if width is not None:
+        return int(width), max(1, round(width * dh / dw))
+    if height is not None:
+        return max(1, round(height * dw / dh)), int(height)
+    f = min(1.0, max_side / max(dw, dh)) if max_side else 1.0
+    return max(1, round(dw * f)), max(1, round(dh * f))
+
+
 def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
            flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
            progress=None):
@@ -111,7 +155,7 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
     mode : {"shade", "normals", "depth", "stereo", "gi"}, optional
     size : (int, int), optional
         ``(width, height)`` of the image; the drawing is fitted and centred.
-        Default: the drawing's size.
+        Default: the drawing's size (for ``gi`` shrunk to fit 800 pixels).
     light : (3,) float, optional
         Direction toward the light, ``x`` right, ``y`` up, ``z`` toward the
         viewer (default: upper left, in front).
@@ -292,7 +336,7 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
     if not relief.parts or not any(len(p.faces) for p in relief.parts):
         raise InputError("render: the relief has no triangles")
     if size is None:
-        size = tuple(int(s) for s in relief.size)
+        size = output_size(relief.size, max_side=_GI_MAX_SIDE if mode == "gi" else None)
     if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
             or not all(1 <= s <= 16384 for s in size)):
         raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
@@ -639,67 +683,83 @@ def _save_png(r, target):
         Image.fromarray(r.image).save(target, format="PNG")
 
 
-def _read_relief(path):
-    """A relief from a GLB/glTF, OBJ or PLY file (inkray's scene frame, see below).
+def read_relief(path):
+    """A relief from a GLB/glTF, OBJ or PLY file.
 
-    inkray's files are y-up, +z toward the viewer, ``units_per_pixel`` scene
-    units per drawing pixel with the drawing's centre (or top-left corner) at
-    the origin, recorded in GLB scene extras or PLY header comments. Files
-    without that record are placed by their texture coordinates when they
-    have a texture, else scaled so their longer side spans 512 pixels.
+    Geometry comes from :func:`inkray.export.read_meshes`. inkray's files are
+    placed by the frame their exporter records (GLB scene extras, PLY header
+    comments; see :mod:`inkray.export`); other files with a texture by their
+    texture coordinates (``x = u W``, ``y = (1 - v) H``); anything else is
+    scaled so its longer side spans 512 pixels. The drawing is the GLB's
+    base-colour texture or the OBJ's ``map_Kd`` (PLY carries none).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    inkray.relief.Relief
+
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable, holds no triangles, or its inkray
+        frame record is malformed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from inkray.export import export_relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 10, 2], [10, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> back = read_relief(p)
+    >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
+    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 10.0, 2.0], [10.0, 0.0, 0.0]])
     """
     import trimesh
 
+    from .export import pixel_coordinates, read_meshes
+
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in (".glb", ".gltf", ".obj", ".ply"):
-        raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
-                         f"(expected .glb, .gltf, .obj, .ply)")
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
+    meshes = read_meshes(path)
     try:
         scene = trimesh.load_scene(path, process=False)
-    except Exception as e:  # any parser failure means the same: not a readable mesh
-        raise InputError(f"{path}: cannot read {suffix[1:].upper()}: "
-                         f"{type(e).__name__}: {' '.join(str(e).split())}") from e
-    meshes, texture = [], None
+    except Exception as e:  # read_meshes parsed it; only materials can fail here
+        raise InputError(f"{path}: cannot read its materials: {type(e).__name__}: {e}") from e
+    texture, pairs = None, []
     for node in scene.graph.nodes_geometry:
         transform, geom_name = scene.graph[node]
         geom = scene.geometry[geom_name]
-        if not hasattr(geom, "faces") or not len(geom.faces):
-            continue
-        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
-        f = np.asarray(geom.faces, np.int64)
-        if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node flips the winding
-            f = f[:, ::-1]
         uv = getattr(geom.visual, "uv", None)
-        meshes.append((str(node), v, f, None if uv is None else np.asarray(uv, float)))
         material = getattr(geom.visual, "material", None)
         image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
-        if texture is None and image is not None:
+        if path.suffix.lower() == ".ply" or uv is None or image is None:
+            continue
+        if texture is None:
             texture = np.asarray(image.convert("RGB"))
-    if not meshes:
-        raise InputError(f"{path}: holds no triangles")
+        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
+        pairs.append((v, np.asarray(uv, float)))
     frame = _frame(scene, path)
+    allv = np.concatenate([m.vertices for m in meshes])
     if frame is not None:
-        (w, h), s, anchor = frame
-        x0, y0 = (w / 2, h / 2) if anchor == "center" else (0.0, 0.0)
+        size, s, anchor = frame
 
-        def to_pixels(v, uv):
-            return np.stack([v[:, 0] / s + x0, y0 - v[:, 1] / s, v[:, 2] / s], axis=1)
-    elif texture is not None and all(m[3] is not None for m in meshes):
-        h, w = texture.shape[:2]
-        to_pixels = _uv_fit(meshes, w, h, path)
+        def to_pixels(v):
+            return pixel_coordinates(v, size, units_per_pixel=s, anchor=anchor)
+    elif texture is not None:
+        size = (texture.shape[1], texture.shape[0])
+        to_pixels = _uv_fit(pairs, size, path)
     else:
-        allv = np.concatenate([m[1] for m in meshes])
         lo, hi = allv.min(axis=0), allv.max(axis=0)
         s = max(float(np.max(hi[:2] - lo[:2])), 1e-12) / 512
-        w, h = (max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
+        size = tuple(max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
 
-        def to_pixels(v, uv):
+        def to_pixels(v):
             return np.stack([(v[:, 0] - lo[0]) / s, (hi[1] - v[:, 1]) / s, v[:, 2] / s], axis=1)
-    parts = [Part(name, to_pixels(v, uv), f) for name, v, f, uv in meshes]
-    return Relief(parts, size=(int(w), int(h)), texture=texture)
+    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
+    return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
 
 
 def _frame(scene, path):
@@ -731,11 +791,11 @@ def _frame(scene, path):
     return (w, h), s, anchor
 
 
-def _uv_fit(meshes, w, h, path):
-    """Scene -> pixel map fitted to the planar texture coordinates (x = u W, y = (1 - v) H)."""
-    v = np.concatenate([m[1] for m in meshes])
-    uv = np.concatenate([m[3] for m in meshes])
-    target = np.stack([uv[:, 0] * w, (1 - uv[:, 1]) * h], axis=1)
+def _uv_fit(pairs, size, path):
+    """Scene -> pixel map fitted to planar texture coordinates (x = u W, y = (1 - v) H)."""
+    v = np.concatenate([p[0] for p in pairs])
+    uv = np.concatenate([p[1] for p in pairs])
+    target = np.stack([uv[:, 0] * size[0], (1 - uv[:, 1]) * size[1]], axis=1)
     coef = []
     for axis in range(2):
         a = np.column_stack([v[:, axis], np.ones(len(v))])
@@ -745,7 +805,7 @@ def _uv_fit(meshes, w, h, path):
     if not s > 0:
         raise InputError(f"{path}: texture coordinates do not vary with position")
 
-    def to_pixels(p, _uv):
+    def to_pixels(p):
         return np.stack([coef[0][0] * p[:, 0] + coef[0][1], coef[1][0] * p[:, 1] + coef[1][1],
                          p[:, 2] * s], axis=1)
     return to_pixels
