@@ -14,6 +14,9 @@ __version__ = "0.1.0"
 from .annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
                           load_annotations, parse_annotations, rescale_annotations)
 from .drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
+from .depth import (DepthResult, DepthSession, depth, depth_constraints,  # noqa: E402
+                    depth_png, normal_map, shaded_preview, write_depth_outputs)
+from .qp import QPResult, constraint_cycle, edge_weights, grid_laplacian, solve_depth_qp  # noqa: E402
 from .check import check_file, failed_requirements, mesh_quality, quality_report  # noqa: E402
 from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
 from .export import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
@@ -32,6 +35,9 @@ __all__ = [
     "Annotations", "Boundary", "Equal", "Order", "Region",
     "load_annotations", "parse_annotations", "rescale_annotations",
     "Drawing", "drawing_from_array", "load_drawing",
+    "DepthResult", "DepthSession", "depth", "depth_constraints", "depth_png", "normal_map",
+    "shaded_preview", "write_depth_outputs",
+    "QPResult", "constraint_cycle", "edge_weights", "grid_laplacian", "solve_depth_qp",
     "InkrayError", "InputError", "StageError", "StageMissing",
     "NamedMesh", "export_relief", "pixel_coordinates", "read_meshes", "scene_coordinates",
     "check_file", "failed_requirements", "mesh_quality", "quality_report",
