@@ -79,10 +79,10 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
     """
     v = np.asarray(vertices, float).reshape(-1, 3)
     f = np.asarray(faces, np.int64).reshape(-1, 3)
-    referenced = np.unique(f)
-    welded, inverse = np.unique(v[referenced], axis=0, return_inverse=True)
+    referenced = np.flatnonzero(np.bincount(f.reshape(-1), minlength=len(v)))
+    welded, inverse = _weld(v[referenced])
     index = np.full(len(v), -1, np.int64)
-    index[referenced] = inverse.reshape(-1)
+    index[referenced] = inverse
     wf = index[f]
 
     shape = _shape_stats(v[f])
@@ -97,8 +97,7 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
     if watertight and oriented:
         t = welded[topo_faces]
         volume = float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)
-    sorted_faces = np.sort(topo_faces, axis=1)
-    duplicates = len(sorted_faces) - len(np.unique(sorted_faces, axis=0))
+    duplicates = int(len(topo_faces) - _distinct_rows(np.sort(topo_faces, axis=1))[1].sum())
     if self_intersections:
         crossing = _self_intersecting_faces(welded, topo_faces)
     else:
@@ -367,25 +366,42 @@ def _topology(faces, n_vertices):
         loops = connected_components(graph, directed=False)[0]
 
     # Vertex fans: corners of one vertex are joined when their faces share an
-    # edge at that vertex; more than one group means the faces meet only at it.
-    corner_vertex = start
+    # edge at that vertex (graph node: that end of that edge); more than one
+    # group of corners at a vertex means its faces meet only at the vertex.
     edge_in = edge_of  # edge from corner k to k+1
     edge_out = edge_of.reshape(m, 3)[:, [2, 0, 1]].reshape(-1)  # edge from corner k-1 to k
-    n_edges = len(keys)
-    key_in = corner_vertex * n_edges + edge_in
-    key_out = corner_vertex * n_edges + edge_out
-    fan_keys, fan_idx = np.unique(np.concatenate([key_in, key_out]), return_inverse=True)
+    edge_hi = keys % n_vertices
+    end_in = 2 * edge_in + (start == edge_hi[edge_in])
+    end_out = 2 * edge_out + (start == edge_hi[edge_out])
     corners = np.arange(3 * m)
-    rows = np.concatenate([corners, corners])
-    graph = coo_matrix((np.ones(len(rows)), (rows, 3 * m + fan_idx)),
-                       shape=(3 * m + len(fan_keys),) * 2)
-    label = connected_components(graph, directed=False)[1][:3 * m]
-    pairs = np.unique(np.stack([corner_vertex, label], axis=1), axis=0)
-    fans = np.bincount(pairs[:, 0], minlength=n_vertices)
+    graph = coo_matrix((np.ones(6 * m), (np.concatenate([corners, corners]),
+                                         3 * m + np.concatenate([end_in, end_out]))),
+                       shape=(3 * m + 2 * len(keys),) * 2)
+    n_groups, label = connected_components(graph, directed=False)
+    group_vertex = np.full(n_groups, -1, np.int64)
+    group_vertex[label[:3 * m]] = start
+    fans = np.bincount(group_vertex[group_vertex >= 0], minlength=n_vertices)
     return {"boundary_edges": int(boundary.sum()), "boundary_loops": int(loops),
             "non_manifold_edges": int((count > 2).sum()),
             "non_manifold_vertices": int((fans > 1).sum()),
             "inconsistent_edges": int(inconsistent.sum())}
+
+
+def _distinct_rows(rows):
+    """Lexicographic order of ``rows`` and, along it, where a new distinct row starts."""
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows[order]
+    first = np.ones(len(rows), bool)
+    first[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    return order, first
+
+
+def _weld(points):
+    """Distinct positions and, per point, the index of its position."""
+    order, first = _distinct_rows(points)
+    inverse = np.empty(len(points), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return points[order][first], inverse
 
 
 def _self_intersecting_faces(vertices, faces):

@@ -422,25 +422,30 @@ def _obj_files(relief, meshes, path):
     # material; a direct writer gives groups per part and stable file names.
     mtl_path = path.with_suffix(".mtl")
     png_path = path.with_name(f"{path.stem}_drawing.png")
-    lines = ["# inkray relief: X right, Y up, Z toward the viewer",
-             f"mtllib {mtl_path.name}"]
+    chunks = ["# inkray relief: X right, Y up, Z toward the viewer\n",
+              f"mtllib {mtl_path.name}\n"]
     base = 1
     for m in meshes:
-        lines += [f"o {m.name}", f"g {m.name}", "usemtl drawing"]
-        lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in m.vertices]
-        lines += [f"vt {u:.9g} {v:.9g}" for u, v in m.uv]
-        lines += [f"vn {x:.6f} {y:.6f} {z:.6f}" for x, y, z in m.normals]
-        lines += ["f {0}/{0}/{0} {1}/{1}/{1} {2}/{2}/{2}".format(*tri)
-                  for tri in (m.faces + base).tolist()]
+        chunks += [f"o {m.name}\ng {m.name}\nusemtl drawing\n",
+                   _format_rows("v %.9g %.9g %.9g\n", m.vertices),
+                   _format_rows("vt %.9g %.9g\n", m.uv),
+                   _format_rows("vn %.6f %.6f %.6f\n", m.normals),
+                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n",
+                                np.repeat(m.faces + base, 3, axis=1))]
         base += len(m.vertices)
     mtl = ["# inkray relief material: the drawing, matte",
            "newmtl drawing",
            "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
            "Pr 1", "Pm 0",  # PBR extension (Blender, three.js): roughness 1, metallic 0
            f"map_Kd {png_path.name}"]
-    return {path: ("\n".join(lines) + "\n").encode(),
+    return {path: "".join(chunks).encode(),
             mtl_path: ("\n".join(mtl) + "\n").encode(),
             png_path: _png_bytes(_texture(relief))}
+
+
+def _format_rows(line, array):
+    """``line`` (a %-format of one row) applied to every row, in one formatting call."""
+    return (line * len(array)) % tuple(np.asarray(array).ravel().tolist())
 
 
 # -- PLY ---------------------------------------------------------------------
