@@ -11,9 +11,14 @@ across clean paper:
   ``f(min(I_p, I_q)) + 1/K`` where ``f`` maps ink to 0 and paper to 1 and
   ``K = 2 (H + W)``, so a cut runs along dark lines, and across a gap in a line
   only where no line offers a cheaper way (a gap of ``g`` pixels costs ``g``);
-- data: a seed pixel pays ``seed_strength`` (< 1) for taking another label
-  than its scribble's, so scribbles are soft: the part of a stroke that
-  overshoots an ink line is cheaper to relabel than to cut around.
+- data: scribbles are soft where it matters (paper, section 3.2): the part
+  of a stroke that lies on ink or overshoots an ink line into another paper
+  area pays only ``seed_strength`` (< 1) per pixel for taking another label,
+  so it is cheaper to relabel than to cut around and a careless stroke does
+  not leak its label across the line. The rest of the stroke, in the paper
+  area that holds most of it, is hard, so that a short scribble or a dot in
+  an area with a gap still holds its area (a soft dot would lose to any cut
+  longer than one pixel).
 
 The multi-label problem is solved as in the paper by a sequence of binary
 graph cuts (PyMaxflow): label ``c`` against all labels not yet placed, on the
@@ -104,8 +109,10 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
     frame_background : bool, default False
         Seed the unseeded pixels of the image border as background (``-1``).
     seed_strength : float, default 0.95
-        Cost of relabelling one seed pixel, in units of one paper edge cut;
-        below 1 scribbles are soft, above ~2 they act as hard constraints.
+        Cost of relabelling one seed pixel that lies on ink or outside the
+        paper area holding most of its scribble, in units of one paper edge
+        cut; below 1 such overshoots are soft, above ~2 they act as hard
+        constraints. Seed pixels inside that area are always hard.
     ink_level, paper_level, gamma : float
         The grey-to-cost mapping, see :func:`ink_cost`.
     coarse_to_fine : bool, optional
@@ -163,9 +170,35 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
     h, w = gray.shape
     if coarse_to_fine is None:
         coarse_to_fine = h * w > 500_000
+    strength = _seed_strength(seeds, gray >= INK_THRESHOLD, seed_strength)
     if coarse_to_fine and min(h, w) >= 64:
-        return _coarse_to_fine(cost, seeds, seed_strength, progress)
-    return _solve(cost, seeds, seed_strength, 1.0 / (2 * (h + w)), progress=progress)
+        return _coarse_to_fine(cost, seeds, strength, progress)
+    return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
+
+
+_HARD = 1e9  # a seed cost no cut can pay
+
+
+def _seed_strength(seeds, paper, soft):
+    """Per-pixel cost of relabelling a seed: hard in the paper area that holds
+    most of the pixels of its scribble (an 8-connected run of one label),
+    ``soft`` on ink and in other paper areas (overshoots)."""
+    area, _ = ndimage.label(paper)
+    out = np.zeros(seeds.shape)
+    for c in np.unique(seeds[seeds != UNSEEDED]):
+        mask = seeds == c
+        stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
+        st, ar = stroke[mask], area[mask]
+        on = ar > 0
+        home = np.zeros(n + 1, np.int64)
+        if on.any():
+            pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+            # Ties go to the lowest area number: deterministic.
+            best = np.lexsort((pairs[1], -counts, pairs[0]))
+            first = np.unique(pairs[0][best], return_index=True)[1]
+            home[pairs[0][best][first]] = pairs[1][best][first]
+        out[mask] = np.where(on & (ar == home[st]), _HARD, soft)
+    return out
 
 
 def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, min_area=30,
@@ -434,8 +467,9 @@ def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, 
         if both.any():
             g.add_edges(a[both], b[both], cap[both], cap[both])
     s = flat_seeds[flat]
-    src = np.where(s == c, strength, 0.0)
-    snk = np.where(np.isin(s, rest), strength, 0.0)
+    st = strength.ravel()[flat]
+    src = np.where(s == c, st, 0.0)
+    snk = np.where(np.isin(s, rest), st, 0.0)
     for lab, wt in nbrs:
         lab, wt = lab.ravel()[flat], wt.ravel()[flat]
         src += np.where(lab == c, wt, 0.0)
@@ -450,7 +484,7 @@ def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, 
     return win.reshape(h, w)
 
 
-def _coarse_to_fine(cost, seeds, strength, progress, band=4):
+def _coarse_to_fine(cost, seeds, strength, progress, band=4, small_area=5000):
     """Solve on a 2x min-pooled copy, then only near its boundaries.
 
     Min-pooling keeps one-pixel lines closed at half resolution. The band of
@@ -463,11 +497,14 @@ def _coarse_to_fine(cost, seeds, strength, progress, band=4):
     small_cost = padded.reshape(hp // 2, 2, wp // 2, 2).min(axis=(1, 3))
     padded = np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED)
     small_seeds = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
+    padded = np.pad(strength, ((0, hp - h), (0, wp - w)))
+    small_strength = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
     sh, sw = small_cost.shape
     if sh * sw > 500_000 and min(sh, sw) >= 64:
-        coarse = _coarse_to_fine(small_cost, small_seeds, strength, None, band)
+        coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, None, band,
+                                 small_area // 4)
     else:
-        coarse = _solve(small_cost, small_seeds, strength, 1.0 / (2 * (sh + sw)))
+        coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)))
     up = coarse.repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
     edge = np.zeros((h, w), bool)
     diff = up[:, :-1] != up[:, 1:]
@@ -478,12 +515,20 @@ def _coarse_to_fine(cost, seeds, strength, progress, band=4):
     edge[1:, :] |= diff
     free = ndimage.maximum_filter(edge.view(np.uint8), size=2 * band + 1).view(bool)
     wrong = (seeds != UNSEEDED) & (seeds != up)
-    if wrong.any():
-        comp, n = ndimage.label(cost > 0.5)
-        hit = np.zeros(n + 1, bool)
-        hit[comp[wrong]] = True
-        hit[0] = False
-        free |= hit[comp]
-        free |= ndimage.maximum_filter(wrong.view(np.uint8), size=2 * band + 1).view(bool)
+    free |= ndimage.maximum_filter(wrong.view(np.uint8), size=2 * band + 1).view(bool)
+    # Pooling may close a thin neck of a small paper area and split it there:
+    # a small area holding two labels beyond the band, or any area holding a
+    # wrongly labelled seed, is solved again as a whole. (Large areas that hold
+    # several labels are gap closures the band already refines.)
+    comp, n = ndimage.label(cost > 0.5)
+    inner = comp[~free]
+    inner_up = up[~free]
+    some = np.zeros(n + 1, np.int32)
+    some[inner] = inner_up  # one label of each area (the last written)
+    mixed = np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0
+    redo = mixed & (np.bincount(comp.ravel(), minlength=n + 1) <= small_area)
+    redo[comp[wrong]] = True
+    redo[0] = False
+    free |= redo[comp]
     fixed = np.where(free, UNSEEDED, up).astype(np.int32)
     return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress)
