@@ -122,7 +122,8 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
       vertex normals, planar UVs (``TEXCOORD_0``); one material (roughness 1,
       metallic 0) with the drawing embedded as PNG base-colour texture; scene
       ``extras = {"inkray": {"drawing_size": [W, H], "units_per_pixel": s,
-      "anchor": anchor}}``. Indices are unsigned 32-bit.
+      "anchor": anchor}}``. Indices are unsigned 32-bit; the texture sampler
+      filters linearly (mipmapped) and clamps to the edge.
     - ``.obj``: ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
       ``f v/vt/vn``; beside it ``<stem>.mtl`` and the texture
       ``<stem>_drawing.png``.
@@ -379,6 +380,9 @@ def _png_bytes(image):
 # -- GLB ---------------------------------------------------------------------
 
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+# Linear filtering with mipmaps; clamp, so the drawing's left edge never bleeds
+# into its right edge (UVs reach exactly 0 and 1 on the border).
+_SAMPLER = {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}
 
 
 def _glb_bytes(relief, meshes, units_per_pixel, anchor):
@@ -410,6 +414,9 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor):
                 targets[tree["accessors"][prim["indices"]]["bufferView"]] = _ELEMENT_ARRAY_BUFFER
         for view, target in targets.items():
             tree["bufferViews"][view]["target"] = target
+        tree["samplers"] = [dict(_SAMPLER)]
+        for texture in tree["textures"]:
+            texture["sampler"] = 0
 
     return trimesh.exchange.gltf.export_glb(scene, include_normals=True, unitize_normals=True,
                                             tree_postprocessor=finish)

@@ -127,7 +127,10 @@ def test_glb_nodes_material_extras(relief, tmp_path):
     (material,) = tree["materials"]
     pbr = material["pbrMetallicRoughness"]
     assert pbr["roughnessFactor"] == 1.0 and pbr["metallicFactor"] == 0.0
-    assert tree["textures"][pbr["baseColorTexture"]["index"]]["source"] == 0
+    texture = tree["textures"][pbr["baseColorTexture"]["index"]]
+    assert texture["source"] == 0
+    sampler = tree["samplers"][texture["sampler"]]
+    assert sampler["wrapS"] == sampler["wrapT"] == 33071  # clamp: edges do not wrap around
     assert tree["images"][0]["mimeType"] == "image/png"
 
 
