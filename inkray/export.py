@@ -158,7 +158,8 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
     ------
     InputError
         Unknown suffix or anchor, non-positive scale, or a relief that is not
-        valid (names, shapes, indices, texture size, vertices off the drawing).
+        valid (names, shapes, indices, texture size, vertices more than half a
+        pixel off the drawing).
 
     Examples
     --------
@@ -289,8 +290,10 @@ def _check_relief(relief):
     if not relief.parts:
         raise InputError("relief.parts: the relief has no parts")
     seen = set()
-    # Vertices may sit on the drawing's border but not beyond: UVs stay in [0, 1].
-    tol = 1e-6 * max(w, h)
+    # Up to half a pixel beyond the border: the outline of a border pixel, in
+    # either pixel convention (centres at integers or at half-integers). UVs
+    # there are clamped to [0, 1].
+    tol = 0.5 + 1e-6 * max(w, h)
     for i, part in enumerate(relief.parts):
         where = f"parts[{i}]"
         name = part.name

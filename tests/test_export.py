@@ -353,6 +353,15 @@ def test_bad_options_are_refused(kwargs, message, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_vertices_on_border_pixel_outlines_are_accepted(tmp_path):
+    w, h = SIZE
+    sheet = grid_part("sheet", [-0.5, w + 0.5], [-0.5, h + 0.5])
+    path = export_relief(Relief([sheet], SIZE, drawing()), tmp_path / "s.glb")[0]
+    (mesh,) = _load(path).values()
+    uv = np.asarray(mesh.visual.uv)
+    assert uv.min() == 0.0 and uv.max() == 1.0
+
+
 def test_export_joins_an_outer_output_group(tmp_path):
     with pytest.raises(RuntimeError):
         with atomic_outputs() as out:
