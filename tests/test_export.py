@@ -375,6 +375,20 @@ def test_export_joins_an_outer_output_group(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.mtl", "r.obj", "r_drawing.png"]
 
 
+def test_read_meshes_applies_node_transforms_and_keeps_outward_winding(tmp_path):
+    ball = trimesh.creation.icosphere(subdivisions=1)
+    mirror = np.diag([-2.0, 2.0, 2.0, 1.0])  # mirrored and scaled: det < 0
+    mirror[:3, 3] = [5.0, 0.0, 0.0]
+    scene = trimesh.Scene()
+    scene.add_geometry(ball, geom_name="ball", node_name="mirrored", transform=mirror)
+    scene.export(tmp_path / "m.glb")
+    (mesh,) = read_meshes(tmp_path / "m.glb")
+    assert mesh.name == "mirrored"
+    np.testing.assert_allclose(mesh.vertices, ball.vertices * [-2, 2, 2] + [5, 0, 0], atol=1e-6)
+    assert trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).volume == pytest.approx(
+        8 * ball.volume, rel=1e-5)
+
+
 def test_read_meshes_refuses_unreadable_files(tmp_path):
     (tmp_path / "junk.glb").write_bytes(b"not a mesh at all")
     (tmp_path / "empty.obj").write_text("# nothing\n")
