@@ -112,7 +112,10 @@ class InflationSolver:
         self._fixed = np.flatnonzero(self.dirichlet)
         self._coupling = self.laplacian[self._free][:, self._fixed]
         system = -self.laplacian[self._free][:, self._free]
-        self._lu = splu(system.tocsc(), permc_spec="MMD_AT_PLUS_A") if len(self._free) else None
+        # The system is symmetric positive definite: symmetric ordering, no pivoting
+        # (about 30x faster than SuperLU's general default).
+        self._lu = (splu(system.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                         options={"SymmetricMode": True}) if len(self._free) else None)
 
     def solve(self, source=2.0, *, values=None):
         """Solve ``-lap f = source`` with ``f = values`` on the Dirichlet vertices.
@@ -266,8 +269,9 @@ def inflate_mesh(mesh, *, inflation=2.0, profile="sqrt", solver=None):
 
 
 def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                   inflation=2.0, profile="sqrt", max_area=DEFAULT_MAX_AREA, min_angle=20.0,
-                   snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3, station_spacing=None):
+                   inflation=2.0, profile="sqrt", max_area=DEFAULT_MAX_AREA, min_triangles=200,
+                   min_angle=20.0, snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3,
+                   station_spacing=None):
     """Mesh and inflate one completed region.
 
     Parameters
@@ -280,7 +284,7 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
         ``c`` of ``-lap f = c``.
     profile : str or callable, default "sqrt"
         See :func:`apply_profile`.
-    max_area, min_angle
+    max_area, min_triangles, min_angle
         As in :func:`inkray.triangulate.mesh_region`.
 
     Returns
@@ -297,7 +301,8 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
     """
     _check_options(inflation, profile, name if name is not None else "region")
     mesh = mesh_region(mask, visible=visible, labels=labels, region=region, name=name,
-                       boundaries=boundaries, max_area=max_area, min_angle=min_angle, snap=snap,
+                       boundaries=boundaries, max_area=max_area, min_triangles=min_triangles,
+                       min_angle=min_angle, snap=snap,
                        smoothing=smoothing, tolerance=tolerance, station_spacing=station_spacing)
     return inflate_mesh(mesh, inflation=inflation, profile=profile)
 

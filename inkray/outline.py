@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
+from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
 from .errors import InputError
@@ -57,7 +58,7 @@ _CORNER_SPAN = 3.0  # px each side over which a corner's turning angle is measur
 _CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~8 px has none)
 
 #: Default distance (px) within which a ``boundaries`` path snaps to an outline.
-DEFAULT_SNAP = 4.0
+DEFAULT_SNAP = 6.0
 
 
 def edge_length(max_area):
@@ -185,7 +186,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         corners turning by more than 45 degrees within 3 px are kept sharp.
     tolerance : float, default 0.3
         Simplification tolerance (px, Douglas-Peucker).
-    snap : float, default 4
+    snap : float, default 6
         A ``boundaries`` path snaps to an outline loop when its median
         distance to it is at most this (px).
     speckle : float, default 9
@@ -287,13 +288,13 @@ def check_boundaries(outlines, boundaries, *, snap=DEFAULT_SNAP):
         ``.snap_distance``, e.g. a :class:`~inkray.triangulate.RegionMesh`),
         made with the same ``boundaries``.
     boundaries : sequence of Boundary
-    snap : float, default 4
+    snap : float, default 6
         Only used in the message.
 
     Raises
     ------
     InputError
-        ``boundaries[i]: no region outline within 4 px of the path ...``.
+        ``boundaries[i]: no region outline within 6 px of the path ...``.
 
     Examples
     --------
@@ -566,22 +567,22 @@ def _resample(p, step):
 
 def _project(q, loop):
     """Distance of each point to a closed polyline and the arc parameter of its projection."""
-    a = loop
-    b = np.roll(loop, -1, axis=0)
-    ab = b - a
-    s = _cumlen(loop, closed=True)[:-1]
-    seglen2 = np.maximum((ab ** 2).sum(1), 1e-24)
-    dist = np.empty(len(q))
-    par = np.empty(len(q))
-    for start in range(0, len(q), 256):
-        qq = q[start:start + 256, None, :]
-        u = np.clip(((qq - a) * ab).sum(-1) / seglen2, 0.0, 1.0)
-        d2 = ((a + u[..., None] * ab - qq) ** 2).sum(-1)
-        k = np.argmin(d2, axis=1)
-        rows = np.arange(len(k))
-        dist[start:start + 256] = np.sqrt(d2[rows, k])
-        par[start:start + 256] = s[k] + u[rows, k] * np.sqrt(seglen2[k])
-    return dist, par
+    n = len(loop)
+    s = _cumlen(loop, closed=True)
+    _, near = cKDTree(loop).query(q)
+    # The nearest segment touches the nearest vertex (up to the vertex spacing): try both.
+    best_d = np.full(len(q), np.inf)
+    best_t = np.zeros(len(q))
+    for k in (near - 1) % n, near:
+        a, b = loop[k], loop[(k + 1) % n]
+        ab = b - a
+        seglen2 = np.maximum((ab ** 2).sum(1), 1e-24)
+        u = np.clip(((q - a) * ab).sum(1) / seglen2, 0.0, 1.0)
+        d = np.linalg.norm(a + u[:, None] * ab - q, axis=1)
+        better = d < best_d
+        best_d[better] = d[better]
+        best_t[better] = (s[k] + u * np.sqrt(seglen2))[better]
+    return best_d, best_t
 
 
 def _area(p):

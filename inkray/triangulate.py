@@ -23,7 +23,7 @@ import numpy as np
 import triangle
 
 from .errors import InputError, StageError
-from .outline import DEFAULT_MAX_AREA, DEFAULT_SNAP, INTERIOR, region_outline
+from .outline import DEFAULT_MAX_AREA, DEFAULT_SNAP, INTERIOR, edge_length, region_outline
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
@@ -173,8 +173,8 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
 
 
 def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                max_area=DEFAULT_MAX_AREA, min_angle=20.0, snap=DEFAULT_SNAP, smoothing=1.0,
-                tolerance=0.3, station_spacing=None):
+                max_area=DEFAULT_MAX_AREA, min_triangles=200, min_angle=20.0, snap=DEFAULT_SNAP,
+                smoothing=1.0, tolerance=0.3, station_spacing=None):
     """Outline and triangulate one completed region.
 
     Parameters
@@ -185,6 +185,10 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
         As in :func:`inkray.outline.region_outline`.
     max_area : float, default 50
         Largest triangle area (px^2); the outline spacing follows from it.
+    min_triangles : int, default 200
+        Small regions get smaller triangles, at most ``area / min_triangles``,
+        so that they are not faceted. Stations keep the spacing of
+        ``max_area`` (they must agree between regions).
     min_angle : float, default 20
         Smallest triangle angle (degrees).
 
@@ -199,7 +203,16 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     >>> float(np.round(np.ptp(mesh.vertices[:, 0])))
     159.0
     """
+    if not max_area > 0:
+        raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
+    if not (isinstance(min_triangles, (int, np.integer)) and min_triangles >= 1):
+        raise InputError(f"min_triangles: expected a positive integer, got {min_triangles!r}")
+    if not 0 < min_angle <= 34:
+        raise InputError(f"min_angle: expected 0 < min_angle <= 34 degrees, got {min_angle!r}")
+    if station_spacing is None:
+        station_spacing = edge_length(max_area)
+    area = min(float(max_area), float(np.count_nonzero(mask)) / min_triangles) or float(max_area)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
-                         boundaries=boundaries, max_area=max_area, snap=snap, smoothing=smoothing,
+                         boundaries=boundaries, max_area=area, snap=snap, smoothing=smoothing,
                          tolerance=tolerance, station_spacing=station_spacing)
-    return triangulate_outline(out, max_area=max_area, min_angle=min_angle)
+    return triangulate_outline(out, max_area=area, min_angle=min_angle)

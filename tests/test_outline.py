@@ -112,7 +112,7 @@ def test_far_boundary_entry_is_an_error_naming_it():
     far = _entry("stitch", [[10, 190], [40, 190]], index=2)
     out = region_outline(mask, boundaries=[onit, far])
     assert out.matched == (1,)
-    with pytest.raises(InputError, match=r"^boundaries\[2\]: no region outline within 4 px"):
+    with pytest.raises(InputError, match=r"^boundaries\[2\]: no region outline within 6 px"):
         check_boundaries([out], [onit, far])
     check_boundaries([out], [onit])
     assert region_outline(mask, boundaries=[chord]).matched == ()

@@ -120,3 +120,12 @@ def test_outline_vertices_and_stations_survive():
 def test_bad_options(kw, msg):
     with pytest.raises(InputError, match=msg):
         mesh_region(_shapes()["disk"], **kw)
+
+
+def test_small_regions_get_at_least_min_triangles():
+    yy, xx = np.mgrid[:40, :40]
+    dot = (xx - 20) ** 2 + (yy - 20) ** 2 <= 12 ** 2  # ~450 px^2: 9 triangles at 50 px^2
+    mesh = mesh_region(dot, max_area=50.0, min_triangles=200)
+    assert len(mesh.faces) >= 200
+    assert _angles(mesh.vertices, mesh.faces).min() >= 20.0 - 1e-6
+    assert len(mesh_region(dot, max_area=50.0, min_triangles=1).faces) < 40
