@@ -43,7 +43,7 @@ import scipy.sparse.linalg as sla
 from .errors import InputError, StageError
 
 __all__ = ["edge_weights", "grid_laplacian", "nested_dissection", "GroundedLaplacian",
-           "QPResult", "solve_depth_qp", "constraint_cycle", "check_constraints",
+           "QPResult", "solve_depth_qp", "dual_active_set", "constraint_cycle", "check_constraints",
            "WEIGHT_FLOOR", "SIGMA_FLOOR"]
 
 #: Smallest edge weight: keeps the pixel graph connected and L well enough
@@ -297,7 +297,7 @@ class QPResult:
     timings: dict = field(default_factory=dict)
 
 
-def check_constraints(p, q, inequality, labels):
+def check_constraints(p, q, inequality, labels, *, what="point"):
     """Reject contradictory constraints before solving.
 
     Parameters
@@ -308,6 +308,8 @@ def check_constraints(p, q, inequality, labels):
     inequality : (m,) bool array
     labels : list of str
         The annotation entry of each constraint, e.g. ``"order[3]"``.
+    what : str, default "point"
+        What the nodes are, for the message (``"region"`` for the region graph).
 
     Raises
     ------
@@ -326,7 +328,7 @@ def check_constraints(p, q, inequality, labels):
     if cycle:
         names = [labels[i] for i in cycle]
         raise InputError(" -> ".join(names + names[:1]) + ": contradictory depth constraints: "
-                         "following them, a point must lie in front of itself")
+                         f"following them, a {what} must lie in front of itself")
 
 
 def constraint_cycle(p, q, inequality):
@@ -581,7 +583,44 @@ def _pinv_solve(H, r):
     return V @ c
 
 
-def _active_set(H, b, ineq):
+def dual_active_set(H, b, inequality, *, what="QP"):
+    """Exact minimizer of the small dual ``1/2 x^T H x - b^T x``, ``x_i >= 0`` where ``inequality``.
+
+    The multiplier problem of any QP ``min 1/2 y^T Q y`` subject to ``C y = b``
+    (rows where ``inequality`` is False) and ``C y >= b`` (True), with
+    ``H = C Q^-1 C^T``; the primal solution is ``y = Q^-1 C^T x``. Used by the
+    depth QP here and by :mod:`inkray.stitch`.
+
+    Parameters
+    ----------
+    H : (m, m) symmetric positive semi-definite array
+    b : (m,) array
+    inequality : (m,) bool array
+    what : str, default "QP"
+        Names the problem in error messages.
+
+    Returns
+    -------
+    (m,) float array
+        The multipliers.
+
+    Raises
+    ------
+    StageError
+        When the dual is unbounded (contradictory constraints) or the method
+        does not converge.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> dual_active_set(np.eye(2), np.array([1.0, -1.0]), np.array([True, True])).tolist()
+    [1.0, 0.0]
+    """
+    x, _ = _active_set(np.asarray(H, float), np.asarray(b, float), np.asarray(inequality, bool), what)
+    return x
+
+
+def _active_set(H, b, ineq, what="depth QP"):
     """Exact minimizer of ``1/2 x^T H x - b^T x`` s.t. ``x_i >= 0`` where ``ineq``.
 
     A primal active-set method on the bounds (the inequality multipliers held
@@ -618,7 +657,7 @@ def _active_set(H, b, ineq):
                 if ratios[k] < alpha:
                     alpha, j = max(0.0, float(ratios[k])), int(fi[block][k])
             if not np.isfinite(alpha):
-                raise StageError("depth QP: the dual is unbounded (contradictory constraints "
+                raise StageError(f"{what}: the dual is unbounded (contradictory constraints "
                                  "that the cycle test missed)")
             x[fi] += alpha * step
             if j >= 0:
@@ -630,4 +669,4 @@ def _active_set(H, b, ineq):
         if not cand.any():
             return x, it
         fixed[int(np.argmin(np.where(cand, g, np.inf)))] = False
-    raise StageError(f"depth QP: the active-set method did not converge in {max_iter} iterations")
+    raise StageError(f"{what}: the active-set method did not converge in {max_iter} iterations")
