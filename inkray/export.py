@@ -280,7 +280,8 @@ def _origin(size, anchor):
 def _check_relief(relief):
     w, h = relief.size
     if not (int(w) == w and int(h) == h and w > 0 and h > 0):
-        raise InputError(f"relief.size: expected positive integer (width, height), got {relief.size}")
+        raise InputError(f"relief.size: expected positive integer (width, height), "
+                         f"got {relief.size}")
     tex = relief.texture
     if tex is not None:
         tex = np.asarray(tex)
@@ -298,7 +299,8 @@ def _check_relief(relief):
         where = f"parts[{i}]"
         name = part.name
         if not isinstance(name, str) or not name or re.search(r"\s", name):
-            raise InputError(f"{where}.name: expected a non-empty name without spaces, got {name!r}")
+            raise InputError(f"{where}.name: expected a non-empty name without spaces, "
+                             f"got {name!r}")
         if name in seen:
             raise InputError(f"{where}.name: duplicate part name {name!r}")
         seen.add(name)

@@ -216,7 +216,8 @@ def _front_view_of_file(path):
     for i, name in enumerate(names):
         sel = raster.part[hit] == i
         faces = np.asarray(meshes[name].faces)[raster.face[hit][sel]]
-        uv = np.einsum("nk,nkc->nc", raster.bary[hit][sel], np.asarray(meshes[name].visual.uv)[faces])
+        file_uv = np.asarray(meshes[name].visual.uv)
+        uv = np.einsum("nk,nkc->nc", raster.bary[hit][sel], file_uv[faces])
         out[rows[sel], cols[sel]] = _bilinear(tex, uv[:, 0] * tex.shape[1],
                                               (1 - uv[:, 1]) * tex.shape[0])
     return out, hit
