@@ -26,6 +26,8 @@ from .inflate import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E
                       dirichlet_vertices, inflate_mesh, inflate_region)
 from .outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
 from .rasterize import Raster, fit_view, rasterize  # noqa: E402
+from .render import (Rendering, has_mitsuba, output_size, read_relief, render,  # noqa: E402
+                     render_turntable, write_renderings)
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
 from .triangulate import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
 from .segment import Segmentation, lazybrush, segment  # noqa: E402
@@ -48,4 +50,6 @@ __all__ = [
     "inflate_region",
     "Segmentation", "lazybrush", "segment",
     "Raster", "fit_view", "rasterize",
+    "Rendering", "has_mitsuba", "output_size", "read_relief", "render", "render_turntable",
+    "write_renderings",
 ]

@@ -142,7 +142,8 @@ def rasterize(relief, *, size=None, scale=None, offset=None, view=None):
     (16, 5.0, [0.0, 0.0, 1.0])
     """
     if not isinstance(relief, Relief):
-        raise InputError(f"rasterize: expected an inkray.relief.Relief, got {type(relief).__name__}")
+        raise InputError("rasterize: expected an inkray.relief.Relief, "
+                         f"got {type(relief).__name__}")
     dw, dh = (int(s) for s in relief.size)
     if dw <= 0 or dh <= 0:
         raise InputError(f"rasterize: relief size {relief.size} must be positive")

@@ -79,9 +79,10 @@ def test_barycentrics_reproduce_the_pixel_centre():
 
 def test_sphere_cap_normals_point_away_from_the_centre():
     R, cx, cy = 40.0, 50.0, 50.0
-    part = _polygon_part("ball", _disk(cx, cy, R, 160),
-                         lambda x, y: np.sqrt(np.maximum(R ** 2 - (x - cx) ** 2 - (y - cy) ** 2, 0)),
-                         max_area=2.0)
+    def cap(x, y):
+        return np.sqrt(np.maximum(R ** 2 - (x - cx) ** 2 - (y - cy) ** 2, 0))
+
+    part = _polygon_part("ball", _disk(cx, cy, R, 160), cap, max_area=2.0)
     r = rasterize(Relief([part], size=(100, 100)))
     rows, cols = np.nonzero(r.mask)
     x, y = cols + 0.5 - cx, rows + 0.5 - cy

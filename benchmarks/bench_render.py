@@ -1,0 +1,113 @@
+"""Benchmark of inkray.render: the GI render of the demo drawing at 512x512, 64 spp.
+
+Run as ``python benchmarks/bench_render.py [--spp N] [--size N] [--out DIR]``.
+Issue 9 asks for the time of that render; the table also shows the cheap
+modes and the rasterizer, with ratios against the ``shade`` render of the same
+relief (the baseline: what a preview costs).
+
+Until the relief stage exists, the demo's relief is assembled from the stages
+that do: LazyBrush segmentation of the bundled turtle, each region inflated
+(visible masks, no completion), stacked by the annotation's depth order.
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from inkray.examples import example_path
+from inkray.inflate import inflate_region
+from inkray.inputs import load_input
+from inkray.rasterize import rasterize
+from inkray.relief import Part, Relief
+from inkray.render import has_mitsuba, render, write_renderings
+from inkray.segment import segment
+
+_STEP = 6.0  # px between stacked layers
+
+
+def turtle_relief():
+    """The bundled turtle as a relief: segmented, inflated, stacked by ``order``."""
+    ann, drawing = load_input(example_path("turtle"))
+    seg = segment(ann, drawing)
+    n = len(seg.names)
+    offset = np.zeros(n)
+    pairs = []
+    for o in ann.order:
+        f = seg.labels[int(round(o.front[1])), int(round(o.front[0]))]
+        b = seg.labels[int(round(o.back[1])), int(round(o.back[0]))]
+        if f >= 0 and b >= 0 and f != b:
+            pairs.append((f, b))
+    for _ in range(n):  # longest-path relaxation over the (acyclic) order graph
+        for f, b in pairs:
+            offset[f] = max(offset[f], offset[b] + _STEP)
+    parts = []
+    for i, name in enumerate(seg.names):
+        mask = seg.labels == i
+        if mask.sum() < 50:
+            continue
+        res = inflate_region(mask, labels=seg.labels, region=i, name=name, inflation=2.0)
+        v = np.column_stack([res.mesh.vertices, res.height + offset[i]])
+        parts.append(Part(name, v, np.asarray(res.mesh.faces)))
+    rgb = np.asarray(drawing.rgb) if hasattr(drawing, "rgb") else None
+    if rgb is None:
+        rgb = np.repeat(np.asarray(drawing.gray)[..., None], 3, axis=2)
+    if rgb.dtype != np.uint8:
+        rgb = np.clip(np.rint(rgb * 255), 0, 255).astype(np.uint8)
+    return Relief(parts, size=tuple(ann.size), texture=rgb)
+
+
+def _time(fn, repeat=1):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--out", type=Path, help="also write the pictures here")
+    args = ap.parse_args()
+    size = (args.size, args.size)
+
+    t_build, relief = _time(turtle_relief)
+    tris = sum(len(p.faces) for p in relief.parts)
+    print(f"relief: turtle, {len(relief.parts)} parts, {tris} triangles "
+          f"(built in {t_build:.2f} s)")
+
+    rows = []
+    t_shade, shade = _time(lambda: render(relief, mode="shade", size=size), repeat=3)
+    rows.append(("shade (baseline)", f"{size[0]}x{size[1]}", "-", t_shade))
+    for mode in ("normals", "depth", "stereo"):
+        t, _ = _time(lambda: render(relief, mode=mode, size=size), repeat=3)
+        rows.append((mode, f"{size[0]}x{size[1]}", "-", t))
+    t, _ = _time(lambda: rasterize(relief, scale=2), repeat=3)
+    rows.append(("rasterize 2x", f"{2 * relief.size[0]}x{2 * relief.size[1]}", "-", t))
+    pictures = {"shade": shade}
+    if has_mitsuba():
+        t, gi = _time(lambda: render(relief, mode="gi", size=size, spp=args.spp))
+        rows.append(("gi (mitsuba scalar_rgb)", f"{size[0]}x{size[1]}", str(args.spp), t))
+        pictures["gi"] = gi
+    else:
+        print("gi: skipped, Mitsuba 3 is not installed (pip install 'inkray[render]')")
+
+    print(f"\n{'render':<26}{'size':>10}{'spp':>6}{'time s':>10}{'x shade':>10}"
+          f"{'Msamples/s':>12}")
+    for name, sz, spp, t in rows:
+        rate = (f"{size[0] * size[1] * int(spp) / t / 1e6:.2f}" if spp != "-" else "")
+        print(f"{name:<26}{sz:>10}{spp:>6}{t:>10.3f}{t / t_shade:>10.1f}{rate:>12}")
+    if args.out:
+        for name, r in pictures.items():
+            write_renderings(r, args.out / f"turtle_{name}.png")
+        print(f"\nwrote {', '.join(pictures)} to {args.out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
