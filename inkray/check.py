@@ -69,6 +69,11 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
         normals; ``None`` unless watertight and consistently oriented).
         Statistics over no faces are ``None``.
 
+    Raises
+    ------
+    InputError
+        Arrays of the wrong shape, non-finite vertices, indices out of range.
+
     Examples
     --------
     >>> v = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
@@ -77,8 +82,7 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
     >>> q["watertight"], q["consistently_oriented"], round(q["volume"], 4)
     (True, True, 0.1667)
     """
-    v = np.asarray(vertices, float).reshape(-1, 3)
-    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    v, f = _check_mesh(vertices, faces)
     referenced = np.flatnonzero(np.bincount(f.reshape(-1), minlength=len(v)))
     welded, inverse = _weld(v[referenced])
     index = np.full(len(v), -1, np.int64)
@@ -315,6 +319,27 @@ def _describe(q):
 
 
 # -- measurements -------------------------------------------------------------
+
+def _check_mesh(vertices, faces):
+    from .errors import InputError
+
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise InputError(f"mesh: vertices must be an (n, 3) array, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"mesh: vertex {int(np.argmax(~np.isfinite(v).all(axis=1)))} "
+                         f"is not finite")
+    f = f.reshape(-1, 3) if f.size == 0 else f
+    if f.ndim != 2 or f.shape[1] != 3 or not (f.size == 0 or np.issubdtype(f.dtype, np.integer)):
+        raise InputError(f"mesh: faces must be an (m, 3) integer array, got {f.shape} {f.dtype}")
+    f = f.astype(np.int64)
+    bad = (f < 0).any(axis=1) | (f >= len(v)).any(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise InputError(f"mesh: face {k} {f[k].tolist()} indexes past the {len(v)} vertices")
+    return v, f
+
 
 def _shape_stats(tri):
     """Angles, aspect ratios and the degenerate mask of triangles ``(m, 3, 3)``."""

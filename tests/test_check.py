@@ -165,6 +165,18 @@ def test_unreferenced_vertices_are_counted():
     assert q["unreferenced_vertices"] == 1 and q["watertight"]
 
 
+@pytest.mark.parametrize("vertices, faces, message", [
+    (TETRA_V, [[0, 1, 4]], "face 0 .* indexes past the 4 vertices"),
+    (TETRA_V, [[0, -1, 2]], "indexes past"),
+    (np.vstack([TETRA_V, [[np.nan, 0, 0]]]), TETRA_F, "vertex 4 is not finite"),
+    (TETRA_V[:, :2], TETRA_F, r"\(n, 3\)"),
+    (TETRA_V, [[0.5, 1, 2]], "integer"),
+])
+def test_invalid_meshes_are_refused(vertices, faces, message):
+    with pytest.raises(InputError, match=message):
+        mesh_quality(vertices, faces)
+
+
 # -- report and requirements ----------------------------------------------------------
 
 def test_overall_aggregates_parts():
