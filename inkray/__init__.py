@@ -25,7 +25,7 @@ from .inputs import load_input  # noqa: E402
 from .inflate import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E402
                       dirichlet_vertices, inflate_mesh, inflate_region)
 from .outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
-from .rasterize import Raster, fit_view, rasterize  # noqa: E402
+from .rasterize import Raster, fit_view, rasterize, vertex_normals  # noqa: E402
 from .render import (Rendering, has_mitsuba, output_size, read_relief, render,  # noqa: E402
                      render_turntable, write_renderings)
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
@@ -49,7 +49,7 @@ __all__ = [
     "InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh",
     "inflate_region",
     "Segmentation", "lazybrush", "segment",
-    "Raster", "fit_view", "rasterize",
+    "Raster", "fit_view", "rasterize", "vertex_normals",
     "Rendering", "has_mitsuba", "output_size", "read_relief", "render", "render_turntable",
     "write_renderings",
 ]

@@ -26,7 +26,7 @@ import numpy as np
 from .errors import InputError
 from .relief import Relief
 
-__all__ = ["Raster", "rasterize", "fit_view"]
+__all__ = ["Raster", "rasterize", "fit_view", "vertex_normals"]
 
 _CHUNK = 1 << 20  # (triangle, pixel) candidate pairs per vectorized batch
 _EDGE_EPS = 1e-9  # pixel centres exactly on an edge count as inside
@@ -218,7 +218,7 @@ def _soup(relief):
         tris.append(f.astype(np.int64) + base)
         tri_part.append(np.full(len(f), i, np.int32))
         tri_local.append(np.arange(len(f), dtype=np.int64))
-        normals.append(_vertex_normals(v, f))
+        normals.append(vertex_normals(v, f))
         base += len(v)
     if not verts:
         return (np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros(0, np.int32),
@@ -227,16 +227,36 @@ def _soup(relief):
             np.concatenate(tri_local), np.concatenate(normals))
 
 
-def _vertex_normals(v, f):
-    """Area-weighted vertex normals of faces wound counter-clockwise for the viewer.
+def vertex_normals(vertices, faces):
+    """Area-weighted unit vertex normals of a relief part, in the relief's frame.
 
-    With ``y`` growing downward such faces are clockwise in ``(x, y)``, so the
-    raw cross product points away from the viewer; its negation is the normal.
+    Faces are counter-clockwise as seen by the viewer; with ``y`` growing
+    downward they are clockwise in ``(x, y)``, so the raw cross product points
+    away from the viewer and its negation is the normal. Vertices on no face
+    get a zero normal.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+        ``[x, y, z]`` in drawing pixels.
+    faces : (m, 3) int array
+
+    Returns
+    -------
+    (n, 3) float array
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 2]], float)  # z = 2x, clockwise in (x, y)
+    >>> np.round(vertex_normals(v, np.array([[0, 1, 2]]))[0], 3).tolist()
+    [-0.894, 0.0, 0.447]
     """
-    if len(f) == 0:
-        return np.zeros_like(v)
-    fn = -np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
     n = np.zeros_like(v)
+    if len(f) == 0:
+        return n
+    fn = -np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     for k in range(3):
         for c in range(3):
             n[:, c] += np.bincount(f[:, k], weights=fn[:, c], minlength=len(v))

@@ -36,7 +36,7 @@ import numpy as np
 
 from .errors import InputError, StageError
 from .io import atomic_outputs
-from .rasterize import fit_view, rasterize
+from .rasterize import fit_view, rasterize, vertex_normals
 from .relief import Part, Relief
 
 __all__ = ["MODES", "Rendering", "has_mitsuba", "output_size", "read_relief", "render",
@@ -257,7 +257,8 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
     out = []
     for k in range(frames):
         yaw = float(angle) * np.sin(2 * np.pi * k / frames)
-        inner = progress if mode == "gi" and frames == 1 else None
+        # one frame: the render's own passes; several: one tick per frame
+        inner = progress if frames == 1 else None
         out.append(render(relief, mode=mode, yaw=yaw, progress=inner, **options))
         if progress is not None:
             progress.update(k + 1, frames)
@@ -396,8 +397,8 @@ class _Layers:
 
     Ink is what is darker, in its brightest channel, than ``_INK_LEVEL`` of
     the paper (so saturated colours are not ink); the multiplier falls
-    linearly from 1 there to 0 at black, keeping the
-    antialiased edges of the strokes. Under ink the fill takes the colour of
+    linearly from 1 there to 0 at black, keeping the antialiased edges of the
+    strokes. Under ink the fill takes the colour of
     the nearest non-ink pixel, so shading and light bounces see the colours
     of the regions and not the lines.
     """
@@ -547,15 +548,18 @@ def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
     mi = _mitsuba()
     mi.set_log_level(mi.LogLevel.Warn)
     w, h = size
-    scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
     passes = min(_GI_PASSES, spp)
     counts = [spp // passes + (k < spp % passes) for k in range(passes)]
     acc = np.zeros((h, w, 4))
-    for k, n in enumerate(counts):
-        img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
-        acc += img * n
-        if progress is not None:
-            progress.update(k + 1, passes)
+    try:
+        scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
+        for k, n in enumerate(counts):
+            img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
+            acc += img * n
+            if progress is not None:
+                progress.update(k + 1, passes)
+    except RuntimeError as e:  # Mitsuba reports its failures as RuntimeError
+        raise StageError(f"gi: Mitsuba failed: {' '.join(str(e).split())}") from e
     img = acc / spp
     # The ink is applied in screen space through the relief's own texture
     # coordinates, supersampled, so lines are as sharp as the output allows.
@@ -618,7 +622,7 @@ def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
         v = np.asarray(p.vertices, float)
         zmin = min(zmin, float(v[:, 2].min()))
         world = np.stack([(v[:, 0] - cx) * k, (cy - v[:, 1]) * k, v[:, 2] * k], axis=1)
-        normals = _vertex_normals_world(v, np.asarray(p.faces))
+        normals = vertex_normals(v, p.faces) * [1, -1, 1]  # y down -> y up
         if layers.part_colors is None:
             color = texture
         else:
@@ -637,17 +641,6 @@ def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
                              "bsdf": {"type": "diffuse",
                                       "reflectance": {"type": "rgb", "value": [0.8, 0.8, 0.78]}}}
     return scene
-
-
-def _vertex_normals_world(v, f):
-    """Area-weighted vertex normals, relief faces, in the y-up world frame."""
-    fn = -np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    n = np.zeros_like(v)
-    for c in range(3):
-        n[:, c] = sum(np.bincount(f[:, j], weights=fn[:, c], minlength=len(v)) for j in range(3))
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    n = np.divide(n, length, out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=length > 0)
-    return n * [1, -1, 1]
 
 
 def _mesh(mi, name, vertices, faces, normals, uv, bsdf):

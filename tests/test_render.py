@@ -186,6 +186,17 @@ def test_gi_renders_the_relief_on_a_backdrop_with_crisp_ink():
 
 
 @needs_mitsuba
+def test_gi_is_deterministic_per_seed_and_turns_like_the_rasterizer():
+    relief = _figure()
+    a, b, c = (render(relief, mode="gi", size=(48, 48), spp=2, seed=s).image for s in (1, 1, 2))
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    gi = render(relief, mode="gi", size=(64, 64), spp=4, yaw=20, backdrop=False)
+    depth = render(relief, mode="depth", size=(64, 64), yaw=20)
+    assert _iou(_covered(gi), _covered(depth)) >= 0.95
+    assert _iou(_covered(depth), _silhouette((64, 64))) < 0.95  # the view did turn
+
+
+@needs_mitsuba
 def test_gi_a_part_in_front_casts_a_shadow_on_the_part_behind():
     back = _part("back", _square(0, 0, 80, 80), lambda x, y: np.zeros_like(x), max_area=20)
     front = _part("front", _circle(30, 30, 12), lambda x, y: np.full_like(x, 15.0))
