@@ -9,7 +9,7 @@ from scipy.interpolate import LinearNDInterpolator
 from inkray.errors import InputError, StageError
 from inkray.inflate import (InflationSolver, apply_profile, dirichlet_vertices, inflate_mesh,
                             inflate_region)
-from inkray.outline import FLAT, FRAME
+from inkray.outline import FLAT, FRAME, INKED
 from inkray.triangulate import mesh_region
 
 R = 200.0
@@ -108,9 +108,11 @@ def test_flat_side_equals_mirrored_rectangle():
     g = _gradients(sq.mesh, sq.f)
     c = sq.mesh.vertices[sq.mesh.faces].mean(axis=1)
     band = (c[:, 1] > 150) & (c[:, 1] < 250)
-    slope_flat = np.abs(g[band & (c[:, 0] > 297), 0]).mean()
-    slope_silhouette = np.abs(g[band & (c[:, 0] < 102), 0]).mean()
-    assert slope_flat < 0.05 * slope_silhouette
+    touches = np.isin(sq.mesh.kind[sq.mesh.faces], [FLAT, INKED])
+    on_flat = band & (sq.mesh.kind[sq.mesh.faces] == FLAT).any(axis=1)
+    on_left = band & touches.any(axis=1) & (c[:, 0] < 150)
+    # Linear elements meet df/dn = 0 only weakly: a few px^2/px against ~130 at a silhouette.
+    assert np.abs(g[on_flat, 0]).mean() < 0.05 * np.abs(g[on_left, 0]).mean()
 
 
 def test_image_frame_is_neumann():
