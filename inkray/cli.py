@@ -139,13 +139,50 @@ def _cmd_depth(args, progress):
 
 
 def _cmd_relief(args, progress):
+    from .export import export_relief
+    from .io import atomic_outputs
+    from .pipeline import build_relief
+    from .render import render
+
     _check_output(args.output, (".glb", ".obj", ".ply"))
-    _load(args)
-    raise StageMissing("relief", 7)
+    if args.units_per_pixel <= 0:
+        raise InputError(f"--units-per-pixel {args.units_per_pixel}: expected a positive number")
+    if args.max_area <= 0:
+        raise InputError(f"--max-area {args.max_area}: expected a positive area in px^2")
+    if args.epsilon is not None and args.epsilon <= 0:
+        raise InputError(f"--epsilon {args.epsilon}: expected a positive depth step in px")
+    if args.union and not args.closed:
+        raise InputError("--union needs --closed (the union of open surfaces is not a solid)")
+    out = Path(args.output)
+    images = {}
+    for flag, mode in (("depth_png", "depth"), ("normals_png", "normals")):
+        value = getattr(args, flag)
+        if value is not None:
+            target = Path(value) if isinstance(value, str) else out.with_name(f"{out.stem}-{mode}.png")
+            _check_output(target, (".png",))
+            images[mode] = target
+    ann, drawing = _load(args)
+    result = build_relief(ann, drawing, predict=not args.no_predict, max_area=args.max_area,
+                          epsilon=args.epsilon, closed=args.closed, union=args.union,
+                          progress=progress)
+    for warning in result.warnings:
+        print(f"inkray: warning: {warning}", file=sys.stderr)
+    with progress.stage("export"):
+        with atomic_outputs() as group:
+            written = export_relief(result.relief, out, units_per_pixel=args.units_per_pixel,
+                                    anchor=args.anchor, outputs=group)
+            for mode, target in images.items():
+                render(result.relief, mode=mode).save(group.path(target))
+                written.append(target)
+    progress.summary()
+    parts = result.relief.parts
+    print(f"{out}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices, "
+          f"{sum(len(p.faces) for p in parts)} faces ({', '.join(str(w) for w in written[1:]) or 'no extra files'})")
+    return 0
 
 
 def _cmd_render(args, progress):
-    from .render import (output_size, read_relief, render, render_turntable,
+    from .render import (GI_MAX_SIDE, output_size, read_relief, render, render_turntable,
                          write_renderings)
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
@@ -172,7 +209,7 @@ def _cmd_render(args, progress):
     with progress.stage("read"):
         relief = read_relief(args.mesh)
     size = output_size(relief.size, size=size, width=args.width, height=args.height,
-                       max_side=800 if args.mode == "gi" else None)
+                       max_side=GI_MAX_SIDE if args.mode == "gi" else None)
     options = dict(mode=args.mode, size=size, light=light, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
                    backdrop=not args.no_backdrop, seed=args.seed, progress=progress)
@@ -269,6 +306,26 @@ def _parser():
         _add_input(p[name])
     for name in ("segment", "regions", "depth", "relief"):
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
+    rl = p["relief"]
+    rl.add_argument("--closed", action="store_true",
+                    help="closed solids: every part mirrored to the back")
+    rl.add_argument("--union", action="store_true",
+                    help="with --closed: one watertight solid, the union of the parts")
+    rl.add_argument("--no-predict", action="store_true",
+                    help="use only the annotation's order entries, predict nothing")
+    rl.add_argument("--max-area", type=float, default=50.0, metavar="PX2",
+                    help="largest triangle area in px^2, the mesh resolution (default: 50)")
+    rl.add_argument("--epsilon", type=float, metavar="PX",
+                    help="depth step between a part and the part behind (default: 0.4%% of the "
+                         "drawing's longer side)")
+    rl.add_argument("--units-per-pixel", type=float, default=0.001, metavar="S",
+                    help="scene units per drawing pixel (default: 0.001)")
+    rl.add_argument("--anchor", choices=("center", "top-left"), default="center",
+                    help="drawing point at the scene origin (default: center)")
+    rl.add_argument("--depth-png", nargs="?", const=True, metavar="PNG",
+                    help="also write a 16-bit front depth image (default name: OUT-depth.png)")
+    rl.add_argument("--normals-png", nargs="?", const=True, metavar="PNG",
+                    help="also write a front normal map (default name: OUT-normals.png)")
     p["segment"].add_argument("--npy", metavar="NPY",
                               help="also write the labels as an int32 array (-1 background)")
     p["depth"].add_argument("--method", choices=("exact", "fast"), default="exact",

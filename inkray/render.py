@@ -39,7 +39,7 @@ from .io import atomic_outputs
 from .rasterize import fit_view, rasterize, vertex_normals
 from .relief import Part, Relief
 
-__all__ = ["MODES", "Rendering", "has_mitsuba", "output_size", "read_relief", "render",
+__all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "read_relief", "render",
            "render_turntable", "write_renderings"]
 
 MODES = ("shade", "normals", "depth", "stereo", "gi")
@@ -53,7 +53,7 @@ _PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
                      [0.90, 0.55, 0.50], [0.75, 0.60, 0.85], [0.95, 0.85, 0.55],
                      [0.50, 0.80, 0.75], [0.85, 0.65, 0.45]])
 _GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
-_GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
+GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
 
 
 @dataclass
@@ -337,7 +337,7 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
     if not relief.parts or not any(len(p.faces) for p in relief.parts):
         raise InputError("render: the relief has no triangles")
     if size is None:
-        size = output_size(relief.size, max_side=_GI_MAX_SIDE if mode == "gi" else None)
+        size = output_size(relief.size, max_side=GI_MAX_SIDE if mode == "gi" else None)
     if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
             or not all(1 <= s <= 16384 for s in size)):
         raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
