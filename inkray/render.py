@@ -265,7 +265,7 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
     return out
 
 
-def write_renderings(renderings, path, *, fps=12):
+def write_renderings(renderings, path, *, fps=12, outputs=None):
     """Write renderings as PNG(s) or an animated GIF, all files or none.
 
     One rendering to ``X.png`` writes ``X.png``; ``stereo`` also writes the
@@ -281,6 +281,9 @@ def write_renderings(renderings, path, *, fps=12):
         ``.png`` or (several renderings) ``.gif``.
     fps : int, optional
         GIF frame rate.
+    outputs : optional
+        An open :func:`inkray.io.atomic_outputs` group to write into (its
+        files then appear with the group's); default: a group of its own.
 
     Returns
     -------
@@ -314,16 +317,18 @@ def write_renderings(renderings, path, *, fps=12):
     else:
         for k, r in enumerate(items):
             files[path.with_name(f"{path.stem}-{k:03d}.png")] = r
-    with atomic_outputs() as out:
-        for target, item in files.items():
-            tmp = out.path(target)
-            if isinstance(item, list):
-                item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
-                             duration=round(1000 / fps), loop=0, optimize=False)
-            elif isinstance(item, np.ndarray):
-                Image.fromarray(item).save(tmp, format="PNG")
-            else:
-                _save_png(item, tmp)
+    if outputs is None:
+        with atomic_outputs() as group:
+            return write_renderings(items, path, fps=fps, outputs=group)
+    for target, item in files.items():
+        tmp = outputs.path(target)
+        if isinstance(item, list):
+            item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
+                         duration=round(1000 / fps), loop=0, optimize=False)
+        elif isinstance(item, np.ndarray):
+            Image.fromarray(item).save(tmp, format="PNG")
+        else:
+            _save_png(item, tmp)
     return list(files)
 
 

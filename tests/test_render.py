@@ -136,6 +136,21 @@ def test_depth_map_is_16_bit_near_bright_with_its_range(tmp_path):
     assert meta["near"] == [65535, hi] and meta["far"] == [1, lo]
 
 
+def test_renderings_join_a_group_of_outputs(tmp_path):
+    from inkray.io import atomic_outputs
+
+    r = render(_figure(), mode="normals")
+    with pytest.raises(RuntimeError):
+        with atomic_outputs() as group:
+            write_renderings(r, tmp_path / "n.png", outputs=group)
+            raise RuntimeError("a later output failed")
+    assert list(tmp_path.iterdir()) == []
+    with atomic_outputs() as group:
+        written = write_renderings(r, tmp_path / "n.png", outputs=group)
+    with Image.open(written[0]) as im:
+        assert np.array_equal(np.asarray(im), r.image)
+
+
 def _dark_centroid_x(channel, rows, cols):
     weight = 255.0 - channel[rows, cols].astype(float)
     x = np.arange(channel.shape[1])[cols] + 0.5
