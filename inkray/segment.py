@@ -378,23 +378,18 @@ def _edge_weights(cost, floor):
 
 def _neighbours(fixed, right, down):
     """For the 4 directions: the fixed label of each pixel's neighbour
-    (UNSEEDED when none) and the capacity of the edge to it."""
+    (UNSEEDED when none), the capacity of the edge to it and the flat-index
+    offset of the neighbour."""
     h, w = fixed.shape
+    caps = {(0, 1): np.pad(right, ((0, 0), (0, 1))), (0, -1): np.pad(right, ((0, 0), (1, 0))),
+            (1, 0): np.pad(down, ((0, 1), (0, 0))), (-1, 0): np.pad(down, ((1, 0), (0, 0)))}
     out = []
-    for axis, cap in ((1, right), (0, down)):
-        for forward in (True, False):
-            lab = np.full((h, w), UNSEEDED, np.int32)
-            wt = np.zeros((h, w))
-            if axis == 1:
-                if forward:
-                    lab[:, :-1], wt[:, :-1] = fixed[:, 1:], cap
-                else:
-                    lab[:, 1:], wt[:, 1:] = fixed[:, :-1], cap
-            elif forward:
-                lab[:-1, :], wt[:-1, :] = fixed[1:, :], cap
-            else:
-                lab[1:, :], wt[1:, :] = fixed[:-1, :], cap
-            out.append((lab, wt))
+    for (dy, dx), cap in caps.items():
+        lab = np.full((h, w), UNSEEDED, np.int32)
+        dst = (slice(max(0, -dy), h - max(0, dy)), slice(max(0, -dx), w - max(0, dx)))
+        src = (slice(max(0, dy), h + min(0, dy)), slice(max(0, dx), w + min(0, dx)))
+        lab[dst] = fixed[src]
+        out.append((lab, cap, dy * w + dx))
     return out
 
 
@@ -425,7 +420,7 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
         flat_comp = comp.ravel()
         own = np.bincount(flat_comp[flat_seeds == c], minlength=n + 1)
         other = np.bincount(flat_comp[np.isin(flat_seeds, rest)], minlength=n + 1)
-        for lab, _ in nbrs:
+        for lab, _, _ in nbrs:
             flat_lab = lab.ravel()
             own += np.bincount(flat_comp[flat_lab == c], minlength=n + 1)
             other += np.bincount(flat_comp[np.isin(flat_lab, rest)], minlength=n + 1)
@@ -434,9 +429,10 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
         cut = (own > 0) & (other > 0)
         if rest and cut.any():
             active = cut[comp]
-            # Outline ink goes to the character, not to the background: ink
-            # pixels pay a fraction of a cut along ink for being background.
-            pull = 0.5 * floor * (1.0 - cost) if c == BACKGROUND else None
+            # Outline ink goes to the character, not to the background: a cut
+            # with an ink pixel on its background side costs one more floor
+            # (directed capacities, so the graph stays the same size).
+            pull = floor * (1.0 - cost) if c == BACKGROUND else None
             labels[_binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength,
                                pull, maxflow)] = c
         if progress is not None:
@@ -452,8 +448,9 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
 
 def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, maxflow):
     """Min cut of label ``c`` against the labels ``rest`` on the ``active``
-    pixels; ``pull`` (H, W) or None is an extra cost of taking ``c``. Returns
-    the (H, W) mask of the pixels that take ``c``."""
+    pixels; ``pull`` (H, W) or None is an extra cost of a cut edge whose
+    ``c`` side is that pixel. Returns the (H, W) mask of the pixels that take
+    ``c``."""
     h, w = active.shape
     flat = np.flatnonzero(active)
     n = len(flat)
@@ -462,20 +459,31 @@ def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, 
     node = node.reshape(h, w)
     g = maxflow.Graph[float](n, 2 * n)
     g.add_nodes(n)
-    for a, b, cap in ((node[:, :-1], node[:, 1:], right), (node[:-1, :], node[1:, :], down)):
+    for axis, cap in ((1, right), (0, down)):
+        first = (slice(None), slice(None, -1)) if axis else (slice(None, -1), slice(None))
+        second = (slice(None), slice(1, None)) if axis else (slice(1, None), slice(None))
+        a, b = node[first], node[second]
         both = (a >= 0) & (b >= 0)
         if both.any():
-            g.add_edges(a[both], b[both], cap[both], cap[both])
+            fwd = rev = cap[both]
+            if pull is not None:  # a -> b is cut when a takes c and b does not
+                fwd = fwd + pull[first][both]
+                rev = rev + pull[second][both]
+            g.add_edges(a[both], b[both], fwd, rev)
     s = flat_seeds[flat]
     st = strength.ravel()[flat]
     src = np.where(s == c, st, 0.0)
     snk = np.where(np.isin(s, rest), st, 0.0)
-    for lab, wt in nbrs:
+    for lab, wt, offset in nbrs:
+        # The edge to a fixed neighbour becomes a terminal link, with the
+        # directed ``pull`` of whichever end would be on the ``c`` side.
         lab, wt = lab.ravel()[flat], wt.ravel()[flat]
-        src += np.where(lab == c, wt, 0.0)
-        snk += np.where(np.isin(lab, rest), wt, 0.0)
-    if pull is not None:
-        snk += pull.ravel()[flat]
+        to_c, to_rest = lab == c, np.isin(lab, rest)
+        src[to_c] += wt[to_c]
+        snk[to_rest] += wt[to_rest]
+        if pull is not None:
+            src[to_c] += pull.ravel()[flat[to_c] + offset]
+            snk[to_rest] += pull.ravel()[flat[to_rest]]
     ids = np.arange(n)
     g.add_grid_tedges(ids, src, snk)
     g.maxflow()

@@ -146,8 +146,8 @@ def test_coarse_to_fine_agrees_with_full_resolution(shared_drawings):
     fine = lazybrush(d.gray, seeds, frame_background=not ann.background, coarse_to_fine=False)
     fast = lazybrush(d.gray, seeds, frame_background=not ann.background, coarse_to_fine=True)
     paper = d.gray >= 0.5
-    assert (fine[paper] == fast[paper]).mean() >= 0.998
-    assert (fine == fast).mean() >= 0.99  # the rest is which side of a line gets the ink
+    assert (fine[paper] == fast[paper]).mean() >= 0.999
+    assert (fine == fast).mean() >= 0.995  # the rest is which side of a line gets the ink
 
 
 def test_deterministic():
