@@ -63,9 +63,9 @@ class DepthResult:
         The depth step of an ``order`` entry.
     info : dict
         ``exact``: ``kkt`` (measured KKT residuals), ``objective``,
-        ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels`` (level of
-        each constraint's front/back or a/b point), ``labels`` (the
-        segmentation), ``timings``.
+        ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
+        (``{segment label: level}`` for the segments holding endpoints),
+        ``labels`` (the segmentation), ``timings``.
     """
 
     depth: np.ndarray
@@ -185,7 +185,7 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
     else:
         d = session.solve()
     return DepthResult(depth=d, method="fast", epsilon=float(epsilon),
-                       info={"levels": session.levels(), "labels": session.labels,
+                       info={"levels": session.region_levels, "labels": session.labels,
                              "timings": dict(session.timings)})
 
 
@@ -226,12 +226,14 @@ def _scribble_seeds(annotations):
 class DepthSession:
     """Interactive depth from (in)equalities: the fast method with caches.
 
-    Add and remove constraints, then :meth:`solve`. The LazyBrush labelling
-    is kept and, when a constraint brings a new endpoint (or removes the last
-    use of one), re-segmented only inside the segment that endpoint lies in.
-    The Laplace fill is solved per connected area of free pixels, and each
+    Add and remove constraints, then :meth:`solve`. Nodes of the region graph
+    are the segments of a LazyBrush labelling: of the region and background
+    scribbles when given (fixed for the session), otherwise of seeds at the
+    constraint endpoints (a small disk of paper around each; a new endpoint
+    re-segments only the segment it lands in, a removed one only its own).
+    The Laplace fill is solved per connected area of free pixels and each
     area's factorization is cached by its pixel set, so a change that only
-    moves levels (an order between existing points) costs back-substitutions.
+    moves levels costs back-substitutions.
 
     Parameters
     ----------
@@ -241,15 +243,15 @@ class DepthSession:
         Depth step of an inequality.
     seeds : (H, W) int array, optional
         Region scribbles ``0..R-1`` and background ``-1`` (``-2`` elsewhere),
-        as :func:`inkray.scribbles.seed_image` makes; they guide the
-        segmentation but get no level of their own.
+        as :func:`inkray.scribbles.seed_image` makes. When given, they alone
+        define the regions.
 
     Examples
     --------
     >>> import numpy as np
     >>> gray = np.ones((20, 20)); gray[:, 10] = 0.0           # one vertical ink line
     >>> s = DepthSession(gray)
-    >>> k = s.add(5 * 20 + 3, 5 * 20 + 15)                    # left in front of right
+    >>> k = s.add((3, 5), (15, 5))                            # left in front of right
     >>> d = s.solve()
     >>> bool(d[:, :10].min() > d[:, 11:].max())
     True
@@ -264,23 +266,23 @@ class DepthSession:
         if not epsilon > 0:
             raise InputError(f"epsilon: expected a positive depth step, got {epsilon}")
         self.epsilon = float(epsilon)
-        h, w = self.gray.shape
-        self.shape = (h, w)
-        if seeds is None:
-            seeds = np.full((h, w), -2, np.int32)
-        seeds = np.asarray(seeds, np.int32)
-        if seeds.shape != (h, w):
-            raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {(h, w)}")
-        self._scribbles = seeds
-        # Endpoint labels come after the scribble labels.
-        self._base = int(seeds.max(initial=-1)) + 1
+        h, w = self.shape = self.gray.shape
+        self._scribbles = None
+        if seeds is not None:
+            seeds = np.asarray(seeds, np.int32)
+            if seeds.shape != (h, w):
+                raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {(h, w)}")
+            if (seeds != -2).any():
+                self._scribbles = seeds
         self._constraints = {}  # handle -> (p, q, inequality, label)
         self._next = 0
-        self._pixel_label = {}  # endpoint pixel -> its LazyBrush label
-        self.labels = None      # (H, W) int32 segmentation, or None before the first solve
+        self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
+        self.labels = None      # (H, W) int32 segmentation, None before the first solve
         self._factors = {}      # bytes of an area's pixel indices -> splu of its Laplacian
+        self._weights = None    # the image's edge weights, per neighbour direction
         self._ink = self.gray < INK_LEVEL
+        self._radius = max(2, int(round(0.01 * max(h, w))))
         self.timings = {}
 
     # -- constraints ------------------------------------------------------------
@@ -294,7 +296,8 @@ class DepthSession:
             Raster index ``y * W + x`` or a point ``(x, y)`` (rounded).
         inequality : bool, default True
         label : str, optional
-            Name used in error messages (default ``order[k]``/``equal[k]``).
+            Name used in error messages (default ``order[k]``/``equal[k]``
+            with ``k`` the handle).
 
         Returns
         -------
@@ -303,15 +306,15 @@ class DepthSession:
         """
         p, q = self._index(p), self._index(q)
         k = self._next
-        self._next += 1
         if label is None:
             label = f"{'order' if inequality else 'equal'}[{k}]"
         if inequality and p == q:
             raise InputError(f"{label}: front and back are the same pixel")
+        self._next += 1
         self._constraints[k] = (p, q, bool(inequality), label)
         for v in (p, q):
-            if v not in self._pixel_label:
-                self._pixel_label[v] = None
+            if v not in self._endpoint_label:
+                self._endpoint_label[v] = None
                 self._dirty.add(v)
         return k
 
@@ -322,8 +325,8 @@ class DepthSession:
         p, q, _, _ = self._constraints.pop(handle)
         used = {v for c in self._constraints.values() for v in c[:2]}
         for v in (p, q):
-            if v not in used and v in self._pixel_label:
-                del self._pixel_label[v]
+            if v not in used and v in self._endpoint_label:
+                del self._endpoint_label[v]
                 self._dirty.add(v)
 
     def _index(self, v):
@@ -338,17 +341,13 @@ class DepthSession:
             raise InputError(f"point ({x}, {y}) lies outside the {w}x{h} drawing")
         return y * w + x
 
-    def _arrays(self):
+    def constraints(self):
+        """The current constraints as ``p, q, inequality, labels`` (handle order)."""
         items = sorted(self._constraints.items())
         p = np.array([c[0] for _, c in items], np.int64)
         q = np.array([c[1] for _, c in items], np.int64)
         ineq = np.array([c[2] for _, c in items], bool)
         return p, q, ineq, [c[3] for _, c in items]
-
-    def levels(self):
-        """Level of each endpoint pixel: ``{pixel index: level}`` (depth = level * epsilon)."""
-        p, q, ineq, labels = self._arrays()
-        return _levels(p, q, ineq, labels)
 
     # -- solve ------------------------------------------------------------------
 
@@ -363,13 +362,13 @@ class DepthSession:
         Raises
         ------
         InputError
-            Contradictory constraints (entries of a cycle listed).
+            Contradictory constraints, between points or between the regions
+            they lie in (the entries of a cycle are listed).
         """
         h, w = self.shape
-        p, q, ineq, labels = self._arrays()
-        level = _levels(p, q, ineq, labels)  # raises on cycles before any work
+        p, q, ineq, labels = self.constraints()
+        check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
         if not len(p):
-            self.labels = None
             self._dirty = set()
             return np.zeros((h, w))
         t = time.perf_counter()
@@ -377,14 +376,14 @@ class DepthSession:
         self.timings["segment"] = time.perf_counter() - t
         t = time.perf_counter()
         lab = self.labels
-        value = np.full(max(int(lab.max()), max(self._pixel_label.values())) + 1, np.nan)
-        for v, k in self._pixel_label.items():
-            value[k] = self.epsilon * level[v]
-        # Only endpoint labels carry a level; scribble and background labels are free.
-        lvl = value[np.maximum(lab, 0)]
-        lvl[lab < self._base] = np.nan
+        level = _levels(lab.flat[p], lab.flat[q], ineq, labels, what="region")
+        self.region_levels = level
+        lo = int(lab.min())
+        value = np.full(int(lab.max()) - lo + 1, np.nan)
+        for k, v in level.items():
+            value[k - lo] = self.epsilon * v
+        lvl = value[lab - lo]  # NaN on segments without endpoints: they are free
         fixed = np.zeros((h, w), bool)
-        vals = np.zeros((h, w))
         # Segment boundaries on ink are steps: both sides keep their level.
         for axis in (0, 1):
             a = [slice(None)] * 2
@@ -392,46 +391,76 @@ class DepthSession:
             a[axis], b[axis] = slice(None, -1), slice(1, None)
             a, b = tuple(a), tuple(b)
             step = (lab[a] != lab[b]) & (self._ink[a] | self._ink[b])
-            for s in (a, b):
-                sel = step & ~np.isnan(lvl[s])
-                fixed[s] |= sel
-        vals[fixed] = lvl[fixed]
-        for v in self._pixel_label:
-            fixed.flat[v] = True
-            vals.flat[v] = self.epsilon * level[v]
-        d = self._fill(fixed, vals)
+            fixed[a] |= step & ~np.isnan(lvl[a])
+            fixed[b] |= step & ~np.isnan(lvl[b])
+        fixed.flat[np.concatenate([p, q])] = True
+        d = self._fill(fixed, np.where(fixed, lvl, 0.0))
         self.timings["laplace"] = time.perf_counter() - t
         return d - d.mean()
 
     def _segment(self):
         from .segment import lazybrush
 
-        h, w = self.shape
         if self.labels is not None and not self._dirty:
             return
-        if self.labels is None:
-            # Fresh labelling: every endpoint its own label, after the scribbles.
-            seeds = self._scribbles.copy()
-            for i, v in enumerate(sorted(self._pixel_label)):
-                self._pixel_label[v] = self._base + i
-                seeds.flat[v] = self._base + i
-            self.labels = lazybrush(self.gray, seeds, frame_background=False,
-                                    seed_strength=_SEED_STRENGTH)
-        else:
-            # Re-segment only the segments the changed endpoints lie in.
-            used = set(self._pixel_label.values()) - {None}
-            nxt = max(used | {self._base - 1}) + 1
-            for v in sorted(self._dirty):
-                if v in self._pixel_label and self._pixel_label[v] is None:
-                    self._pixel_label[v] = nxt
-                    nxt += 1
-            area = np.zeros((h, w), bool)
-            for v in self._dirty:
-                area |= self.labels == self.labels.flat[v]
+        if self._scribbles is not None:
+            if self.labels is None:
+                self.labels = lazybrush(self.gray, self._scribbles, frame_background=False)
             self._dirty = set()
-            self._resegment(area)
+            return
+        if self.labels is None:
+            self._fresh()
+            return
+        # Re-segment only the segments the changed endpoints lie in.
+        nxt = max([k for k in self._endpoint_label.values() if k is not None] + [-1]) + 1
+        area = np.zeros(self.shape, bool)
+        for v in sorted(self._dirty):
+            area |= self.labels == self.labels.flat[v]
+            if self._endpoint_label.get(v, 0) is None:
+                self._endpoint_label[v] = nxt
+                nxt += 1
         self._dirty = set()
-        for v, k in self._pixel_label.items():
+        self._resegment(area)
+
+    def _disk(self, v):
+        """Seed pixels of endpoint ``v``: the paper within a small disk that connects to it."""
+        h, w = self.shape
+        y, x = divmod(v, w)
+        r = self._radius
+        r0, r1, c0, c1 = max(y - r, 0), min(y + r + 1, h), max(x - r, 0), min(x + r + 1, w)
+        yy, xx = np.mgrid[r0:r1, c0:c1]
+        disk = ((yy - y) ** 2 + (xx - x) ** 2 <= r * r) & ~self._ink[r0:r1, c0:c1]
+        disk[y - r0, x - c0] = True
+        comp, _ = ndimage.label(disk)
+        sel = comp == comp[y - r0, x - c0]
+        return yy[sel], xx[sel]
+
+    def _seed_endpoints(self, seeds, offset=(0, 0), inside=None):
+        y0, x0 = offset
+        for v, k in sorted(self._endpoint_label.items()):
+            yy, xx = self._disk(v)
+            yy, xx = yy - y0, xx - x0
+            ok = (yy >= 0) & (yy < seeds.shape[0]) & (xx >= 0) & (xx < seeds.shape[1])
+            yy, xx = yy[ok], xx[ok]
+            if inside is not None:
+                keep = inside[yy, xx]
+                yy, xx = yy[keep], xx[keep]
+            seeds[yy, xx] = k
+
+    def _fresh(self):
+        from .segment import lazybrush
+
+        for i, v in enumerate(sorted(self._endpoint_label)):
+            self._endpoint_label[v] = i
+        seeds = np.full(self.shape, -2, np.int32)
+        self._seed_endpoints(seeds)
+        self.labels = lazybrush(self.gray, seeds, frame_background=False,
+                                seed_strength=_SEED_STRENGTH)
+        self._pin()
+        self._dirty = set()
+
+    def _pin(self):
+        for v, k in self._endpoint_label.items():
             self.labels.flat[v] = k  # an endpoint always keeps its own label
 
     def _resegment(self, area):
@@ -444,98 +473,101 @@ class DepthSession:
         c0, c1 = max(cols[0] - 2, 0), min(cols[-1] + 3, w)
         crop = (slice(r0, r1), slice(c0, c1))
         inside = area[crop]
-        seeds = np.where(inside, self._scribbles[crop], self.labels[crop]).astype(np.int32)
-        for v, k in self._pixel_label.items():
-            y, x = divmod(v, w)
-            if r0 <= y < r1 and c0 <= x < c1 and inside[y - r0, x - c0]:
-                seeds[y - r0, x - c0] = k
-        if not (seeds != -2).any():  # nothing left to grow from: start over
-            self.labels = None
-            self._segment()
-            return
+        # Outside the area the labels stay; they take part as hard seeds.
+        seeds = np.where(inside, -2, self.labels[crop]).astype(np.int32)
+        self._seed_endpoints(seeds, (r0, c0), inside)
         new = lazybrush(self.gray[crop], seeds, frame_background=False,
                         seed_strength=_SEED_STRENGTH)
         self.labels[crop] = np.where(inside, new, self.labels[crop])
+        self._pin()
 
     def _fill(self, fixed, vals):
-        """Laplace equation (uniform 4-neighbour weights) with Dirichlet ``vals`` on ``fixed``."""
+        """Laplace equation with the image's edge weights and Dirichlet ``vals`` on ``fixed``."""
         h, w = self.shape
+        if self._weights is None:
+            wx, wy, _ = edge_weights(self.gray)
+            # Weight to the east, west, south and north neighbour (0 off the image).
+            we = np.zeros((h, w))
+            ws = np.zeros((h, w))
+            we[:, :-1] = wx
+            ws[:-1, :] = wy
+            wwest = np.zeros((h, w))
+            wn = np.zeros((h, w))
+            wwest[:, 1:] = wx
+            wn[1:, :] = wy
+            self._weights = {(0, 1): we, (0, -1): wwest, (1, 0): ws, (-1, 0): wn}
         out = np.where(fixed, vals, 0.0)
         free = ~fixed
         comp, n = ndimage.label(free)
         if n == 0:
             return out
-        # Sum of fixed neighbour values, count of all neighbours, and the spread
-        # of fixed neighbour values (an area seeing one value is that constant).
+        # Weighted sum of fixed neighbour values, total weight, and the spread of
+        # fixed neighbour values (an area that sees one value is that constant).
         deg = np.zeros((h, w))
         rhs = np.zeros((h, w))
         lo = np.full((h, w), np.inf)
         hi = np.full((h, w), -np.inf)
-        for axis in (0, 1):
-            for src, dst in (((slice(None, -1)), (slice(1, None))), ((slice(1, None)), (slice(None, -1)))):
-                a = [slice(None)] * 2
-                b = [slice(None)] * 2
-                a[axis], b[axis] = src, dst
-                a, b = tuple(a), tuple(b)
-                deg[a] += 1
-                f = fixed[b]
-                rhs[a] += np.where(f, out[b], 0.0)
-                lo[a] = np.where(f, np.minimum(lo[a], out[b]), lo[a])
-                hi[a] = np.where(f, np.maximum(hi[a], out[b]), hi[a])
+        pad_fixed = np.pad(fixed, 1)
+        pad_out = np.pad(out, 1)
+        for (dy, dx), wt in self._weights.items():
+            f = pad_fixed[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+            v = pad_out[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+            deg += wt
+            rhs += np.where(f, wt * v, 0.0)
+            lo = np.where(f, np.minimum(lo, v), lo)
+            hi = np.where(f, np.maximum(hi, v), hi)
         flat = comp.ravel()
         order = np.argsort(flat, kind="stable")
-        counts = np.bincount(flat, minlength=n + 1)
-        starts = np.concatenate([[0], np.cumsum(counts)])
-        cmin = ndimage.minimum(lo, comp, np.arange(1, n + 1))
-        cmax = ndimage.maximum(hi, comp, np.arange(1, n + 1))
+        starts = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=n + 1))])
+        ids = np.arange(1, n + 1)
+        cmin = ndimage.minimum(lo, comp, ids)
+        cmax = ndimage.maximum(hi, comp, ids)
         keep = {}
         for c in range(1, n + 1):
             idx = order[starts[c]:starts[c + 1]]
-            if not np.isfinite(cmin[c - 1]):
-                continue  # no fixed neighbour: cannot happen on a connected grid with one
             if cmax[c - 1] - cmin[c - 1] <= 1e-12 * max(1.0, abs(cmax[c - 1])):
                 out.flat[idx] = cmin[c - 1]
                 continue
             key = idx.tobytes()
             lu = self._factors.get(key)
             if lu is None:
-                lu = sla.splu(_area_laplacian(idx, deg, free, (h, w)), permc_spec="MMD_AT_PLUS_A",
-                              diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+                A = _area_laplacian(idx, deg, self._weights, (h, w))
+                lu = sla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                              options=dict(SymmetricMode=True))
             keep[key] = lu
             out.flat[idx] = lu.solve(rhs.flat[idx])
         self._factors = keep  # drop factorizations of areas that no longer exist
         return out
 
 
-def _area_laplacian(idx, deg, free, shape):
-    """Uniform Laplacian of the free pixels ``idx`` (sorted raster indices) with Dirichlet neighbours."""
+def _area_laplacian(idx, deg, weights, shape):
+    """Weighted Laplacian of the free pixels ``idx`` (sorted raster indices) with Dirichlet neighbours."""
     h, w = shape
     pos = np.full(h * w, -1, np.int64)
     pos[idx] = np.arange(len(idx))
     y, x = np.divmod(idx, w)
-    rows, cols = [np.arange(len(idx))], [np.arange(len(idx))]
-    vals = [deg.flat[idx]]
-    for dy, dx in ((0, 1), (1, 0), (0, -1), (-1, 0)):
+    n = len(idx)
+    rows, cols, vals = [np.arange(n)], [np.arange(n)], [deg.flat[idx]]
+    for (dy, dx), wt in weights.items():
         yy, xx = y + dy, x + dx
         ok = (yy >= 0) & (yy < h) & (xx >= 0) & (xx < w)
         nb = np.where(ok, yy * w + xx, 0)
         ok &= pos[nb] >= 0
         rows.append(np.flatnonzero(ok))
         cols.append(pos[nb[ok]])
-        vals.append(-np.ones(int(ok.sum())))
-    n = len(idx)
+        vals.append(-wt.flat[idx[ok]])
     return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(n, n))
 
 
-def _levels(p, q, ineq, labels):
-    """Level of every endpoint: equalities merged, Kahn's topological sort.
+def _levels(p, q, ineq, labels, *, what="point"):
+    """Level of every node: equalities merged, Kahn's topological sort.
 
-    Returns ``{pixel: level}`` with ``level(front) >= level(back) + 1`` for every
+    Returns ``{node: level}`` with ``level(front) >= level(back) + 1`` for every
     inequality (the longest chain of inequalities below a node); raises
     InputError listing the entries of a cycle.
     """
-    check_constraints(p, q, ineq, labels)
+    check_constraints(p, q, ineq, labels, what=what)
     parent = {}
 
     def find(v):
