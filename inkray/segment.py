@@ -4,14 +4,13 @@ Implements the segmentation of Sýkora, Dingliana, Collins, "LazyBrush:
 Flexible Painting Tool for Hand-drawn Cartoons", Computer Graphics Forum
 28(2), 2009, as used by Ink-and-Ray (Sýkora et al., TOG 2014, section 3).
 
-Energy (paper, eq. 1-3), with every cost measured in units of one cut edge
-across clean paper:
+Energy, with every cost measured in units of one cut edge across clean paper:
 
 - smoothness: cutting the 4-neighbour edge ``p-q`` costs
   ``f(min(I_p, I_q)) + 1/K`` where ``f`` maps ink to 0 and paper to 1 and
   ``K = 2 (H + W)``, so a cut runs along dark lines, and across a gap in a line
   only where no line offers a cheaper way (a gap of ``g`` pixels costs ``g``);
-- data: scribbles are soft where it matters (paper, section 3.2): the part
+- data: scribbles are soft where it matters, as in the paper: the part
   of a stroke that lies on ink or overshoots an ink line into another paper
   area pays only ``seed_strength`` (< 1) per pixel for taking another label,
   so it is cheaper to relabel than to cut around and a careless stroke does
@@ -107,7 +106,9 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         convention of :func:`inkray.scribbles.seed_image`); any subset of the
         labels may be present.
     frame_background : bool, default False
-        Seed the unseeded pixels of the image border as background (``-1``).
+        Seed the unseeded pixels of the image border as background (``-1``),
+        except where the frame cuts a part: in a paper area, other than the
+        outer one, that holds a region seed.
     seed_strength : float, default 0.95
         Cost of relabelling one seed pixel that lies on ink or outside the
         paper area holding most of its scribble, in units of one paper edge
@@ -158,19 +159,16 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         y, x = np.argwhere(seeds < UNSEEDED)[0]
         raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]} (expected -2, -1 or >= 0)")
     seeds = seeds.astype(np.int32)
+    area, n_areas = ndimage.label(gray >= INK_THRESHOLD)
     if frame_background:
-        seeds = seeds.copy()
-        border = np.zeros(seeds.shape, bool)
-        border[[0, -1], :] = True
-        border[:, [0, -1]] = True
-        seeds[border & (seeds == UNSEEDED)] = BACKGROUND
+        seeds = _frame_seeds(seeds, area, n_areas)
     if not (seeds != UNSEEDED).any():
         raise InputError("seeds: no seed pixel at all (nothing to grow labels from)")
     cost = ink_cost(gray, ink_level=ink_level, paper_level=paper_level, gamma=gamma)
     h, w = gray.shape
     if coarse_to_fine is None:
         coarse_to_fine = h * w > 500_000
-    strength = _seed_strength(seeds, gray >= INK_THRESHOLD, seed_strength)
+    strength = _seed_strength(seeds, area, seed_strength)
     if coarse_to_fine and min(h, w) >= 64:
         return _coarse_to_fine(cost, seeds, strength, progress)
     return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
@@ -179,11 +177,30 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
 _HARD = 1e9  # a seed cost no cut can pay
 
 
-def _seed_strength(seeds, paper, soft):
-    """Per-pixel cost of relabelling a seed: hard in the paper area that holds
-    most of the pixels of its scribble (an 8-connected run of one label),
-    ``soft`` on ink and in other paper areas (overshoots)."""
-    area, _ = ndimage.label(paper)
+def _frame_seeds(seeds, area, n_areas):
+    """Seed the unseeded border pixels as background, except in paper areas
+    other than the outer one (the area most of the border runs through) that
+    hold a region seed: there the frame cuts a part of the character."""
+    border = np.zeros(seeds.shape, bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
+    on_paper = area[border]
+    on_paper = on_paper[on_paper > 0]
+    part = np.zeros(n_areas + 1, bool)
+    part[area[seeds >= 0]] = True
+    part[0] = False
+    if len(on_paper):
+        part[np.argmax(np.bincount(on_paper))] = False
+    out = seeds.copy()
+    out[border & (seeds == UNSEEDED) & ~part[area]] = BACKGROUND
+    return out
+
+
+def _seed_strength(seeds, area, soft):
+    """Per-pixel cost of relabelling a seed: hard in the paper ``area`` (a
+    label image) that holds most of the pixels of its scribble (an
+    8-connected run of one label), ``soft`` on ink and in other paper areas
+    (overshoots)."""
     out = np.zeros(seeds.shape)
     for c in np.unique(seeds[seeds != UNSEEDED]):
         mask = seeds == c
@@ -350,11 +367,14 @@ def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):
         seeded[comp[[0, -1], :]] = True
         seeded[comp[:, [0, -1]]] = True
     area = np.bincount(comp.ravel(), minlength=n + 1)
+    boxes = ndimage.find_objects(comp)
     out = []
     for k in np.flatnonzero((~seeded) & (area >= min_area)):
         if k == 0:
             continue
-        ys, xs = np.nonzero(comp == k)
+        box = boxes[k - 1]
+        ys, xs = np.nonzero(comp[box] == k)
+        ys, xs = ys + box[0].start, xs + box[1].start
         mid = np.argmin((ys - ys.mean()) ** 2 + (xs - xs.mean()) ** 2)
         votes = np.bincount(labels[ys, xs] + 1, minlength=len(names) + 1)
         got = int(np.argmax(votes)) - 1

@@ -71,6 +71,29 @@ def test_frame_background_makes_the_outside_background():
     assert (lazybrush(gray, seeds) == 0).all()  # no -1 seeds, no frame: no background
 
 
+def test_part_cut_by_the_frame_stays_a_part():
+    shape = (100, 120)
+    ring = _ring(shape, 60, 99, 45, width=3)  # a half disk standing on the bottom edge
+    gray = np.where(ring, 0.0, 1.0)
+    seeds = _seeds(shape, {0: [(55, 80, 65, 80)]})
+    labels = lazybrush(gray, seeds, frame_background=True)
+    assert (labels[_disk(shape, 60, 99, 43)] == 0).mean() >= 0.98
+    assert (labels[~_disk(shape, 60, 99, 47)] == -1).all()
+
+
+def test_point_seeds_label_their_areas():
+    # Depth-map mode: single labelled points, no background, one label twice.
+    gray = np.ones((60, 60))
+    gray[:, 20] = gray[:, 40] = gray[30, :20] = 0.0
+    points = {(10, 10): 0, (10, 50): 1, (30, 30): 2, (50, 5): 3, (55, 55): 3}
+    seeds = np.full(gray.shape, UNSEEDED, np.int32)
+    for (x, y), label in points.items():
+        seeds[y, x] = label
+    labels = lazybrush(gray, seeds)
+    assert (labels[:30, :20] == 0).all() and (labels[31:, :20] == 1).all()
+    assert (labels[:, 21:40] == 2).all() and (labels[:, 41:] == 3).all()
+
+
 def test_two_overlapping_circles_gap_in_one_outline_is_closed():
     shape = (160, 230)
     a, b = (85, 80, 50), (145, 80, 50)
