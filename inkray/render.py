@@ -356,8 +356,8 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
                          f"got {disparity!r}")
     if not (isinstance(spp, (int, np.integer)) and 1 <= spp <= 65536):
         raise InputError(f"render: spp must be an integer in 1..65536, got {spp!r}")
-    if not (np.isfinite(yaw) and abs(yaw) <= 90):
-        raise InputError(f"render: yaw must be within -90..90 degrees, got {yaw!r}")
+    if not (np.isfinite(yaw) and abs(yaw) < 90):
+        raise InputError(f"render: yaw must be between -90 and 90 degrees, got {yaw!r}")
     return relief, (int(size[0]), int(size[1])), light / np.linalg.norm(light), float(yaw)
 
 
@@ -379,6 +379,17 @@ def _raster(relief, size, yaw, factor=1, shear=0.0):
     view[0] += shear * view[2]  # x += shear * depth: an off-axis stereo camera
     return rasterize(relief, size=(w * factor, h * factor), scale=scale * factor,
                      offset=(offset[0] * factor, offset[1] * factor), view=view)
+
+
+def _plane_uv(relief, raster, yaw):
+    """Texture coordinates of the drawing plane ``z = 0`` seen at every pixel of a raster."""
+    h, w = raster.part.shape
+    view = _yaw_view(relief, yaw)
+    cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    q = np.stack([(cols - raster.offset[0]) / raster.scale - view[0, 3],
+                  (rows - raster.offset[1]) / raster.scale - view[1, 3]], axis=-1)
+    p = q.reshape(-1, 2) @ np.linalg.inv(view[:2, :2]).T
+    return relief.uv(p).reshape(h, w, 2)
 
 
 def _downsample(a, factor):
@@ -440,30 +451,43 @@ class _Layers:
             colors[i] = _PALETTE[i % len(_PALETTE)] if c.min() > 0.85 else c
         return colors
 
-    def sample(self, raster):
-        """Linear albedo and ink multiplier at every pixel of a raster (1 where empty)."""
+    def sample(self, raster, plane_uv=None):
+        """Linear albedo (0 where empty) and ink multiplier at every pixel of a raster.
+
+        On the relief the ink is looked up through the surface's texture
+        coordinates. Elsewhere it is 1, or, given ``plane_uv``, the ink lying
+        on the drawing plane: the outer halves of outline strokes, which
+        segmentation leaves outside the parts.
+        """
         m = raster.mask
         albedo = np.zeros(m.shape + (3,))
-        ink = np.ones(m.shape)
         if self.part_colors is not None:
             albedo[m] = self.part_colors[raster.part[m]]
         else:
             albedo[m] = _sample(self.fill, raster.uv[m])
+        if plane_uv is None:
+            ink = np.ones(m.shape)
+        else:
+            ink = _sample(self.ink, plane_uv.reshape(-1, 2), outside=1.0).reshape(m.shape)
         ink[m] = _sample(self.ink, raster.uv[m])
         return _srgb_to_linear(albedo), ink
 
 
-def _sample(image, uv):
-    """Bilinear lookup of ``image`` at planar texture coordinates (v up)."""
+def _sample(image, uv, outside=None):
+    """Bilinear lookup of ``image`` at planar texture coordinates (v up).
+
+    Off the image: the nearest edge pixel, or ``outside`` when given.
+    """
     from scipy import ndimage
 
     h, w = image.shape[:2]
     rows = (1.0 - uv[:, 1]) * h - 0.5
     cols = uv[:, 0] * w - 0.5
+    mode, cval = ("nearest", 0.0) if outside is None else ("constant", outside)
     if image.ndim == 2:
-        return ndimage.map_coordinates(image, [rows, cols], order=1, mode="nearest")
-    return np.stack([ndimage.map_coordinates(image[..., c], [rows, cols], order=1,
-                                             mode="nearest") for c in range(image.shape[2])], 1)
+        return ndimage.map_coordinates(image, [rows, cols], order=1, mode=mode, cval=cval)
+    return np.stack([ndimage.map_coordinates(image[..., c], [rows, cols], order=1, mode=mode,
+                                             cval=cval) for c in range(image.shape[2])], 1)
 
 
 # -- raster modes ------------------------------------------------------------------
@@ -566,18 +590,21 @@ def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
     except RuntimeError as e:  # Mitsuba reports its failures as RuntimeError
         raise StageError(f"gi: Mitsuba failed: {' '.join(str(e).split())}") from e
     img = acc / spp
-    # The ink is applied in screen space through the relief's own texture
-    # coordinates, supersampled, so lines are as sharp as the output allows.
+    # The ink never goes through the path tracer: it is looked up per pixel
+    # (supersampled) and multiplied on top, so it is as sharp as the output.
+    # With the backdrop (just behind the drawing plane) the ink off the relief
+    # is drawn on it; a transparent background keeps only the relief.
     r = _raster(relief, size, yaw, _SUPERSAMPLE)
-    _, ink = layers.sample(r)
+    _, ink = layers.sample(r, _plane_uv(relief, r, yaw) if backdrop else None)
     ink = _downsample(ink, _SUPERSAMPLE)
-    rgb = _linear_to_srgb(img[..., :3]) * ink[..., None]
     cover = _downsample(r.mask.astype(float), _SUPERSAMPLE)
-    alpha = np.ones((h, w)) if backdrop else np.clip(img[..., 3], 0, 1)
-    if not backdrop:
-        rgb = np.divide(rgb, alpha[..., None], out=np.zeros_like(rgb),
-                        where=alpha[..., None] > 0)
-    return Rendering("gi", _rgba8(rgb, alpha), cover > 0)
+    if backdrop:
+        rgb = _linear_to_srgb(img[..., :3]) * ink[..., None]
+        return Rendering("gi", _rgba8(rgb, np.ones((h, w))), cover > 0)
+    alpha = np.clip(img[..., 3], 0, 1)  # Mitsuba's colour is premultiplied by it
+    lin = np.divide(img[..., :3], alpha[..., None], out=np.zeros((h, w, 3)),
+                    where=alpha[..., None] > 0)
+    return Rendering("gi", _rgba8(_linear_to_srgb(lin) * ink[..., None], alpha), cover > 0)
 
 
 def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):

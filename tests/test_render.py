@@ -198,6 +198,11 @@ def test_gi_renders_the_relief_on_a_backdrop_with_crisp_ink():
     edge = sil ^ np.roll(sil, 1, 0) | sil ^ np.roll(sil, 1, 1)
     lum = img.mean(axis=2)
     assert lum[edge].mean() < lum[sil & ~edge].mean() - 40
+    # the outer half of the outline, off the relief, is drawn on the backdrop
+    yy, xx = (np.mgrid[0:64, 0:64] + 0.5 - [[[8.0]], [[0.0]]]) / 0.8  # drawing coordinates
+    d = np.hypot(xx - DISKS[0][0], yy - DISKS[0][1]) - DISKS[0][2]
+    left = xx < DISKS[0][0]  # away from the head
+    assert lum[left & (d > 0.1) & (d < 0.7)].mean() < lum[left & (d > 3) & (d < 5)].mean() - 40
 
 
 @needs_mitsuba
