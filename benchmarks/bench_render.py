@@ -1,12 +1,13 @@
 """Benchmark of inkray.render: the GI render of the demo drawing at 512x512, 64 spp.
 
-Run as ``python benchmarks/bench_render.py [--spp N] [--size N] [--out DIR]``.
+Run as ``python benchmarks/bench_render.py [--example NAME] [--spp N] [--size N]
+[--out DIR]``.
 Issue 9 asks for the time of that render; the table also shows the cheap
 modes and the rasterizer, with ratios against the ``shade`` render of the same
 relief (the baseline: what a preview costs).
 
 Until the relief stage exists, the demo's relief is assembled from the stages
-that do: LazyBrush segmentation of the bundled turtle, each region inflated
+that do: LazyBrush segmentation of a bundled example, each region inflated
 (visible masks, no completion), stacked by the annotation's depth order.
 """
 
@@ -28,9 +29,9 @@ from inkray.segment import segment
 _STEP = 6.0  # px between stacked layers
 
 
-def turtle_relief():
-    """The bundled turtle as a relief: segmented, inflated, stacked by ``order``."""
-    ann, drawing = load_input(example_path("turtle"))
+def example_relief(name="turtle"):
+    """A bundled example as a relief: segmented, inflated, stacked by ``order``."""
+    ann, drawing = load_input(example_path(name))
     seg = segment(ann, drawing)
     n = len(seg.names)
     offset = np.zeros(n)
@@ -51,12 +52,7 @@ def turtle_relief():
         res = inflate_region(mask, labels=seg.labels, region=i, name=name, inflation=2.0)
         v = np.column_stack([res.mesh.vertices, res.height + offset[i]])
         parts.append(Part(name, v, np.asarray(res.mesh.faces)))
-    rgb = np.asarray(drawing.rgb) if hasattr(drawing, "rgb") else None
-    if rgb is None:
-        rgb = np.repeat(np.asarray(drawing.gray)[..., None], 3, axis=2)
-    if rgb.dtype != np.uint8:
-        rgb = np.clip(np.rint(rgb * 255), 0, 255).astype(np.uint8)
-    return Relief(parts, size=tuple(ann.size), texture=rgb)
+    return Relief(parts, size=tuple(ann.size), texture=drawing.rgb)
 
 
 def _time(fn, repeat=1):
@@ -70,15 +66,16 @@ def _time(fn, repeat=1):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--example", default="turtle", help="bundled example (default: turtle)")
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--out", type=Path, help="also write the pictures here")
     args = ap.parse_args()
     size = (args.size, args.size)
 
-    t_build, relief = _time(turtle_relief)
+    t_build, relief = _time(lambda: example_relief(args.example))
     tris = sum(len(p.faces) for p in relief.parts)
-    print(f"relief: turtle, {len(relief.parts)} parts, {tris} triangles "
+    print(f"relief: {args.example}, {len(relief.parts)} parts, {tris} triangles "
           f"(built in {t_build:.2f} s)")
 
     rows = []
@@ -104,7 +101,7 @@ def main():
         print(f"{name:<26}{sz:>10}{spp:>6}{t:>10.3f}{t / t_shade:>10.1f}{rate:>12}")
     if args.out:
         for name, r in pictures.items():
-            write_renderings(r, args.out / f"turtle_{name}.png")
+            write_renderings(r, args.out / f"{args.example}_{name}.png")
         print(f"\nwrote {', '.join(pictures)} to {args.out}/")
     return 0
 
