@@ -168,7 +168,8 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     region : int, optional
         This region's label in ``labels``.
     name : str, optional
-        Name used in messages and on the result; defaults to ``region<i>``.
+        Name used in messages and on the result; defaults to ``region<i>``
+        (``region`` without ``region``).
     boundaries : sequence of Boundary
         Annotation entries (``.type``, ``.path`` ``(k, 2)`` ``[x, y]``,
         ``.index``); those within ``snap`` px of an outline mark it, the others
@@ -210,10 +211,10 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     """
     mask, visible, labels = _check_arrays(mask, visible, labels, region)
     name = name if name is not None else f"region{region if region is not None else ''}"
-    spacing = float(spacing) if spacing is not None else edge_length(max_area)
-    station_spacing = float(station_spacing) if station_spacing is not None else edge_length(max_area)
     if not max_area > 0:
         raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
+    spacing = float(spacing) if spacing is not None else edge_length(max_area)
+    station_spacing = float(station_spacing) if station_spacing is not None else edge_length(max_area)
     if not (spacing > 0 and station_spacing > 0 and smoothing >= 0 and tolerance > 0 and snap > 0):
         raise InputError(f"region {name}: spacing, station_spacing, tolerance and snap must be "
                          f"positive and smoothing non-negative")
@@ -336,19 +337,19 @@ def _check_arrays(mask, visible, labels, region):
 
 def _contours(mask, speckle):
     """Closed 0.5 contours as (k, 2) [x, y] arrays without the repeated end point."""
-    raw = find_contours(np.pad(mask, 1).astype(float), 0.5)
-    loops = []
+    # 'low' orientation: the mask is on the right in (row, col), so outer loops have
+    # positive and holes negative shoelace area in (x, y); contours never cross.
+    raw = find_contours(np.pad(mask, 1).astype(float), 0.5, positive_orientation="low")
+    loops, holes = [], []
     for c in raw:
         p = c[:-1, ::-1] - 1.0
         keep = np.r_[True, np.any(np.abs(np.diff(p, axis=0)) > 1e-9, axis=1)]
         p = p[keep]
-        if len(p) >= 3 and abs(_area(p)) >= speckle:
-            loops.append(p)
-    depth = [sum(_inside(lp[:1], other)[0] for j, other in enumerate(loops) if j != i)
-             for i, lp in enumerate(loops)]
-    holes = [d % 2 == 1 for d in depth]
-    # Orientation like the faces: outer loops negative area, holes positive.
-    loops = [p if (_area(p) < 0) != hole else p[::-1] for p, hole in zip(loops, holes)]
+        area = _area(p)
+        if len(p) >= 3 and abs(area) >= speckle:
+            # Orientation like the faces: outer loops negative area, holes positive.
+            loops.append(p[::-1])
+            holes.append(area < 0)
     return loops, holes
 
 
@@ -455,7 +456,7 @@ def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
     cand += [(float(s[i]), 1) for i in ends
              if not any(_in_arc(s[i], m["lo"], m["hi"], length) for m in marks)]
     cand = cand or [(0.0, 1)]
-    fixed = sorted(t for t, _ in cand) or [0.0]
+    fixed = sorted(t for t, _ in cand)
     for a, b in zip(fixed, fixed[1:] + [fixed[0] + length]):
         if any(_in_arc((a + b) / 2, m["lo"], m["hi"], length) for m in marks):
             continue
@@ -604,19 +605,18 @@ def _inside(q, loop):
 def _hole_points(out):
     """A point just inside each hole loop (outside the region), for Triangle."""
     loops = [out.points[out.loop == i] for i in range(len(out.hole))]
+    boxes = np.array([np.r_[lp.min(axis=0), lp.max(axis=0)] for lp in loops])
     found = []
-    for li, hole in enumerate(out.hole):
-        if not hole:
-            continue
+    for li in np.flatnonzero(out.hole):
         p = loops[li]
         e = np.roll(p, -1, axis=0) - p
-        mid = p + 0.5 * e
         # The region's outward normal (-e_y, e_x) points into the hole.
-        off = np.stack([-e[:, 1], e[:, 0]], axis=1) * 1e-2
-        cand = mid + off
+        cand = p + 0.5 * e + np.stack([-e[:, 1], e[:, 0]], axis=1) * 1e-2
         parity = np.zeros(len(cand), int)
-        for lp in loops:
-            parity += _inside(cand, lp)
+        lo, hi = cand.min(axis=0), cand.max(axis=0)
+        near = np.flatnonzero(np.all(boxes[:, :2] <= hi, axis=1) & np.all(boxes[:, 2:] >= lo, axis=1))
+        for j in near:
+            parity += _inside(cand, loops[j])
         ok = np.flatnonzero(parity % 2 == 0)
         if len(ok):
             found.append(cand[ok[0]])
