@@ -15,6 +15,7 @@ silently dropped).
 
 import json
 import math
+import numbers
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -374,11 +375,11 @@ def _expect(ok, where, message):
 
 
 def _is_int(v):
-    return isinstance(v, int) and not isinstance(v, bool)
+    return isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_))
 
 
 def _is_number(v):
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 def _kind(v):
@@ -387,7 +388,7 @@ def _kind(v):
 
 
 def _show(v):
-    s = json.dumps(v, ensure_ascii=False)
+    s = json.dumps(v, ensure_ascii=False, default=str)
     return s if len(s) <= 40 else s[:37] + "..."
 
 
