@@ -191,7 +191,8 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         A ``boundaries`` path snaps to an outline loop when its median
         distance to it is at most this (px).
     speckle : float, default 9
-        Loops enclosing less than this area (px^2) are dropped.
+        Loops enclosing less than this area (px^2) are dropped (unless the
+        whole region is that small).
 
     Returns
     -------
@@ -222,8 +223,6 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         raise InputError(f"region {name}: the mask is empty")
     h, w = mask.shape
     loops, holes = _contours(mask, speckle)
-    if not loops:
-        raise InputError(f"region {name}: the mask has no part larger than {speckle:g} px^2")
     dense = [_smooth(p, w, h, smoothing) for p in loops]
     paths = [(b, _resample(np.asarray(b.path, float), 0.5)) for b in boundaries]
 
@@ -340,17 +339,19 @@ def _contours(mask, speckle):
     # 'low' orientation: the mask is on the right in (row, col), so outer loops have
     # positive and holes negative shoelace area in (x, y); contours never cross.
     raw = find_contours(np.pad(mask, 1).astype(float), 0.5, positive_orientation="low")
-    loops, holes = [], []
+    loops, areas = [], []
     for c in raw:
         p = c[:-1, ::-1] - 1.0
         keep = np.r_[True, np.any(np.abs(np.diff(p, axis=0)) > 1e-9, axis=1)]
-        p = p[keep]
-        area = _area(p)
-        if len(p) >= 3 and abs(area) >= speckle:
+        if keep.sum() >= 3:
             # Orientation like the faces: outer loops negative area, holes positive.
-            loops.append(p[::-1])
-            holes.append(area < 0)
-    return loops, holes
+            loops.append(p[keep][::-1])
+            areas.append(-_area(loops[-1]))
+    areas = np.array(areas)
+    big = np.abs(areas) >= speckle
+    if not (big & (areas > 0)).any():
+        big = areas > 0  # only specks: keep them rather than lose the region
+    return [p for p, b in zip(loops, big) if b], [bool(a < 0) for a, b in zip(areas, big) if b]
 
 
 def _smooth(p, w, h, sigma):

@@ -47,7 +47,12 @@ def test_holes_are_kept_with_a_seed_point_inside_them():
 def test_speckles_are_dropped():
     mask = _disk(200, 200, 100, 100, 50)
     mask[5, 5] = True
+    mask[100, 100] = False
     assert len(region_outline(mask).hole) == 1
+    tiny = np.zeros((10, 10), bool)
+    tiny[4:6, 4:6] = True  # a 4 px^2 region is still meshed, not lost
+    out = region_outline(tiny)
+    assert list(out.hole) == [False] and np.all(np.abs(out.points - 4.5) <= 1.0)
 
 
 def test_frame_invented_and_neighbour_provenance():
