@@ -47,6 +47,8 @@ INK_LEVEL = 0.5
 #: LazyBrush seed strength for the fast method: above the cost of cutting
 #: around one pixel (4 paper edges), so an endpoint keeps its own label.
 _SEED_STRENGTH = 5.0
+#: Factorized areas a session keeps (least recently used dropped first).
+_CACHE_AREAS = 256
 
 
 @dataclass
@@ -279,7 +281,7 @@ class DepthSession:
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
-        self._factors = {}      # bytes of an area's pixel indices -> splu of its Laplacian
+        self._factors = {}      # bytes of an area's pixel indices -> splu (LRU order)
         self._weights = None    # the image's edge weights, per neighbour direction
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
@@ -522,21 +524,22 @@ class DepthSession:
         ids = np.arange(1, n + 1)
         cmin = ndimage.minimum(lo, comp, ids)
         cmax = ndimage.maximum(hi, comp, ids)
-        keep = {}
         for c in range(1, n + 1):
             idx = order[starts[c]:starts[c + 1]]
             if cmax[c - 1] - cmin[c - 1] <= 1e-12 * max(1.0, abs(cmax[c - 1])):
                 out.flat[idx] = cmin[c - 1]
                 continue
             key = idx.tobytes()
-            lu = self._factors.get(key)
+            lu = self._factors.pop(key, None)
             if lu is None:
                 A = _area_laplacian(idx, deg, self._weights, (h, w))
                 lu = sla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                               options=dict(SymmetricMode=True))
-            keep[key] = lu
+            self._factors[key] = lu  # most recently used last
             out.flat[idx] = lu.solve(rhs.flat[idx])
-        self._factors = keep  # drop factorizations of areas that no longer exist
+        # Keep recent areas too: undoing a change finds its factorization again.
+        while len(self._factors) > _CACHE_AREAS:
+            del self._factors[next(iter(self._factors))]
         return out
 
 
