@@ -396,19 +396,25 @@ def _edge_weights(cost, floor):
     return right, down
 
 
-def _neighbours(fixed, right, down):
-    """For the 4 directions: the fixed label of each pixel's neighbour
-    (UNSEEDED when none), the capacity of the edge to it and the flat-index
-    offset of the neighbour."""
+def _neighbours(fixed, right, down, idx):
+    """For the 4 directions, at the pixels ``idx`` (flat indices): the fixed
+    label of the neighbour (UNSEEDED when none), the capacity of the edge to
+    it, and the flat-index offset of the neighbour."""
     h, w = fixed.shape
-    caps = {(0, 1): np.pad(right, ((0, 0), (0, 1))), (0, -1): np.pad(right, ((0, 0), (1, 0))),
-            (1, 0): np.pad(down, ((0, 1), (0, 0))), (-1, 0): np.pad(down, ((1, 0), (0, 0)))}
+    ys, xs = np.divmod(idx, w)
     out = []
-    for (dy, dx), cap in caps.items():
-        lab = np.full((h, w), UNSEEDED, np.int32)
-        dst = (slice(max(0, -dy), h - max(0, dy)), slice(max(0, -dx), w - max(0, dx)))
-        src = (slice(max(0, dy), h + min(0, dy)), slice(max(0, dx), w + min(0, dx)))
-        lab[dst] = fixed[src]
+    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        ny, nx = ys + dy, xs + dx
+        ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
+        lab = np.full(len(idx), UNSEEDED, np.int32)
+        lab[ok] = fixed[ny[ok], nx[ok]]
+        cap = np.zeros(len(idx))
+        if dx:
+            cx = np.minimum(xs, nx)[ok]
+            cap[ok] = right[ys[ok], cx]
+        else:
+            cy = np.minimum(ys, ny)[ok]
+            cap[ok] = down[cy, xs[ok]]
         out.append((lab, cap, dy * w + dx))
     return out
 
@@ -416,45 +422,49 @@ def _neighbours(fixed, right, down):
 def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
     """Sequential binary cuts on the pixels where ``fixed`` is UNSEEDED.
 
-    Fixed pixels (coarse-to-fine: the labels far from any boundary) keep their
-    label and pull their free neighbours toward it through the edge between
-    them, as a neighbour of that label would."""
+    Labels are placed in ascending order, so "a label still to be placed"
+    is simply "a label greater than ``c``". Fixed pixels (coarse-to-fine: the
+    labels far from any boundary) keep their label and pull their free
+    neighbours toward it through the edge between them, as a neighbour of
+    that label would."""
     import maxflow
 
     h, w = cost.shape
     right, down = _edge_weights(cost, floor)
     if fixed is None:
         fixed = np.full((h, w), UNSEEDED, np.int32)
-        nbrs = []
-    else:
-        nbrs = _neighbours(fixed, right, down)
     labels = fixed.copy()
+    idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
+    nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
     order = _order(np.where(fixed != UNSEEDED, fixed, seeds))
-    flat_seeds = seeds.ravel()
+    seed_idx = seeds.ravel()[idx]
+    flat_labels = labels.ravel()
     for step, c in enumerate(order):
-        free = labels == UNSEEDED
-        if not free.any():
+        alive = flat_labels[idx] == UNSEEDED
+        if not alive.any():
             break
-        rest = order[step + 1:]
-        comp, n = ndimage.label(free)
-        flat_comp = comp.ravel()
-        own = np.bincount(flat_comp[flat_seeds == c], minlength=n + 1)
-        other = np.bincount(flat_comp[np.isin(flat_seeds, rest)], minlength=n + 1)
+        comp, n = ndimage.label(labels == UNSEEDED)
+        ci = comp.ravel()[idx[alive]]
+        si = seed_idx[alive]
+        own = np.bincount(ci[si == c], minlength=n + 1)
+        other = np.bincount(ci[si > c], minlength=n + 1)
         for lab, _, _ in nbrs:
-            flat_lab = lab.ravel()
-            own += np.bincount(flat_comp[flat_lab == c], minlength=n + 1)
-            other += np.bincount(flat_comp[np.isin(flat_lab, rest)], minlength=n + 1)
+            la = lab[alive]
+            own += np.bincount(ci[la == c], minlength=n + 1)
+            other += np.bincount(ci[la > c], minlength=n + 1)
         own[0] = other[0] = 0
-        labels[((own > 0) & (other == 0))[comp]] = c
+        flat_labels[idx[alive][((own > 0) & (other == 0))[ci]]] = c
         cut = (own > 0) & (other > 0)
-        if rest and cut.any():
-            active = cut[comp]
+        if c != order[-1] and cut.any():
+            on = cut[ci]
             # Outline ink goes to the character, not to the background: a cut
             # with an ink pixel on its background side costs one more floor
             # (directed capacities, so the graph stays the same size).
             pull = floor * (1.0 - cost) if c == BACKGROUND else None
-            labels[_binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength,
-                               pull, maxflow)] = c
+            sub = [(lab[alive][on], wt[alive][on], off) for lab, wt, off in nbrs]
+            win = _binary_cut(idx[alive][on], (h, w), seeds, c, right, down, sub, strength,
+                              pull, maxflow)
+            flat_labels[win] = c
         if progress is not None:
             progress.update(step + 1, len(order))
     free = labels == UNSEEDED
@@ -466,13 +476,12 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
     return labels
 
 
-def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, maxflow):
-    """Min cut of label ``c`` against the labels ``rest`` on the ``active``
-    pixels; ``pull`` (H, W) or None is an extra cost of a cut edge whose
-    ``c`` side is that pixel. Returns the (H, W) mask of the pixels that take
-    ``c``."""
-    h, w = active.shape
-    flat = np.flatnonzero(active)
+def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflow):
+    """Min cut of label ``c`` against the greater labels on the pixels ``flat``
+    (flat indices); ``nbrs`` are their fixed neighbours, ``pull`` (H, W) or
+    None an extra cost of a cut edge whose ``c`` side is that pixel. Returns
+    the flat indices of the pixels that take ``c``."""
+    h, w = shape
     n = len(flat)
     node = np.full(h * w, -1, np.int64)
     node[flat] = np.arange(n)
@@ -490,15 +499,14 @@ def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, 
                 fwd = fwd + pull[first][both]
                 rev = rev + pull[second][both]
             g.add_edges(a[both], b[both], fwd, rev)
-    s = flat_seeds[flat]
+    s = seeds.ravel()[flat]
     st = strength.ravel()[flat]
     src = np.where(s == c, st, 0.0)
-    snk = np.where(np.isin(s, rest), st, 0.0)
+    snk = np.where(s > c, st, 0.0)
     for lab, wt, offset in nbrs:
         # The edge to a fixed neighbour becomes a terminal link, with the
         # directed ``pull`` of whichever end would be on the ``c`` side.
-        lab, wt = lab.ravel()[flat], wt.ravel()[flat]
-        to_c, to_rest = lab == c, np.isin(lab, rest)
+        to_c, to_rest = lab == c, lab > c
         src[to_c] += wt[to_c]
         snk[to_rest] += wt[to_rest]
         if pull is not None:
@@ -507,9 +515,7 @@ def _binary_cut(active, flat_seeds, c, rest, right, down, nbrs, strength, pull, 
     ids = np.arange(n)
     g.add_grid_tedges(ids, src, snk)
     g.maxflow()
-    win = np.zeros(h * w, bool)
-    win[flat[~g.get_grid_segments(ids)]] = True
-    return win.reshape(h, w)
+    return flat[~g.get_grid_segments(ids)]
 
 
 def _coarse_to_fine(cost, seeds, strength, progress, band=4, small_area=5000):
