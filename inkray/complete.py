@@ -254,8 +254,8 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     outer = labels[oy0:oy1, ox0:ox1]
     mine = outer == back
     other = (outer != back) & (outer != front)
-    if not other.any() or not mine.any():
-        return False
+    if not (mine & ndimage.binary_dilation(other)).any():
+        return False  # no outline of its own here: nothing to continue
     # Half-pixel offsets keep the spacing even across the outline (0.5 | -0.5).
     phi = np.where(mine, ndimage.distance_transform_edt(~other) - 0.5,
                    0.5 - ndimage.distance_transform_edt(~mine))
@@ -273,7 +273,7 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     win = (slice(wy0 - oy0, wy1 - oy0), slice(wx0 - ox0, wx1 - ox0))
     psi, hidden = psi[win], outer[win] == front
     x = _poisson_extension(psi, hidden, -2.0 * kappa)
-    grown = hidden & (x > 0)
+    grown = hidden & (np.nan_to_num(x, nan=-1.0) > 0)
     # Only pieces attached to the visible region are its continuation.
     comp, _ = ndimage.label(grown)
     touching = ndimage.binary_dilation(labels[wy0:wy1, wx0:wx1] == back) & grown
@@ -494,6 +494,8 @@ def _places(labels, owner):
     contact_keys = key_of(lo, hi)
     junctions = _junction_points(labels)
     places = []
+    if keys.size == 0:
+        return places
     order = np.argsort(keys, kind="stable")
     keys, ys, xs = keys[order], ys[order], xs[order]
     starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
@@ -620,17 +622,35 @@ def _outline_curvature(mine, other, near):
     return total / weight if weight else 0.0
 
 
-def _poisson_extension(values, hidden, source):
+def _poisson_extension(values, hidden, source, *, extrapolate=True):
     """Solve ``lap x = source`` on ``hidden`` with ``x = values`` on the other pixels.
 
     Where ``hidden`` reaches the edge of the array the second difference
     across the edge is set to ``source / 2`` (instead of holding the solution
     flat), so linear functions, and quadratics that bend equally in both
     directions such as ``r^2``, are reproduced exactly however the window
-    cuts the domain.
+    cuts the domain. Pieces of ``hidden`` that touch no other pixel have no
+    data and stay NaN. Should the edge rows make the system singular (thin
+    slivers along the edge), the edge is held flat instead.
 
     Returns the full array: ``values`` outside ``hidden``, the solution inside.
     """
+    comp, count = ndimage.label(hidden)
+    anchored = ndimage.binary_dilation(~hidden) & hidden
+    hidden = np.isin(comp, np.unique(comp[anchored])) & hidden if count else hidden
+    out = np.where(hidden | (comp == 0), values, np.nan)
+    if not hidden.any():
+        return out
+    try:
+        out[hidden] = _poisson_solve(values, hidden, source, extrapolate)
+    except RuntimeError:
+        if not extrapolate:
+            raise
+        out[hidden] = _poisson_solve(values, hidden, source, False)
+    return out
+
+
+def _poisson_solve(values, hidden, source, extrapolate):
     hh, ww = hidden.shape
     n = int(hidden.sum())
     index = np.full((hh, ww), -1, np.int64)
@@ -639,7 +659,7 @@ def _poisson_extension(values, hidden, source):
     rows, cols, coef = [], [], []
     rhs = np.zeros(n)
     edge = np.zeros(n, bool)
-    for dy, dx in _STEPS:
+    for dy, dx in _STEPS if extrapolate else ():
         # Pixels whose step (dy, dx) leaves the array: x_p - 2 x_{p-d} + x_{p-2d} = source / 2,
         # the second difference of a solution that bends equally in both directions.
         out = ~edge & ((y + dy < 0) | (y + dy >= hh) | (x + dx < 0) | (x + dx >= ww))
@@ -677,6 +697,4 @@ def _poisson_extension(values, hidden, source):
         rhs[inner[fixed]] -= values[yy[fixed], xx[fixed]]
     r, c, v = (np.concatenate(t) for t in (rows, cols, coef))
     system = sp.csc_matrix((v, (r, c)), shape=(n, n))
-    out = values.copy()
-    out[hidden] = sla.splu(system, permc_spec="COLAMD").solve(rhs)
-    return out
+    return sla.splu(system, permc_spec="COLAMD").solve(rhs)

@@ -96,8 +96,8 @@ class Relation:
         return f"predicted {self.front_name} over {self.back_name}"
 
 
-def depth_order(annotations, labels, completion, *, predict=True, junction_radius=8.0,
-                min_confidence=0.05):
+def depth_order(annotations, labels, completion, *, predict=True, junction_radius=40.0,
+                area_weight=0.5, min_confidence=0.0):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -110,10 +110,12 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
         From :func:`inkray.complete.complete_regions` on ``labels``.
     predict : bool, default True
         Predict the order of the places the user's entries leave open.
-    junction_radius : float, default 8.0
-        Radius in pixels of the disk measured around a junction (shrunk to a
-        quarter of the contact length for short contacts).
-    min_confidence : float, default 0.05
+    junction_radius : float, default 40.0
+        Largest radius in pixels of the disk measured around a junction (see
+        :func:`predict_place`).
+    area_weight : float, default 0.5
+        Weight of the area cue (see :func:`predict_place`).
+    min_confidence : float, default 0.0
         Predictions below this confidence are not made (the pair is left
         unordered there, e.g. at a symmetric Y-junction).
 
@@ -169,12 +171,14 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
         graph.add_user(r)
     relations = list(user)
     if predict:
+        seams = [b.path for b in annotations.boundaries if b.type in ("graft", "stitch")]
         spoken = {r.place for r in user if r.place is not None}
         predicted = []
         for place in completion.places:
             if place.index in spoken:
                 continue
-            r = predict_place(completion, place, junction_radius=junction_radius)
+            r = predict_place(completion, place, junction_radius=junction_radius,
+                              area_weight=area_weight, seams=seams)
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
         # Strongest first, so that in a cycle the weakest prediction is the one left out.
@@ -192,15 +196,25 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
     return relations, warnings
 
 
-def predict_place(completion, place, *, junction_radius=8.0):
+def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, seams=(),
+                  seam_distance=6.0):
     """Predict which region of a place is in front.
 
     Parameters
     ----------
     completion : inkray.complete.Completion
     place : inkray.complete.Place
-    junction_radius : float, default 8.0
-        Radius of the disk measured around each junction.
+    junction_radius : float, default 40.0
+        Largest radius of the disk measured around each junction; it shrinks
+        to three times the half-width of the thinner region there.
+    area_weight : float, default 0.5
+        Weight of the area cue against the junction cue (which counts 3 at an
+        ideal T-junction).
+    seams : list of (k, 2) arrays
+        Polylines ``[x, y]`` of the annotation's ``graft`` and ``stitch``
+        boundaries: there one region grows out of the other or joins it, so a
+        junction within ``seam_distance`` pixels of them is no occlusion cue.
+    seam_distance : float, default 6.0
 
     Returns
     -------
@@ -221,16 +235,21 @@ def predict_place(completion, place, *, junction_radius=8.0):
     ('eye', 'head')
     """
     a, b = place.a, place.b
-    if place.junctions:
-        length = place.contact.sum() / 2.0
-        radius = float(np.clip(length / 4.0, 2.0, junction_radius))
-        scores = [_straightening(completion, b, a, j, radius) - _straightening(completion, a, b, j, radius)
-                  for j in place.junctions]
-        score = float(np.mean(scores))
+    junctions = [j for j in place.junctions
+                 if all(_polyline_distance(j, s) > seam_distance for s in seams)]
+    if junctions:
+        turn = 0.0
+        for j in junctions:
+            radius = _junction_scale(completion.labels, a, b, j, junction_radius)
+            turn += _straightening(completion, b, a, j, radius) - _straightening(completion, a, b, j, radius)
+        turn /= len(junctions)
+        score = turn / _T_SCORE * 3.0 + area_weight * _extension(completion, place)
         if score == 0:
             return None
         front, back = (a, b) if score > 0 else (b, a)
-        confidence = min(1.0, abs(score) / _T_SCORE)
+        confidence = min(1.0, abs(score) / (3.0 + area_weight))
+    elif place.junctions:
+        return None
     else:
         enclosed = [x for x in (a, b) if _enclosed(completion.labels, place, x, b if x == a else a)]
         if len(enclosed) != 1:
@@ -244,6 +263,43 @@ def predict_place(completion, place, *, junction_radius=8.0):
     return Relation(front=front, back=back, front_name=names[front], back_name=names[back],
                     where=tuple(float(v) for v in place.where), source="predicted",
                     confidence=float(confidence), place=place.index)
+
+
+def _junction_scale(labels, a, b, point, limit):
+    """Disk radius for a junction: three half-widths of the thinner of ``a`` and ``b`` nearby.
+
+    A disk much wider than a thin part measures its surroundings, not the
+    junction (a thin band in front covers only a small angle of a big disk).
+    """
+    h, w = labels.shape
+    r = int(np.ceil(limit))
+    y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 2, h)
+    x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 2, w)
+    crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=-2)
+    widths = [ndimage.distance_transform_edt(crop == x).max() for x in (a, b)]
+    return float(np.clip(3.0 * min(widths), 4.0, limit))
+
+
+def _polyline_distance(point, path):
+    """Distance from ``point`` ``(x, y)`` to a polyline of ``[x, y]`` rows."""
+    p = np.asarray(point, float)
+    path = np.asarray(path, float)
+    if len(path) == 1:
+        return float(np.hypot(*(path[0] - p)))
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
+
+
+def _extension(completion, place):
+    """Area cue in [-1, 1]: how much more ``b`` extends under ``a`` than ``a`` under ``b``."""
+    y0, y1, x0, x1 = place.box
+    win = (slice(y0, y1), slice(x0, x1))
+    lab, own = completion.labels[win], completion.owner[win]
+    b_under_a = int((place.mask & (lab == place.a) & (own == place.b)).sum())
+    a_under_b = int((place.mask & (lab == place.b) & (own == place.a)).sum())
+    return (b_under_a - a_under_b) / max(b_under_a + a_under_b, 1)
 
 
 def _straightening(completion, x, other, point, radius):
@@ -346,7 +402,7 @@ class _SiteGraph:
         strict = r.kind == "order"
         ends = [(r.back, r.front)] if strict else [(r.back, r.front), (r.front, r.back)]
         for start, goal in ends:
-            path = self._path(edges, start, goal)
+            path = self._path(edges, start, goal, r)
             if path is not None and (strict or any(s for _, s in path)):
                 chain = [r] + [rel for rel, _ in path]
                 first = min(range(len(chain)), key=lambda i: (chain[i].kind, chain[i].entry))
@@ -360,7 +416,7 @@ class _SiteGraph:
     def add_prediction(self, r):
         """Add a strict edge; return the cycle it would close instead (as text), or None."""
         edges = self._graph(r)
-        path = self._path(edges, r.back, r.front)
+        path = self._path(edges, r.back, r.front, r)
         if path is not None:
             return self._cycle(r, path)
         self._link(edges, r, True)
@@ -382,14 +438,19 @@ class _SiteGraph:
         return " ".join(text)
 
     @staticmethod
-    def _path(edges, start, goal):
-        """Edges ``[(relation, strict)]`` of a shortest path start -> goal, or None."""
+    def _path(edges, start, goal, new):
+        """Edges ``[(relation, strict)]`` of a shortest path start -> goal, or None.
+
+        Relations of ``new``'s pair at another place are left out: a pair may
+        overlap twice with opposite orders (interlocking rings).
+        """
+        pair = {new.front, new.back}
         came = {start: None}
         queue = deque([start])
         while queue:
             node = queue.popleft()
             for nxt, rel, strict in edges.get(node, ()):
-                if nxt in came:
+                if nxt in came or ({rel.front, rel.back} == pair and rel.place != new.place):
                     continue
                 came[nxt] = (node, rel, strict)
                 if nxt == goal:
