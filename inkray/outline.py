@@ -161,8 +161,8 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         occluders).
     visible : (H, W) bool array, optional
         The region's visible pixels. Outline next to mask pixels that are not
-        visible is ``invented``; without it every non-frame outline is
-        ``inked``.
+        visible is ``invented``. Defaults to ``labels == region`` when labels
+        are given, else to the whole mask (every non-frame outline ``inked``).
     labels : (H, W) int array, optional
         Label image (-1 background, region indices) used for ``neighbour``.
     region : int, optional
@@ -331,6 +331,8 @@ def _check_arrays(mask, visible, labels, region):
                              f"{labels.dtype} {labels.shape}")
         if region is None:
             raise InputError("region: needed with labels (this region's label)")
+        if visible is None:
+            visible = labels == region
     return mask, visible, labels
 
 

@@ -164,3 +164,21 @@ def test_bad_options(disk, kw, msg):
 def test_bad_callable_profile():
     with pytest.raises(InputError, match="profile"):
         apply_profile(np.ones(5), lambda f: f[:2])
+
+
+def test_separate_parts_and_holes():
+    # Two disks in one region, one of them with a hole: every outline vertex stays at 0,
+    # each part gets its own peak.
+    yy, xx = np.mgrid[:200, :400]
+    left = (xx - 100) ** 2 + (yy - 100) ** 2 <= 80 ** 2
+    right = ((xx - 300) ** 2 + (yy - 100) ** 2 <= 80 ** 2) & ((xx - 300) ** 2 + (yy - 100) ** 2 > 30 ** 2)
+    # Finer than the default: the annulus is only 50 px wide and its log term is curved.
+    res = inflate_region(left | right, inflation=4.0, max_area=12.5)
+    v, h = res.mesh.vertices, res.height
+    assert np.all(h[res.mesh.outline] == 0)
+    assert abs(h[v[:, 0] < 200].max() - 80) < 0.015 * 80
+    # Annulus a = 30 < r < R = 80: f = (c/4)(R^2 - r^2 + (R^2 - a^2) ln(r/R) / ln(R/a)).
+    r = np.hypot(v[:, 0] - 300, v[:, 1] - 100)
+    exact = np.sqrt(np.maximum(80 ** 2 - r ** 2 + (80 ** 2 - 30 ** 2) * np.log(r / 80) / np.log(80 / 30), 0))
+    inner = (v[:, 0] > 200) & (r > 40) & (r < 75)  # away from the rasterised rims
+    assert np.abs(h[inner] - exact[inner]).max() < 0.02 * exact.max()
