@@ -187,23 +187,16 @@ def _cmd_render(args, progress):
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
 
-    def numbers(opt, text, n):
-        try:
-            values = [float(v) for v in text.replace("x", ",").split(",")]
-        except ValueError:
-            values = []
-        if len(values) != n:
-            raise InputError(f"{opt} {text}: expected {n} numbers separated by "
-                             f"{'x' if opt == '--size' else ','}")
-        return values
-
     size = None
     if args.size is not None:
-        w, h = numbers("--size", args.size, 2)
-        if not (w.is_integer() and h.is_integer()):
-            raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels")
-        size = (int(w), int(h))
-    light = numbers("--light", args.light, 3) if args.light is not None else (-1.0, 1.0, 1.5)
+        try:
+            size = tuple(int(v) for v in args.size.lower().split("x"))
+        except ValueError:
+            size = ()
+        if len(size) != 2:
+            raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels "
+                             f"(e.g. 800x600)")
+    light = args.light if args.light is not None else (-1.0, 1.0, 1.5)
     if args.turntable is not None and args.turntable < 1:
         raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
     with progress.stage("read"):
@@ -346,9 +339,9 @@ def _parser():
                    "gi: shrunk to fit 800)")
     r.add_argument("--width", type=int, metavar="PX", help="image width, height to match")
     r.add_argument("--height", type=int, metavar="PX", help="image height, width to match")
-    r.add_argument("--light", metavar="X,Y,Z",
+    r.add_argument("--light", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="direction toward the light, x right, y up, z toward the viewer "
-                        "(default: -1,1,1.5, upper left)")
+                        "(default: -1 1 1.5, upper left)")
     r.add_argument("--ambient", type=float, default=0.3,
                    help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
     r.add_argument("--flat-colors", action="store_true",

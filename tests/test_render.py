@@ -251,7 +251,7 @@ def test_cli_renders_an_exported_glb(tmp_path):
     relief = read_relief(glb)
     assert relief.size == (80, 60) and [p.name for p in relief.parts] == ["body", "head"]
     assert main(["--quiet", "render", str(glb), "-o", str(tmp_path / "s.png"),
-                 "--width", "160"]) == 0
+                 "--width", "160", "--light", "-1", "0.5", "1"]) == 0
     with Image.open(tmp_path / "s.png") as im:
         assert im.size == (160, 120)
         assert _iou(np.asarray(im)[..., 3] >= 128, _silhouette((160, 120))) >= 0.95
@@ -270,7 +270,7 @@ def test_cli_renders_an_exported_glb(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["-o", "x.jpg"], "unsupported output type"),
     (["-o", "x.gif"], "unsupported output type"),
-    (["-o", "x.png", "--light", "1,2"], "--light"),
+    (["-o", "x.png", "--light", "1", "2"], "--light"),
     (["-o", "x.png", "--size", "10x"], "--size"),
     (["-o", "x.png", "--size", "10x10", "--width", "4"], "--size"),
     (["-o", "x.png", "--mode", "gi", "--spp", "0"], "spp"),
