@@ -267,6 +267,22 @@ def test_cli_renders_an_exported_glb(tmp_path):
         assert im.n_frames == 5
 
 
+@pytest.mark.parametrize("suffix", [".glb", ".obj", ".ply"])
+def test_read_relief_places_inkray_files_in_drawing_pixels(tmp_path, suffix):
+    relief = _figure()
+    path = export_relief(relief, tmp_path / f"fig{suffix}", anchor="top-left")[0]
+    back = read_relief(path)
+    assert back.size == relief.size
+    by_name = {p.name: p for p in back.parts}
+    for p in relief.parts:
+        assert np.abs(by_name[p.name].vertices - p.vertices).max() < 1e-3
+        assert np.array_equal(by_name[p.name].faces, p.faces)
+    if suffix == ".ply":
+        assert back.texture is None  # PLY carries per-vertex colours only
+    else:
+        assert np.array_equal(back.texture, relief.texture)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["-o", "x.jpg"], "unsupported output type"),
     (["-o", "x.gif"], "unsupported output type"),
