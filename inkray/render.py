@@ -55,6 +55,7 @@ _SHININESS = 40.0
 _PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
                      [0.90, 0.55, 0.50], [0.75, 0.60, 0.85], [0.95, 0.85, 0.55],
                      [0.50, 0.80, 0.75], [0.85, 0.65, 0.45]])
+_RIM = 6.0  # drawing pixels: reach of outline ink past the silhouette (half a thick stroke)
 _GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
 GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
 
@@ -384,15 +385,26 @@ def _raster(relief, size, yaw, factor=1, shear=0.0):
                      offset=(offset[0] * factor, offset[1] * factor), view=view)
 
 
-def _plane_uv(relief, raster, yaw):
-    """Texture coordinates of the drawing plane ``z = 0`` seen at every pixel of a raster."""
-    h, w = raster.part.shape
-    view = _yaw_view(relief, yaw)
-    cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
-    q = np.stack([(cols - raster.offset[0]) / raster.scale - view[0, 3],
-                  (rows - raster.offset[1]) / raster.scale - view[1, 3]], axis=-1)
-    p = q.reshape(-1, 2) @ np.linalg.inv(view[:2, :2]).T
-    return relief.uv(p).reshape(h, w, 2)
+def _rim_uv(relief, raster):
+    """Texture coordinates continued past the relief's silhouette, and where they apply.
+
+    Segmentation leaves the outer half of an outline stroke outside the
+    parts. Each pixel within ``_RIM`` drawing pixels of the silhouette takes
+    the coordinates of the nearest relief pixel, continued by its offset at
+    the front view's scale, so that half stroke follows its part in turned
+    views too (exact in the front view).
+    """
+    from scipy import ndimage
+
+    m = raster.mask
+    if not m.any():
+        return None, np.zeros_like(m)
+    dist, (ri, ci) = ndimage.distance_transform_edt(~m, return_indices=True)
+    rows, cols = np.indices(m.shape)
+    w, h = relief.size
+    uv = raster.uv[ri, ci] + np.stack([(cols - ci) / (raster.scale * w),
+                                       (ri - rows) / (raster.scale * h)], axis=-1)
+    return uv, ~m & (dist <= _RIM * raster.scale)
 
 
 def _supersample(size):
@@ -437,6 +449,7 @@ class _Layers:
     def __init__(self, relief, flat_colors):
         from scipy import ndimage
 
+        self.relief = relief
         tex = relief.texture
         if tex is None:
             self.fill = np.ones((1, 1, 3))
@@ -468,13 +481,12 @@ class _Layers:
             colors[i] = _PALETTE[i % len(_PALETTE)] if c.min() > 0.85 else c
         return colors
 
-    def sample(self, raster, plane_uv=None):
+    def sample(self, raster, rim=False):
         """Linear albedo (0 where empty) and ink multiplier at every pixel of a raster.
 
         On the relief the ink is looked up through the surface's texture
-        coordinates. Elsewhere it is 1, or, given ``plane_uv``, the ink lying
-        on the drawing plane: the outer halves of outline strokes, which
-        segmentation leaves outside the parts.
+        coordinates. Elsewhere it is 1, or, with ``rim``, the outer halves of
+        outline strokes are added around the silhouette (see :func:`_rim_uv`).
         """
         m = raster.mask
         albedo = np.zeros(m.shape + (3,))
@@ -482,11 +494,11 @@ class _Layers:
             albedo[m] = self.part_colors[raster.part[m]]
         else:
             albedo[m] = _sample(self.albedo, raster.uv[m])
-        if plane_uv is None:
-            ink = np.ones(m.shape)
-        else:
-            ink = _sample(self.ink, plane_uv.reshape(-1, 2), outside=1.0).reshape(m.shape)
+        ink = np.ones(m.shape)
         ink[m] = _sample(self.ink, raster.uv[m])
+        if rim:
+            uv, near = _rim_uv(self.relief, raster)
+            ink[near] = _sample(self.ink, uv[near], outside=1.0)
         return albedo, ink
 
 
@@ -610,11 +622,11 @@ def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
     img = acc / spp
     # The ink never goes through the path tracer: it is looked up per pixel
     # (supersampled) and multiplied on top, so it is as sharp as the output.
-    # With the backdrop (just behind the drawing plane) the ink off the relief
-    # is drawn on it; a transparent background keeps only the relief.
+    # With the backdrop (just behind the relief) the outer halves of outline
+    # strokes are drawn on it; a transparent background keeps only the relief.
     ss = _supersample(size)
     r = _raster(relief, size, yaw, ss)
-    _, ink = layers.sample(r, _plane_uv(relief, r, yaw) if backdrop else None)
+    _, ink = layers.sample(r, rim=backdrop)
     ink = _downsample(ink, ss)
     cover = _downsample(r.mask.astype(float), ss)
     if backdrop:
