@@ -458,9 +458,11 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
         if c != order[-1] and cut.any():
             on = cut[ci]
             # Outline ink goes to the character, not to the background: a cut
-            # with an ink pixel on its background side costs one more floor
-            # (directed capacities, so the graph stays the same size).
-            pull = floor * (1.0 - cost) if c == BACKGROUND else None
+            # with an ink pixel on its background side costs 4 floors more
+            # (directed capacities, so the graph stays the same size), enough
+            # that following the outer edge of a thick outline around a
+            # rounded end beats a chord through the ink.
+            pull = 4.0 * floor * (1.0 - cost) if c == BACKGROUND else None
             sub = [(lab[alive][on], wt[alive][on], off) for lab, wt, off in nbrs]
             win = _binary_cut(idx[alive][on], (h, w), seeds, c, right, down, sub, strength,
                               pull, maxflow)
