@@ -202,10 +202,14 @@ def _seed_strength(seeds, area, soft):
     8-connected run of one label), ``soft`` on ink and in other paper areas
     (overshoots)."""
     out = np.zeros(seeds.shape)
+    # Bounding box of each label (value v is at index v + 1 of the label image
+    # seeds + 2, whose 0 is the unseeded pixels).
+    boxes = ndimage.find_objects(seeds - UNSEEDED)
     for c in np.unique(seeds[seeds != UNSEEDED]):
-        mask = seeds == c
+        box = boxes[c - UNSEEDED - 1]
+        mask = seeds[box] == c
         stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
-        st, ar = stroke[mask], area[mask]
+        st, ar = stroke[mask], area[box][mask]
         on = ar > 0
         home = np.zeros(n + 1, np.int64)
         if on.any():
@@ -214,7 +218,7 @@ def _seed_strength(seeds, area, soft):
             best = np.lexsort((pairs[1], -counts, pairs[0]))
             first = np.unique(pairs[0][best], return_index=True)[1]
             home[pairs[0][best][first]] = pairs[1][best][first]
-        out[mask] = np.where(on & (ar == home[st]), _HARD, soft)
+        out[box][mask] = np.where(on & (ar == home[st]), _HARD, soft)
     return out
 
 

@@ -253,6 +253,17 @@ def test_segment_rejects_bad_input(case, match):
         segment(_ann(size, regions), gray)
 
 
+def test_segment_rejects_a_scribble_layer_region_on_ink():
+    from inkray.annotations import Region
+
+    gray = _square_with_hole()
+    ann = _ann((60, 60), [("box", [[[15, 20], [25, 20]]])])
+    ann.regions.append(Region(name="lid", scribbles=[],
+                              pixels=np.array([[20, 10], [21, 10], [22, 10]])))
+    with pytest.raises(InputError, match=r"regions\[1\] \(lid\) layer: .* entirely on ink"):
+        segment(ann, gray)
+
+
 def test_label_palette_is_distinct():
     pal = label_palette(60)
     assert pal.shape == (61, 3) and pal.dtype == np.uint8
