@@ -217,6 +217,20 @@ def test_gi_is_deterministic_per_seed_and_turns_like_the_rasterizer():
 
 
 @needs_mitsuba
+def test_gi_reports_progress_per_pass():
+    class Recorder:
+        def __init__(self):
+            self.calls = []
+
+        def update(self, done, total):
+            self.calls.append((done, total))
+
+    rec = Recorder()
+    render(_figure(), mode="gi", size=(16, 16), spp=5, progress=rec)
+    assert rec.calls == [(k, 5) for k in range(1, 6)]
+
+
+@needs_mitsuba
 def test_gi_a_part_in_front_casts_a_shadow_on_the_part_behind():
     back = _part("back", _square(0, 0, 80, 80), lambda x, y: np.zeros_like(x), max_area=20)
     front = _part("front", _circle(30, 30, 12), lambda x, y: np.full_like(x, 15.0))
