@@ -178,5 +178,5 @@ def test_a_million_pixels_rasterize_in_seconds():
     f = np.concatenate([np.stack([a, a + n, a + n + 1], 1), np.stack([a, a + n + 1, a + 1], 1)])
     t = time.perf_counter()
     r = rasterize(Relief([Part("hf", v, f)], size=(1000, 1000)))
-    assert time.perf_counter() - t < 10  # generous: shared CI cores
+    assert time.perf_counter() - t < 20  # generous: shared CI cores (about 1.5 s when idle)
     assert r.mask.all() and r.normal[..., 2].min() > 0
