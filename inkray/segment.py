@@ -158,7 +158,13 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
     if seeds.size and seeds.min() < UNSEEDED:
         y, x = np.argwhere(seeds < UNSEEDED)[0]
         raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]} (expected -2, -1 or >= 0)")
-    seeds = seeds.astype(np.int32)
+    if seeds.size and seeds.max() > np.iinfo(np.int32).max:
+        y, x = np.argwhere(seeds > np.iinfo(np.int32).max)[0]
+        raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]}, beyond int32")
+    # Region labels become 0..m-1 inside (any integers may come in, e.g. one
+    # per constraint endpoint), and go back at the end.
+    regions = np.unique(seeds[seeds >= 0])
+    seeds = np.where(seeds >= 0, np.searchsorted(regions, seeds), seeds).astype(np.int32)
     area, n_areas = ndimage.label(gray >= INK_THRESHOLD)
     if frame_background:
         seeds = _frame_seeds(seeds, area, n_areas)
@@ -170,8 +176,12 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         coarse_to_fine = h * w > 500_000
     strength = _seed_strength(seeds, area, seed_strength)
     if coarse_to_fine and min(h, w) >= 64:
-        return _coarse_to_fine(cost, seeds, strength, progress)
-    return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
+        labels = _coarse_to_fine(cost, seeds, strength, progress)
+    else:
+        labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
+    if len(regions):
+        labels = np.where(labels >= 0, regions[np.maximum(labels, 0)], labels)
+    return labels.astype(np.int32)
 
 
 _HARD = 1e9  # a seed cost no cut can pay

@@ -53,11 +53,12 @@ def _ann(size, regions, background=()):
 def test_any_label_set_and_no_background_unless_asked():
     gray = np.ones((40, 60))
     gray[:, 30] = 0.0
-    seeds = _seeds(gray.shape, {3: [(10, 5, 10, 30)], 7: [(50, 5, 50, 30)]})
+    big = 2 ** 31 - 1
+    seeds = _seeds(gray.shape, {3: [(10, 5, 10, 30)], big: [(50, 5, 50, 30)]})
     labels = lazybrush(gray, seeds)
     assert labels.dtype == np.int32 and labels.shape == gray.shape
-    assert set(np.unique(labels)) == {3, 7}
-    assert (labels[:, :30] == 3).all() and (labels[:, 31:] == 7).all()
+    assert set(np.unique(labels)) == {3, big}
+    assert (labels[:, :30] == 3).all() and (labels[:, 31:] == big).all()
 
 
 def test_frame_background_makes_the_outside_background():
@@ -188,6 +189,7 @@ def test_deterministic():
     (np.full((5, 5), np.nan), np.zeros((5, 5), int), "finite"),
     (np.ones((5, 5)), np.full((5, 5), -3), "label -3"),
     (np.ones((5, 5)), np.zeros((5, 5)), "integer"),
+    (np.ones((5, 5)), np.full((5, 5), 2 ** 40), "beyond int32"),
 ])
 def test_lazybrush_rejects_bad_input(gray, seeds, match):
     with pytest.raises(InputError, match=match):
