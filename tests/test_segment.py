@@ -347,6 +347,19 @@ def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, capsys, case):
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_cli_reports_warnings_and_keeps_them_in_the_legend(tmp_path, capsys):
+    Image.fromarray((_square_with_hole() * 255).astype(np.uint8)).save(tmp_path / "d.png")
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "d.png", "size": [60, 60],
+           "regions": [{"name": "box", "scribbles": [[[15, 20], [25, 20]]]}]}
+    (tmp_path / "a.inkray.json").write_text(json.dumps(doc))
+    assert main(["--quiet", "segment", str(tmp_path / "a.inkray.json"),
+                 "-o", str(tmp_path / "seg.png")]) == 0
+    err = capsys.readouterr().err
+    assert "inkray: warning: unscribbled area" in err
+    legend = json.loads((tmp_path / "seg.json").read_text())
+    assert len(legend["warnings"]) == 1 and legend["warnings"][0] in err
+
+
 def test_cli_rejects_wrong_npy_suffix(tmp_path, shared_drawings):
     ann = shared_drawings / "turtle" / "drawing.inkray.json"
     assert main(["--quiet", "segment", str(ann), "-o", str(tmp_path / "l.png"),
