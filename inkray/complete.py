@@ -265,14 +265,13 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     kappa = _outline_curvature(mine, other, near)
     # psi = phi - kappa phi^2 / 2 is (R^2 - r^2) / 2R for a circle of radius R = 1/kappa, whose
     # Laplacian is exactly -2 kappa; capped at its maximum so that it stays monotone in phi.
-    if kappa > 0:
-        phi = np.minimum(phi, 1.0 / kappa)
-    elif kappa < 0:
-        phi = np.maximum(phi, 1.0 / kappa)
+    bend = kappa != 0
+    cap = np.divide(1.0, kappa, out=np.zeros_like(kappa), where=bend)
+    phi = np.where(kappa > 0, np.minimum(phi, cap), np.where(kappa < 0, np.maximum(phi, cap), phi))
     psi = phi - 0.5 * kappa * phi * phi
     win = (slice(wy0 - oy0, wy1 - oy0), slice(wx0 - ox0, wx1 - ox0))
     psi, hidden = psi[win], outer[win] == front
-    x = _poisson_extension(psi, hidden, -2.0 * kappa)
+    x = _poisson_extension(psi, hidden, -2.0 * kappa[win])
     grown = hidden & (np.nan_to_num(x, nan=-1.0) > 0)
     # Only pieces attached to the visible region are its continuation.
     comp, _ = ndimage.label(grown)
@@ -584,11 +583,13 @@ def _assign_sites(places, shape):
 
 
 def _outline_curvature(mine, other, near):
-    """Mean signed curvature (1/px, convex > 0) of the outline stretches of ``mine`` in ``near``.
+    """Signed curvature (1/px, convex > 0) of the nearest outline stretch of ``mine``, per pixel.
 
     Each 8-connected stretch of outline pixels (pixels of ``mine`` next to
-    ``other``) is fitted with a circle (algebraic fit, which degrades
-    gracefully to a line); the curvatures are averaged weighted by length.
+    ``other``) within ``near`` is fitted with a circle (algebraic fit, which
+    degrades gracefully to a line); every pixel gets the curvature of the
+    stretch nearest to it, so the two edges of a curved band keep their
+    opposite curvatures. All zeros when there is no stretch.
     """
     edge = np.zeros(mine.shape, bool)
     inward = np.zeros(mine.shape + (2,))
@@ -600,7 +601,7 @@ def _outline_curvature(mine, other, near):
     edge[[0, -1], :] = False
     edge[:, [0, -1]] = False
     comp, n = ndimage.label(edge, structure=np.ones((3, 3)))
-    total = weight = 0.0
+    curvatures = np.zeros(n + 1)
     for k in range(1, n + 1):
         y, x = np.nonzero(comp == k)
         if y.size < 5:
@@ -617,13 +618,17 @@ def _outline_curvature(mine, other, near):
             centre = np.array([-e / (2 * big), -d / (2 * big)])  # (dy, dx) from the mean point
             if inward[y, x].sum(axis=0) @ centre < 0:
                 curvature = -curvature
-        total += curvature * y.size
-        weight += y.size
-    return total / weight if weight else 0.0
+        curvatures[k] = curvature
+    if n == 0:
+        return np.zeros(mine.shape)
+    nearest = ndimage.distance_transform_edt(comp == 0, return_distances=False, return_indices=True)
+    return curvatures[comp[nearest[0], nearest[1]]]
 
 
 def _poisson_extension(values, hidden, source, *, extrapolate=True):
     """Solve ``lap x = source`` on ``hidden`` with ``x = values`` on the other pixels.
+
+    ``source`` is a number or an array like ``values``.
 
     Where ``hidden`` reaches the edge of the array the second difference
     across the edge is set to ``source / 2`` (instead of holding the solution
@@ -652,6 +657,7 @@ def _poisson_extension(values, hidden, source, *, extrapolate=True):
 
 def _poisson_solve(values, hidden, source, extrapolate):
     hh, ww = hidden.shape
+    source = np.broadcast_to(np.asarray(source, float), hidden.shape)[hidden]
     n = int(hidden.sum())
     index = np.full((hh, ww), -1, np.int64)
     index[hidden] = np.arange(n)
@@ -664,7 +670,7 @@ def _poisson_solve(values, hidden, source, extrapolate):
         # the second difference of a solution that bends equally in both directions.
         out = ~edge & ((y + dy < 0) | (y + dy >= hh) | (x + dx < 0) | (x + dx >= ww))
         ok = out & (y - 2 * dy >= 0) & (y - 2 * dy < hh) & (x - 2 * dx >= 0) & (x - 2 * dx < ww)
-        rhs[ok] = source / 2.0
+        rhs[ok] = source[ok] / 2.0
         for k, c in ((0, 1.0), (1, -2.0), (2, 1.0)):
             yy, xx = y[ok] - k * dy, x[ok] - k * dx
             j = index[yy, xx]
@@ -678,7 +684,7 @@ def _poisson_solve(values, hidden, source, extrapolate):
     rows.append(inner)
     cols.append(inner)
     coef.append(np.full(inner.size, -4.0))
-    rhs[inner] = source
+    rhs[inner] = source[inner]
     for dy, dx in _STEPS:
         yy = np.clip(y[inner] + dy, 0, hh - 1)
         xx = np.clip(x[inner] + dx, 0, ww - 1)
