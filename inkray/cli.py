@@ -113,9 +113,67 @@ def _cmd_segment(args, progress):
 
 
 def _cmd_regions(args, progress):
+    import json
+
+    import numpy as np
+    from PIL import Image
+
+    from .complete import complete_regions
+    from .io import atomic_outputs
+    from .order import depth_order
+    from .segment import segment
+
     _check_output(args.output, (".json",))
-    _load(args)
-    raise StageMissing("regions", 5)
+    ann, drawing = _load(args)
+    with progress.stage("segment"):
+        seg = segment(ann, drawing, progress=progress)
+    with progress.stage("complete"):
+        candidates = complete_regions(seg.labels, names=seg.names, progress=progress)
+    with progress.stage("order"):
+        relations, notes = depth_order(ann, seg.labels, candidates, predict=not args.no_predict)
+        final = candidates.ordered(relations)
+    warnings = seg.warnings + notes
+    for warning in warnings:
+        print(f"inkray: warning: {warning}", file=sys.stderr)
+    names = seg.names
+    visible = np.bincount(seg.labels[seg.labels >= 0], minlength=len(names))
+    invented = np.bincount(final.owner[final.owner >= 0], minlength=len(names))
+    masks = Path(args.masks) if args.masks is not None else None
+
+    def point(p):
+        return [round(float(v), 2) for v in p]
+
+    report = {
+        "format": "inkray-regions", "version": 1,
+        "size": [int(seg.labels.shape[1]), int(seg.labels.shape[0])],
+        "predict": not args.no_predict,
+        "regions": [{"name": n, "label": i, "visible_area": int(visible[i]),
+                     "completed_area": int(visible[i] + invented[i]),
+                     "neighbours": [names[j] for j in candidates.neighbours[i]],
+                     **({"mask": str(masks / f"{n}.png")} if masks is not None else {})}
+                    for i, n in enumerate(names)],
+        "relations": [{"front": r.front_name, "back": r.back_name, "where": point(r.where),
+                       "source": r.source, "confidence": round(r.confidence, 4),
+                       "place": r.place, "entry": None if r.entry is None else f"order[{r.entry}]"}
+                      for r in relations if r.kind == "order"],
+        "equal": [{"a": r.front_name, "b": r.back_name, "where": point(r.where), "place": r.place,
+                   "entry": f"equal[{r.entry}]"} for r in relations if r.kind == "equal"],
+        "places": [{"index": p.index, "a": names[p.a], "b": names[p.b], "where": point(p.where),
+                    "site": p.site} for p in candidates.places],
+        "warnings": warnings,
+    }
+    with atomic_outputs() as out:
+        if masks is not None:
+            for i, n in enumerate(names):
+                image = Image.fromarray(np.where(final.completed(i), 255, 0).astype(np.uint8))
+                image.save(out.path(masks / f"{n}.png"))
+        out.write_text(args.output, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+    progress.summary()
+    predicted = sum(r.source == "predicted" for r in relations)
+    print(f"{args.output}: {len(names)} regions, {len(report['relations'])} order relations "
+          f"({predicted} predicted), {len(warnings)} warnings"
+          + (f"; masks in {masks}/" if masks is not None else ""))
+    return 0
 
 
 def _cmd_depth(args, progress):
@@ -319,6 +377,10 @@ def _parser():
                     help="also write a 16-bit front depth image (default name: OUT-depth.png)")
     rl.add_argument("--normals-png", nargs="?", const=True, metavar="PNG",
                     help="also write a front normal map (default name: OUT-normals.png)")
+    p["regions"].add_argument("--masks", metavar="DIR",
+                              help="also write each completed region as DIR/NAME.png")
+    p["regions"].add_argument("--no-predict", action="store_true",
+                              help="use only the annotation's order entries, predict nothing")
     p["segment"].add_argument("--npy", metavar="NPY",
                               help="also write the labels as an int32 array (-1 background)")
     p["depth"].add_argument("--method", choices=("exact", "fast"), default="exact",
