@@ -31,6 +31,8 @@ from .render import (Rendering, has_mitsuba, output_size, read_relief, render,  
 from .scribbles import load_scribble_layer, seed_image  # noqa: E402
 from .triangulate import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
 from .segment import Segmentation, lazybrush, segment  # noqa: E402
+from .complete import Completion, Place, complete_regions, continue_outline  # noqa: E402
+from .order import Relation, depth_order, predict_place  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -49,6 +51,8 @@ __all__ = [
     "InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh",
     "inflate_region",
     "Segmentation", "lazybrush", "segment",
+    "Completion", "Place", "complete_regions", "continue_outline",
+    "Relation", "depth_order", "predict_place",
     "Raster", "fit_view", "rasterize", "vertex_normals",
     "Rendering", "has_mitsuba", "output_size", "read_relief", "render", "render_turntable",
     "write_renderings",
