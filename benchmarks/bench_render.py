@@ -6,9 +6,7 @@ Issue 9 asks for the time of that render; the table also shows the cheap
 modes and the rasterizer, with ratios against the ``shade`` render of the same
 relief (the baseline: what a preview costs).
 
-Until the relief stage exists, the demo's relief is assembled from the stages
-that do: LazyBrush segmentation of a bundled example, each region inflated
-(visible masks, no completion), stacked by the annotation's depth order.
+The relief is built by the pipeline exactly as ``inkray demo`` builds it.
 """
 
 import argparse
@@ -19,40 +17,16 @@ from pathlib import Path
 import numpy as np
 
 from inkray.examples import example_path
-from inkray.inflate import inflate_region
 from inkray.inputs import load_input
+from inkray.pipeline import build_relief
 from inkray.rasterize import rasterize
-from inkray.relief import Part, Relief
 from inkray.render import has_mitsuba, render, write_renderings
-from inkray.segment import segment
-
-_STEP = 6.0  # px between stacked layers
 
 
 def example_relief(name="turtle"):
-    """A bundled example as a relief: segmented, inflated, stacked by ``order``."""
+    """A bundled example's relief, as ``inkray relief`` (and the demo) builds it."""
     ann, drawing = load_input(example_path(name))
-    seg = segment(ann, drawing)
-    n = len(seg.names)
-    offset = np.zeros(n)
-    pairs = []
-    for o in ann.order:
-        f = seg.labels[int(round(o.front[1])), int(round(o.front[0]))]
-        b = seg.labels[int(round(o.back[1])), int(round(o.back[0]))]
-        if f >= 0 and b >= 0 and f != b:
-            pairs.append((f, b))
-    for _ in range(n):  # longest-path relaxation over the (acyclic) order graph
-        for f, b in pairs:
-            offset[f] = max(offset[f], offset[b] + _STEP)
-    parts = []
-    for i, name in enumerate(seg.names):
-        mask = seg.labels == i
-        if mask.sum() < 50:
-            continue
-        res = inflate_region(mask, labels=seg.labels, region=i, name=name, inflation=2.0)
-        v = np.column_stack([res.mesh.vertices, res.height + offset[i]])
-        parts.append(Part(name, v, np.asarray(res.mesh.faces)))
-    return Relief(parts, size=tuple(ann.size), texture=drawing.rgb)
+    return build_relief(ann, drawing).relief
 
 
 def _time(fn, repeat=1):
