@@ -254,16 +254,17 @@ def _cmd_render(args, progress):
         if len(size) != 2:
             raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels "
                              f"(e.g. 800x600)")
-    light = args.light if args.light is not None else (-1.0, 1.0, 1.5)
     if args.turntable is not None and args.turntable < 1:
         raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
     with progress.stage("read"):
         relief = read_relief(args.mesh)
     size = output_size(relief.size, size=size, width=args.width, height=args.height,
                        max_side=GI_MAX_SIDE if args.mode == "gi" else None)
-    options = dict(mode=args.mode, size=size, light=light, ambient=args.ambient,
+    options = dict(mode=args.mode, size=size, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
                    backdrop=not args.no_backdrop, seed=args.seed, progress=progress)
+    if args.light is not None:
+        options["light"] = args.light
     with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
         if args.turntable is not None:
             frames = render_turntable(relief, frames=args.turntable, angle=args.angle,
