@@ -270,7 +270,7 @@ def inflate_mesh(mesh, *, inflation=2.0, profile="sqrt", solver=None):
 
 def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
                    inflation=2.0, profile="sqrt", max_area=DEFAULT_MAX_AREA, min_triangles=200,
-                   min_angle=20.0, snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3,
+                   across=8, min_angle=20.0, snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3,
                    station_spacing=None):
     """Mesh and inflate one completed region.
 
@@ -278,7 +278,7 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
     ----------
     mask : (H, W) bool array
         The completed region.
-    visible, labels, region, name, boundaries, snap, smoothing, tolerance, station_spacing
+    visible, labels, region, name, boundaries, across, snap, smoothing, tolerance, station_spacing
         As in :func:`inkray.outline.region_outline`.
     inflation : float, default 2
         ``c`` of ``-lap f = c``.
@@ -302,7 +302,7 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
     _check_options(inflation, profile, name if name is not None else "region")
     mesh = mesh_region(mask, visible=visible, labels=labels, region=region, name=name,
                        boundaries=boundaries, max_area=max_area, min_triangles=min_triangles,
-                       min_angle=min_angle, snap=snap,
+                       across=across, min_angle=min_angle, snap=snap,
                        smoothing=smoothing, tolerance=tolerance, station_spacing=station_spacing)
     return inflate_mesh(mesh, inflation=inflation, profile=profile)
 

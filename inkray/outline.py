@@ -32,7 +32,7 @@ from bisect import bisect_left
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from scipy.ndimage import distance_transform_edt, gaussian_filter1d, map_coordinates, minimum_filter1d
 from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
@@ -54,6 +54,8 @@ _MARK_KIND = {"stitch": STITCH, "graft": GRAFT, "flat": FLAT}
 #: Default maximum triangle area in px^2 (the resolution knob).
 DEFAULT_MAX_AREA = 50.0
 _SMOOTH_STEP = 0.5  # px between resampled contour points
+_MARGIN = 5  # px of context kept around a mask's bounding box (probes reach 3.5 px)
+_MIN_SPACING = 1.5  # px: the shortest edge the local-width rule asks for
 _CORNER_SPAN = 3.0  # px each side over which a corner's turning angle is measured
 _CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~8 px has none)
 
@@ -150,7 +152,7 @@ class RegionOutline:
 
 
 def region_outline(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                   max_area=DEFAULT_MAX_AREA, spacing=None, station_spacing=None,
+                   max_area=DEFAULT_MAX_AREA, spacing=None, station_spacing=None, across=8,
                    smoothing=1.0, tolerance=0.3, snap=DEFAULT_SNAP, speckle=9.0):
     """Outline of a completed region mask with per-vertex provenance.
 
@@ -182,6 +184,11 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     station_spacing : float, optional
         Target distance between stations of a ``boundaries`` entry (px); every
         region that must share stations must use the same value.
+    across : int, default 8
+        Where the region is narrow, outline edges are shortened to at most
+        its local width divided by this (but not below 1.5 px), so that a
+        thin limb still has about this many triangles across; Triangle grades
+        the mesh inward from there. 0 turns it off.
     smoothing : float, default 1
         Gaussian smoothing of the contour along its arc length (px, sigma);
         corners turning by more than 45 degrees within 3 px are kept sharp.
@@ -216,13 +223,21 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
     spacing = float(spacing) if spacing is not None else edge_length(max_area)
     station_spacing = float(station_spacing) if station_spacing is not None else edge_length(max_area)
-    if not (spacing > 0 and station_spacing > 0 and smoothing >= 0 and tolerance > 0 and snap > 0):
+    if not (spacing > 0 and station_spacing > 0 and smoothing >= 0 and tolerance > 0 and snap > 0
+            and across >= 0):
         raise InputError(f"region {name}: spacing, station_spacing, tolerance and snap must be "
-                         f"positive and smoothing non-negative")
+                         f"positive, smoothing and across non-negative")
     if not mask.any():
         raise InputError(f"region {name}: the mask is empty")
     h, w = mask.shape
-    loops, holes = _contours(mask, speckle)
+    # Work on the mask's bounding box (plus a margin for the probes) but keep drawing
+    # coordinates: a box edge on the image border is still the frame.
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    y0, y1 = max(rows[0] - _MARGIN, 0), min(rows[-1] + _MARGIN + 1, h)
+    x0, x1 = max(cols[0] - _MARGIN, 0), min(cols[-1] + _MARGIN + 1, w)
+    box = mask[y0:y1, x0:x1]
+    loops, holes = _contours(box, speckle)
+    loops = [p + (x0, y0) for p in loops]
     dense = [_smooth(p, w, h, smoothing) for p in loops]
     paths = [(b, _resample(np.asarray(b.path, float), 0.5)) for b in boundaries]
 
@@ -256,10 +271,13 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
                               stations=start + total * np.arange(k + 1) / k))
         matched.append(b.index)
 
+    inside = distance_transform_edt(box) if across > 0 else None
     pts, loop_id, kind, bidx, station, neigh = [], [], [], [], [], []
     for li, d in enumerate(dense):
         base_kind, base_neigh = _provenance(d, mask, visible, labels, region, w, h)
-        res = _loop_vertices(d, base_kind, base_neigh, marks[li], spacing, tolerance)
+        local = (_local_spacing(d - (x0, y0), inside, spacing, across) if inside is not None
+                 else np.full(len(d), spacing))
+        res = _loop_vertices(d, base_kind, base_neigh, marks[li], local, tolerance)
         pts.append(res[0])
         kind.append(res[1])
         bidx.append(res[2])
@@ -429,9 +447,9 @@ def _provenance(d, mask, visible, labels, region, w, h):
     return kind, neigh
 
 
-def _normals(d):
+def _normals(d, span=1):
     """Unit outward normals of an oriented loop (outer loops clockwise in (x, y))."""
-    t = np.roll(d, -1, axis=0) - np.roll(d, 1, axis=0)
+    t = np.roll(d, -span, axis=0) - np.roll(d, span, axis=0)
     n = np.stack([-t[:, 1], t[:, 0]], axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
 
@@ -443,7 +461,25 @@ def _pixel(q, w, h):
 
 # -- marks and resampling ----------------------------------------------------
 
-def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
+def _local_spacing(d, inside, spacing, across):
+    """Longest outline edge at each dense point: spacing, or local width / across."""
+    nrm = _normals(d, span=max(1, round(_CORNER_SPAN / _SMOOTH_STEP)))  # raster bumps tilt short chords
+    reach = spacing * across / 2.0  # half-widths beyond this do not shorten edges
+    t = np.arange(0.5, reach + 0.5, 0.5)
+    probe = d[:, None, :] - nrm[:, None, :] * t[None, :, None]
+    depth = map_coordinates(inside, [probe[..., 1], probe[..., 0]], order=1, mode="nearest")
+    # Walking inward, the distance to the outside grows like t up to the medial axis
+    # (the inscribed radius r), then falls as 2r - t: the first t where it lags well
+    # behind is about 1.1 r (the slack absorbs a normal tilted by up to ~35 degrees).
+    beyond = depth < 0.8 * t[None, :] - 1.0
+    radius = np.where(beyond.any(axis=1), t[np.argmax(beyond, axis=1)], reach)
+    local = np.clip(2.0 * radius / across, _MIN_SPACING, spacing)
+    # Grade along the outline too: no edge longer than a close neighbour allows.
+    window = 2 * max(1, round(spacing / _SMOOTH_STEP)) + 1
+    return minimum_filter1d(local, window, mode="wrap")
+
+
+def _loop_vertices(d, base_kind, base_neigh, marks, local, tolerance):
     """Outline vertices of one loop: stations, provenance changes, simplified curve."""
     s = _cumlen(d, closed=True)
     length = s[-1]
@@ -463,8 +499,8 @@ def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
     for a, b in zip(fixed, fixed[1:] + [fixed[0] + length]):
         if any(_in_arc((a + b) / 2, m["lo"], m["hi"], length) for m in marks):
             continue
-        cand += [(t, 0) for t in _simplified(d, s, length, a, b, spacing, tolerance)]
-    params = _thin(cand, length, gap=min(0.3 * spacing, 0.5))
+        cand += [(t, 0) for t in _simplified(d, s, length, a, b, local, tolerance)]
+    params = _thin(cand, length, gap=min(0.3 * float(local.min()), 0.5))
     params = np.array(params)
 
     pts = np.stack([np.interp(params, np.r_[s, length], np.r_[d[:, i], d[0, i]]) for i in (0, 1)], axis=1)
@@ -487,19 +523,21 @@ def _loop_vertices(d, base_kind, base_neigh, marks, spacing, tolerance):
     return pts, kind, bidx, station, neigh
 
 
-def _simplified(d, s, length, a, b, spacing, tolerance):
-    """Arc parameters in (a, b) keeping the curve within tolerance, edges <= spacing."""
+def _simplified(d, s, length, a, b, local, tolerance):
+    """Arc parameters in (a, b) keeping the curve within tolerance, edges <= local spacing."""
     inner = (s - a) % length
     order = np.argsort(inner)
     inner = inner[order]
-    sel = inner[(inner > 1e-9) & (inner < (b - a) - 1e-9)]
-    ts = np.r_[0.0, sel, b - a]
+    sel = (inner > 1e-9) & (inner < (b - a) - 1e-9)
+    ts = np.r_[0.0, inner[sel], b - a]
     pts = np.stack([np.interp((ts + a) % length, np.r_[s, length], np.r_[d[:, i], d[0, i]])
                     for i in (0, 1)], axis=1)
+    ends = np.interp(np.r_[a, b] % length, np.r_[s, length], np.r_[local, local[0]])
+    allowed = np.r_[ends[0], local[order][sel], ends[1]]
     keep = _douglas_peucker(pts, tolerance)
     out = []
     for i, j in zip(keep[:-1], keep[1:]):
-        n = math.ceil((ts[j] - ts[i]) / spacing)
+        n = math.ceil((ts[j] - ts[i]) / allowed[i:j + 1].min())
         out += list(ts[i] + (ts[j] - ts[i]) * np.arange(1, n) / n)
         if j != keep[-1]:
             out.append(ts[j])

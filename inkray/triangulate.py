@@ -173,15 +173,15 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
 
 
 def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                max_area=DEFAULT_MAX_AREA, min_triangles=200, min_angle=20.0, snap=DEFAULT_SNAP,
-                smoothing=1.0, tolerance=0.3, station_spacing=None):
+                max_area=DEFAULT_MAX_AREA, min_triangles=200, across=8, min_angle=20.0,
+                snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3, station_spacing=None):
     """Outline and triangulate one completed region.
 
     Parameters
     ----------
     mask : (H, W) bool array
         The completed region.
-    visible, labels, region, name, boundaries, snap, smoothing, tolerance, station_spacing
+    visible, labels, region, name, boundaries, across, snap, smoothing, tolerance, station_spacing
         As in :func:`inkray.outline.region_outline`.
     max_area : float, default 50
         Largest triangle area (px^2); the outline spacing follows from it.
@@ -213,6 +213,7 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
         station_spacing = edge_length(max_area)
     area = min(float(max_area), float(np.count_nonzero(mask)) / min_triangles) or float(max_area)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
-                         boundaries=boundaries, max_area=area, snap=snap, smoothing=smoothing,
+                         boundaries=boundaries, max_area=area, across=across, snap=snap,
+                         smoothing=smoothing,
                          tolerance=tolerance, station_spacing=station_spacing)
     return triangulate_outline(out, max_area=area, min_angle=min_angle)
