@@ -176,7 +176,10 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         coarse_to_fine = h * w > 500_000
     strength = _seed_strength(seeds, area, seed_strength)
     if coarse_to_fine and min(h, w) >= 64:
-        labels = _coarse_to_fine(cost, seeds, strength, progress)
+        # Paper areas are "grey >= INK_THRESHOLD" at every level.
+        paper = float(ink_cost(INK_THRESHOLD, ink_level=ink_level, paper_level=paper_level,
+                               gamma=gamma))
+        labels = _coarse_to_fine(cost, seeds, strength, paper, progress)
     else:
         labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
     if len(regions):
@@ -534,13 +537,13 @@ def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflo
     return flat[~g.get_grid_segments(ids)]
 
 
-def _coarse_to_fine(cost, seeds, strength, progress, band=4, small_area=5000):
+def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5000):
     """Solve on a 2x min-pooled copy, then only near its boundaries.
 
     Min-pooling keeps one-pixel lines closed at half resolution. The band of
     ``band`` pixels around every coarse label boundary is solved again at full
-    resolution; so is every paper area holding a seed that the coarse result
-    labelled otherwise (thin areas the pooling closed)."""
+    resolution, and so are whole paper areas (``cost >= paper``) that the
+    pooling may have cut wrongly: see below."""
     h, w = cost.shape
     hp, wp = h + h % 2, w + w % 2
     padded = np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge")
@@ -551,7 +554,7 @@ def _coarse_to_fine(cost, seeds, strength, progress, band=4, small_area=5000):
     small_strength = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
     sh, sw = small_cost.shape
     if sh * sw > 500_000 and min(sh, sw) >= 64:
-        coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, None, band,
+        coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, paper, None, band,
                                  small_area // 4)
     else:
         coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)))
@@ -567,12 +570,13 @@ def _coarse_to_fine(cost, seeds, strength, progress, band=4, small_area=5000):
     wrong = (seeds != UNSEEDED) & (seeds != up)
     free |= ndimage.maximum_filter(wrong.view(np.uint8), size=2 * band + 1).view(bool)
     # Pooling may close a thin neck of a small paper area and split it there:
-    # a small area holding two labels beyond the band, or any area holding a
-    # wrongly labelled seed, is solved again as a whole. (Large areas that hold
-    # several labels are gap closures the band already refines.)
-    comp, n = ndimage.label(cost > 0.5)
-    inner = comp[~free]
-    inner_up = up[~free]
+    # a small area whose fixed pixels and seeds hold two labels, or any area
+    # holding a wrongly labelled seed, is solved again as a whole. (Large
+    # areas that hold several labels are gap closures the band refines.)
+    comp, n = ndimage.label(cost >= paper)
+    seeded = seeds != UNSEEDED
+    inner = np.concatenate([comp[~free], comp[seeded]])
+    inner_up = np.concatenate([up[~free], seeds[seeded]])
     some = np.zeros(n + 1, np.int32)
     some[inner] = inner_up  # one label of each area (the last written)
     mixed = np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0
