@@ -129,3 +129,15 @@ def test_small_regions_get_at_least_min_triangles():
     assert len(mesh.faces) >= 200
     assert _angles(mesh.vertices, mesh.faces).min() >= 20.0 - 1e-6
     assert len(mesh_region(dot, max_area=50.0, min_triangles=1, across=0).faces) < 40
+
+
+def test_narrow_parts_get_shorter_edges():
+    mask = np.zeros((64, 440), bool)
+    mask[20:44, 20:420] = True  # 24 px wide
+    for across, longest in ((8, 24 / 8 * 1.2), (0, edge_length(50.0))):
+        mesh = mesh_region(mask, max_area=50.0, across=across)
+        segs = _boundary_curves(mesh)
+        mid = [s for s in segs if np.all(np.abs(s[:, 0] - 220) < 150)]
+        lengths = np.array([np.linalg.norm(s[1] - s[0]) for s in mid])
+        assert lengths.max() <= longest + 1e-6
+    assert lengths.max() > 0.9 * edge_length(50.0)  # across=0: the plain spacing
