@@ -91,9 +91,9 @@ def main(argv=None):
     if args.worker:
         _worker(args.worker[0], args.drawing, float(args.worker[1]), args.repeat, args.out)
         return 0
-    try:
-        import pyamg  # noqa: F401
-    except ImportError:
+    import importlib.util
+
+    if importlib.util.find_spec("pyamg") is None:
         print("note: pyamg is missing, so random_walker falls back from cg_mg to cg_j")
     print(f"drawing {args.drawing}, best of {args.repeat}, each run in its own process\n")
     header = (f"{'Mpx':>5} {'labels':>6} {'method':<20} {'time s':>8} {'peak RSS MB':>11} "

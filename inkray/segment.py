@@ -157,7 +157,8 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         raise InputError(f"gray: pixel ({x}, {y}) is not a finite number")
     if seeds.size and seeds.min() < UNSEEDED:
         y, x = np.argwhere(seeds < UNSEEDED)[0]
-        raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]} (expected -2, -1 or >= 0)")
+        raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]} "
+                         f"(expected -2, -1 or >= 0)")
     if seeds.size and seeds.max() > np.iinfo(np.int32).max:
         y, x = np.argwhere(seeds > np.iinfo(np.int32).max)[0]
         raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]}, beyond int32")

@@ -283,7 +283,7 @@ def test_shared_drawing_scribbles_and_closed_areas(shared_drawings, name):
     seeded = seeds != UNSEEDED
     # Every scribble pixel carries its own region's (or the background's) label.
     wrong = seeded & (seg.labels != seeds)
-    assert not wrong.any(), f"{wrong.sum()} scribble pixels relabelled, e.g. {np.argwhere(wrong)[0]}"
+    assert not wrong.any(), f"{wrong.sum()} seed pixels relabelled, e.g. {np.argwhere(wrong)[0]}"
     # Closed white areas touched by exactly one region's scribbles: >= 98 % that label.
     comp, n = ndimage.label(d.gray >= 0.5)
     if not ann.background:  # the frame is background
