@@ -57,7 +57,7 @@ _SMOOTH_STEP = 0.5  # px between resampled contour points
 _MARGIN = 5  # px of context kept around a mask's bounding box (probes reach 3.5 px)
 _MIN_SPACING = 1.5  # px: the shortest edge the local-width rule asks for
 _CORNER_SPAN = 3.0  # px each side over which a corner's turning angle is measured
-_CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~8 px has none)
+_CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~4 px has none)
 
 #: Default distance (px) within which a ``boundaries`` path snaps to an outline.
 DEFAULT_SNAP = 6.0
@@ -427,9 +427,8 @@ def _provenance(d, mask, visible, labels, region, w, h):
     kind = np.full(len(d), INKED, np.int8)
     if visible is not None:
         inside = _pixel(d - 0.75 * nrm, w, h)
-        fallback = _pixel(d - 1.5 * nrm, w, h)
-        use = np.where(mask[inside[1], inside[0]], 0, 1)
-        px = np.where(use == 0, inside, fallback)
+        deeper = _pixel(d - 1.5 * nrm, w, h)  # when rounding left the mask
+        px = np.where(mask[inside[1], inside[0]], inside, deeper)
         kind[~visible[px[1], px[0]]] = INVENTED
     kind[_on_frame(d, w, h)] = FRAME
     neigh = np.full(len(d), -1)
