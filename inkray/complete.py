@@ -328,7 +328,7 @@ def check_labels(labels, *, names=None):
     return a.astype(np.int32), names
 
 
-def complete_regions(labels, *, names=None, threshold=0.5, progress=None):
+def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, progress=None):
     """Complete every region under each of its neighbours (illusory surfaces).
 
     For each region ``A`` the Laplace equation is solved on ``A``'s pixels,
@@ -347,6 +347,14 @@ def complete_regions(labels, *, names=None, threshold=0.5, progress=None):
     threshold : float, default 0.5
         Diffusion value above which a pixel joins the completed region; must
         lie in [0.5, 1) so that a pixel completes at most one region.
+    reach : float or None, default 4.0
+        Solve only on the pixels of ``A`` within ``reach`` times the extent
+        of each contact (plus 8 pixels) of that contact, with value 0 beyond:
+        a contact of extent ``L`` cannot raise the value above 0.5 farther
+        than about ``L / 2`` from it (at a straight edge the 0.5 level is the
+        half circle over the contact), so a large occluder with small
+        neighbours costs only the area around them. ``None`` solves on all
+        of ``A``.
     progress : inkray.progress.Progress, optional
         Receives ``update(done, R)`` after each occluder.
 
@@ -384,7 +392,7 @@ def complete_regions(labels, *, names=None, threshold=0.5, progress=None):
     boxes = ndimage.find_objects(labels + 1, max_label=count)
     for a, box in enumerate(boxes):
         if box is not None:
-            _complete_under(labels, a, box, owner, threshold)
+            _complete_under(labels, a, box, owner, threshold, reach)
         if progress is not None:
             progress.update(a + 1, count)
     neighbours = _neighbours(labels, count)
@@ -393,13 +401,15 @@ def complete_regions(labels, *, names=None, threshold=0.5, progress=None):
                       places=places)
 
 
-def _complete_under(labels, a, box, owner, threshold):
+def _complete_under(labels, a, box, owner, threshold, reach):
     """Solve all neighbours of occluder ``a`` with one factorization; write into ``owner``."""
     h, w = labels.shape
     y0, y1 = max(box[0].start - 1, 0), min(box[0].stop + 1, h)
     x0, x1 = max(box[1].start - 1, 0), min(box[1].stop + 1, w)
     # The grown box holds every in-image neighbour of a's pixels; the padding marks the frame.
     crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=_OUTSIDE)
+    if reach is not None:
+        crop = _within_reach(crop, a, reach)
     inside = crop == a
     # Components of a that touch nothing but the frame have no boundary value: leave them out.
     comp, ncomp = ndimage.label(inside)
@@ -447,6 +457,30 @@ def _complete_under(labels, a, box, owner, threshold):
     ys, xs = np.nonzero(inside)
     ys, xs = ys[won] - 1 + y0, xs[won] - 1 + x0
     owner[ys, xs] = nbrs[best[won]]
+
+
+_CUT = -3  # a pixel of the occluder beyond reach: value 0, like "anything else"
+
+
+def _within_reach(crop, a, reach):
+    """Mark the pixels of ``a`` farther than ``reach`` contact extents from every contact as cut."""
+    inside = crop == a
+    keep = np.zeros(crop.shape, bool)
+    near_a = ndimage.binary_dilation(inside)
+    for b in np.unique(crop[near_a & ~inside]):
+        if b < 0:
+            continue
+        contact = inside & ndimage.binary_dilation(crop == b)
+        ys, xs = np.nonzero(contact)
+        extent = max(np.ptp(ys), np.ptp(xs)) + 1
+        d = int(np.ceil(reach * extent)) + 8
+        wy0, wy1 = max(ys.min() - d, 0), ys.max() + d + 1
+        wx0, wx1 = max(xs.min() - d, 0), xs.max() + d + 1
+        dist = ndimage.distance_transform_edt(~contact[wy0:wy1, wx0:wx1])
+        keep[wy0:wy1, wx0:wx1] |= dist <= d
+    out = crop.copy()
+    out[inside & ~keep] = _CUT
+    return out
 
 
 def _pairs(labels):
