@@ -12,21 +12,33 @@ over B at one crossing, B over A at the other) are two consistent local
 relations. Places that touch form a *site*; within a site the relations must
 be acyclic.
 
-Prediction, per place of a pair ``a``/``b``:
+Prediction, per place of a pair ``a``/``b``, from the candidate completions:
 
-- At every junction where their common outline ends at a third label (a T-
-  or Y-junction) the completed outlines are measured in a disk around the
-  junction: ``X`` covers the angle ``t`` of the disk, its completion under
-  the other ``t'``; completing ``X`` *straightens* its outline by
-  ``|t - 180| - |t' - 180|`` degrees. The occluded region is the one whose
-  outline the completion straightens more (at an ideal T the stem region
-  gains 90 degrees, the bar region loses 45, hence the score range ±135).
-  The confidence is the mean difference over the junctions divided by 135,
-  clipped to 1.
+- Junction cue. At every junction where their common outline ends at a
+  third label (a T- or Y-junction), and that does not lie on a ``graft`` or
+  ``stitch`` boundary of the annotation, the outlines are measured in a disk
+  around the junction: ``X`` covers the angle ``t`` of the disk, ``X``
+  completed under the other ``t'``; completing ``X`` *straightens* its
+  outline by ``|t - 180| - |t' - 180|`` degrees. The occluded region is the
+  one whose outline its completion straightens more: at an ideal T the stem
+  region gains 90 degrees and the bar region loses 45 (the diffusion splits
+  the bar's half disk along the bisector), a difference of 135; at a Y both
+  gain alike. The disk's radius is three half-widths of the thinner region
+  there, at most ``junction_radius`` (40 px): wide enough to see past the
+  ink strokes of a drawing, narrow enough not to measure a thin band's
+  surroundings instead of the band.
+- Area cue (the paper's "B' larger than B under A"): ``(|B' in A| - |A' in
+  B|) / (|B' in A| + |A' in B|)``, in [-1, 1].
+- The score is ``3 * mean difference / 135 + area_weight * area cue`` (an
+  ideal T counts 3); its sign says who is in front and ``|score| / (3 +
+  area_weight)``, clipped to 1, is the confidence.
 - A place without junctions is a closed contact: one region encloses a part
   of the other. The enclosing region's completion fills the enclosed part
   completely (``A'`` covers ``B``), so the enclosed part is in front (an eye
   on a head, a button on a coat) with the covered fraction as confidence.
+
+The junction radius and the area weight were chosen on the shared drawings
+(see ``docs/regions.md`` for the measured agreement).
 
 ``equal`` entries say that two regions meet at the same depth where the entry
 is drawn: that place gets a relation of kind ``"equal"``, no prediction, and
