@@ -47,8 +47,9 @@ INK_LEVEL = 0.5
 #: LazyBrush seed strength for the fast method: above the cost of cutting
 #: around one pixel (4 paper edges), so an endpoint keeps its own label.
 _SEED_STRENGTH = 5.0
-#: Factorized areas a session keeps (least recently used dropped first).
-_CACHE_AREAS = 256
+#: A session keeps factorized areas covering up to this many images' pixels
+#: (least recently used dropped first).
+_CACHE_PIXELS = 4
 
 
 @dataclass
@@ -537,8 +538,12 @@ class DepthSession:
                               options=dict(SymmetricMode=True))
             self._factors[key] = lu  # most recently used last
             out.flat[idx] = lu.solve(rhs.flat[idx])
-        # Keep recent areas too: undoing a change finds its factorization again.
-        while len(self._factors) > _CACHE_AREAS:
+        # Keep recent areas too (undoing a change finds its factorization
+        # again), up to a few images' worth of pixels.
+        def cached_pixels():
+            return sum(len(key) for key in self._factors) // 8  # int64 indices
+
+        while len(self._factors) > 1 and cached_pixels() > _CACHE_PIXELS * h * w:
             del self._factors[next(iter(self._factors))]
         return out
 
