@@ -142,6 +142,17 @@ def test_scribble_overshooting_a_line_does_not_flip_the_other_side():
     assert (hard[50, 51:57] == 0).all()  # a hard stroke keeps its pixels
 
 
+def test_a_stroke_across_a_decorative_line_marks_both_sides():
+    shape = (100, 100)
+    gray = np.ones(shape)
+    gray[20, 20:81] = gray[80, 20:81] = gray[20:81, 20] = gray[20:81, 80] = 0.0
+    gray[20:81, 60] = 0.0  # a stripe; the stroke overshoots it by 6 px
+    seeds = _seeds(shape, {0: [(30, 50, 66, 50)]})
+    labels = lazybrush(gray, seeds, frame_background=True)
+    assert (labels[21:80, 21:80] == 0).all()
+    assert (labels[:19] == -1).all()
+
+
 def test_outline_ink_belongs_to_the_character_not_the_background():
     shape = (100, 100)
     ring = _ring(shape, 50, 50, 30, width=6)
