@@ -138,7 +138,7 @@ class Completion:
         return (self.labels == region) | (self.owner == region)
 
     def hidden_by(self, region):
-        """(H, W) int32 image: for each invented pixel of ``region`` the region hiding it, else -1."""
+        """(H, W) int32 image: the region hiding each invented pixel of ``region``, else -1."""
         return np.where(self.owner == region, self.labels, -1).astype(np.int32)
 
     def ordered(self, relations, *, curvature=True):
@@ -451,7 +451,8 @@ def _complete_under(labels, a, box, owner, threshold, reach):
     try:
         u = sla.splu(lap, permc_spec="MMD_AT_PLUS_A").solve(rhs)
     except RuntimeError as e:  # a singular system would be a bug in the frame handling above
-        raise StageError(f"completion under region {a}: cannot factor the Laplacian ({e})") from None
+        raise StageError(f"completion under region {a}: cannot factor the Laplacian "
+                         f"({e})") from None
     best = np.argmax(u, axis=1)
     top = u[np.arange(n), best]
     won = top > threshold
@@ -552,7 +553,8 @@ def _places(labels, owner):
             cy, cx = np.nonzero(m)
             mask = m[cy.min():cy.max() + 1, cx.min():cx.max() + 1]
             ctc = (contact & m)[cy.min():cy.max() + 1, cx.min():cx.max() + 1]
-            box = (int(y0 + cy.min()), int(y0 + cy.max() + 1), int(x0 + cx.min()), int(x0 + cx.max() + 1))
+            box = (int(y0 + cy.min()), int(y0 + cy.max() + 1),
+                   int(x0 + cx.min()), int(x0 + cx.max() + 1))
             places.append(Place(index=len(places), a=a, b=b, box=box, mask=mask, contact=ctc,
                                 where=_middle(ctc if ctc.any() else mask, box),
                                 junctions=[j for j in pair_junctions if _inside(j, m, y0, x0)]))
@@ -575,7 +577,7 @@ def _inside(point, mask, y0, x0):
 
 
 def _junction_points(labels):
-    """Junction points per pair: centroids of clusters of 2x2 blocks that hold a, b and a third label.
+    """Junction points per pair: centres of clusters of 2x2 blocks holding a, b and a third label.
 
     Returns a dict ``{(a, b): [(x, y), ...]}`` with ``a < b``; a point lies at
     the common corner of the block's four pixels.

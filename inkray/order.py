@@ -167,9 +167,8 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
                          f"the one the completion was computed on")
     h, w = labels.shape
     if tuple(annotations.size) != (w, h):
-        raise InputError(f"size: the annotation is for a {annotations.size[0]}x{annotations.size[1]} "
-                         f"drawing but the labels are {w}x{h}")
-    names = completion.names
+        raise InputError(f"size: the annotation is for a {annotations.size[0]}x"
+                         f"{annotations.size[1]} drawing but the labels are {w}x{h}")
     warnings = []
     user = []
     for kind, entries in (("order", annotations.order), ("equal", annotations.equal)):
@@ -253,7 +252,8 @@ def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, s
         turn = 0.0
         for j in junctions:
             radius = _junction_scale(completion.labels, a, b, j, junction_radius)
-            turn += _straightening(completion, b, a, j, radius) - _straightening(completion, a, b, j, radius)
+            turn += (_straightening(completion, b, a, j, radius)
+                     - _straightening(completion, a, b, j, radius))
         turn /= len(junctions)
         score = turn / _T_SCORE * 3.0 + area_weight * _extension(completion, place)
         if score == 0:
@@ -300,7 +300,8 @@ def _polyline_distance(point, path):
         return float(np.hypot(*(path[0] - p)))
     a, b = path[:-1], path[1:]
     ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / length2, 0, 1)
     return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
 
 
@@ -384,7 +385,8 @@ def _user_relation(kind, index, p, q, labels, completion, warnings):
     candidates = [pl for pl in completion.places if pl.a == lo and pl.b == hi]
     place = None
     if candidates:
-        place = min(candidates, key=lambda pl: (min(pl.distance(p), pl.distance(q)), pl.index)).index
+        place = min(candidates,
+                    key=lambda pl: (min(pl.distance(p), pl.distance(q)), pl.index)).index
     else:
         warnings.append(f"{key}: regions {names[u]!r} and {names[v]!r} do not touch; "
                         f"the relation has no overlap area")

@@ -184,7 +184,8 @@ def test_weakest_prediction_in_a_cycle_is_dropped():
     # then close a cycle with it, and one of them must go.
     ann = Annotations(size=(W, H), order=[Order(front=pts[0], back=pts[2], index=0)])
     place = next(p for p in c.places if (p.a, p.b) == (0, 2))
-    ann.order = [Order(front=_near(labels, 0, place.where), back=_near(labels, 2, place.where), index=0)]
+    ann.order = [Order(front=_near(labels, 0, place.where), back=_near(labels, 2, place.where),
+                       index=0)]
     relations, warnings = depth_order(ann, labels, c)
     dropped = [w for w in warnings if "dropped" in w]
     assert len(dropped) == 1 and "closes the cycle" in dropped[0]
@@ -205,7 +206,8 @@ def test_entries_that_name_no_pair_warn():
     ])
     relations, warnings = depth_order(ann, labels, c)
     assert [(r.entry, r.place) for r in relations] == [(2, None)]
-    assert warnings[0].startswith(f"order[0].back: point ({5 * SCALE}, {5 * SCALE}) lies in the background")
+    assert warnings[0].startswith(f"order[0].back: point ({5 * SCALE}, {5 * SCALE}) lies in "
+                                  f"the background")
     assert warnings[1].startswith("order[1]: both points lie in region 'left'")
     assert warnings[2].startswith("order[2]: regions 'left' and 'right' do not touch")
 
@@ -238,12 +240,15 @@ def _drawing(tmp_path):
     gray = np.full((H, W), 255, np.uint8)
     d = disk(100, 80, 50)
     band = rect(85, 5, 125, 155)
-    edge = lambda m: m & ~(np.roll(m, 1, 0) & np.roll(m, -1, 0) & np.roll(m, 1, 1) & np.roll(m, -1, 1))  # noqa: E731
+    def edge(m):
+        return m & ~(np.roll(m, 1, 0) & np.roll(m, -1, 0) & np.roll(m, 1, 1) & np.roll(m, -1, 1))
+
     gray[edge(d) & ~band] = 0
     gray[edge(band)] = 0
     Image.fromarray(gray).save(tmp_path / "d.png")
     doc = {"format": "inkray-annotations", "version": 1, "drawing": "d.png", "size": [W, H],
-           "regions": [{"name": "disk", "scribbles": [[P(70, 80), P(75, 90)], [P(135, 80), P(140, 70)]]},
+           "regions": [{"name": "disk",
+                        "scribbles": [[P(70, 80), P(75, 90)], [P(135, 80), P(140, 70)]]},
                        {"name": "band", "scribbles": [[P(105, 20), P(105, 140)]]}],
            "background": [[P(5, 5), P(215, 5), P(215, 155), P(5, 155), P(5, 5)]]}
     path = tmp_path / "d.inkray.json"
@@ -285,7 +290,8 @@ def test_cli_regions_no_predict_and_user_entries(tmp_path):
 
 def test_cli_regions_writes_nothing_on_contradiction(tmp_path, capsys):
     ann, doc = _drawing(tmp_path)
-    doc["order"] = [{"front": P(70, 80), "back": P(105, 60)}, {"front": P(105, 60), "back": P(70, 80)}]
+    doc["order"] = [{"front": P(70, 80), "back": P(105, 60)},
+                    {"front": P(105, 60), "back": P(70, 80)}]
     ann.write_text(json.dumps(doc))
     out = tmp_path / "r.json"
     masks = tmp_path / "m"
@@ -306,7 +312,8 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
 
     agree = counted = total = 0
     lines = []
-    for folder in sorted(p for p in shared_drawings.iterdir() if (p / "drawing.inkray.json").is_file()):
+    folders = sorted(p for p in shared_drawings.iterdir() if (p / "drawing.inkray.json").is_file())
+    for folder in folders:
         ann, drawing = load_input(folder / "drawing.inkray.json")
         seg = segment(ann, drawing)
         c = complete_regions(seg.labels, names=seg.names)
@@ -320,7 +327,8 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
         agree += good
         counted += len(placed)
         total += len(load_annotations(folder / "drawing.inkray.json").order)
-        lines.append(f"{folder.name}: {good}/{len(placed)} (of {len(orders)} entries between regions)")
+        lines.append(f"{folder.name}: {good}/{len(placed)} of the entries between touching "
+                     f"regions ({len(orders)} entries between regions)")
     with capsys.disabled():
         print("\n" + "\n".join(lines) + f"\nall: {agree}/{counted} = {agree / counted:.1%} "
               f"({total} entries, {total - counted} between regions that do not touch)")
