@@ -153,7 +153,7 @@ def _cmd_regions(args, progress):
                      **({"mask": str(masks / f"{n}.png")} if masks is not None else {})}
                     for i, n in enumerate(names)],
         "relations": [{"front": r.front_name, "back": r.back_name, "where": point(r.where),
-                       "source": r.source, "confidence": round(r.confidence, 4),
+                       "source": r.source, "confidence": float(f"{r.confidence:.4g}"),
                        "place": r.place, "entry": None if r.entry is None else f"order[{r.entry}]"}
                       for r in relations if r.kind == "order"],
         "equal": [{"a": r.front_name, "b": r.back_name, "where": point(r.where), "place": r.place,
