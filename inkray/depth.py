@@ -414,14 +414,25 @@ class DepthSession:
         if self.labels is None:
             self._fresh()
             return
-        # Re-segment only the segments the changed endpoints lie in.
+        # Re-segment only where the changed endpoints lie: a removed endpoint's
+        # whole segment (its label goes), for a new one the part of its host
+        # segment within a window around it (the new label cannot reach
+        # farther; a cut at the window edge runs through paper and the Laplace
+        # fill keeps the depth smooth across it).
+        h, w = self.shape
         nxt = max([k for k in self._endpoint_label.values() if k is not None] + [-1]) + 1
         area = np.zeros(self.shape, bool)
+        r = max(32, int(0.1 * max(h, w)))
         for v in sorted(self._dirty):
-            area |= self.labels == self.labels.flat[v]
+            seg = self.labels == self.labels.flat[v]
             if self._endpoint_label.get(v, 0) is None:
                 self._endpoint_label[v] = nxt
                 nxt += 1
+                y, x = divmod(v, w)
+                window = np.zeros(self.shape, bool)
+                window[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1] = True
+                seg &= window
+            area |= seg
         self._dirty = set()
         self._resegment(area)
 
