@@ -190,7 +190,8 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
     band : float, optional
         Width in px of the graft band where the front region follows the one
-        behind; default twice the mean outline edge of the front mesh.
+        behind; default a quarter of the seam's length, at least two outline
+        edges and at most two mean edges of the front mesh.
     tol : float, default 1e-6
         Allowed constraint violation (px).
     max_rounds : int, default 60
@@ -238,11 +239,20 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
         zones = _boundary_rows(rows, blocks, regions, relations, annotations, band)
     keepout = _keepout(zones)
     if completion is not None:
+        # One set of overlap rows per (front, back, place), however many entries say it.
+        said = {}
         for rel in relations:
             if rel.kind == "order" and rel.place is not None:
-                _order_rows(rows, blocks, rel, completion, annotations, epsilon, keepout)
+                said.setdefault((rel.front, rel.back, rel.place), []).append(rel.label)
+                if annotations is not None and rel.source == "user" and rel.entry is not None:
+                    e = annotations.order[rel.entry]
+                    _entry_rows(rows, blocks, rel, np.array([e.front, e.back], float), epsilon,
+                                keepout)
             elif rel.kind == "equal" and annotations is not None and rel.entry is not None:
                 _equal_rows(rows, blocks, rel, annotations.equal[rel.entry])
+        for (a, b, place), labels in said.items():
+            _overlap_rows(rows, blocks, a, b, completion.places[place], completion, epsilon,
+                          keepout, " and ".join(labels))
 
     C = rows.matrix(n)
     rhs = np.asarray(rows.rhs, float)
@@ -306,11 +316,10 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
     return int(ok.sum())
 
 
-def _order_rows(rows, blocks, rel, completion, annotations, epsilon, keepout):
-    a, b = rel.front, rel.back
+def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
+    """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap."""
     if blocks[a] is None or blocks[b] is None:
         return
-    place = completion.places[rel.place]
     y0, y1, x0, x1 = place.box
     h, w = completion.labels.shape
     # The overlap of both completed regions inside the place, grown by 2 px so
@@ -321,7 +330,6 @@ def _order_rows(rows, blocks, rel, completion, annotations, epsilon, keepout):
     pm = np.zeros_like(both)
     pm[y0 - win[0].start:y1 - win[0].start, x0 - win[1].start:x1 - win[1].start] = place.mask
     zone = binary_dilation(pm, iterations=2) & binary_dilation(both, iterations=2)
-    label = rel.label
     for src in (a, b):
         blk = blocks[src]
         px = np.rint(blk.v).astype(np.int64)
@@ -333,11 +341,15 @@ def _order_rows(rows, blocks, rel, completion, annotations, epsilon, keepout):
         pts = blk.v[sel]
         front_at = sel if src == a else pts
         _terms_rows(rows, blocks, [(a, front_at, 1.0), (b, pts, -1.0)], epsilon, True, label)
-    if annotations is not None and rel.source == "user" and rel.entry is not None:
-        e = annotations.order[rel.entry]
-        pts = np.array([e.front, e.back], float)
-        pts = pts[~keepout(a, b, pts)]
-        _terms_rows(rows, blocks, [(a, pts, 1.0), (b, pts, -1.0)], epsilon, True, label)
+
+
+def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
+    """The user's own two points: the front region above the back one at each."""
+    a, b = rel.front, rel.back
+    if blocks[a] is None or blocks[b] is None:
+        return
+    points = points[~keepout(a, b, points)]
+    _terms_rows(rows, blocks, [(a, points, 1.0), (b, points, -1.0)], epsilon, True, rel.label)
 
 
 def _equal_rows(rows, blocks, rel, entry):
@@ -381,7 +393,13 @@ def _boundary_rows(rows, blocks, regions, relations, annotations, band):
         if other in holders and _in_front(relations, other, front, blocks):
             front, other = other, front  # the graft grows out of the region behind
             st = regions[front].mesh.station_vertices(entry.index)
-        width = band if band is not None else 2.0 * _mean_outline_edge(regions[front].mesh)
+        if band is not None:
+            width = band
+        else:
+            seam = blocks[front].v[st]
+            length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
+            width = min(max(2.0 * _mean_outline_edge(regions[front].mesh), 0.25 * length),
+                        2.0 * _mean_edge(regions[front].mesh))
         _graft_rows(rows, blocks, regions, front, other, st, width, key)
         zones.append((front, other, blocks[front].v[st], width))
     return zones
@@ -420,8 +438,9 @@ def _slope_rows(rows, blocks, regions, a, b, stations, label):
     At every station ``s`` with unit normal ``n`` (pointing into ``a``),
     ``z_a(s + t n) - z_a(s) = z_b(s) - z_b(s - t n)``: the front region
     leaves the seam with the slope the region behind arrives with. ``t`` is
-    the first multiple of one outline edge past the part of ``a`` that ``b``'s
-    mesh covers (there the graft band already makes ``a`` follow ``b``).
+    the first multiple (up to 3) of one outline edge past the part of ``a``
+    that ``b``'s mesh covers; where ``b`` reaches farther, the graft band
+    makes ``a`` follow ``b`` and no slope row is needed.
     """
     p = blocks[a].v[stations]
     if len(p) < 2:
@@ -435,14 +454,19 @@ def _slope_rows(rows, blocks, regions, a, b, stations, label):
     if np.median(into_a) > np.median(into_b):
         n = -n
     t = np.full(len(p), d)
-    for _ in range(8):
+    inside = np.ones(len(p), bool)
+    for _ in range(3):
         _, _, covered = blocks[b].locate(p + t[:, None] * n)
         inside = covered <= _INSIDE
         if not inside.any():
             break
         t[inside] += d
+    # Where b reaches farther under a, the band carries the join; a slope row
+    # there would fight the inequalities that keep a above b.
+    keep = ~inside
+    p, n, t, stations = p[keep], n[keep], t[keep], np.asarray(stations)[keep]
     step = t[:, None] * n
-    _terms_rows(rows, blocks, [(a, p + step, 1.0), (a, np.asarray(stations), -1.0),
+    _terms_rows(rows, blocks, [(a, p + step, 1.0), (a, stations, -1.0),
                                (b, p, -1.0), (b, p - step, 1.0)], 0.0, False, label, graft=True)
 
 
@@ -487,6 +511,12 @@ def _distance_to_polyline(points, line):
     return np.sqrt(((p[:, None, :] - closest) ** 2).sum(-1)).min(axis=1)
 
 
+def _mean_edge(mesh):
+    f = np.asarray(mesh.faces)
+    v = np.asarray(mesh.vertices)
+    return float(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2).mean())
+
+
 def _mean_outline_edge(mesh):
     e = np.concatenate([mesh.faces[:, [0, 1]], mesh.faces[:, [1, 2]], mesh.faces[:, [2, 0]]])
     both = mesh.outline[e].all(axis=1)
@@ -498,58 +528,72 @@ def _mean_outline_edge(mesh):
 
 # -- the QP ------------------------------------------------------------------------------
 
-def _solve(C, rhs, ineq, use, labels, blocks, owner, tol, max_rounds, progress):
+def _solve(C, rhs, ineq, use, labels, blocks, owner, tol, max_rounds, progress, per_group=8):
     """Constraint generation around the exact dual active set on the working set.
 
-    Only rows where ``use`` is True take part. Returns ``(g, active, rounds)``.
+    Only rows where ``use`` is True take part. The working set starts with the
+    equalities and, per annotation entry, the ``per_group`` inequalities most
+    violated at ``g = 0``; each round adds the most violated candidates per
+    entry. Returns ``(g, active, rounds)``.
     """
     n = C.shape[1]
     cand = np.flatnonzero(use)
-    if len(cand) == 0:
-        return np.zeros(n), 0, 0
     C, rhs, ineq = C[cand], rhs[cand], ineq[cand]
-    labels = [labels[r] for r in cand]
-    # equalities, and inequalities already violated at g = 0, start the working set
-    in_work = ~ineq | (-rhs < -tol)
+    group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
+    in_work = ~ineq
+    in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, tol, per_group)
     if not in_work.any():
         return np.zeros(n), 0, 0
-    Z = {}  # row -> Q^-1 C_row^T (dense, length n)
+    Z = np.zeros((n, 0))
+    order = np.zeros(0, np.int64)  # row of C behind each column of Z
+    lam = np.zeros(0)
     for rnd in range(1, max_rounds + 1):
-        idx = np.flatnonzero(in_work)
-        for r in idx:
-            if r not in Z:
-                Z[r] = _qinv_row(C[r], blocks, owner, n)
-        Zw = np.column_stack([Z[r] for r in idx])
-        H = C[idx] @ Zw
+        new = np.setdiff1d(np.flatnonzero(in_work), order)
+        Z = np.hstack([Z, _qinv_rows(C[new], blocks, owner)])
+        order = np.concatenate([order, new])
+        H = C[order] @ Z
         H = 0.5 * (H + H.T)
+        start = np.concatenate([lam, np.zeros(len(new))])
         try:
-            lam = dual_active_set(H, rhs[idx], ineq[idx], what="stitching QP")
+            lam = dual_active_set(H, rhs[order], ineq[order], what="stitching QP", start=start)
         except StageError:
-            raise InputError(_conflict_message(H, rhs[idx], ineq[idx], [labels[r] for r in idx]))\
-                from None
-        g = Zw @ lam
-        slack = C @ g - rhs
-        viol = np.where(ineq, -slack, np.abs(slack))
-        viol[in_work & ineq] = 0.0  # held by the dual; only new candidates matter
+            names = [labels[cand[r]] for r in order]
+            raise InputError(_conflict_message(H, rhs[order], ineq[order], names)) from None
+        g = Z @ lam
+        viol = np.where(ineq, rhs - C @ g, 0.0)
+        viol[in_work] = 0.0  # held by the dual; only new candidates matter
         if progress is not None:
             progress.update(rnd, max_rounds)
         if viol.max(initial=0.0) <= tol:
             return g, int((np.abs(lam) > 0).sum()), rnd
-        new = np.flatnonzero(viol > tol)
-        in_work[new[np.argsort(-viol[new])][:max(50, len(idx) // 2)]] = True
+        in_work |= _worst_per_group(viol, group, tol, per_group)
     raise StageError(f"stitching: constraint generation did not converge in {max_rounds} rounds")
 
 
-def _qinv_row(row, blocks, owner, n):
-    out = np.zeros(n)
-    cols = row.indices
-    vals = row.data
-    for i in np.unique(owner[cols]):
+def _worst_per_group(viol, group, tol, k):
+    """Mask of the ``k`` largest violations above ``tol`` in every group."""
+    out = np.zeros(len(viol), bool)
+    bad = np.flatnonzero(viol > tol)
+    if len(bad) == 0:
+        return out
+    ranked = bad[np.lexsort((-viol[bad], group[bad]))]
+    g = group[ranked]
+    rank = np.arange(len(ranked)) - np.searchsorted(g, g)
+    out[ranked[rank < k]] = True
+    return out
+
+
+def _qinv_rows(rows, blocks, owner):
+    """``Q^-1 rows^T`` as a dense (n, k) array, one batched solve per region block."""
+    n = rows.shape[1]
+    out = np.zeros((n, rows.shape[0]))
+    if rows.shape[0] == 0:
+        return out
+    csc = rows.tocsc()
+    for i in np.unique(owner[rows.indices]):
         b = blocks[i]
-        rhs = np.zeros(len(b.h))
-        sel = owner[cols] == i
-        np.add.at(rhs, cols[sel] - b.start, vals[sel])
-        out[b.start:b.start + len(b.h)] = b.solve(rhs)
+        sl = slice(b.start, b.start + len(b.h))
+        out[sl] = b.solve(csc[:, sl].T.toarray())
     return out
 
 
