@@ -200,7 +200,7 @@ def _cmd_relief(args, progress):
     from .export import export_relief
     from .io import atomic_outputs
     from .pipeline import build_relief
-    from .render import render
+    from .render import render, write_renderings
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
     if args.units_per_pixel <= 0:
@@ -230,7 +230,7 @@ def _cmd_relief(args, progress):
             written = export_relief(result.relief, out, units_per_pixel=args.units_per_pixel,
                                     anchor=args.anchor, outputs=group)
             for mode, target in images.items():
-                render(result.relief, mode=mode).save(group.path(target))
+                write_renderings(render(result.relief, mode=mode), target, outputs=group)
                 written.append(target)
     progress.summary()
     parts = result.relief.parts
