@@ -4,7 +4,7 @@ stitching -> assembly. Each stage is its own module; this one only passes
 their dataclasses along and times them.
 """
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 from .assemble import assemble
 from .complete import complete_regions
@@ -13,7 +13,6 @@ from .inflate import inflate_region
 from .order import depth_order
 from .outline import DEFAULT_MAX_AREA, check_boundaries
 from .progress import Progress
-from .scribbles import polyline_pixels
 from .segment import segment
 from .stitch import stitch
 
@@ -86,8 +85,7 @@ def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_ARE
     progress = progress if progress is not None else Progress(quiet=True)
     warnings = []
     with progress.stage("segment"):
-        seg = segment(annotations, _with_boundary_ink(drawing, annotations.boundaries),
-                      progress=progress)
+        seg = segment(annotations, drawing, progress=progress)
         warnings += seg.warnings
     with progress.stage("complete"):
         completion = complete_regions(seg.labels, names=seg.names, progress=progress)
@@ -119,18 +117,3 @@ def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_ARE
                         relations=relations, layers=layers, warnings=warnings,
                         timings=list(progress.timings))
 
-
-def _with_boundary_ink(drawing, boundaries):
-    """The drawing with every ``graft``/``stitch`` path drawn in as ink.
-
-    A boundary entry is where the user says two parts meet (often across an
-    open stroke); drawing it in makes the segmentation cut exactly there, so
-    the outline snaps to the entry.
-    """
-    marks = [b for b in boundaries if b.type in ("graft", "stitch")]
-    if not marks:
-        return drawing
-    gray = drawing.gray.copy()
-    for b in marks:
-        gray[polyline_pixels(b.path, gray.shape)] = 0.0
-    return replace(drawing, gray=gray)

@@ -34,7 +34,7 @@ import numpy as np
 from scipy import ndimage
 
 from .errors import InputError
-from .scribbles import BACKGROUND, UNSEEDED, seed_image
+from .scribbles import BACKGROUND, UNSEEDED, polyline_pixels, seed_image
 
 __all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "label_palette", "INK_THRESHOLD"]
 
@@ -294,6 +294,7 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
         raise InputError(f"drawing: all ink (fewer than {floor} pixels lighter than "
                          f"{INK_THRESHOLD}): no paper to segment")
     _check_scribbles_off_ink(annotations, gray)
+    gray = _with_boundary_cuts(gray, annotations.boundaries)
     seeds = seed_image(annotations)
     warnings = []
     names = [r.name for r in annotations.regions]
@@ -315,6 +316,22 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
                             f"(do its scribbles only overshoot ink lines?)")
     warnings += _unscribbled_areas(gray, seeds, labels, names, frame, min_area)
     return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
+
+
+def _with_boundary_cuts(gray, boundaries):
+    """The grey image with every ``graft``/``stitch`` path drawn in as ink.
+
+    A boundary entry is where the user says two parts meet, often across an
+    open stroke; as ink it makes the cut run exactly there, so the region
+    outlines (and the relief's seams) follow the entry.
+    """
+    marks = [b for b in boundaries if b.type in ("graft", "stitch")]
+    if not marks:
+        return gray
+    gray = gray.copy()
+    for b in marks:
+        gray[polyline_pixels(b.path, gray.shape)] = 0.0
+    return gray
 
 
 def label_palette(n):

@@ -383,3 +383,25 @@ def test_package_exports():
 
     assert inkray.lazybrush is lazybrush and inkray.Segmentation is Segmentation
     assert sys.modules["inkray.segment"].segment is segment
+
+
+def test_graft_and_stitch_paths_guide_the_cut():
+    """A limb open at the top into a body: the cut follows the annotated graft path."""
+    from inkray.annotations import parse_annotations
+    from inkray.segment import segment
+
+    gray = np.ones((120, 160))
+    gray[10, 10:150] = gray[110, 10:150] = 0  # the body's outline
+    gray[10:111, 10] = gray[10:111, 150] = 0
+    gray[60:111, 60] = gray[60:111, 100] = 0  # the limb: two open strokes up from the bottom
+    doc = {"format": "inkray-annotations", "version": 1, "size": [160, 120],
+           "regions": [{"name": "body", "scribbles": [[[30, 30], [130, 30]]]},
+                       {"name": "limb", "scribbles": [[[80, 100]]]}],
+           "background": [[[2, 2], [157, 2]]]}
+    plain = segment(parse_annotations(doc), gray).labels
+    doc["boundaries"] = [{"type": "graft", "path": [[60, 80], [100, 80]]}]
+    cut = segment(parse_annotations(doc), gray).labels
+    # with the path the limb ends exactly at y = 80; without it the cheapest
+    # cut wraps tightly around the limb's dot
+    assert (cut[81:109, 61:100] == 1).all() and (cut[60:79, 61:100] == 0).all()
+    assert (plain == 1).sum() < 0.5 * (cut == 1).sum()
