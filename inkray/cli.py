@@ -311,11 +311,18 @@ def _cmd_demo(args, progress):
         ("relief", ["relief", str(ann), "-o", str(out / "relief.glb")]),
         ("render", ["render", str(out / "relief.glb"), "-o", str(out / "shaded.png")]),
     ]
+    from .render import has_mitsuba
+
+    if has_mitsuba():
+        steps.append(("gi", ["render", str(out / "relief.glb"), "-o", str(out / "gi.png"),
+                             "--mode", "gi", "--spp", str(args.spp)]))
+    else:
+        print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
     flags = (["--quiet"] if args.quiet else []) + (["--debug"] if args.debug else [])
     print(f"demo: {args.example} -> {out}/")
     for name, argv in steps:
         try:
-            code = _run(flags + argv, progress)
+            code = _run(flags + argv)
         except StageMissing as e:
             print(f"demo: stopped at '{name}': {e}; the stages before it ran")
             return 0
@@ -429,6 +436,8 @@ def _parser():
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
+    p["demo"].add_argument("--spp", type=int, default=32,
+                           help="samples per pixel of the GI render (default: 32)")
     return parser
 
 

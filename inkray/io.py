@@ -39,7 +39,14 @@ class _Outputs:
         self.write_bytes(target, text.encode("utf-8"))
 
     def _commit(self):
+        mode = _default_mode()
         for tmp, target in self._pending:
+            # mkstemp makes 0600 files; outputs get the usual permissions
+            # (an existing target's, else 0666 minus the umask).
+            try:
+                os.chmod(tmp, os.stat(target).st_mode & 0o7777)
+            except FileNotFoundError:
+                os.chmod(tmp, mode)
             os.replace(tmp, target)
         self._pending = []
 
@@ -48,6 +55,12 @@ class _Outputs:
             with contextlib.suppress(FileNotFoundError):
                 tmp.unlink()
         self._pending = []
+
+
+def _default_mode():
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 @contextlib.contextmanager

@@ -181,3 +181,12 @@ def test_validate_never_crashes_on_malformed_json(tmp_path, minimal_doc, data, c
     if code == 2:
         assert err.startswith("inkray: error: ") and err.count("\n") == 1, err
     assert "Traceback" not in err and "internal error" not in err
+
+
+def test_outputs_get_normal_permissions(tmp_path):
+    old = os.umask(0o022)
+    try:
+        write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
