@@ -7,12 +7,14 @@ drawing, and planar UVs map the drawing onto it.
 
 The open relief has one front surface per part at ``z = h + g``. The closed
 variant mirrors each part to the back about its offset field: the back is at
-``z = g - h - t``, so the two surfaces share the silhouette vertices where
-``h = 0`` (welded, no wall) and are joined by a wall where the outline is
-Neumann (``flat``/``graft`` stretches, the image frame), where ``h > 0``.
-``t`` is zero except for ``flat`` parts, which get a slab of thickness
-``epsilon``. Every closed part is a watertight, consistently oriented
-manifold; ``union=True`` merges them into one solid with manifold3d.
+``z = g - h - t`` below the same outline, joined to the front by a wall of
+height ``2 h + t`` along it. ``t`` is the depth step ``epsilon``: at the
+silhouette (``h = 0``) the wall is a thin rim instead of a knife edge, which
+keeps every part a proper 2-manifold (a knife edge pinches wherever a
+triangle has all its corners on the silhouette) and gives ``flat`` parts a
+slab of thickness ``epsilon``. Every closed part is watertight and
+consistently oriented; ``union=True`` merges them into one solid with
+manifold3d.
 """
 
 import numpy as np
@@ -21,6 +23,8 @@ from .errors import StageError
 from .relief import Part, Relief
 
 __all__ = ["assemble", "close_part", "union_parts"]
+
+_SEPARATION = 1e-3  # px between parts in the union (see union_parts)
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -65,9 +69,7 @@ def assemble(layers, *, size, texture=None, closed=False, union=False):
         v = np.column_stack([mesh.vertices, z])
         part = Part(name=mesh.name, vertices=v, faces=np.asarray(mesh.faces, np.int64))
         if closed:
-            flat = bool(np.all(region.height == 0))
-            part = close_part(part, layers.offset[i] - region.height
-                              - (layers.epsilon if flat else 0.0))
+            part = close_part(part, layers.offset[i] - region.height - layers.epsilon)
         parts.append(part)
     if not parts:
         raise StageError("assemble: no region has a mesh")
@@ -82,7 +84,7 @@ def assemble(layers, *, size, texture=None, closed=False, union=False):
 
 
 def close_part(part, back_z):
-    """Close an open front surface with a back surface and walls.
+    """Close an open front surface with a back surface and a wall along its outline.
 
     Parameters
     ----------
@@ -90,46 +92,33 @@ def close_part(part, back_z):
         Open front surface: an outline-bounded triangle mesh, faces toward the
         viewer.
     back_z : (n,) float array
-        Height of the back below each front vertex (``<=`` the front's).
+        Height of the back below each front vertex; strictly below the front
+        on the outline (the wall has positive height everywhere, so no face
+        is degenerate and every edge has exactly two faces).
 
     Returns
     -------
     Part
-        A closed part: front vertices, then back vertices where the back does
-        not coincide with the front; walls along the outline where they differ.
+        Front vertices, then their back copies; front faces, reversed back
+        faces, and two wall triangles per outline edge.
 
     Raises
     ------
     StageError
-        When ``back_z`` lies above the front somewhere.
+        When ``back_z`` is not below the front.
     """
     v = np.asarray(part.vertices, float)
     f = np.asarray(part.faces, np.int64)
     n = len(v)
     back_z = np.asarray(back_z, float)
-    gap = v[:, 2] - back_z
-    if (gap < -1e-9).any():
-        raise StageError(f"part {part.name}: the back lies above the front")
-    edges = _boundary_edges(f)
-    on_outline = np.zeros(n, bool)
-    on_outline[edges.ravel()] = True
-    weld = on_outline & (gap <= 1e-9)
-    back_index = np.where(weld, np.arange(n), -1)
-    new = np.flatnonzero(~weld)
-    back_index[new] = n + np.arange(len(new))
-    back_v = np.column_stack([v[new, :2], back_z[new]])
-    back_f = back_index[f][:, ::-1]
-    walls = []
-    for a, b in edges:  # front edge a -> b as the front faces run it
-        ba, bb = back_index[a], back_index[b]
-        if ba != a and bb != b:
-            walls += [(b, a, ba), (b, ba, bb)]
-        elif ba != a:
-            walls.append((b, a, ba))
-        elif bb != b:
-            walls.append((b, a, bb))
-    faces = np.concatenate([f, back_f, np.asarray(walls, np.int64).reshape(-1, 3)])
-    return Part(name=part.name, vertices=np.concatenate([v, back_v]), faces=faces, closed=True)
+    if (v[:, 2] - back_z <= 0).any():
+        raise StageError(f"part {part.name}: the back does not lie below the front")
+    a, b = _boundary_edges(f).T  # front edge a -> b as the front faces run it
+    # the wall runs the shared edges the other way: b -> a on the front, a' -> b' on the back
+    walls = np.concatenate([np.stack([b, a, a + n], 1), np.stack([b, a + n, b + n], 1)])
+    faces = np.concatenate([f, f[:, ::-1] + n, walls])
+    back = np.column_stack([v[:, :2], back_z])
+    return Part(name=part.name, vertices=np.concatenate([v, back]), faces=faces, closed=True)
 
 
 def union_parts(parts, *, name="union"):
@@ -153,9 +142,13 @@ def union_parts(parts, *, name="union"):
     import manifold3d as m3d
 
     total = None
-    for p in parts:
+    for k, p in enumerate(parts):
         # manifold3d works in a right-handed frame: flip y (down -> up) and back.
-        verts = np.asarray(p.vertices, np.float32) * np.array([1, -1, 1], np.float32)
+        # Part k is lifted by k * 1e-3 px: a graft band makes two front surfaces
+        # coincide exactly, and coincident faces pinch the union into
+        # duplicate-position vertices that other tools weld into non-manifold edges.
+        verts = (np.asarray(p.vertices, float) + [0.0, 0.0, k * _SEPARATION]) * [1, -1, 1]
+        verts = verts.astype(np.float32)
         solid = m3d.Manifold(m3d.Mesh(vert_properties=verts,
                                       tri_verts=np.asarray(p.faces, np.uint32)))
         if solid.status() != m3d.Error.NoError:

@@ -2,31 +2,16 @@
 
 from dataclasses import replace
 
-import igl
 import numpy as np
 import pytest
 
+from _mesh import height_at
 from inkray.annotations import parse_annotations
 from inkray.complete import complete_regions
 from inkray.errors import InputError
 from inkray.inflate import inflate_region
 from inkray.order import depth_order
 from inkray.stitch import stitch
-
-
-def height_at(vertices2d, faces, z, points):
-    """Barycentric height of a mesh at ``points`` and the distance to the mesh."""
-    v3 = np.column_stack([vertices2d, np.zeros(len(vertices2d))])
-    p3 = np.column_stack([points, np.zeros(len(points))])
-    d2, face, closest = igl.point_mesh_squared_distance(p3, v3, faces)
-    tri = faces[face]
-    a, b, c = (vertices2d[tri[:, k]] for k in range(3))
-    q = closest[:, :2]
-    den = (b - a)[:, 0] * (c - a)[:, 1] - (c - a)[:, 0] * (b - a)[:, 1]
-    wb = ((q - a)[:, 0] * (c - a)[:, 1] - (c - a)[:, 0] * (q - a)[:, 1]) / den
-    wc = ((b - a)[:, 0] * (q - a)[:, 1] - (q - a)[:, 0] * (b - a)[:, 1]) / den
-    w = np.column_stack([1 - wb - wc, wb, wc])
-    return (z[tri] * w).sum(1), np.sqrt(d2)
 
 
 def _doc(size, regions=(), order=(), boundaries=()):
