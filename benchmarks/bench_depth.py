@@ -114,7 +114,8 @@ def bench_exact(sizes, counts, use_osqp, use_clarabel):
             print(f"{size:>5}x{size:<4} {m:>4} {'exact':>9} {te:8.2f} {viol:9.1e} {0.0:12.1e} "
                   f"{0.0:9.1e} {1.0:7.1f}  KKT {kkt:.1e}, "
                   + ", ".join(f"{k} {v:.2f}" for k, v in r.timings.items()), flush=True)
-            for name, use, fn in (("osqp", use_osqp, run_osqp), ("clarabel", use_clarabel, run_clarabel)):
+            for name, use, fn in (("osqp", use_osqp, run_osqp),
+                                  ("clarabel", use_clarabel, run_clarabel)):
                 if not use:
                     continue
                 try:

@@ -167,7 +167,8 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
     1.0
     """
     if method not in METHODS:
-        raise InputError(f"method: unknown method {method!r} (expected one of {', '.join(METHODS)})")
+        raise InputError(f"method: unknown method {method!r} "
+                         f"(expected one of {', '.join(METHODS)})")
     if not (isinstance(epsilon, (int, float)) and np.isfinite(epsilon) and epsilon > 0):
         raise InputError(f"epsilon: expected a positive number, got {epsilon!r}")
     gray = np.asarray(getattr(drawing, "gray", drawing), np.float64)
@@ -560,7 +561,10 @@ class DepthSession:
 
 
 def _area_laplacian(idx, deg, weights, shape):
-    """Weighted Laplacian of the free pixels ``idx`` (sorted raster indices) with Dirichlet neighbours."""
+    """Weighted Laplacian of the free pixels ``idx`` (sorted raster indices).
+
+    Neighbours outside ``idx`` are fixed (Dirichlet): they only add to the diagonal.
+    """
     h, w = shape
     pos = np.full(h * w, -1, np.int64)
     pos[idx] = np.arange(len(idx))

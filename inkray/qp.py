@@ -578,7 +578,8 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     resid = laplacian @ d - ct
     kkt = {
         "stationarity": float(np.abs(resid).max() / max(1.0, np.abs(ct).max())) if n else 0.0,
-        "primal": float(max(0.0, (-slack[ineq]).max(initial=0.0), np.abs(slack[~ineq]).max(initial=0.0))),
+        "primal": float(max(0.0, (-slack[ineq]).max(initial=0.0),
+                            np.abs(slack[~ineq]).max(initial=0.0))),
         "dual": float(max(0.0, (-lam[ineq]).max(initial=0.0))),
         "complementarity": float(np.abs(lam[ineq] * slack[ineq]).max(initial=0.0)),
     }
