@@ -177,6 +177,10 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         raise InputError(f"drawing: the image is {gray.shape[1]}x{gray.shape[0]} but the "
                          f"annotation is for {w}x{h}")
     p, q, ineq, labels = depth_constraints(annotations)
+    same = np.flatnonzero(ineq & (p == q))
+    if len(same):
+        y, x = divmod(int(p[same[0]]), w)
+        raise InputError(f"{labels[same[0]]}: front and back round to the same pixel ({x}, {y})")
     check_constraints(p, q, ineq, labels)
     if method == "exact":
         return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
@@ -287,6 +291,7 @@ class DepthSession:
         self._weights = None    # the image's edge weights, per neighbour direction
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
+        self.region_levels = {}  # segment label -> level, after solve()
         self.timings = {}
 
     # -- constraints ------------------------------------------------------------
@@ -374,6 +379,7 @@ class DepthSession:
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
         if not len(p):
             self._dirty = set()
+            self.region_levels = {}
             return np.zeros((h, w))
         t = time.perf_counter()
         self._segment()

@@ -325,6 +325,20 @@ def test_cli_writes_all_outputs(tmp_path):
         assert np.asarray(Image.open(out / "d.png")).dtype == np.uint16
 
 
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_no_orders_or_only_equalities_give_a_flat_map(method):
+    for extra in ({}, {"equal": [{"a": [1, 1], "b": [15, 8]}]}):
+        ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [20, 10],
+                                 **extra})
+        assert np.abs(depth(ann, np.ones((10, 20)), method=method).depth).max() == 0.0
+
+
+def test_order_whose_points_round_to_one_pixel():
+    ann = _ann((20, 10), order=[((1.2, 1), (1, 1.3))])
+    with pytest.raises(InputError, match=r"^order\[0\]: front and back round to the same pixel \(1, 1\)"):
+        depth(ann, np.ones((10, 20)))
+
+
 def test_bad_method_and_epsilon():
     ann = _ann((5, 5), order=[((0, 0), (4, 4))])
     with pytest.raises(InputError, match="method"):
