@@ -335,7 +335,8 @@ def test_no_orders_or_only_equalities_give_a_flat_map(method):
 
 def test_order_whose_points_round_to_one_pixel():
     ann = _ann((20, 10), order=[((1.2, 1), (1, 1.3))])
-    with pytest.raises(InputError, match=r"^order\[0\]: front and back round to the same pixel \(1, 1\)"):
+    pattern = r"^order\[0\]: front and back round to the same pixel \(1, 1\)"
+    with pytest.raises(InputError, match=pattern):
         depth(ann, np.ones((10, 20)))
 
 
