@@ -1,0 +1,87 @@
+"""Benchmark of the whole relief chain (issue 7): per-stage times and peak memory.
+
+Runs ``inkray.pipeline.build_relief`` on the shared drawings at their own size
+and upscaled to about 1 Mpx, each case in a fresh process (so peak RSS is that
+case's own), and prints a table against the targets: 5 s and 2 GB for a 1 Mpx
+drawing on a 2-core machine.
+
+Usage::
+
+    python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale]
+"""
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared" / "drawings"
+TARGET_S, TARGET_MB = 5.0, 2048.0
+STAGES = ("segment", "complete", "order", "inflate", "stitch", "assemble")
+
+
+def _one(name, megapixels):
+    from PIL import Image
+
+    from inkray.inputs import load_input
+    from inkray.pipeline import build_relief
+    from inkray.progress import Progress
+
+    ann_path = SHARED / name / "drawing.inkray.json"
+    drawing = None
+    if megapixels:
+        src = next(p for p in (SHARED / name).iterdir() if p.stem == "drawing" and p.suffix != ".json")
+        image = Image.open(src)
+        scale = (megapixels * 1e6 / (image.width * image.height)) ** 0.5
+        size = (round(image.width * scale), round(image.height * scale))
+        drawing = Path(tempfile.mkdtemp()) / f"up{src.suffix}"
+        image.resize(size, Image.LANCZOS).save(drawing)
+    ann, d = load_input(ann_path, drawing=drawing, rescale=drawing is not None)
+    progress = Progress(quiet=True)
+    start = time.perf_counter()
+    result = build_relief(ann, d, progress=progress)
+    total = time.perf_counter() - start
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    print(json.dumps({"name": name, "size": list(ann.size), "regions": len(ann.regions),
+                      "stages": dict(progress.timings), "total": total, "rss_mb": rss,
+                      "vertices": sum(len(p.vertices) for p in result.relief.parts)}))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--names", help="comma-separated shared drawings (default: all)")
+    parser.add_argument("--no-upscale", action="store_true", help="only the drawings' own size")
+    parser.add_argument("--one", nargs=2, metavar=("NAME", "MPX"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.one:
+        _one(args.one[0], float(args.one[1]))
+        return
+    names = args.names.split(",") if args.names else sorted(
+        p.name for p in SHARED.iterdir() if (p / "drawing.inkray.json").is_file())
+    cases = [(n, 0.0) for n in names] + ([] if args.no_upscale else [(n, 1.0) for n in names])
+    head = (f"{'drawing':<12} {'size':>10} {'reg':>3} " + " ".join(f"{s:>8}" for s in STAGES)
+            + f" {'total s':>8} {'x 5 s':>6} {'RSS MB':>7} {'x 2 GB':>6} {'verts':>7}")
+    print(head)
+    print("-" * len(head))
+    for name, mpx in cases:
+        run = subprocess.run([sys.executable, __file__, "--one", name, str(mpx)],
+                             capture_output=True, text=True, env={**os.environ, "PYTHONHASHSEED": "0"})
+        if run.returncode != 0:
+            print(f"{name:<12} failed: {run.stderr.strip().splitlines()[-1]}")
+            continue
+        r = json.loads(run.stdout.strip().splitlines()[-1])
+        size = f"{r['size'][0]}x{r['size'][1]}"
+        print(f"{name:<12} {size:>10} {r['regions']:>3} "
+              + " ".join(f"{r['stages'].get(s, 0):8.2f}" for s in STAGES)
+              + f" {r['total']:8.2f} {r['total'] / TARGET_S:6.2f} {r['rss_mb']:7.0f}"
+              f" {r['rss_mb'] / TARGET_MB:6.2f} {r['vertices']:>7}")
+
+
+if __name__ == "__main__":
+    main()
