@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.ndimage import binary_dilation
 from scipy.sparse.linalg import splu
+from threadpoolctl import threadpool_limits
 
 from .errors import InputError, StageError
 from .qp import dual_active_set
@@ -98,14 +99,16 @@ class _Rows:
 
     def __init__(self):
         self.idx, self.w, self.rhs, self.ineq, self.label, self.graft = [], [], [], [], [], []
+        self.xy = []  # where the row speaks (its first point), to spread the working set
 
-    def add(self, idx, w, rhs, ineq, label, graft=False):
+    def add(self, idx, w, rhs, ineq, label, graft=False, xy=(0.0, 0.0)):
         self.idx.append(np.asarray(idx, np.int64))
         self.w.append(np.asarray(w, float))
         self.rhs.append(float(rhs))
         self.ineq.append(bool(ineq))
         self.label.append(label)
         self.graft.append(bool(graft))
+        self.xy.append(xy)
 
     def matrix(self, n):
         m = len(self.rhs)
@@ -137,8 +140,14 @@ class _Region:
         self._v3 = np.column_stack([self.v, np.zeros(len(self.v))])
 
     def solve(self, rhs):
+        with threadpool_limits(limits=1, user_api="blas"):  # see inkray.qp.dual_active_set
+            return self._solve(rhs)
+
+    def _solve(self, rhs):
         if self._lu is None:
-            self._lu = splu(self.q, permc_spec="MMD_AT_PLUS_A")
+            # symmetric positive definite: symmetric ordering, no pivoting
+            self._lu = splu(self.q, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                            options={"SymmetricMode": True})
         return self._lu.solve(rhs)
 
     def locate(self, points):
@@ -266,15 +275,15 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
     # where pass 1 put them and everything else is solved again with the
     # graft rows, so a grafted part follows its base without denting it.
     bases = {base for _, base, _, _ in zones} - {front for front, _, _, _ in zones}
-    g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, blocks, owner, tol, max_rounds,
-                               progress)
+    g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner, tol,
+                               max_rounds, progress)
     if graft.any():
         fixed = np.isin(owner, sorted(bases))
         shifted = rhs - C[:, fixed] @ g[fixed]
         Cf = C.multiply(~fixed[None, :]).tocsr()
         touches = np.diff(Cf.indptr) > 0
-        g2, active2, rounds2 = _solve(Cf, shifted, ineq, touches, rows.label, blocks, owner, tol,
-                                      max_rounds, progress)
+        g2, active2, rounds2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy, blocks,
+                                      owner, tol, max_rounds, progress)
         g = np.where(fixed, g, g2)
         active, rounds = active2, rounds + rounds2
     slack = C @ g - rhs
@@ -306,13 +315,15 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
         else:
             tri, w, dist = blk.locate(where)
         located.append((blk, tri, w, coef))
+        if len(located) == 1:
+            xy = (blk.v[tri] * w[..., None]).sum(axis=1)
         ok = dist <= _INSIDE if ok is None else ok & (dist <= _INSIDE)
     for k in np.flatnonzero(ok):
         idx = np.concatenate([blk.start + tri[k] for blk, tri, _, _ in located])
         wts = np.concatenate([coef * w[k] for _, _, w, coef in located])
         # z = h + g: move the known heights to the right-hand side
         const = rhs - sum(coef * float(blk.h[tri[k]] @ w[k]) for blk, tri, w, coef in located)
-        rows.add(idx, wts, const, ineq, label, graft)
+        rows.add(idx, wts, const, ineq, label, graft, tuple(xy[k]))
     return int(ok.sum())
 
 
@@ -528,20 +539,22 @@ def _mean_outline_edge(mesh):
 
 # -- the QP ------------------------------------------------------------------------------
 
-def _solve(C, rhs, ineq, use, labels, blocks, owner, tol, max_rounds, progress, per_group=8):
+def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, per_group=4):
     """Constraint generation around the exact dual active set on the working set.
 
     Only rows where ``use`` is True take part. The working set starts with the
     equalities and, per annotation entry, the ``per_group`` inequalities most
     violated at ``g = 0``; each round adds the most violated candidates per
-    entry. Returns ``(g, active, rounds)``.
+    entry, spread apart (neighbouring samples carry nearly the same
+    information and would make the dual singular). Returns
+    ``(g, active, rounds)``.
     """
     n = C.shape[1]
     cand = np.flatnonzero(use)
-    C, rhs, ineq = C[cand], rhs[cand], ineq[cand]
+    C, rhs, ineq, xy = C[cand], rhs[cand], ineq[cand], np.asarray(xy, float)[cand]
     group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
     in_work = ~ineq
-    in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, tol, per_group)
+    in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, xy, tol, per_group)
     if not in_work.any():
         return np.zeros(n), 0, 0
     Z = np.zeros((n, 0))
@@ -566,20 +579,27 @@ def _solve(C, rhs, ineq, use, labels, blocks, owner, tol, max_rounds, progress, 
             progress.update(rnd, max_rounds)
         if viol.max(initial=0.0) <= tol:
             return g, int((np.abs(lam) > 0).sum()), rnd
-        in_work |= _worst_per_group(viol, group, tol, per_group)
+        in_work |= _worst_per_group(viol, group, xy, tol, per_group)
     raise StageError(f"stitching: constraint generation did not converge in {max_rounds} rounds")
 
 
-def _worst_per_group(viol, group, tol, k):
-    """Mask of the ``k`` largest violations above ``tol`` in every group."""
+def _worst_per_group(viol, group, xy, tol, k):
+    """Mask of up to ``k`` violated rows per group: the worst, then the worst
+    farther than a quarter of the group's violated extent from those taken."""
     out = np.zeros(len(viol), bool)
-    bad = np.flatnonzero(viol > tol)
-    if len(bad) == 0:
-        return out
-    ranked = bad[np.lexsort((-viol[bad], group[bad]))]
-    g = group[ranked]
-    rank = np.arange(len(ranked)) - np.searchsorted(g, g)
-    out[ranked[rank < k]] = True
+    for g in np.unique(group[viol > tol]):
+        bad = np.flatnonzero((group == g) & (viol > tol))
+        bad = bad[np.argsort(-viol[bad], kind="stable")]
+        p = xy[bad]
+        radius = 0.25 * float(np.ptp(p, axis=0).max(initial=0.0))
+        near = np.zeros(len(bad), bool)
+        for _ in range(k):
+            free = np.flatnonzero(~near)
+            if len(free) == 0:
+                break
+            j = free[0]
+            out[bad[j]] = True
+            near |= np.hypot(*(p - p[j]).T) <= radius
     return out
 
 
