@@ -33,6 +33,10 @@ from .triangulate import RegionMesh, mesh_region, triangulate_outline  # noqa: E
 from .segment import Segmentation, lazybrush, segment  # noqa: E402
 from .complete import Completion, Place, complete_regions, continue_outline  # noqa: E402
 from .order import Relation, depth_order, predict_place  # noqa: E402
+from .stitch import Layers, stitch  # noqa: E402
+from .assemble import assemble, close_part, union_parts  # noqa: E402
+from .relief import Part, Relief  # noqa: E402
+from .pipeline import ReliefResult, build_relief  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -56,4 +60,6 @@ __all__ = [
     "Raster", "fit_view", "rasterize", "vertex_normals",
     "Rendering", "has_mitsuba", "output_size", "read_relief", "render", "render_turntable",
     "write_renderings",
+    "Layers", "stitch", "assemble", "close_part", "union_parts", "Part", "Relief",
+    "ReliefResult", "build_relief",
 ]
