@@ -11,7 +11,10 @@ Scene frame of every written file: ``X`` right, ``Y`` up, ``Z`` toward the
 viewer, ``units_per_pixel`` scene units per drawing pixel (default 0.001: a
 1000 px tall drawing is 1 unit tall), on all three axes. ``anchor="center"``
 puts the drawing's centre at the origin; ``anchor="top-left"`` puts its
-top-left corner there (the drawing then covers ``X >= 0, Y <= 0``). The
+top-left corner there (the drawing then covers ``X >= 0, Y <= 0``). Pixel
+centres are at integer drawing coordinates (:mod:`inkray.relief`), so the
+centre is pixel position ``((W - 1) / 2, (H - 1) / 2)`` and the top-left
+corner ``(-0.5, -0.5)``. The
 drawing plane (height 0) is ``Z = 0``. Front faces are counter-clockwise seen
 from ``+Z`` (glTF's convention), so their normals point toward the viewer.
 """
@@ -74,9 +77,9 @@ def scene_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
 
     Examples
     --------
-    >>> scene_coordinates([[100, 50, 10]], (200, 100), units_per_pixel=0.01)
+    >>> scene_coordinates([[99.5, 49.5, 10]], (200, 100), units_per_pixel=0.01)
     array([[0. , 0. , 0.1]])
-    >>> scene_coordinates([[100, 50, 10]], (200, 100), units_per_pixel=0.01, anchor="top-left")
+    >>> scene_coordinates([[99.5, 49.5, 10]], (200, 100), units_per_pixel=0.01, anchor="top-left")
     array([[ 1. , -0.5,  0.1]])
     """
     _check_frame(units_per_pixel, anchor)
@@ -106,7 +109,7 @@ def pixel_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
     Examples
     --------
     >>> pixel_coordinates([[0, 0, 0.1]], (200, 100), units_per_pixel=0.01)
-    array([[100.,  50.,  10.]])
+    array([[99.5, 49.5, 10. ]])
     """
     _check_frame(units_per_pixel, anchor)
     p = np.asarray(points, float).reshape(-1, 3)
@@ -158,14 +161,14 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
     ------
     InputError
         Unknown suffix or anchor, non-positive scale, or a relief that is not
-        valid (names, shapes, indices, texture size, vertices more than half a
-        pixel off the drawing).
+        valid (names, shapes, indices, texture size, vertices off the drawing's
+        ``[-0.5, W - 0.5] x [-0.5, H - 0.5]``).
 
     Examples
     --------
     >>> import tempfile, pathlib
     >>> from inkray.relief import Part, Relief
-    >>> tri = Part("a", np.array([[0., 0, 0], [0, 10, 0], [10, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
     >>> d = pathlib.Path(tempfile.mkdtemp())
     >>> [p.name for p in export_relief(r, d / "r.obj")]
@@ -225,7 +228,7 @@ def read_meshes(path):
     --------
     >>> import tempfile, pathlib
     >>> from inkray.relief import Part, Relief
-    >>> tri = Part("a", np.array([[0., 0, 0], [0, 10, 0], [10, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
     >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
     >>> [(m.name, len(m.vertices), len(m.faces)) for m in read_meshes(p)]
@@ -274,7 +277,8 @@ def _check_frame(units_per_pixel, anchor):
 
 def _origin(size, anchor):
     w, h = size
-    return (w / 2.0, h / 2.0) if anchor == "center" else (0.0, 0.0)
+    # Pixel centres are integers: the drawing spans [-0.5, W - 0.5] x [-0.5, H - 0.5].
+    return ((w - 1) / 2.0, (h - 1) / 2.0) if anchor == "center" else (-0.5, -0.5)
 
 
 def _check_relief(relief):
@@ -291,10 +295,9 @@ def _check_relief(relief):
     if not relief.parts:
         raise InputError("relief.parts: the relief has no parts")
     seen = set()
-    # Up to half a pixel beyond the border: the outline of a border pixel, in
-    # either pixel convention (centres at integers or at half-integers). UVs
-    # there are clamped to [0, 1].
-    tol = 0.5 + 1e-6 * max(w, h)
+    # Pixel centres are integers: the drawing spans [-0.5, W - 0.5]; allow
+    # round-off past that edge.
+    tol = 0.5 + 1e-6 * max(w, h)  # from the outermost pixel centre to the drawing's edge
     for i, part in enumerate(relief.parts):
         where = f"parts[{i}]"
         name = part.name
@@ -319,7 +322,8 @@ def _check_relief(relief):
             bad = int(np.argmax((f < 0).any(axis=1) | (f >= len(v)).any(axis=1)))
             raise InputError(f"{where}: face {bad} {f[bad].tolist()} indexes past the "
                              f"{len(v)} vertices")
-        off = (v[:, 0] < -tol) | (v[:, 0] > w + tol) | (v[:, 1] < -tol) | (v[:, 1] > h + tol)
+        off = ((v[:, 0] < -tol) | (v[:, 0] > w - 1 + tol) | (v[:, 1] < -tol)
+               | (v[:, 1] > h - 1 + tol))
         if off.any():
             k = int(np.argmax(off))
             raise InputError(f"{where}: vertex {k} at pixel ({v[k, 0]:g}, {v[k, 1]:g}) lies "
@@ -489,10 +493,10 @@ def _ply_bytes(relief, meshes, units_per_pixel, anchor):
 
 
 def _sample_bilinear(image, xy):
-    """Colours of ``image`` at pixel positions ``xy`` (pixel ``c`` spans ``[c, c + 1)``)."""
+    """Colours of ``image`` at pixel positions ``xy`` (pixel ``c`` centred at ``c``)."""
     h, w = image.shape[:2]
-    x = np.clip(xy[:, 0] - 0.5, 0, w - 1)
-    y = np.clip(xy[:, 1] - 0.5, 0, h - 1)
+    x = np.clip(xy[:, 0], 0, w - 1)
+    y = np.clip(xy[:, 1], 0, h - 1)
     x0 = np.minimum(np.floor(x).astype(int), w - 2) if w > 1 else np.zeros(len(x), int)
     y0 = np.minimum(np.floor(y).astype(int), h - 2) if h > 1 else np.zeros(len(y), int)
     x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)

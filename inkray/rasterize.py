@@ -10,9 +10,10 @@ texture-registration checks.
 Frames. Input vertices are in drawing pixels (``x`` right, ``y`` down, ``z``
 toward the viewer, see :mod:`inkray.relief`). An optional affine ``view``
 matrix moves the camera (e.g. a turntable angle or a stereo shear); the output
-pixel of a view point ``q`` is ``(q_x * scale + offset_x, q_y * scale +
-offset_y)`` with pixel ``(row i, column j)`` centred at ``(j + 0.5, i + 0.5)``,
-and its depth is ``q_z``. Normals stay in the relief's frame because a view
+pixel of a view point ``q`` is ``((q_x + 0.5) * scale + offset_x, (q_y + 0.5) *
+scale + offset_y)`` with pixel ``(row i, column j)`` centred at ``(j + 0.5, i +
+0.5)``: drawing pixel centres are integers (:mod:`inkray.relief`), so at scale 1
+drawing pixel ``(x, y)`` is output pixel ``(y, x)``, and its depth is ``q_z``. Normals stay in the relief's frame because a view
 moves the camera, not the lighting.
 
 The rasterizer is vectorized over (triangle, pixel-in-bounding-box) pairs in
@@ -57,11 +58,12 @@ class Raster:
     position : (h, w, 3) float array
         The visible surface point in drawing coordinates (before the view).
     uv : (h, w, 2) float array
-        Planar texture coordinates ``(x / W, 1 - y / H)`` of that point.
+        Planar texture coordinates ``((x + 0.5) / W, 1 - (y + 0.5) / H)`` of that
+        point (:meth:`inkray.relief.Relief.uv`).
     scale : float
         Output pixels per drawing pixel.
     offset : (float, float)
-        Output pixel position of the drawing's origin.
+        Output pixel position of the drawing's top-left corner ``(-0.5, -0.5)``.
     """
 
     part: np.ndarray
@@ -95,7 +97,7 @@ def fit_view(drawing_size, size):
     scale : float
         Output pixels per drawing pixel.
     offset : (float, float)
-        Output pixel position of the drawing's origin.
+        Output pixel position of the drawing's top-left corner ``(-0.5, -0.5)``.
 
     Examples
     --------
@@ -120,7 +122,8 @@ def rasterize(relief, *, size=None, scale=None, offset=None, view=None):
         Output pixels per drawing pixel. Default: fit the drawing into
         ``size`` (see :func:`fit_view`), or 1.
     offset : (float, float), optional
-        Output pixel position of the drawing's origin. Default: centred when
+        Output pixel position of the drawing's top-left corner ``(-0.5,
+        -0.5)`` (pixel centres are integers). Default: centred when
         ``size`` and ``scale`` are both derived, else ``(0, 0)``.
     view : (3, 4) array, optional
         Affine camera: a drawing point ``p`` is seen at ``view[:, :3] @ p +
@@ -135,8 +138,9 @@ def rasterize(relief, *, size=None, scale=None, offset=None, view=None):
     --------
     >>> import numpy as np
     >>> from inkray.relief import Part, Relief
-    >>> v = np.array([[0, 0, 5], [4, 0, 5], [4, 4, 5], [0, 4, 5]], float)
+    >>> v = np.array([[0, 0, 5], [4, 0, 5], [4, 4, 5], [0, 4, 5]], float) - [0.5, 0.5, 0]
     >>> f = np.array([[0, 3, 2], [0, 2, 1]])  # counter-clockwise as seen by the viewer
+    >>> # the drawing's whole extent: pixel centres (integers) 0..3 lie inside
     >>> r = rasterize(Relief([Part("sq", v, f)], size=(4, 4)))
     >>> int(r.mask.sum()), float(r.depth[1, 1]), r.normal[1, 1].tolist()
     (16, 5.0, [0.0, 0.0, 1.0])
@@ -167,7 +171,8 @@ def rasterize(relief, *, size=None, scale=None, offset=None, view=None):
 
     verts, tris, tri_part, tri_local, normals = _soup(relief)
     seen = verts @ view[:, :3].T + view[:, 3]
-    px = np.stack([seen[:, 0] * scale + offset[0], seen[:, 1] * scale + offset[1]], axis=1)
+    px = np.stack([(seen[:, 0] + 0.5) * scale + offset[0], (seen[:, 1] + 0.5) * scale + offset[1]],
+                  axis=1)
 
     tri_id = _zbuffer(px, seen[:, 2], tris, w, h)
 
@@ -176,7 +181,10 @@ def rasterize(relief, *, size=None, scale=None, offset=None, view=None):
     t = tri_id[pix]
     cols, rows = pix % w + 0.5, pix // w + 0.5
     corners = tris[t]
-    b = _barycentric(px[corners], cols, rows)
+    # Pixel centres on an edge or vertex get barycentrics a round-off below 0;
+    # clamped, interpolated depths and positions stay within their triangle.
+    b = np.clip(_barycentric(px[corners], cols, rows), 0.0, None)
+    b /= b.sum(axis=1, keepdims=True)
 
     part = np.full(h * w, -1, np.int32)
     face = np.full(h * w, -1, np.int64)

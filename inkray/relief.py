@@ -6,7 +6,9 @@ drawing, and planar texture coordinates map the drawing onto it.
 
 Coordinates of :attr:`Part.vertices` are drawing pixels: ``x`` the column,
 ``y`` the row (growing downward), ``z`` the height toward the viewer, in
-pixels. Faces are oriented so their normals point toward the viewer on the
+pixels. As in the annotation format, pixel centres are at integer
+coordinates, so the drawing covers ``[-0.5, W - 0.5] x [-0.5, H - 0.5]``.
+Faces are oriented so their normals point toward the viewer on the
 front surface (counter-clockwise as seen by the viewer, i.e. clockwise in the
 ``(x, y)`` image plane, since ``y`` grows downward). Exporters convert to their
 own frame (e.g. y up, +z toward the viewer).
@@ -58,7 +60,10 @@ class Relief:
     texture: np.ndarray = None
 
     def uv(self, vertices):
-        """Planar texture coordinates: pixel ``(x, y)`` -> ``(x / W, 1 - y / H)``.
+        """Planar texture coordinates: ``(x, y)`` -> ``((x + 0.5) / W, 1 - (y + 0.5) / H)``.
+
+        Pixel centres (integers) land on texel centres, the drawing's outer
+        edges on 0 and 1.
 
         Parameters
         ----------
@@ -70,4 +75,4 @@ class Relief:
         """
         v = np.asarray(vertices, float)
         w, h = self.size
-        return np.stack([v[:, 0] / w, 1.0 - v[:, 1] / h], axis=1)
+        return np.stack([(v[:, 0] + 0.5) / w, 1.0 - (v[:, 1] + 0.5) / h], axis=1)

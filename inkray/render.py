@@ -371,7 +371,7 @@ def _yaw_view(relief, yaw):
     """Affine view of a camera turned by ``yaw`` degrees about the vertical centre axis."""
     a = np.radians(yaw)
     c, s = np.cos(a), np.sin(a)
-    cx = relief.size[0] / 2.0
+    cx = (relief.size[0] - 1) / 2.0  # pixel centres are integers
     return np.array([[c, 0, -s, cx - c * cx], [0, 1, 0, 0], [s, 0, c, -s * cx]])
 
 
@@ -645,7 +645,7 @@ def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
     w, h = size
     scale, _ = fit_view(relief.size, size)
     k = 2.0 / w * scale  # drawing pixels -> world units (orthographic film spans x in [-1, 1])
-    cx, cy = relief.size[0] / 2.0, relief.size[1] / 2.0
+    cx, cy = (relief.size[0] - 1) / 2.0, (relief.size[1] - 1) / 2.0
     a = np.radians(yaw)
     eye = [10 * np.sin(a), 0.0, 10 * np.cos(a)]
     scene = {
@@ -693,8 +693,10 @@ def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
         bsdf = mi.load_dict({"type": "twosided", "bsdf": {
             "type": "roughplastic", "distribution": "ggx", "alpha": 0.3,
             "diffuse_reflectance": color}})
-        # Mitsuba's bitmap rows run top to bottom: v = y / H.
-        uv = np.stack([v[:, 0] / relief.size[0], v[:, 1] / relief.size[1]], axis=1)
+        # Mitsuba's bitmap rows run top to bottom: v = (y + 0.5) / H, pixel
+        # centres (integers) on texel centres.
+        uv = np.stack([(v[:, 0] + 0.5) / relief.size[0], (v[:, 1] + 0.5) / relief.size[1]],
+                      axis=1)
         scene[f"part{i}"] = _mesh(mi, f"part{i}", world, np.asarray(p.faces), normals, uv, bsdf)
     if backdrop:
         # just behind the lowest point, so the relief rests on it with contact shadows
@@ -749,7 +751,8 @@ def read_relief(path):
     Geometry comes from :func:`inkray.export.read_meshes`. inkray's files are
     placed by the frame their exporter records (GLB scene extras, PLY header
     comments; see :mod:`inkray.export`); other files with a texture by their
-    texture coordinates (``x = u W``, ``y = (1 - v) H``); anything else is
+    texture coordinates (``x = u W - 0.5``, ``y = (1 - v) H - 0.5``: pixel
+    centres at integers, as in :mod:`inkray.relief`); anything else is
     scaled so its longer side spans 512 pixels. The drawing is the GLB's
     base-colour texture or the OBJ's ``map_Kd`` (PLY carries none).
 
@@ -771,12 +774,12 @@ def read_relief(path):
     --------
     >>> import tempfile, pathlib
     >>> from inkray.export import export_relief
-    >>> tri = Part("a", np.array([[0., 0, 0], [0, 10, 2], [10, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
     >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
     >>> back = read_relief(p)
     >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
-    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 10.0, 2.0], [10.0, 0.0, 0.0]])
+    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
     """
     import trimesh
 
@@ -817,7 +820,9 @@ def read_relief(path):
         size = tuple(max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
 
         def to_pixels(v):
-            return np.stack([(v[:, 0] - lo[0]) / s, (hi[1] - v[:, 1]) / s, v[:, 2] / s], axis=1)
+            # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
+            return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
+                             v[:, 2] / s], axis=1)
     parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
     return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
 
@@ -852,10 +857,10 @@ def _frame(scene, path):
 
 
 def _uv_fit(pairs, size, path):
-    """Scene -> pixel map fitted to planar texture coordinates (x = u W, y = (1 - v) H)."""
+    """Scene -> pixel map fitted to texture coordinates: x = u W - 0.5, y = (1 - v) H - 0.5."""
     v = np.concatenate([p[0] for p in pairs])
     uv = np.concatenate([p[1] for p in pairs])
-    target = np.stack([uv[:, 0] * size[0], (1 - uv[:, 1]) * size[1]], axis=1)
+    target = np.stack([uv[:, 0] * size[0] - 0.5, (1 - uv[:, 1]) * size[1] - 0.5], axis=1)
     coef = []
     for axis in range(2):
         a = np.column_stack([v[:, axis], np.ones(len(v))])

@@ -2,7 +2,8 @@
 
 Parts are disks inflated to spherical caps (a disk of radius R with height R is
 a hemisphere), triangulated with ``triangle``, in the convention of
-inkray.relief: drawing pixels, y down, front faces clockwise in (x, y).
+inkray.relief: drawing pixels (centres at integers, the drawing spanning
+[-0.5, W - 0.5] x [-0.5, H - 0.5]), y down, front faces clockwise in (x, y).
 """
 
 import numpy as np
@@ -61,7 +62,7 @@ def grid_part(name, xs, ys, z=0.0):
 def drawing(size=SIZE, disks=DISKS, seed=0):
     """A colourful drawing with fine detail: gradients, noise, ink outlines of the disks."""
     w, h = size
-    y, x = np.mgrid[0:h, 0:w] + 0.5
+    y, x = np.mgrid[0:h, 0:w].astype(float)
     rng = np.random.default_rng(seed)
     img = np.stack([40 + 180 * x / w, 40 + 180 * y / h, 120 + 60 * np.sin(x / 5.0)], axis=2)
     img += rng.normal(0.0, 25.0, img.shape)
@@ -81,7 +82,7 @@ def disk_relief(closed=False):
 def disk_mask(size=SIZE, disks=DISKS, inset=1.0):
     """Pixels whose centre lies inside a disk by at least ``inset`` pixels (the character)."""
     w, h = size
-    y, x = np.mgrid[0:h, 0:w] + 0.5
+    y, x = np.mgrid[0:h, 0:w].astype(float)
     mask = np.zeros((h, w), bool)
     for _, cx, cy, radius, _ in disks:
         mask |= np.hypot(x - cx, y - cy) < radius - inset

@@ -89,7 +89,7 @@ def test_ply_round_trip_counts_colours_and_uvs(relief, tmp_path):
 
 def test_ply_colours_are_the_drawing_at_pixel_centres(tmp_path):
     tex = drawing()
-    xs, ys = np.arange(10, 50) + 0.5, np.arange(20, 45) + 0.5
+    xs, ys = np.arange(10.0, 50.0), np.arange(20.0, 45.0)  # pixel centres are integers
     relief = Relief([grid_part("grid", xs, ys)], SIZE, tex)
     mesh = _load(export_relief(relief, tmp_path / "g.ply")[0])["ply"]
     raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
@@ -154,8 +154,8 @@ def test_closed_glb_faces_point_outward(tmp_path):
 
 
 def test_large_part_keeps_32_bit_indices(tmp_path):
-    xs = np.linspace(0.5, SIZE[0] - 0.5, 300)
-    ys = np.linspace(0.5, SIZE[1] - 0.5, 230)  # 69 000 vertices > 65 535
+    xs = np.linspace(0.0, SIZE[0] - 1.0, 300)
+    ys = np.linspace(0.0, SIZE[1] - 1.0, 230)  # 69 000 vertices > 65 535
     part = grid_part("sheet", xs, ys, z=3.0)
     path = export_relief(Relief([part], SIZE, drawing()), tmp_path / "big.glb")[0]
     (mesh,) = _load(path).values()
@@ -168,7 +168,8 @@ def test_large_part_keeps_32_bit_indices(tmp_path):
 @pytest.mark.parametrize("anchor", ["center", "top-left"])
 def test_frame_anchor_and_scale(anchor, tmp_path):
     w, h = SIZE
-    corners = grid_part("sheet", [0, w], [0, h], z=10.0)
+    # The drawing's corners: pixel centres are integers, so it spans [-0.5, W - 0.5].
+    corners = grid_part("sheet", [-0.5, w - 0.5], [-0.5, h - 0.5], z=10.0)
     path = export_relief(Relief([corners], SIZE, drawing()), tmp_path / "c.obj",
                          units_per_pixel=0.01, anchor=anchor)[0]
     (mesh,) = _load(path).values()
@@ -277,8 +278,8 @@ def test_glb_passes_khronos_validator(closed, tmp_path):
 
 
 def test_large_glb_passes_khronos_validator(tmp_path):
-    xs = np.linspace(0.5, SIZE[0] - 0.5, 300)
-    ys = np.linspace(0.5, SIZE[1] - 0.5, 230)
+    xs = np.linspace(0.0, SIZE[0] - 1.0, 300)
+    ys = np.linspace(0.0, SIZE[1] - 1.0, 230)
     part = grid_part("sheet", xs, ys, z=3.0)
     report = _validate(export_relief(Relief([part], SIZE, drawing()), tmp_path / "big.glb")[0])
     assert report["issues"]["numErrors"] == 0 and report["issues"]["numWarnings"] == 0
@@ -356,7 +357,7 @@ def test_bad_options_are_refused(kwargs, message, tmp_path):
 
 def test_vertices_on_border_pixel_outlines_are_accepted(tmp_path):
     w, h = SIZE
-    sheet = grid_part("sheet", [-0.5, w + 0.5], [-0.5, h + 0.5])
+    sheet = grid_part("sheet", [-0.5, w - 0.5], [-0.5, h - 0.5])  # the drawing's edges
     path = export_relief(Relief([sheet], SIZE, drawing()), tmp_path / "s.glb")[0]
     (mesh,) = _load(path).values()
     uv = np.asarray(mesh.visual.uv)

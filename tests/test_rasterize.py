@@ -34,6 +34,8 @@ def _disk(cx, cy, r, n=96):
 
 
 def _square(x0, y0, x1, y1):
+    """Pixel centres are integers: pixels x0..x1 - 1 span [x0 - 0.5, x1 - 0.5]."""
+    x0, y0, x1, y1 = x0 - 0.5, y0 - 0.5, x1 - 0.5, y1 - 0.5
     return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
 
 
@@ -42,7 +44,7 @@ def test_flat_square_covers_its_pixels_with_its_depth_normal_and_uv():
     r = rasterize(Relief([part], size=(40, 32)))
     assert r.part.shape == (32, 40)
     inside = np.zeros((32, 40), bool)
-    inside[5:25, 10:30] = True  # pixel centres strictly inside the square
+    inside[5:25, 10:30] = True  # pixel centres (integers) strictly inside the square
     assert np.array_equal(r.mask, inside)
     assert np.allclose(r.depth[inside], 7.0)
     assert np.all(np.isneginf(r.depth[~inside]))
@@ -57,7 +59,7 @@ def test_tilted_plane_depth_and_normal_match_the_closed_form():
     part = _polygon_part("plane", _disk(30, 30, 25, 40), lambda x, y: a * x + b * y + c)
     r = rasterize(Relief([part], size=(60, 60)))
     rows, cols = np.nonzero(r.mask)
-    x, y = cols + 0.5, rows + 0.5
+    x, y = cols, rows  # pixel centres are integers
     assert r.mask.sum() > 0.9 * np.pi * 25 ** 2
     assert np.allclose(r.depth[r.mask], a * x + b * y + c, atol=1e-9)
     expected = np.array([-a, -b, 1.0]) / np.linalg.norm([-a, -b, 1.0])
@@ -73,7 +75,7 @@ def test_barycentrics_reproduce_the_pixel_centre():
     corners = part.vertices[part.faces[r.face[m]]]
     p = np.einsum("nk,nkc->nc", b, corners)
     rows, cols = np.nonzero(m)
-    assert np.allclose(p[:, :2], np.stack([cols + 0.5, rows + 0.5], 1))
+    assert np.allclose(p[:, :2], np.stack([cols, rows], 1))
     assert np.allclose(p, r.position[m])
 
 
@@ -85,7 +87,7 @@ def test_sphere_cap_normals_point_away_from_the_centre():
     part = _polygon_part("ball", _disk(cx, cy, R, 160), cap, max_area=2.0)
     r = rasterize(Relief([part], size=(100, 100)))
     rows, cols = np.nonzero(r.mask)
-    x, y = cols + 0.5 - cx, rows + 0.5 - cy
+    x, y = cols - cx, rows - cy
     core = np.hypot(x, y) < 0.8 * R
     expected = np.stack([x, y, np.sqrt(R ** 2 - x ** 2 - y ** 2)], 1)[core] / R
     angle = np.degrees(np.arccos(np.clip(np.sum(r.normal[r.mask][core] * expected, 1), -1, 1)))
@@ -100,7 +102,7 @@ def test_the_part_in_front_wins_where_parts_overlap():
     front = _polygon_part("front", _disk(20, 20, 10), lambda x, y: np.full_like(x, 5.0))
     # listed first so that drawing order cannot be what decides
     r = rasterize(Relief([front, back], size=(40, 40)))
-    rows, cols = np.mgrid[0:40, 0:40] + 0.5
+    rows, cols = np.mgrid[0:40, 0:40]
     near = np.hypot(cols - 20, rows - 20)
     assert np.all(r.part[near < 9.5] == 0) and np.allclose(r.depth[near < 9.5], 5)
     assert np.all(r.part[near > 10.5] == 1) and np.allclose(r.depth[near > 10.5], 0)
@@ -139,9 +141,13 @@ def test_a_rotated_view_sees_a_side_of_a_step():
     a = np.radians(30)
     rot = np.array([[np.cos(a), 0, -np.sin(a), 0], [0, 1, 0, 0], [np.sin(a), 0, np.cos(a), 0]])
     r = rasterize(relief, view=rot)
-    # the raised strip now projects 6*sin(30°) = 3 px to the left of where it was
+    # the raised strip now projects 6*sin(30°) = 3 px to the left of where it was: its
+    # edges x0, x1 land at x cos(a) - 3, and column j (centre at j) is covered when
+    # its centre lies strictly between them
+    x0, x1 = 8 - 0.5, 12 - 0.5  # the strip's edges (see _square)
     cols = np.nonzero(r.part == 1)[1]
-    assert cols.min() == round(8 * np.cos(a) - 3) and cols.max() == round(12 * np.cos(a) - 3) - 1
+    assert cols.min() == np.floor(x0 * np.cos(a) - 3) + 1
+    assert cols.max() == np.ceil(x1 * np.cos(a) - 3) - 1
 
 
 def test_empty_relief_gives_an_empty_raster():

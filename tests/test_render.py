@@ -53,7 +53,7 @@ def _figure(texture=True):
     parts = [_dome("body", *DISKS[0]), _dome("head", *DISKS[1], base=20)]
     tex = None
     if texture:
-        yy, xx = np.mgrid[0:60, 0:80] + 0.5
+        yy, xx = np.mgrid[0:60, 0:80]  # pixel centres are integers
         tex = np.full((60, 80, 3), [250, 240, 200], np.uint8)
         for cx, cy, r in DISKS:
             tex[np.abs(np.hypot(xx - cx, yy - cy) - r) < 0.8] = 20
@@ -65,8 +65,9 @@ def _silhouette(size):
     w, h = size
     s = min(w / 80, h / 60)
     ox, oy = (w - 80 * s) / 2, (h - 60 * s) / 2
+    # output pixel centres (j + 0.5, i + 0.5) in drawing coordinates (centres at integers)
     yy, xx = np.mgrid[0:h, 0:w] + 0.5
-    x, y = (xx - ox) / s, (yy - oy) / s
+    x, y = (xx - ox) / s - 0.5, (yy - oy) / s - 0.5
     return np.any([np.hypot(x - cx, y - cy) < r for cx, cy, r in DISKS], axis=0)
 
 
@@ -105,7 +106,7 @@ def test_flat_colors_give_one_colour_per_part():
     r = render(relief, mode="shade", size=(80, 60), flat_colors=True, light=(0, 0, 1),
                ambient=1.0)
     rgb = r.image[..., :3].astype(int)
-    yy, xx = np.mgrid[0:60, 0:80] + 0.5
+    yy, xx = np.mgrid[0:60, 0:80]  # drawing pixel centres at scale 1
     inner = [np.hypot(xx - cx, yy - cy) < rad - 1 for cx, cy, rad in DISKS]
     outer = np.hypot(xx - DISKS[1][0], yy - DISKS[1][1]) < DISKS[1][2] + 1
     body, head = rgb[inner[0] & ~outer], rgb[inner[1]]
@@ -199,7 +200,8 @@ def test_gi_renders_the_relief_on_a_backdrop_with_crisp_ink():
     lum = img.mean(axis=2)
     assert lum[edge].mean() < lum[sil & ~edge].mean() - 40
     # the outer half of the outline, off the relief, is drawn on the backdrop
-    yy, xx = (np.mgrid[0:64, 0:64] + 0.5 - [[[8.0]], [[0.0]]]) / 0.8  # drawing coordinates
+    # output pixel centres in drawing coordinates (scale 0.8, offset (0, 8))
+    yy, xx = (np.mgrid[0:64, 0:64] + 0.5 - [[[8.0]], [[0.0]]]) / 0.8 - 0.5
     d = np.hypot(xx - DISKS[0][0], yy - DISKS[0][1]) - DISKS[0][2]
     left = xx < DISKS[0][0]  # away from the head
     assert lum[left & (d > 0.1) & (d < 0.7)].mean() < lum[left & (d > 3) & (d < 5)].mean() - 40
@@ -238,7 +240,7 @@ def test_gi_a_part_in_front_casts_a_shadow_on_the_part_behind():
     kw = dict(mode="gi", size=(64, 64), spp=4, light=light, backdrop=False)
     with_front = render(Relief([back, front], size=(80, 80)), **kw).image[..., :3].mean(axis=2)
     without = render(Relief([back], size=(80, 80)), **kw).image[..., :3].mean(axis=2)
-    yy, xx = (np.mgrid[0:64, 0:64] + 0.5) / 0.8  # drawing coordinates
+    yy, xx = (np.mgrid[0:64, 0:64] + 0.5) / 0.8 - 0.5  # output pixel centres, drawing coords
     d = np.hypot(xx - 30, yy - 30)
     lee = (d > 13) & (d < 24) & (xx > 32) & (yy > 32)  # beside the disk, away from the light
     assert with_front[lee].mean() < 0.8 * without[lee].mean()
