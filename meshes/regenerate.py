@@ -1,0 +1,32 @@
+"""Regenerate the reference meshes of the bundled examples.
+
+    python meshes/regenerate.py
+
+writes ``meshes/<example>.ply`` (binary PLY, inkray's default frame: 0.001
+units per pixel, centred) for every bundled example. ``tests/test_regression.py``
+rebuilds each relief and compares it with these files, so a change that moves
+the output shows up as a failing test; regenerate (and review the difference)
+when the change is intended.
+"""
+
+from pathlib import Path
+
+from inkray.examples import EXAMPLES, example_path
+from inkray.export import export_relief
+from inkray.inputs import load_input
+from inkray.pipeline import build_relief
+
+HERE = Path(__file__).resolve().parent
+
+
+def main():
+    for name in EXAMPLES:
+        ann, drawing = load_input(example_path(name))
+        result = build_relief(ann, drawing)
+        written = export_relief(result.relief, HERE / f"{name}.ply")
+        parts = result.relief.parts
+        print(f"{written[0]}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,26 @@
+"""The bundled examples' reliefs match the reference meshes in meshes/."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inkray.examples import example_path
+from inkray.inputs import load_input
+from inkray.pipeline import build_relief
+from inkray.render import read_relief
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+
+
+@pytest.mark.parametrize("name", ["turtle", "balls", pytest.param("frog", marks=pytest.mark.slow)])
+def test_relief_matches_reference(name):
+    reference = read_relief(MESHES / f"{name}.ply")
+    ann, drawing = load_input(example_path(name))
+    relief = build_relief(ann, drawing).relief
+    assert [p.name for p in relief.parts] == [p.name for p in reference.parts]
+    assert tuple(reference.size) == tuple(relief.size)
+    for new, ref in zip(relief.parts, reference.parts):
+        assert new.faces.shape == ref.faces.shape, new.name
+        np.testing.assert_array_equal(new.faces, ref.faces)
+        np.testing.assert_allclose(new.vertices, ref.vertices, atol=1e-2, err_msg=new.name)
