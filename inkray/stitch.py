@@ -328,7 +328,8 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
 
 
 def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
-    """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap."""
+    """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap
+    (and along the regions' contact), wherever both meshes are there."""
     if blocks[a] is None or blocks[b] is None:
         return
     y0, y1, x0, x1 = place.box
@@ -339,8 +340,13 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
     lab, own = completion.labels[win], completion.owner[win]
     both = (((lab == a) | (own == a)) & ((lab == b) | (own == b)))
     pm = np.zeros_like(both)
-    pm[y0 - win[0].start:y1 - win[0].start, x0 - win[1].start:x1 - win[1].start] = place.mask
-    zone = binary_dilation(pm, iterations=2) & binary_dilation(both, iterations=2)
+    inner = (slice(y0 - win[0].start, y1 - win[0].start), slice(x0 - win[1].start, x1 - win[1].start))
+    pm[inner] = place.mask
+    # Where neither region continues under the other, the order still holds
+    # along their common outline (the contact), so the step is visible there.
+    contact = np.zeros_like(both)
+    contact[inner] = place.contact
+    zone = binary_dilation(pm, iterations=2) & binary_dilation(both | contact, iterations=2)
     for src in (a, b):
         blk = blocks[src]
         px = np.rint(blk.v).astype(np.int64)
