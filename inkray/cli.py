@@ -12,7 +12,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
-from .errors import InkrayError, InputError, StageMissing
+from .errors import InkrayError, InputError
 from .progress import Progress
 
 __all__ = ["main"]
@@ -320,14 +320,11 @@ def _cmd_demo(args, progress):
         print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
     flags = (["--quiet"] if args.quiet else []) + (["--debug"] if args.debug else [])
     print(f"demo: {args.example} -> {out}/")
-    for name, argv in steps:
-        try:
-            code = _run(flags + argv)
-        except StageMissing as e:
-            print(f"demo: stopped at '{name}': {e}; the stages before it ran")
-            return 0
+    for _, argv in steps:
+        code = _run(flags + argv)
         if code != 0:
             return code
+    print(f"demo: done; the files are in {out}/")
     return 0
 
 

@@ -92,10 +92,16 @@ def test_flags_before_the_command_are_kept():
     assert args.debug is True and args.quiet is False
 
 
-def test_demo_runs_what_exists(tmp_path, capsys):
-    code, out, err = _run(capsys, "demo", "-o", str(tmp_path / "demo"))
+def test_demo_runs_the_whole_job(tmp_path, capsys):
+    from inkray.render import has_mitsuba
+
+    code, out, err = _run(capsys, "--quiet", "demo", "-o", str(tmp_path / "demo"), "--spp", "2")
     assert code == 0, err
-    assert "turtle" in out and "ok:" in out
+    assert "turtle" in out and "ok:" in out and "demo: done" in out
+    written = {p.name for p in (tmp_path / "demo").iterdir()}
+    expected = {"labels.png", "labels.json", "depth.png", "depth.json", "regions.json",
+                "relief.glb", "shaded.png"} | ({"gi.png"} if has_mitsuba() else set())
+    assert expected <= written, expected - written
     code, _, err = _run(capsys, "demo", "--example", "dragon")
     assert code == 2 and "no such bundled example" in err
 
