@@ -34,7 +34,7 @@ round, the most violated candidates at the current solution, until none is
 violated by more than ``tol``.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import igl
 import numpy as np
@@ -83,7 +83,6 @@ class Layers:
     active: int = 0
     rounds: int = 0
     violation: float = 0.0
-    stats: dict = field(default_factory=dict)
 
     def z(self, i):
         """Final heights ``h_i + g_i`` of region ``i`` (px)."""
@@ -171,9 +170,6 @@ class _Region:
         w = np.clip(np.column_stack([1.0 - wb - wc, wb, wc]), 0.0, 1.0)
         w /= w.sum(axis=1, keepdims=True)
         return tri, w, np.sqrt(np.maximum(d2, 0.0))
-
-    def height_at(self, tri, w):
-        return (self.h[tri] * w).sum(axis=1)
 
 
 def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, band=None,
