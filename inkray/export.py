@@ -27,6 +27,7 @@ import numpy as np
 
 from .errors import InputError
 from .io import atomic_outputs
+from .rasterize import vertex_normals
 
 __all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "pixel_coordinates",
            "read_meshes", "scene_coordinates"]
@@ -350,21 +351,15 @@ def _scene_meshes(relief, units_per_pixel, anchor):
         # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
         # down) into counter-clockwise seen from +Z, so faces are kept as they are.
         uv = np.clip(relief.uv(px), 0.0, 1.0)
-        meshes.append(_SceneMesh(part.name, v, faces, _vertex_normals(v, faces), uv, px[:, :2]))
+        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, px[:, :2]))
     return meshes
 
 
-def _vertex_normals(vertices, faces):
-    """Area-weighted vertex normals; +Z where a vertex has no area around it."""
-    tri = vertices[faces]
-    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 * area
-    n = np.zeros_like(vertices)
-    for k in range(3):
-        np.add.at(n, faces[:, k], fn)
-    length = np.linalg.norm(n, axis=1)
-    ok = length > 0
-    n[ok] /= length[ok, None]
-    n[~ok] = (0.0, 0.0, 1.0)
+def _scene_normals(pixel_vertices, faces):
+    """Unit vertex normals in the scene frame (y up); +Z where a vertex has no
+    area around it, since glTF requires unit normals."""
+    n = vertex_normals(pixel_vertices, faces) * [1.0, -1.0, 1.0]
+    n[np.linalg.norm(n, axis=1) == 0] = (0.0, 0.0, 1.0)
     return n
 
 
