@@ -209,8 +209,6 @@ def _cmd_relief(args, progress):
         raise InputError(f"--max-area {args.max_area}: expected a positive area in px^2")
     if args.epsilon is not None and args.epsilon <= 0:
         raise InputError(f"--epsilon {args.epsilon}: expected a positive depth step in px")
-    if args.union and not args.closed:
-        raise InputError("--union needs --closed (the union of open surfaces is not a solid)")
     out = Path(args.output)
     images = {}
     for flag, mode in (("depth_png", "depth"), ("normals_png", "normals")):
