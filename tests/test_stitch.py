@@ -95,7 +95,6 @@ def _rings():
 
 def test_interlocking_rings_each_on_top_at_its_crossing():
     labels = _rings()
-    ys, xs = np.nonzero((labels == 0) & (np.arange(220)[:, None] < 110))
     cross_top = (160, 63)  # the upper crossing: both rings' centre lines meet near here
     cross_bot = (160, 157)
     ann = _doc((320, 220), order=[((160, 58), (176, 56)),   # A over B, upper crossing
