@@ -1,0 +1,487 @@
+"""Sparse Cholesky factorization of 5-point operators on a pixel grid.
+
+A multifrontal Cholesky (Duff and Reid, "The multifrontal solution of
+indefinite sparse symmetric linear equations", ACM TOMS 9(3), 1983) in the
+geometric nested-dissection order of George ("Nested dissection of a regular
+finite element mesh", SIAM J. Numer. Anal. 10(2), 1973): a box of pixels is
+split by its middle row or column (the separator) into two boxes, recursively,
+down to leaf boxes of a few pixels; each box's separator is eliminated after
+both halves, as one dense frontal matrix over the separator and the ring of
+pixels around the box.
+
+On a grid the fronts repeat: every box with the same size, depth and set of
+sides inside the image has the same frontal structure, so the fronts of such
+a group are assembled, factored and solved together with numpy's stacked
+LAPACK/BLAS calls. The symbolic part (the tree, the groups and their index
+maps) depends only on the grid size and is cached.
+
+Used by the depth QP (:mod:`inkray.qp`), whose one image-size factorization
+dominates its cost, and by the fast depth method's Laplace fill
+(:mod:`inkray.depth`).
+"""
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.linalg import blas as _blas
+from scipy.linalg import lapack as _lapack
+from threadpoolctl import threadpool_limits
+
+from .errors import InputError, StageError
+
+__all__ = ["GridCholesky", "grid_operator"]
+
+#: Boxes of at most this many pixels are leaves (eliminated as one dense front).
+LEAF_PIXELS = 16
+#: Fronts up to this size are factored as numpy stacks; larger ones front by
+#: front with the triangular/symmetric kernels (numpy's stacked matmul was
+#: measured 10x slower than a loop of BLAS calls at sizes around 100).
+_STACK_FRONT = 64
+
+
+@dataclass
+class _Group:
+    """Boxes that share one frontal structure (same depth, size and inner sides)."""
+
+    s: int                  # pixels eliminated at this front (the separator, or the leaf)
+    r: int                  # ring pixels (updated, eliminated later)
+    S: np.ndarray           # (nb, s) raster indices of the eliminated pixels
+    R: np.ndarray           # (nb, r) raster indices of the ring pixels
+    li: np.ndarray          # (k,) front rows of the operator's entries
+    lj: np.ndarray          # (k,) front columns
+    vidx: np.ndarray        # (nb, k) indices of those entries in [diag, east, south]
+    children: list          # [(group id, (nb,) batch positions, runs of front positions)]
+    ring_rows: np.ndarray   # distinct raster indices of R (for the scatter-add)
+    ring_sum: object        # sparse (len(ring_rows), nb * r) summing R's entries onto them
+
+
+class GridCholesky:
+    """Cholesky factorization of a symmetric positive definite 5-point grid operator.
+
+    The operator ``A`` acts on the pixels of an ``H x W`` grid in raster order
+    (``y * W + x``); its only off-diagonal entries couple 4-neighbours.
+
+    Parameters
+    ----------
+    diagonal : (H, W) array
+        ``A[p, p]``.
+    east : (H, W-1) array
+        ``A[(y, x), (y, x+1)]``.
+    south : (H-1, W) array
+        ``A[(y, x), (y+1, x)]``.
+    leaf : int, default :data:`LEAF_PIXELS`
+        Boxes of at most this many pixels are not split further.
+
+    Raises
+    ------
+    StageError
+        When ``A`` is not positive definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> diag = np.full((3, 4), 4.0)
+    >>> f = GridCholesky(diag, -np.ones((3, 3)), -np.ones((2, 4)))
+    >>> A = grid_operator(diag, -np.ones((3, 3)), -np.ones((2, 4)))
+    >>> b = np.arange(12.0)
+    >>> bool(np.allclose(A @ f.solve(b), b))
+    True
+    """
+
+    def __init__(self, diagonal, east, south, *, leaf=LEAF_PIXELS, updatable=False):
+        if not int(leaf) >= 1:
+            raise InputError(f"leaf: expected a positive pixel count, got {leaf}")
+        values = self._values(diagonal, east, south)
+        h, w = self.shape
+        self.n = h * w
+        self.updatable = bool(updatable)
+        self._plan = _plan(h, w, int(leaf))
+        self._values_now = values
+        with threadpool_limits(limits=1, user_api="blas"):
+            self._factors, self._updates = _factorize(self._plan, values,
+                                                      keep_updates=self.updatable)
+
+    def _values(self, diagonal, east, south):
+        diagonal = np.asarray(diagonal, np.float64)
+        if diagonal.ndim != 2 or diagonal.size == 0:
+            raise InputError(f"diagonal: expected a non-empty (H, W) array, got shape "
+                             f"{diagonal.shape}")
+        h, w = diagonal.shape
+        if getattr(self, "shape", (h, w)) != (h, w):
+            raise InputError(f"diagonal: shape {(h, w)} differs from the factored {self.shape}")
+        self.shape = (h, w)
+        e = np.zeros((h, w))
+        e[:, :-1] = np.asarray(east, np.float64).reshape(h, w - 1)
+        s = np.zeros((h, w))
+        s[:-1, :] = np.asarray(south, np.float64).reshape(h - 1, w)
+        return np.concatenate([diagonal.ravel(), e.ravel(), s.ravel()])
+
+    def update(self, diagonal, east, south):
+        """Refactor for new operator values, redoing only the fronts they change.
+
+        A front is redone when an entry it assembles changed or a front below
+        it was redone: a change inside a window costs the boxes that meet the
+        window and their ancestors, not the whole grid.
+
+        Parameters
+        ----------
+        diagonal, east, south : arrays
+            As for the constructor, same grid size.
+
+        Returns
+        -------
+        int
+            Number of fronts refactored.
+
+        Raises
+        ------
+        InputError
+            When the factorization was not made with ``updatable=True``.
+        """
+        if not self.updatable:
+            raise InputError("update: this factorization keeps no update matrices "
+                             "(make it with updatable=True)")
+        values = self._values(diagonal, east, south)
+        changed = values != self._values_now
+        self._values_now = values
+        with threadpool_limits(limits=1, user_api="blas"):
+            self._factors, self._updates, redone = _factorize(
+                self._plan, values, keep_updates=True, previous=(self._factors, self._updates),
+                changed=changed)
+        return redone
+
+    def solve(self, rhs):
+        """Solve ``A x = rhs``.
+
+        Parameters
+        ----------
+        rhs : (N,) or (N, k) array
+            ``N = H * W``, raster order.
+
+        Returns
+        -------
+        array shaped like ``rhs``
+        """
+        b = self._rhs(rhs)
+        shape = np.shape(rhs)
+        k = b.shape[1]
+        with threadpool_limits(limits=1, user_api="blas"):
+            ys = []
+            for g, (Li, W) in zip(self._plan, self._factors):
+                y = Li @ b[g.S]
+                if g.r:
+                    b[g.ring_rows] -= g.ring_sum @ (W.transpose(0, 2, 1) @ y).reshape(-1, k)
+                ys.append(y)
+            x = np.zeros_like(b)
+            for g, (Li, W), y in zip(self._plan[::-1], self._factors[::-1], ys[::-1]):
+                if g.r:
+                    y = y - W @ x[g.R]
+                x[g.S] = Li.transpose(0, 2, 1) @ y
+        return x.reshape(shape)
+
+    def gram(self, rhs):
+        """``rhs^T A^-1 rhs`` by forward substitution alone.
+
+        With ``A = L L^T`` this is ``Y^T Y`` for ``Y = L^-1 rhs``; when ``rhs``
+        has few nonzero rows (point sources), ``Y`` is nonzero only on the
+        fronts from their boxes up to the root, and only those are visited.
+
+        Parameters
+        ----------
+        rhs : (N, k) array
+
+        Returns
+        -------
+        (k, k) float64 array
+        """
+        b = self._rhs(rhs)
+        k = b.shape[1]
+        touched = np.zeros(self.n + 1, bool)
+        touched[:self.n] = (b != 0).any(axis=1)
+        out = np.zeros((k, k))
+        with threadpool_limits(limits=1, user_api="blas"):
+            for g, (Li, W) in zip(self._plan, self._factors):
+                sel = np.flatnonzero(touched[g.S].any(axis=1))
+                if not len(sel):
+                    continue
+                y = Li[sel] @ b[g.S[sel]]
+                flat = y.reshape(-1, k)
+                out += flat.T @ flat
+                if g.r:
+                    rows, inv = np.unique(g.R[sel], return_inverse=True)
+                    add = sp.csr_matrix((np.ones(inv.size), (inv.ravel(), np.arange(inv.size))),
+                                        shape=(len(rows), inv.size))
+                    b[rows] -= add @ (W[sel].transpose(0, 2, 1) @ y).reshape(-1, k)
+                    touched[rows] = True
+        return 0.5 * (out + out.T)
+
+    def _rhs(self, rhs):
+        b = np.array(rhs, np.float64)
+        if b.ndim not in (1, 2) or b.shape[0] != self.n:
+            raise InputError(f"rhs: expected {self.n} rows, got shape {b.shape}")
+        return b.reshape(self.n, -1)
+
+
+def grid_operator(diagonal, east, south):
+    """The 5-point operator of :class:`GridCholesky` as a sparse matrix.
+
+    Parameters
+    ----------
+    diagonal : (H, W) array
+    east : (H, W-1) array
+    south : (H-1, W) array
+
+    Returns
+    -------
+    (H*W, H*W) scipy.sparse.csr_matrix
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> grid_operator(np.full((1, 2), 2.0), -np.ones((1, 1)), np.zeros((0, 2))).toarray().tolist()
+    [[2.0, -1.0], [-1.0, 2.0]]
+    """
+    diagonal = np.asarray(diagonal, np.float64)
+    h, w = diagonal.shape
+    idx = np.arange(h * w).reshape(h, w)
+    i = np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()])
+    j = np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()])
+    v = np.concatenate([np.asarray(east, np.float64).ravel(),
+                        np.asarray(south, np.float64).ravel()])
+    rows = np.concatenate([i, j, idx.ravel()])
+    cols = np.concatenate([j, i, idx.ravel()])
+    return sp.csr_matrix((np.concatenate([v, v, diagonal.ravel()]), (rows, cols)),
+                         shape=(h * w, h * w))
+
+
+def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None):
+    """Dense partial Cholesky of every front, children before parents.
+
+    Returns ``factors`` (per group ``(Li, W)``) and ``updates`` (per group the
+    update matrices, kept only with ``keep_updates``); with ``previous`` and
+    ``changed`` (which entries of ``values`` changed), only the fronts that
+    assemble a changed entry or have a redone child are redone, and the count
+    of redone fronts is returned third.
+    """
+    factors, updates = [], []
+    # A group's updates may feed several parent groups: keep them until the last.
+    uses = {}
+    for g in plan:
+        for gid, _, _ in g.children:
+            uses[gid] = uses.get(gid, 0) + 1
+    redo, redone = [], 0
+    for i, g in enumerate(plan):
+        nb, s = g.S.shape
+        if previous is None:
+            sel = slice(None)
+        else:
+            dirty = changed[g.vidx].any(axis=1)
+            for gid, pos, _ in g.children:
+                dirty |= redo[gid][pos]
+            redo.append(dirty)
+            if not dirty.any():
+                factors.append(previous[0][i])
+                updates.append(previous[1][i])
+                continue
+            sel = np.flatnonzero(dirty)
+            nb = len(sel)
+            redone += nb
+        f = s + g.r
+        F = np.zeros((nb, f, f))
+        vals = values[g.vidx[sel]]
+        F[:, g.li, g.lj] = vals
+        F[:, g.lj, g.li] = vals
+        # Extend-add of the children's updates, one block per pair of contiguous runs.
+        for gid, pos, runs in g.children:
+            U = updates[gid][pos[sel]]
+            for a0, b0, na in runs:
+                for c0, d0, nc in runs:
+                    F[:, b0:b0 + na, d0:d0 + nc] += U[:, a0:a0 + na, c0:c0 + nc]
+        if f > _STACK_FRONT:
+            Li, W, U = _partial_cholesky_each(F, s)
+        else:
+            Li, W, U = _partial_cholesky_stacked(F, s)
+        if previous is not None:  # in place: the previous factorization is replaced
+            Li0, W0 = previous[0][i]
+            Li0[sel], W0[sel] = Li, W
+            previous[1][i][sel] = U
+            Li, W, U = Li0, W0, previous[1][i]
+        factors.append((Li, W))
+        updates.append(U)
+        if not keep_updates:
+            for gid, _, _ in g.children:
+                uses[gid] -= 1
+                if uses[gid] == 0:
+                    updates[gid] = None
+    if previous is None:
+        return factors, updates
+    return factors, updates, redone
+
+
+def _partial_cholesky_stacked(F, s):
+    """``Li = chol(F_SS)^-1``, ``W = Li F_SR``, ``U = F_RR - W^T W`` for a stack of small fronts."""
+    try:
+        Lc = np.linalg.cholesky(F[:, :s, :s])
+    except np.linalg.LinAlgError:
+        raise StageError("grid Cholesky: the operator is not positive definite") from None
+    Li = np.linalg.inv(Lc)
+    W = Li @ F[:, :s, s:]
+    if s * W.shape[2] <= 256:  # tiny matrices: einsum beats a BLAS call per matrix
+        U = F[:, s:, s:] - np.einsum("bki,bkj->bij", W, W)
+    else:
+        U = F[:, s:, s:] - W.transpose(0, 2, 1) @ W
+    return Li, W, U
+
+
+def _partial_cholesky_each(F, s):
+    """The same for larger fronts, one LAPACK/BLAS call each."""
+    nb, f, _ = F.shape
+    r = f - s
+    Li = np.empty((nb, s, s))
+    W = np.empty((nb, s, r))
+    U = np.empty((nb, r, r))
+    for b in range(nb):
+        c, info = _lapack.dpotrf(F[b, :s, :s], lower=1, clean=1)
+        if info != 0:
+            raise StageError("grid Cholesky: the operator is not positive definite")
+        c, info = _lapack.dtrtri(c, lower=1)
+        Li[b] = c
+        if r:
+            W[b] = _blas.dtrmm(1.0, c, F[b, :s, s:], lower=1)
+            U[b] = F[b, s:, s:]
+            # U^T is Fortran-ordered: gemm updates it in place.
+            _blas.dgemm(-1.0, W[b], W[b], beta=1.0, c=U[b].T, trans_a=1, overwrite_c=1)
+    return Li, W, U
+
+
+@lru_cache(maxsize=8)
+def _plan(h, w, leaf):
+    """The nested-dissection tree of an ``h x w`` grid, as groups in elimination order."""
+    # The tree level by level: boxes (r0, r1, c0, c1) and, per box, the
+    # indices of its two children (left/top, right/bottom) in the next level.
+    levels, kids = [], []
+    box = np.array([[0, h, 0, w]], np.int64)
+    while len(box):
+        levels.append(box)
+        bh, bw = box[:, 1] - box[:, 0], box[:, 3] - box[:, 2]
+        split = (bh * bw > leaf) & (np.maximum(bh, bw) >= 3)
+        cols = split & (bw >= bh)
+        rows = split & ~cols
+        m_c = box[:, 2] + (bw - 1) // 2
+        m_r = box[:, 0] + (bh - 1) // 2
+        first, second = box.copy(), box.copy()
+        first[cols, 3] = m_c[cols]
+        second[cols, 2] = m_c[cols] + 1
+        first[rows, 1] = m_r[rows]
+        second[rows, 0] = m_r[rows] + 1
+        nxt = np.flatnonzero(split)
+        child = np.full((len(box), 2), -1, np.int64)
+        child[nxt, 0] = 2 * np.arange(len(nxt))
+        child[nxt, 1] = 2 * np.arange(len(nxt)) + 1
+        kids.append(child)
+        box = np.stack([first[nxt], second[nxt]], axis=1).reshape(-1, 4)
+    # Groups: boxes of one level with the same size and the same sides inside the image.
+    keys, where = [], {}   # key -> (level, member indices); per level: box -> (group, pos)
+    gid_of, pos_of = [], []
+    for d in range(len(levels) - 1, -1, -1):  # deepest first
+        box = levels[d]
+        bh, bw = box[:, 1] - box[:, 0], box[:, 3] - box[:, 2]
+        sides = (box[:, 0] > 0) * 8 + (box[:, 1] < h) * 4 + (box[:, 2] > 0) * 2 + (box[:, 3] < w)
+        code = (bh * (w + 1) + bw) * 16 + sides
+        uniq, inv = np.unique(code, return_inverse=True)
+        gid = np.empty(len(box), np.int64)
+        pos = np.empty(len(box), np.int64)
+        for u, c in enumerate(uniq.tolist()):
+            ids = np.flatnonzero(inv == u)
+            gid[ids] = len(keys)
+            pos[ids] = np.arange(len(ids))
+            (sh, sw), bits = divmod(c // 16, w + 1), c % 16
+            keys.append((d, sh, sw, tuple(bool(bits >> k & 1) for k in (3, 2, 1, 0))))
+            where[len(keys) - 1] = ids
+        gid_of.insert(0, gid)
+        pos_of.insert(0, pos)
+    groups = []
+    for g, key in enumerate(keys):
+        d, bh, bw, sides = key
+        ids = where[g]
+        box = levels[d][ids]
+        S_rel, R_rel = _front(bh, bw, sides, leaf)
+        front = {c: i for i, c in enumerate(S_rel + R_rel)}
+        s = len(S_rel)
+        li, lj, kind, rel = [], [], [], []
+        for a, (i, j) in enumerate(S_rel):
+            li.append(a); lj.append(a); kind.append(0); rel.append((i, j))
+            for (ni, nj), kd, (vi, vj) in (((i, j + 1), 1, (i, j)), ((i, j - 1), 1, (i, j - 1)),
+                                          ((i + 1, j), 2, (i, j)), ((i - 1, j), 2, (i - 1, j))):
+                b = front.get((ni, nj))
+                if b is None or (b < s and b < a):
+                    continue  # in a child box, or an S-S pair already listed
+                li.append(b); lj.append(a); kind.append(kd); rel.append((vi, vj))
+        origins = box[:, 0] * w + box[:, 2]
+        rel = np.array(rel, np.int64).reshape(-1, 2)
+        vidx = (np.array(kind, np.int64) * (h * w))[None, :] + origins[:, None] + \
+            (rel[:, 0] * w + rel[:, 1])[None, :]
+
+        def raster(cells):
+            c = np.array(cells, np.int64).reshape(-1, 2)
+            return origins[:, None] + (c[:, 0] * w + c[:, 1])[None, :]
+
+        S = raster(S_rel)
+        R = raster(R_rel)
+        children = []
+        child = kids[d][ids]
+        if child[0, 0] >= 0:
+            for slot in range(2):
+                ck = child[:, slot]
+                cg = gid_of[d + 1][ck]
+                if (cg != cg[0]).any():
+                    raise StageError("grid Cholesky: inconsistent nested-dissection groups")
+                cbox = levels[d + 1][ck[0]]
+                oy, ox = cbox[0] - box[0, 0], cbox[2] - box[0, 2]
+                _, crel = _front(*keys[cg[0]][1:], leaf)
+                m = np.array([front[(i + oy, j + ox)] for i, j in crel], np.int64)
+                children.append((int(cg[0]), pos_of[d + 1][ck], _runs(m)))
+        flat = R.ravel()
+        seen = np.zeros(h * w, bool)
+        seen[flat] = True
+        rows = np.flatnonzero(seen)
+        lut = np.empty(h * w, np.int64)
+        lut[rows] = np.arange(len(rows))
+        inv = lut[flat]
+        ring_sum = sp.csr_matrix((np.ones(len(flat)), (inv, np.arange(len(flat)))),
+                                 shape=(len(rows), len(flat)))
+        groups.append(_Group(s=s, r=len(R_rel), S=S, R=R, li=np.array(li, np.int64),
+                             lj=np.array(lj, np.int64), vidx=vidx, children=children,
+                             ring_rows=rows, ring_sum=ring_sum))
+    return groups
+
+
+def _runs(m):
+    """``m`` (child ring -> parent front positions) as contiguous runs ``(src, dst, length)``."""
+    cut = np.flatnonzero(np.diff(m) != 1) + 1
+    starts = np.r_[0, cut]
+    ends = np.r_[cut, len(m)]
+    return [(int(a), int(m[a]), int(b - a)) for a, b in zip(starts, ends)]
+
+
+def _front(bh, bw, sides, leaf):
+    """Relative cells of a box's eliminated pixels and of its ring."""
+    top, bottom, left, right = sides
+    if bh * bw <= leaf or max(bh, bw) < 3:
+        S = [(i, j) for i in range(bh) for j in range(bw)]
+    elif bw >= bh:
+        S = [(i, (bw - 1) // 2) for i in range(bh)]
+    else:
+        S = [((bh - 1) // 2, j) for j in range(bw)]
+    R = []
+    if top:
+        R += [(-1, j) for j in range(bw)]
+    if bottom:
+        R += [(bh, j) for j in range(bw)]
+    if left:
+        R += [(i, -1) for i in range(bh)]
+    if right:
+        R += [(i, bw) for i in range(bh)]
+    return S, R

@@ -1,0 +1,114 @@
+"""Tests of the nested-dissection multifrontal Cholesky of 5-point grid operators."""
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as sla
+
+from inkray.errors import InputError, StageError
+from inkray.grid_cholesky import GridCholesky, grid_operator
+
+
+def _operator(h, w, seed=0, *, weak=0.0):
+    """A grounded weighted grid Laplacian plus a small shift: SPD, with ink-like weak edges."""
+    rng = np.random.default_rng(seed)
+    wx = rng.uniform(0.5, 1.5, (h, w - 1))
+    wy = rng.uniform(0.5, 1.5, (h - 1, w))
+    if weak:
+        wx[rng.random(wx.shape) < weak] = 1e-5
+        wy[rng.random(wy.shape) < weak] = 1e-5
+    diag = np.zeros((h, w))
+    diag[:, :-1] += wx
+    diag[:, 1:] += wx
+    diag[:-1, :] += wy
+    diag[1:, :] += wy
+    diag += rng.uniform(0.0, 1e-3, (h, w))
+    return diag, -wx, -wy
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (6, 1), (2, 2), (3, 7), (9, 4), (17, 33),
+                                   (40, 41), (64, 5), (100, 77)])
+def test_solve_matches_a_direct_sparse_solve(shape):
+    diag, east, south = _operator(*shape, seed=shape[0] * 100 + shape[1], weak=0.05)
+    A = grid_operator(diag, east, south).tocsc()
+    b = np.random.default_rng(1).standard_normal((A.shape[0], 3))
+    x = GridCholesky(diag, east, south).solve(b)
+    ref = sla.spsolve(A, b)
+    assert np.abs(x - ref).max() <= 1e-8 * max(1.0, np.abs(ref).max())
+    assert np.abs(A @ x - b).max() < 1e-9
+
+
+def test_solve_keeps_the_shape_of_the_right_hand_side():
+    diag, east, south = _operator(5, 6)
+    f = GridCholesky(diag, east, south)
+    b = np.arange(30.0)
+    assert f.solve(b).shape == (30,)
+    assert np.allclose(f.solve(b[:, None])[:, 0], f.solve(b))
+
+
+def test_exact_on_a_1d_closed_form():
+    # The second difference with Dirichlet ends, -u'' = 1 on a path: u_i = i (n + 1 - i) / 2.
+    n = 31
+    f = GridCholesky(np.full((1, n), 2.0), -np.ones((1, n - 1)), np.zeros((0, n)))
+    u = f.solve(np.ones(n))
+    i = np.arange(1, n + 1)
+    assert np.abs(u - i * (n + 1 - i) / 2).max() < 1e-10
+
+
+@pytest.mark.parametrize("leaf", [1, 4, 16, 64])
+def test_leaf_size_does_not_change_the_solution(leaf):
+    diag, east, south = _operator(23, 31, seed=3)
+    b = np.random.default_rng(2).standard_normal(23 * 31)
+    x = GridCholesky(diag, east, south, leaf=leaf).solve(b)
+    ref = GridCholesky(diag, east, south).solve(b)
+    assert np.abs(x - ref).max() < 1e-10
+
+
+def test_gram_is_the_inverse_quadratic_form_of_point_sources():
+    h, w = 60, 45
+    diag, east, south = _operator(h, w, seed=4, weak=0.1)
+    f = GridCholesky(diag, east, south)
+    rng = np.random.default_rng(5)
+    B = np.zeros((h * w, 6))
+    for k in range(6):
+        p, q = rng.choice(h * w, 2, replace=False)
+        B[p, k], B[q, k] = 1.0, -1.0
+    G = f.gram(B)
+    ref = B.T @ f.solve(B)
+    assert np.allclose(G, G.T)
+    assert np.abs(G - ref).max() <= 1e-10 * np.abs(ref).max()
+    assert np.linalg.eigvalsh(G).min() > 0  # independent dipoles: positive definite
+
+
+def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
+    h, w = 96, 80
+    diag, east, south = _operator(h, w, seed=6, weak=0.05)
+    f = GridCholesky(diag, east, south, updatable=True)
+    # Make a window's pixels Dirichlet (identity rows), as the fast depth fill does.
+    fixed = np.zeros((h, w), bool)
+    fixed[40:52, 30:44] = True
+    d2 = np.where(fixed, 1.0, diag)
+    e2 = np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east)
+    s2 = np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south)
+    redone = f.update(d2, e2, s2)
+    total = sum(g.S.shape[0] for g in f._plan)
+    assert 0 < redone < total / 4
+    b = np.random.default_rng(7).standard_normal(h * w)
+    assert np.abs(f.solve(b) - GridCholesky(d2, e2, s2).solve(b)).max() < 1e-10
+    assert f.update(d2, e2, s2) == 0  # nothing changed: nothing redone
+    f.update(diag, east, south)  # and back
+    assert np.abs(f.solve(b) - GridCholesky(diag, east, south).solve(b)).max() < 1e-10
+
+
+def test_errors():
+    diag, east, south = _operator(4, 5)
+    with pytest.raises(StageError, match="not positive definite"):
+        GridCholesky(-diag, east, south)
+    with pytest.raises(InputError, match="updatable=True"):
+        GridCholesky(diag, east, south).update(diag, east, south)
+    f = GridCholesky(diag, east, south, updatable=True)
+    with pytest.raises(InputError, match="differs from the factored"):
+        f.update(np.ones((5, 4)), np.zeros((5, 3)), np.zeros((4, 4)))
+    with pytest.raises(InputError, match="expected 20 rows"):
+        f.solve(np.ones(19))
+    with pytest.raises(InputError, match="non-empty"):
+        GridCholesky(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros((0, 3)))
