@@ -15,7 +15,7 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
   node's level times epsilon; (4) the Laplace equation fills in the rest, so
   steps stay at ink lines and the depth is smooth across cuts through paper
   and over unconstrained areas. :class:`DepthSession` keeps the segmentation
-  and the factorizations of step (4) and reuses them when a constraint is
+  and the factorization of step (4) and reuses them when a constraint is
   added or removed.
 
 Depth grows toward the viewer; both methods return a zero-mean depth map in
@@ -30,11 +30,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as sla
 from scipy import ndimage
 
 from .errors import InputError, StageError
+from .grid_cholesky import GridCholesky
 from .qp import WEIGHT_FLOOR, check_constraints, edge_weights, grid_laplacian, solve_depth_qp
 
 __all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "depth_png",
@@ -47,9 +46,6 @@ INK_LEVEL = 0.5
 #: LazyBrush seed strength for the fast method: above the cost of cutting
 #: around one pixel (4 paper edges), so an endpoint keeps its own label.
 _SEED_STRENGTH = 5.0
-#: A session keeps factorized areas covering up to this many images' pixels
-#: (least recently used dropped first).
-_CACHE_PIXELS = 4
 
 
 @dataclass
@@ -239,8 +235,10 @@ class DepthSession:
     scribbles when given (fixed for the session), otherwise of seeds at the
     constraint endpoints (a small disk of paper around each; a new endpoint
     re-segments only the segment it lands in, a removed one only its own).
-    The Laplace fill is solved per connected area of free pixels and each
-    area's factorization is cached by its pixel set, so a change that only
+    The Laplace fill is one system over the grid (fixed pixels as identity
+    rows) whose nested-dissection factorization is kept and updated in place:
+    a change that moves the fixed pixels only inside a window refactors the
+    fronts of that window and their ancestors, and a change that only
     moves levels costs back-substitutions.
 
     Parameters
@@ -287,8 +285,8 @@ class DepthSession:
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
-        self._factors = {}      # bytes of an area's pixel indices -> splu (LRU order)
-        self._weights = None    # the image's edge weights, per neighbour direction
+        self._chol = None       # the fill's factorization, updated in place
+        self._weights = None    # the image's edge weights (wx, wy)
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
         self.region_levels = {}  # segment label -> level, after solve()
@@ -503,90 +501,40 @@ class DepthSession:
         self._pin()
 
     def _fill(self, fixed, vals):
-        """Laplace equation with the image's edge weights and Dirichlet ``vals`` on ``fixed``."""
-        h, w = self.shape
+        """Laplace equation with the image's edge weights and Dirichlet ``vals`` on ``fixed``.
+
+        One system over the whole grid: a fixed pixel's row and column are the
+        identity and its couplings move to the right-hand side. The session's
+        factorization is updated in place, so a change that moves the fixed
+        set only inside a window refactors the fronts of that window.
+        """
         if self._weights is None:
-            wx, wy, _ = edge_weights(self.gray)
-            # Weight to the east, west, south and north neighbour (0 off the image).
-            we = np.zeros((h, w))
-            ws = np.zeros((h, w))
-            we[:, :-1] = wx
-            ws[:-1, :] = wy
-            wwest = np.zeros((h, w))
-            wn = np.zeros((h, w))
-            wwest[:, 1:] = wx
-            wn[1:, :] = wy
-            self._weights = {(0, 1): we, (0, -1): wwest, (1, 0): ws, (-1, 0): wn}
-        out = np.where(fixed, vals, 0.0)
+            self._weights = edge_weights(self.gray)[:2]
+        wx, wy = self._weights
+        vals = np.where(fixed, vals, 0.0)
         free = ~fixed
-        comp, n = ndimage.label(free)
-        if n == 0:
-            return out
-        # Weighted sum of fixed neighbour values, total weight, and the spread of
-        # fixed neighbour values (an area that sees one value is that constant).
-        deg = np.zeros((h, w))
-        rhs = np.zeros((h, w))
-        lo = np.full((h, w), np.inf)
-        hi = np.full((h, w), -np.inf)
-        pad_fixed = np.pad(fixed, 1)
-        pad_out = np.pad(out, 1)
-        for (dy, dx), wt in self._weights.items():
-            f = pad_fixed[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
-            v = pad_out[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
-            deg += wt
-            rhs += np.where(f, wt * v, 0.0)
-            lo = np.where(f, np.minimum(lo, v), lo)
-            hi = np.where(f, np.maximum(hi, v), hi)
-        flat = comp.ravel()
-        order = np.argsort(flat, kind="stable")
-        starts = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=n + 1))])
-        ids = np.arange(1, n + 1)
-        cmin = ndimage.minimum(lo, comp, ids)
-        cmax = ndimage.maximum(hi, comp, ids)
-        for c in range(1, n + 1):
-            idx = order[starts[c]:starts[c + 1]]
-            if cmax[c - 1] - cmin[c - 1] <= 1e-12 * max(1.0, abs(cmax[c - 1])):
-                out.flat[idx] = cmin[c - 1]
-                continue
-            key = idx.tobytes()
-            lu = self._factors.pop(key, None)
-            if lu is None:
-                A = _area_laplacian(idx, deg, self._weights, (h, w))
-                lu = sla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                              options=dict(SymmetricMode=True))
-            self._factors[key] = lu  # most recently used last
-            out.flat[idx] = lu.solve(rhs.flat[idx])
-        # Keep recent areas too (undoing a change finds its factorization
-        # again), up to a few images' worth of pixels.
-        def cached_pixels():
-            return sum(len(key) for key in self._factors) // 8  # int64 indices
-
-        while len(self._factors) > 1 and cached_pixels() > _CACHE_PIXELS * h * w:
-            del self._factors[next(iter(self._factors))]
-        return out
-
-
-def _area_laplacian(idx, deg, weights, shape):
-    """Weighted Laplacian of the free pixels ``idx`` (sorted raster indices).
-
-    Neighbours outside ``idx`` are fixed (Dirichlet): they only add to the diagonal.
-    """
-    h, w = shape
-    pos = np.full(h * w, -1, np.int64)
-    pos[idx] = np.arange(len(idx))
-    y, x = np.divmod(idx, w)
-    n = len(idx)
-    rows, cols, vals = [np.arange(n)], [np.arange(n)], [deg.flat[idx]]
-    for (dy, dx), wt in weights.items():
-        yy, xx = y + dy, x + dx
-        ok = (yy >= 0) & (yy < h) & (xx >= 0) & (xx < w)
-        nb = np.where(ok, yy * w + xx, 0)
-        ok &= pos[nb] >= 0
-        rows.append(np.flatnonzero(ok))
-        cols.append(pos[nb[ok]])
-        vals.append(-wt.flat[idx[ok]])
-    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(n, n))
+        deg = np.zeros(self.shape)
+        deg[:, :-1] += wx
+        deg[:, 1:] += wx
+        deg[:-1, :] += wy
+        deg[1:, :] += wy
+        # Edges between two free pixels stay; an edge from a free pixel to a
+        # fixed one moves to the right-hand side.
+        diag = np.where(fixed, 1.0, deg)
+        east = np.where(free[:, :-1] & free[:, 1:], -wx, 0.0)
+        south = np.where(free[:-1, :] & free[1:, :], -wy, 0.0)
+        rhs = vals.copy()
+        rhs[:, :-1] += np.where(free[:, :-1], wx * vals[:, 1:], 0.0)
+        rhs[:, 1:] += np.where(free[:, 1:], wx * vals[:, :-1], 0.0)
+        rhs[:-1, :] += np.where(free[:-1, :], wy * vals[1:, :], 0.0)
+        rhs[1:, :] += np.where(free[1:, :], wy * vals[:-1, :], 0.0)
+        if self._chol is None:
+            self._chol = GridCholesky(diag, east, south, updatable=True)
+            self.timings["refactored_fronts"] = "all"
+        else:
+            self.timings["refactored_fronts"] = self._chol.update(diag, east, south)
+        d = self._chol.solve(rhs.ravel()).reshape(self.shape)
+        return np.where(fixed, vals, d)
 
 
 def _levels(p, q, ineq, labels, *, what="point"):

@@ -20,10 +20,12 @@ point is ``d = L^+ C^T lam``, and ``lam`` solves the small dual
     subject to  lam_i >= 0 for the inequalities,
 
 whose gradient ``H lam - b = C d - b`` is the constraint slack. One sparse
-factorization of the grounded Laplacian (nested-dissection order, SuperLU)
-gives ``H`` with ``m`` solves; the dual is solved exactly by an active-set
-method; one more solve recovers ``d``; the KKT conditions of the full problem
-are then measured on ``d`` itself.
+Cholesky factorization of the grounded Laplacian ``L_g = G G^T`` (multifrontal,
+in the grid's nested-dissection order: :mod:`inkray.grid_cholesky`) gives
+``H = (G^-1 C^T)^T (G^-1 C^T)`` by forward substitution from the ``2m``
+endpoints, which touches only the fronts on their paths to the root; the dual
+is solved exactly by an active-set method; one solve recovers ``d``; the KKT
+conditions of the full problem are then measured on ``d`` itself.
 
 Gauge: ``L`` has the constants in its null space (the floor keeps every weight
 positive, so the pixel graph is connected and there is exactly one such
@@ -42,8 +44,9 @@ import scipy.sparse.linalg as sla
 from threadpoolctl import threadpool_limits
 
 from .errors import InputError, StageError
+from .grid_cholesky import GridCholesky, grid_operator
 
-__all__ = ["edge_weights", "grid_laplacian", "nested_dissection", "GroundedLaplacian",
+__all__ = ["edge_weights", "grid_laplacian", "GroundedLaplacian",
            "QPResult", "solve_depth_qp", "dual_active_set", "constraint_cycle", "check_constraints",
            "WEIGHT_FLOOR", "SIGMA_FLOOR"]
 
@@ -51,10 +54,6 @@ __all__ = ["edge_weights", "grid_laplacian", "nested_dissection", "GroundedLapla
 #: conditioned for a 1e-6 KKT check, while a step across ink still costs
 #: 1e5 times less than the same step across paper.
 WEIGHT_FLOOR = 1e-5
-#: From this many constraints on, H is read off the factorization (one pass over
-#: the factor, measured at about the cost of 5-10 solves) instead of one solve
-#: per constraint.
-_GREEN_MIN = 8
 #: Smallest sigma, so a blank or nearly blank image gives uniform weights
 #: instead of turning paper noise into walls.
 SIGMA_FLOOR = 1e-4
@@ -150,63 +149,22 @@ def grid_laplacian(wx, wy):
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
 
 
-def nested_dissection(h, w, *, leaf=64):
-    """Geometric nested-dissection order of an ``h x w`` grid.
-
-    Parameters
-    ----------
-    h, w : int
-        Grid size.
-    leaf : int, default 64
-        Boxes of at most this many pixels are not split further.
-
-    Returns
-    -------
-    (h*w,) int64 array
-        Raster indices, each box before the separator that splits it, so the
-        root separator (the middle column or row) comes last; a sparse
-        Cholesky/LU in this order has near-optimal fill on a grid.
-
-    Examples
-    --------
-    >>> sorted(nested_dissection(3, 5).tolist()) == list(range(15))
-    True
-    """
-    idx = np.arange(h * w, dtype=np.int64).reshape(h, w)
-    out = []
-    stack = [(0, h, 0, w, False)]
-    # Iterative post-order: a box pushes its separator (emitted after both halves).
-    while stack:
-        r0, r1, c0, c1, emit = stack.pop()
-        if emit:
-            out.append(idx[r0:r1, c0:c1].ravel())
-            continue
-        if r1 <= r0 or c1 <= c0:
-            continue
-        if (r1 - r0) * (c1 - c0) <= leaf:
-            out.append(idx[r0:r1, c0:c1].ravel())
-        elif c1 - c0 >= r1 - r0:
-            m = (c0 + c1) // 2
-            stack += [(r0, r1, m, m + 1, True), (r0, r1, m + 1, c1, False), (r0, r1, c0, m, False)]
-        else:
-            m = (r0 + r1) // 2
-            stack += [(m, m + 1, c0, c1, True), (m + 1, r1, c0, c1, False), (r0, m, c0, c1, False)]
-    return np.concatenate(out) if out else np.zeros(0, np.int64)
-
-
 class GroundedLaplacian:
-    """A factorization of a connected graph Laplacian with one pixel grounded.
+    """A factorization of a connected graph Laplacian with one node grounded.
 
     Solves ``L d = r`` for right-hand sides with zero sum (the range of
-    ``L``); the solution has ``d[ground] = 0``.
+    ``L``); the solution has ``d[ground] = 0``. Dropping the ground node's row
+    and column removes the constant null space exactly.
 
     Parameters
     ----------
     laplacian : (N, N) sparse matrix
         Symmetric, connected, zero row sums.
     shape : (int, int), optional
-        ``(H, W)`` when the nodes are the pixels of a grid: enables the
-        nested-dissection order (else SuperLU's minimum degree on ``A + A^T``).
+        ``(H, W)`` when ``laplacian`` is a 4-neighbour grid Laplacian over the
+        pixels in raster order: it is then factored by the grid's nested
+        dissection (:class:`inkray.grid_cholesky.GridCholesky`, several times
+        faster on images); otherwise by SuperLU with a minimum-degree order.
 
     Examples
     --------
@@ -218,61 +176,41 @@ class GroundedLaplacian:
     True
     """
 
-    def __init__(self, laplacian, *, shape=None, last=None):
-        L = sp.csc_matrix(laplacian, dtype=np.float64)
+    def __init__(self, laplacian, *, shape=None):
+        L = sp.csr_matrix(laplacian, dtype=np.float64)
         n = L.shape[0]
         if n < 2:
             raise InputError("laplacian: needs at least 2 nodes")
         self.laplacian = L
         self.n = n
+        # Ground the last node: the bottom-right pixel on a grid.
+        self.ground = n - 1
         if shape is not None:
-            order = nested_dissection(*shape)
-            spec = "NATURAL"
+            diag, east, south = _grid_parts(L, shape)
+            # The ground's row and column become the identity: its diagonal is
+            # 1 and its couplings to the west and north neighbours vanish.
+            diag[-1, -1] = 1.0
+            east[-1, -1:] = 0.0
+            south[-1:, -1] = 0.0
+            self._grid = GridCholesky(diag, east, south)
         else:
-            order = np.arange(n)
-            spec = "MMD_AT_PLUS_A"
-        last = np.unique(np.asarray([] if last is None else last, np.int64))
-        if len(last) >= n:
-            last = last[:0]
-        rest = np.ones(n, bool)
-        rest[last] = False
-        order = order[rest[order]]
-        # Ground the last node of the order (on the root separator): dropping
-        # it removes the constant null space exactly.
-        self.ground = int(order[-1])
-        self.last = last
-        self._order = np.concatenate([order[:-1], last])
-        A = L[self._order][:, self._order].tocsc()
-        self._permuted = A.tocsr()  # for residuals of iterative refinement
-        try:
-            self._lu = sla.splu(A, permc_spec=spec, diag_pivot_thresh=0.0,
-                                options=dict(SymmetricMode=True))
-        except RuntimeError as e:  # singular: the graph is not connected
-            raise StageError(f"the pixel graph is not connected ({e})") from None
+            self._grid = None
+            A = L[:-1, :-1].tocsc()
+            try:
+                self._lu = sla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                    options=dict(SymmetricMode=True))
+            except RuntimeError as e:  # singular: the graph is not connected
+                raise StageError(f"the graph is not connected ({e})") from None
 
-    def green(self):
-        """``L_g^{-1}`` restricted to the nodes ``last`` (the grounded Green's function).
-
-        With those nodes eliminated last and no pivoting (symmetric mode, so
-        ``U = D L^T``), the trailing block of the factors is the Cholesky-like
-        factorization of their Schur complement ``S = U_KK^T D_KK^{-1} U_KK``,
-        and ``(L_g^{-1})_KK = S^{-1}``: no solves, one read of the factor.
-
-        Returns
-        -------
-        (k, k) float64 array or None
-            None when the factorization permuted rows or columns (then the
-            trailing block is not the Schur complement).
-        """
-        k = len(self.last)
-        m = self.n - 1
-        if k == 0 or not (np.array_equal(self._lu.perm_r, np.arange(m))
-                          and np.array_equal(self._lu.perm_c, np.arange(m))):
-            return None
-        U = self._lu.U.tocsc()[:, m - k:][m - k:, :].toarray()
-        S = U.T @ (U / np.diag(U)[:, None])
-        S = 0.5 * (S + S.T)
-        return np.linalg.solve(S, np.eye(k))
+    def _solve_grounded(self, b):
+        """``L_g^-1 b`` on full-length vectors; ``b``'s ground row is ignored, ``x``'s is 0."""
+        if self._grid is not None:
+            b = b.copy()
+            b[self.ground] = 0.0
+            return self._grid.solve(b)
+        x = np.zeros_like(b)
+        x[:-1] = self._lu.solve(b[:-1])
+        return x
 
     def solve(self, rhs, *, refine=1):
         """Solve ``L d = rhs`` with ``d[ground] = 0``.
@@ -290,13 +228,56 @@ class GroundedLaplacian:
         """
         r = np.asarray(rhs, np.float64)
         r = r - r.mean(axis=0, keepdims=True)
-        b = r[self._order]
-        x = self._lu.solve(b)
+        d = self._solve_grounded(r)
         for _ in range(refine):
-            x = x + self._lu.solve(b - self._permuted @ x)
-        d = np.zeros_like(r)
-        d[self._order] = x
+            d = d + self._solve_grounded(r - self.laplacian @ d)
         return d
+
+    def dual_matrix(self, p, q):
+        """``H = C L_g^-1 C^T`` for constraint rows ``e_p - e_q`` (the ground's entries dropped).
+
+        On a grid by forward substitution over the fronts above the endpoints
+        only (:meth:`inkray.grid_cholesky.GridCholesky.gram`); otherwise by
+        solves with the columns of ``C^T``.
+
+        Parameters
+        ----------
+        p, q : (m,) int arrays
+
+        Returns
+        -------
+        (m, m) float64 array
+        """
+        m = len(p)
+        cols = np.arange(m)
+        Ct = np.zeros((self.n, m))
+        np.add.at(Ct, (p, cols), 1.0)
+        np.add.at(Ct, (q, cols), -1.0)
+        Ct[self.ground] = 0.0
+        if self._grid is not None:
+            return self._grid.gram(Ct)
+        H = Ct.T @ self._solve_grounded(Ct)
+        return 0.5 * (H + H.T)
+
+
+def _grid_parts(L, shape):
+    """Diagonal, east and south couplings of a 4-neighbour grid operator ``L``."""
+    h, w = shape
+    n = h * w
+    if L.shape != (n, n):
+        raise InputError(f"laplacian: {L.shape[0]} nodes, but the grid {w}x{h} has {n} pixels")
+    diag = L.diagonal().reshape(h, w).copy()
+    east = np.zeros((h, max(w - 1, 0)))
+    south = np.zeros((max(h - 1, 0), w))
+    if w > 1:
+        east[:] = np.append(L.diagonal(1), 0.0).reshape(h, w)[:, :-1]
+    if h > 1:
+        south[:] = L.diagonal(w).reshape(h - 1, w)
+    # Any other entry would show in the product with a random vector.
+    v = np.random.default_rng(0).standard_normal(n)
+    if not np.allclose(L @ v, grid_operator(diag, east, south) @ v, rtol=1e-12, atol=0.0):
+        raise InputError("laplacian: not a 4-neighbour operator on the given grid shape")
+    return diag, east, south
 
 
 @dataclass
@@ -494,7 +475,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     factor : GroundedLaplacian, optional
         A factorization of ``laplacian`` to reuse.
     shape : (int, int), optional
-        Grid shape, for the nested-dissection order when ``factor`` is None.
+        Grid shape, for the grid factorization when ``factor`` is None.
     tol : float, default 1e-6
         Every KKT measure of the result must be at most this.
     labels : list of str, optional
@@ -542,17 +523,14 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     b = np.where(ineq, float(epsilon), 0.0)
     timings = {}
     if factor is None:
-        # Many constraints: eliminate the endpoints last and read H off the
-        # factor instead of solving once per constraint.
-        last = np.r_[p, q] if keep.sum() >= _GREEN_MIN and shape is not None else None
-        factor = GroundedLaplacian(laplacian, shape=shape, last=last)
+        factor = GroundedLaplacian(laplacian, shape=shape)
     timings["factorize"] = time.perf_counter() - t0
     lam = np.zeros(m)
     iterations = 0
     if keep.any():
         t = time.perf_counter()
         kp, kq, kb, kin = p[keep], q[keep], b[keep], ineq[keep]
-        H = _dual_matrix(factor, kp, kq, n)
+        H = factor.dual_matrix(kp, kq)
         timings["dual_matrix"] = time.perf_counter() - t
         t = time.perf_counter()
         klam, iterations = _active_set(H, kb, kin)
@@ -597,28 +575,6 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
 def _ct(p, q, lam, n):
     """``C^T lam`` for constraint rows ``e_p - e_q``."""
     return np.bincount(p, lam, minlength=n) - np.bincount(q, lam, minlength=n)
-
-
-def _dual_matrix(factor, p, q, n, *, chunk=16):
-    """``H = C L^+ C^T``: from the Green's function block when the factor has
-    the endpoints last, else by solves with the columns of ``C^T`` in chunks."""
-    m = len(p)
-    if len(factor.last) and np.isin(np.r_[p, q], factor.last).all():
-        G = factor.green()
-        if G is not None:
-            i, j = np.searchsorted(factor.last, p), np.searchsorted(factor.last, q)
-            H = G[np.ix_(i, i)] - G[np.ix_(i, j)] - G[np.ix_(j, i)] + G[np.ix_(j, j)]
-            return 0.5 * (H + H.T)
-    H = np.empty((m, m))
-    for s in range(0, m, chunk):
-        e = min(m, s + chunk)
-        rhs = np.zeros((n, e - s))
-        cols = np.arange(e - s)
-        np.add.at(rhs, (p[s:e], cols), 1.0)
-        np.add.at(rhs, (q[s:e], cols), -1.0)
-        Z = factor.solve(rhs, refine=0)
-        H[:, s:e] = Z[p] - Z[q]
-    return 0.5 * (H + H.T)
 
 
 def _pinv_solve(H, r):

@@ -15,7 +15,7 @@ from inkray.drawing import drawing_from_array
 from inkray.errors import InputError
 from inkray.inputs import load_input
 from inkray.qp import (GroundedLaplacian, constraint_cycle, edge_weights, grid_laplacian,
-                       nested_dissection, solve_depth_qp)
+                       solve_depth_qp)
 
 from conftest import shared_drawing_names
 
@@ -137,17 +137,27 @@ def test_dependent_equalities_and_orders():
     assert max(r.kkt.values()) <= 1e-6
 
 
-def test_grounded_laplacian_and_dissection():
-    order = nested_dissection(7, 9, leaf=4)
-    assert sorted(order.tolist()) == list(range(63))
+def test_grounded_laplacian_on_a_grid_and_as_a_graph():
     wx, wy, _ = edge_weights(np.random.default_rng(0).random((7, 9)))
     L = grid_laplacian(wx, wy)
     assert np.abs(L @ np.ones(63)).max() < 1e-12
-    f = GroundedLaplacian(L, shape=(7, 9))
     r = np.random.default_rng(1).standard_normal(63)
     r -= r.mean()
-    d = f.solve(r)
-    assert np.abs(L @ d - r).max() < 1e-10 and d[f.ground] == 0.0
+    p, q = np.array([3, 40, 62]), np.array([17, 5, 0])
+    Ct = np.zeros((63, 3))
+    Ct[p, np.arange(3)] += 1.0
+    Ct[q, np.arange(3)] -= 1.0
+    Hs = []
+    for shape in ((7, 9), None):
+        f = GroundedLaplacian(L, shape=shape)
+        d = f.solve(r)
+        assert np.abs(L @ d - r).max() < 1e-10 and d[f.ground] == 0.0
+        H = f.dual_matrix(p, q)
+        assert np.allclose(H, Ct.T @ f.solve(Ct), atol=1e-10)
+        Hs.append(H)
+    assert np.allclose(Hs[0], Hs[1], atol=1e-10)
+    with pytest.raises(InputError, match="not a 4-neighbour operator"):
+        GroundedLaplacian(L, shape=(9, 7))
 
 
 def test_default_sigma_is_the_mean_squared_contrast():
