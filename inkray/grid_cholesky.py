@@ -290,15 +290,22 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
             redone += nb
         f = s + g.r
         F = np.zeros((nb, f, f))
-        vals = values[g.vidx[sel]]
-        F[:, g.li, g.lj] = vals
-        F[:, g.lj, g.li] = vals
-        # Extend-add of the children's updates, one block per pair of contiguous runs.
+        # Fronts and updates are symmetric: only their lower triangles are
+        # formed and read (the upper ones hold partial sums nobody reads).
+        F[:, g.li, g.lj] = values[g.vidx[sel]]
+        # Extend-add of the children's updates, one block per pair of
+        # contiguous runs that lands on or below the diagonal.
         for gid, pos, runs in g.children:
             U = updates[gid][pos[sel]]
             for a0, b0, na in runs:
                 for c0, d0, nc in runs:
-                    F[:, b0:b0 + na, d0:d0 + nc] += U[:, a0:a0 + na, c0:c0 + nc]
+                    if b0 < d0:
+                        continue
+                    if a0 >= c0:
+                        F[:, b0:b0 + na, d0:d0 + nc] += U[:, a0:a0 + na, c0:c0 + nc]
+                    else:  # the source block lies above U's diagonal: read its mirror
+                        F[:, b0:b0 + na, d0:d0 + nc] += \
+                            U[:, c0:c0 + nc, a0:a0 + na].transpose(0, 2, 1)
         if f > _STACK_FRONT:
             Li, W, U = _partial_cholesky_each(F, s)
         else:
@@ -321,13 +328,16 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
 
 
 def _partial_cholesky_stacked(F, s):
-    """``Li = chol(F_SS)^-1``, ``W = Li F_SR``, ``U = F_RR - W^T W`` for a stack of small fronts."""
+    """``Li = chol(F_SS)^-1``, ``W = Li F_SR``, ``U = F_RR - W^T W`` for a stack of small fronts.
+
+    Reads the lower triangle of ``F`` only; ``U`` is valid in its lower triangle.
+    """
     try:
         Lc = np.linalg.cholesky(F[:, :s, :s])
     except np.linalg.LinAlgError:
         raise StageError("grid Cholesky: the operator is not positive definite") from None
     Li = np.linalg.inv(Lc)
-    W = Li @ F[:, :s, s:]
+    W = Li @ F[:, s:, :s].transpose(0, 2, 1)
     if s * W.shape[2] <= 256:  # tiny matrices: einsum beats a BLAS call per matrix
         U = F[:, s:, s:] - np.einsum("bki,bkj->bij", W, W)
     else:
@@ -349,10 +359,10 @@ def _partial_cholesky_each(F, s):
         c, info = _lapack.dtrtri(c, lower=1)
         Li[b] = c
         if r:
-            W[b] = _blas.dtrmm(1.0, c, F[b, :s, s:], lower=1)
+            W[b] = _blas.dtrmm(1.0, c, F[b, s:, :s].T, lower=1)
             U[b] = F[b, s:, s:]
-            # U^T is Fortran-ordered: gemm updates it in place.
-            _blas.dgemm(-1.0, W[b], W[b], beta=1.0, c=U[b].T, trans_a=1, overwrite_c=1)
+            # U^T is Fortran-ordered: syrk updates its upper triangle (U's lower) in place.
+            _blas.dsyrk(-1.0, W[b], beta=1.0, c=U[b].T, trans=1, lower=0, overwrite_c=1)
     return Li, W, U
 
 
