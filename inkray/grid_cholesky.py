@@ -51,6 +51,7 @@ class _Group:
     R: np.ndarray           # (nb, r) raster indices of the ring pixels
     li: np.ndarray          # (k,) front rows of the operator's entries
     lj: np.ndarray          # (k,) front columns
+    in_s: np.ndarray        # (k,) bool: the entry's row is an eliminated pixel
     vidx: np.ndarray        # (nb, k) indices of those entries in [diag, east, south]
     children: list          # [(group id, (nb,) batch positions, runs of front positions)]
     ring_rows: np.ndarray   # distinct raster indices of R (for the scatter-add)
@@ -186,35 +187,49 @@ class GridCholesky:
 
         With ``A = L L^T`` this is ``Y^T Y`` for ``Y = L^-1 rhs``; when ``rhs``
         has few nonzero rows (point sources), ``Y`` is nonzero only on the
-        fronts from their boxes up to the root, and only those are visited.
+        fronts from their boxes up to the root, and only those are visited,
+        on a right-hand side compacted to the pixels of those fronts.
 
         Parameters
         ----------
-        rhs : (N, k) array
+        rhs : (N, k) array or sparse matrix
 
         Returns
         -------
         (k, k) float64 array
         """
-        b = self._rhs(rhs)
-        k = b.shape[1]
-        touched = np.zeros(self.n + 1, bool)
-        touched[:self.n] = (b != 0).any(axis=1)
+        B = sp.csr_matrix(rhs, dtype=np.float64)
+        if B.shape[0] != self.n:
+            raise InputError(f"rhs: expected {self.n} rows, got shape {B.shape}")
+        k = B.shape[1]
+        # Symbolic pass: the fronts reached from the nonzero rows.
+        touched = np.zeros(self.n, bool)
+        touched[np.flatnonzero(np.diff(B.indptr))] = True
+        sels = []
+        for g in self._plan:
+            sel = np.flatnonzero(touched[g.S].any(axis=1))
+            sels.append(sel)
+            touched[g.S[sel]] = True
+            if g.r:
+                touched[g.R[sel]] = True
+        rows = np.flatnonzero(touched)
+        lut = np.full(self.n, -1, np.int64)
+        lut[rows] = np.arange(len(rows))
+        b = B[rows].toarray()
         out = np.zeros((k, k))
         with threadpool_limits(limits=1, user_api="blas"):
-            for g, (Li, W) in zip(self._plan, self._factors):
-                sel = np.flatnonzero(touched[g.S].any(axis=1))
+            for g, (Li, W), sel in zip(self._plan, self._factors, sels):
                 if not len(sel):
                     continue
-                y = Li[sel] @ b[g.S[sel]]
+                y = Li[sel] @ b[lut[g.S[sel]]]
                 flat = y.reshape(-1, k)
                 out += flat.T @ flat
                 if g.r:
-                    rows, inv = np.unique(g.R[sel], return_inverse=True)
-                    add = sp.csr_matrix((np.ones(inv.size), (inv.ravel(), np.arange(inv.size))),
-                                        shape=(len(rows), inv.size))
-                    b[rows] -= add @ (W[sel].transpose(0, 2, 1) @ y).reshape(-1, k)
-                    touched[rows] = True
+                    R = lut[g.R[sel]].ravel()
+                    at, inv = np.unique(R, return_inverse=True)
+                    add = sp.csr_matrix((np.ones(R.size), (inv.ravel(), np.arange(R.size))),
+                                        shape=(len(at), R.size))
+                    b[at] -= add @ (W[sel].transpose(0, 2, 1) @ y).reshape(-1, k)
         return 0.5 * (out + out.T)
 
     def _rhs(self, rhs):
@@ -288,28 +303,39 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
             sel = np.flatnonzero(dirty)
             nb = len(sel)
             redone += nb
-        f = s + g.r
-        F = np.zeros((nb, f, f))
-        # Fronts and updates are symmetric: only their lower triangles are
-        # formed and read (the upper ones hold partial sums nobody reads).
-        F[:, g.li, g.lj] = values[g.vidx[sel]]
+        r = g.r
+        # The front in three blocks: F_SS and F_RS (lower triangle of the
+        # eliminated rows) and the ring block, which accumulates the children's
+        # updates and becomes this front's update U in place. Fronts and
+        # updates are symmetric: only their lower triangles are formed and read.
+        Fss = np.zeros((nb, s, s))
+        Frs = np.zeros((nb, r, s))
+        U = np.zeros((nb, r, r))
+        vals = values[g.vidx[sel]]
+        Fss[:, g.li[g.in_s], g.lj[g.in_s]] = vals[:, g.in_s]
+        Frs[:, g.li[~g.in_s] - s, g.lj[~g.in_s]] = vals[:, ~g.in_s]
         # Extend-add of the children's updates, one block per pair of
         # contiguous runs that lands on or below the diagonal.
         for gid, pos, runs in g.children:
-            U = updates[gid][pos[sel]]
+            Uc = updates[gid][pos[sel]]
             for a0, b0, na in runs:
                 for c0, d0, nc in runs:
                     if b0 < d0:
                         continue
                     if a0 >= c0:
-                        F[:, b0:b0 + na, d0:d0 + nc] += U[:, a0:a0 + na, c0:c0 + nc]
-                    else:  # the source block lies above U's diagonal: read its mirror
-                        F[:, b0:b0 + na, d0:d0 + nc] += \
-                            U[:, c0:c0 + nc, a0:a0 + na].transpose(0, 2, 1)
-        if f > _STACK_FRONT:
-            Li, W, U = _partial_cholesky_each(F, s)
+                        blk = Uc[:, a0:a0 + na, c0:c0 + nc]
+                    else:  # the source block lies above Uc's diagonal: read its mirror
+                        blk = Uc[:, c0:c0 + nc, a0:a0 + na].transpose(0, 2, 1)
+                    if b0 < s:
+                        Fss[:, b0:b0 + na, d0:d0 + nc] += blk
+                    elif d0 < s:
+                        Frs[:, b0 - s:b0 - s + na, d0:d0 + nc] += blk
+                    else:
+                        U[:, b0 - s:b0 - s + na, d0 - s:d0 - s + nc] += blk
+        if s + r > _STACK_FRONT:
+            Li, W = _partial_cholesky_each(Fss, Frs, U)
         else:
-            Li, W, U = _partial_cholesky_stacked(F, s)
+            Li, W = _partial_cholesky_stacked(Fss, Frs, U)
         if previous is not None:  # in place: the previous factorization is replaced
             Li0, W0 = previous[0][i]
             Li0[sel], W0[sel] = Li, W
@@ -327,43 +353,40 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
     return factors, updates, redone
 
 
-def _partial_cholesky_stacked(F, s):
-    """``Li = chol(F_SS)^-1``, ``W = Li F_SR``, ``U = F_RR - W^T W`` for a stack of small fronts.
+def _partial_cholesky_stacked(Fss, Frs, U):
+    """``Li = chol(F_SS)^-1``, ``W = Li F_SR`` and ``U -= W^T W`` for a stack of small fronts.
 
-    Reads the lower triangle of ``F`` only; ``U`` is valid in its lower triangle.
+    Reads the lower triangle of ``F_SS``; ``U`` is updated in its lower triangle.
     """
     try:
-        Lc = np.linalg.cholesky(F[:, :s, :s])
+        Lc = np.linalg.cholesky(Fss)
     except np.linalg.LinAlgError:
         raise StageError("grid Cholesky: the operator is not positive definite") from None
     Li = np.linalg.inv(Lc)
-    W = Li @ F[:, s:, :s].transpose(0, 2, 1)
-    if s * W.shape[2] <= 256:  # tiny matrices: einsum beats a BLAS call per matrix
-        U = F[:, s:, s:] - np.einsum("bki,bkj->bij", W, W)
+    W = Li @ Frs.transpose(0, 2, 1)
+    if W.shape[1] * W.shape[2] <= 256:  # tiny matrices: einsum beats a BLAS call per matrix
+        U -= np.einsum("bki,bkj->bij", W, W)
     else:
-        U = F[:, s:, s:] - W.transpose(0, 2, 1) @ W
-    return Li, W, U
+        U -= W.transpose(0, 2, 1) @ W
+    return Li, W
 
 
-def _partial_cholesky_each(F, s):
+def _partial_cholesky_each(Fss, Frs, U):
     """The same for larger fronts, one LAPACK/BLAS call each."""
-    nb, f, _ = F.shape
-    r = f - s
+    nb, r, s = Frs.shape
     Li = np.empty((nb, s, s))
     W = np.empty((nb, s, r))
-    U = np.empty((nb, r, r))
     for b in range(nb):
-        c, info = _lapack.dpotrf(F[b, :s, :s], lower=1, clean=1)
+        c, info = _lapack.dpotrf(Fss[b], lower=1, clean=1)
         if info != 0:
             raise StageError("grid Cholesky: the operator is not positive definite")
         c, info = _lapack.dtrtri(c, lower=1)
         Li[b] = c
         if r:
-            W[b] = _blas.dtrmm(1.0, c, F[b, s:, :s].T, lower=1)
-            U[b] = F[b, s:, s:]
+            W[b] = _blas.dtrmm(1.0, c, Frs[b].T, lower=1)
             # U^T is Fortran-ordered: syrk updates its upper triangle (U's lower) in place.
             _blas.dsyrk(-1.0, W[b], beta=1.0, c=U[b].T, trans=1, lower=0, overwrite_c=1)
-    return Li, W, U
+    return Li, W
 
 
 @lru_cache(maxsize=8)
@@ -452,7 +475,7 @@ def _plan(h, w, leaf):
                 oy, ox = cbox[0] - box[0, 0], cbox[2] - box[0, 2]
                 _, crel = _front(*keys[cg[0]][1:], leaf)
                 m = np.array([front[(i + oy, j + ox)] for i, j in crel], np.int64)
-                children.append((int(cg[0]), pos_of[d + 1][ck], _runs(m)))
+                children.append((int(cg[0]), pos_of[d + 1][ck], _runs(m, s)))
         flat = R.ravel()
         seen = np.zeros(h * w, bool)
         seen[flat] = True
@@ -462,15 +485,17 @@ def _plan(h, w, leaf):
         inv = lut[flat]
         ring_sum = sp.csr_matrix((np.ones(len(flat)), (inv, np.arange(len(flat)))),
                                  shape=(len(rows), len(flat)))
-        groups.append(_Group(s=s, r=len(R_rel), S=S, R=R, li=np.array(li, np.int64),
-                             lj=np.array(lj, np.int64), vidx=vidx, children=children,
+        li = np.array(li, np.int64)
+        groups.append(_Group(s=s, r=len(R_rel), S=S, R=R, li=li, lj=np.array(lj, np.int64),
+                             in_s=li < s, vidx=vidx, children=children,
                              ring_rows=rows, ring_sum=ring_sum))
     return groups
 
 
-def _runs(m):
-    """``m`` (child ring -> parent front positions) as contiguous runs ``(src, dst, length)``."""
-    cut = np.flatnonzero(np.diff(m) != 1) + 1
+def _runs(m, s):
+    """``m`` (child ring -> parent front positions) as contiguous runs ``(src, dst, length)``,
+    none crossing from the eliminated positions (``< s``) into the ring."""
+    cut = np.flatnonzero((np.diff(m) != 1) | (m[1:] == s)) + 1
     starts = np.r_[0, cut]
     ends = np.r_[cut, len(m)]
     return [(int(a), int(m[a]), int(b - a)) for a, b in zip(starts, ends)]

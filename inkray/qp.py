@@ -250,13 +250,13 @@ class GroundedLaplacian:
         """
         m = len(p)
         cols = np.arange(m)
-        Ct = np.zeros((self.n, m))
-        np.add.at(Ct, (p, cols), 1.0)
-        np.add.at(Ct, (q, cols), -1.0)
+        Ct = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)], (np.r_[p, q], np.r_[cols, cols])),
+                           shape=(self.n, m)).tolil()
         Ct[self.ground] = 0.0
+        Ct = Ct.tocsr()
         if self._grid is not None:
             return self._grid.gram(Ct)
-        H = Ct.T @ self._solve_grounded(Ct)
+        H = Ct.T @ self._solve_grounded(Ct.toarray())
         return 0.5 * (H + H.T)
 
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from inkray.errors import InputError, StageError
@@ -77,6 +78,13 @@ def test_gram_is_the_inverse_quadratic_form_of_point_sources():
     assert np.allclose(G, G.T)
     assert np.abs(G - ref).max() <= 1e-10 * np.abs(ref).max()
     assert np.linalg.eigvalsh(G).min() > 0  # independent dipoles: positive definite
+    # Sources that share fronts, one on the last pixel, given as a sparse matrix.
+    B = np.zeros((h * w, 3))
+    B[[5, 300], 0] = 1.0, -1.0
+    B[[77, h * w - 1], 1] = 1.0, -1.0
+    B[[5, 77], 2] = 1.0, -1.0
+    ref = B.T @ f.solve(B)
+    assert np.abs(f.gram(sp.csr_matrix(B)) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
 def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
