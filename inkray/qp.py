@@ -220,7 +220,9 @@ class GroundedLaplacian:
         rhs : (N,) or (N, k) array
             Columns with zero sum (projected onto zero sum otherwise).
         refine : int, default 1
-            Steps of iterative refinement with the same factorization.
+            Most steps of iterative refinement with the same factorization;
+            none is taken once the residual is at rounding level
+            (``1e-12`` of the right-hand side).
 
         Returns
         -------
@@ -230,7 +232,11 @@ class GroundedLaplacian:
         r = r - r.mean(axis=0, keepdims=True)
         d = self._solve_grounded(r)
         for _ in range(refine):
-            d = d + self._solve_grounded(r - self.laplacian @ d)
+            res = r - self.laplacian @ d
+            res[self.ground] = 0.0  # the ground's row was dropped
+            if np.abs(res).max(initial=0.0) <= 1e-12 * np.abs(r).max(initial=0.0):
+                break
+            d = d + self._solve_grounded(res)
         return d
 
     def dual_matrix(self, p, q):
@@ -249,11 +255,11 @@ class GroundedLaplacian:
         (m, m) float64 array
         """
         m = len(p)
-        cols = np.arange(m)
-        Ct = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)], (np.r_[p, q], np.r_[cols, cols])),
-                           shape=(self.n, m)).tolil()
-        Ct[self.ground] = 0.0
-        Ct = Ct.tocsr()
+        rows = np.r_[p, q]
+        cols = np.r_[np.arange(m), np.arange(m)]
+        vals = np.r_[np.ones(m), -np.ones(m)]
+        on = rows != self.ground
+        Ct = sp.csr_matrix((vals[on], (rows[on], cols[on])), shape=(self.n, m))
         if self._grid is not None:
             return self._grid.gram(Ct)
         H = Ct.T @ self._solve_grounded(Ct.toarray())
