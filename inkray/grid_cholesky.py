@@ -317,7 +317,8 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
         # Extend-add of the children's updates, one block per pair of
         # contiguous runs that lands on or below the diagonal.
         for gid, pos, runs in g.children:
-            Uc = updates[gid][pos[sel]]
+            Uc = updates[gid][pos] if previous is None else \
+                updates[gid][np.arange(len(updates[gid]))[pos][sel]]
             for a0, b0, na in runs:
                 for c0, d0, nc in runs:
                     if b0 < d0:
@@ -364,10 +365,7 @@ def _partial_cholesky_stacked(Fss, Frs, U):
         raise StageError("grid Cholesky: the operator is not positive definite") from None
     Li = np.linalg.inv(Lc)
     W = Li @ Frs.transpose(0, 2, 1)
-    if W.shape[1] * W.shape[2] <= 256:  # tiny matrices: einsum beats a BLAS call per matrix
-        U -= np.einsum("bki,bkj->bij", W, W)
-    else:
-        U -= W.transpose(0, 2, 1) @ W
+    U -= W.transpose(0, 2, 1) @ W
     return Li, W
 
 
@@ -475,7 +473,7 @@ def _plan(h, w, leaf):
                 oy, ox = cbox[0] - box[0, 0], cbox[2] - box[0, 2]
                 _, crel = _front(*keys[cg[0]][1:], leaf)
                 m = np.array([front[(i + oy, j + ox)] for i, j in crel], np.int64)
-                children.append((int(cg[0]), pos_of[d + 1][ck], _runs(m, s)))
+                children.append((int(cg[0]), _as_slice(pos_of[d + 1][ck]), _runs(m, s)))
         flat = R.ravel()
         seen = np.zeros(h * w, bool)
         seen[flat] = True
@@ -490,6 +488,16 @@ def _plan(h, w, leaf):
                              in_s=li < s, vidx=vidx, children=children,
                              ring_rows=rows, ring_sum=ring_sum))
     return groups
+
+
+def _as_slice(pos):
+    """Batch positions as a slice when they step evenly (a view instead of a copy)."""
+    if len(pos) == 1:
+        return slice(int(pos[0]), int(pos[0]) + 1)
+    step = pos[1] - pos[0]
+    if step > 0 and (np.diff(pos) == step).all():
+        return slice(int(pos[0]), int(pos[-1]) + 1, int(step))
+    return pos
 
 
 def _runs(m, s):
