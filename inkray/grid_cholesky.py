@@ -434,33 +434,34 @@ def _plan(h, w, leaf):
         gid_of.insert(0, gid)
         pos_of.insert(0, pos)
     groups = []
+    lut = np.empty(h * w, np.int64)  # raster index -> position among a group's ring rows
     for g, key in enumerate(keys):
         d, bh, bw, sides = key
         ids = where[g]
         box = levels[d][ids]
         S_rel, R_rel = _front(bh, bw, sides, leaf)
-        front = {c: i for i, c in enumerate(S_rel + R_rel)}
-        s = len(S_rel)
-        li, lj, kind, rel = [], [], [], []
-        for a, (i, j) in enumerate(S_rel):
-            li.append(a); lj.append(a); kind.append(0); rel.append((i, j))
-            for (ni, nj), kd, (vi, vj) in (((i, j + 1), 1, (i, j)), ((i, j - 1), 1, (i, j - 1)),
-                                          ((i + 1, j), 2, (i, j)), ((i - 1, j), 2, (i - 1, j))):
-                b = front.get((ni, nj))
-                if b is None or (b < s and b < a):
-                    continue  # in a child box, or an S-S pair already listed
-                li.append(b); lj.append(a); kind.append(kd); rel.append((vi, vj))
+        s, r = len(S_rel), len(R_rel)
+        # Front positions on the box and its ring, offset by one (-1: in a child box).
+        local = np.full((bh + 2, bw + 2), -1, np.int64)
+        local[S_rel[:, 0] + 1, S_rel[:, 1] + 1] = np.arange(s)
+        local[R_rel[:, 0] + 1, R_rel[:, 1] + 1] = s + np.arange(r)
+        # The operator's entries in the eliminated rows, lower triangle: the
+        # diagonal, then per neighbour direction (its value lives at the
+        # west/north pixel of the pair, in the east/south arrays).
+        a = np.arange(s)
+        li, lj, kind, rel = [a], [a], [np.zeros(s, np.int64)], [S_rel]
+        for dy, dx, kd in ((0, 1, 1), (0, -1, 1), (1, 0, 2), (-1, 0, 2)):
+            b = local[S_rel[:, 0] + 1 + dy, S_rel[:, 1] + 1 + dx]
+            keep = (b >= 0) & ((b >= s) | (b > a))  # not in a child, each S-S pair once
+            li.append(b[keep])
+            lj.append(a[keep])
+            kind.append(np.full(keep.sum(), kd, np.int64))
+            rel.append(S_rel[keep] + [min(dy, 0), min(dx, 0)])
+        li, lj, kind, rel = (np.concatenate(v) for v in (li, lj, kind, rel))
         origins = box[:, 0] * w + box[:, 2]
-        rel = np.array(rel, np.int64).reshape(-1, 2)
-        vidx = (np.array(kind, np.int64) * (h * w))[None, :] + origins[:, None] + \
-            (rel[:, 0] * w + rel[:, 1])[None, :]
-
-        def raster(cells):
-            c = np.array(cells, np.int64).reshape(-1, 2)
-            return origins[:, None] + (c[:, 0] * w + c[:, 1])[None, :]
-
-        S = raster(S_rel)
-        R = raster(R_rel)
+        vidx = (kind * (h * w))[None, :] + origins[:, None] + (rel[:, 0] * w + rel[:, 1])[None, :]
+        S = origins[:, None] + (S_rel[:, 0] * w + S_rel[:, 1])[None, :]
+        R = origins[:, None] + (R_rel[:, 0] * w + R_rel[:, 1])[None, :]
         children = []
         child = kids[d][ids]
         if child[0, 0] >= 0:
@@ -472,21 +473,17 @@ def _plan(h, w, leaf):
                 cbox = levels[d + 1][ck[0]]
                 oy, ox = cbox[0] - box[0, 0], cbox[2] - box[0, 2]
                 _, crel = _front(*keys[cg[0]][1:], leaf)
-                m = np.array([front[(i + oy, j + ox)] for i, j in crel], np.int64)
+                m = local[crel[:, 0] + oy + 1, crel[:, 1] + ox + 1]
                 children.append((int(cg[0]), _as_slice(pos_of[d + 1][ck]), _runs(m, s)))
         flat = R.ravel()
-        seen = np.zeros(h * w, bool)
-        seen[flat] = True
-        rows = np.flatnonzero(seen)
-        lut = np.empty(h * w, np.int64)
+        rows = np.unique(flat) if flat.size < (h * w) // 8 else np.flatnonzero(np.bincount(
+            flat, minlength=h * w))
         lut[rows] = np.arange(len(rows))
-        inv = lut[flat]
-        ring_sum = sp.csr_matrix((np.ones(len(flat)), (inv, np.arange(len(flat)))),
-                                 shape=(len(rows), len(flat)))
-        li = np.array(li, np.int64)
-        groups.append(_Group(s=s, r=len(R_rel), S=S, R=R, li=li, lj=np.array(lj, np.int64),
-                             in_s=li < s, vidx=vidx, children=children,
-                             ring_rows=rows, ring_sum=ring_sum))
+        # Sums the ring entries onto their distinct rows (one entry per column).
+        ring_sum = sp.csc_matrix((np.ones(flat.size), lut[flat], np.arange(flat.size + 1)),
+                                 shape=(len(rows), flat.size))
+        groups.append(_Group(s=s, r=r, S=S, R=R, li=li, lj=lj, in_s=li < s, vidx=vidx,
+                             children=children, ring_rows=rows, ring_sum=ring_sum))
     return groups
 
 
@@ -510,21 +507,18 @@ def _runs(m, s):
 
 
 def _front(bh, bw, sides, leaf):
-    """Relative cells of a box's eliminated pixels and of its ring."""
+    """Relative cells ``(row, col)`` of a box's eliminated pixels and of its ring."""
     top, bottom, left, right = sides
     if bh * bw <= leaf or max(bh, bw) < 3:
-        S = [(i, j) for i in range(bh) for j in range(bw)]
+        S = np.argwhere(np.ones((bh, bw), bool))
     elif bw >= bh:
-        S = [(i, (bw - 1) // 2) for i in range(bh)]
+        S = np.stack([np.arange(bh), np.full(bh, (bw - 1) // 2)], axis=1)
     else:
-        S = [((bh - 1) // 2, j) for j in range(bw)]
-    R = []
-    if top:
-        R += [(-1, j) for j in range(bw)]
-    if bottom:
-        R += [(bh, j) for j in range(bw)]
-    if left:
-        R += [(i, -1) for i in range(bh)]
-    if right:
-        R += [(i, bw) for i in range(bh)]
-    return S, R
+        S = np.stack([np.full(bw, (bh - 1) // 2), np.arange(bw)], axis=1)
+    across, down = np.arange(bw), np.arange(bh)
+    R = [np.stack([np.full(bw, row), across], axis=1) for row, on in ((-1, top), (bh, bottom))
+         if on]
+    R += [np.stack([down, np.full(bh, col)], axis=1) for col, on in ((-1, left), (bw, right))
+          if on]
+    R = np.concatenate(R) if R else np.zeros((0, 2), np.int64)
+    return S.astype(np.int64), R.astype(np.int64)
