@@ -387,7 +387,7 @@ def _partial_cholesky_each(Fss, Frs, U):
     return Li, W
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=4)
 def _plan(h, w, leaf):
     """The nested-dissection tree of an ``h x w`` grid, as groups in elimination order."""
     # The tree level by level: boxes (r0, r1, c0, c1) and, per box, the
