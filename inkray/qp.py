@@ -253,6 +253,13 @@ class GroundedLaplacian:
         Returns
         -------
         (m, m) float64 array
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))   # a path of 5 nodes
+        >>> GroundedLaplacian(L, shape=(1, 5)).dual_matrix([0], [4]).tolist()  # resistance 4
+        [[4.0]]
         """
         m = len(p)
         rows = np.r_[p, q]
