@@ -173,10 +173,13 @@ class Completion:
         True
         """
         owner = np.full(self.owner.shape, -1, np.int32)
-        kept = []
+        kept, seen = [], set()
         for r in relations:
-            if r.kind != "order" or r.place is None:
+            # Two relations can speak of one place (an entry and a prediction):
+            # its piece is kept, and reshaped, once.
+            if r.kind != "order" or r.place is None or (r.front, r.back, r.place) in seen:
                 continue
+            seen.add((r.front, r.back, r.place))
             p = self.places[r.place]
             y0, y1, x0, x1 = p.box
             win = (slice(y0, y1), slice(x0, x1))
