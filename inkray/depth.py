@@ -181,7 +181,8 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
     if method == "exact":
         return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
     session = DepthSession(gray, epsilon=epsilon, seeds=_scribble_seeds(annotations),
-                           incremental=False)
+                           incremental=False,
+                           progress=None if progress is None else progress.update)
     for i in range(len(p)):
         session.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i])
     if progress is not None:
@@ -205,7 +206,8 @@ def _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress):
         if len(p) == 0:
             return np.zeros(h * w), {"sigma": s, "kkt": {}, "objective": 0.0,
                                      "multipliers": np.zeros(0), "timings": {}}
-        r = solve_depth_qp(L, p, q, ineq, epsilon=epsilon, shape=(h, w), labels=labels)
+        r = solve_depth_qp(L, p, q, ineq, epsilon=epsilon, shape=(h, w), labels=labels,
+                           progress=None if progress is None else progress.update)
         return r.depth, {"sigma": s, "kkt": r.kkt, "objective": r.objective,
                          "multipliers": r.multipliers, "timings": r.timings,
                          "iterations": r.iterations}
@@ -256,6 +258,8 @@ class DepthSession:
         Keep what a re-solve reuses: the fill's update matrices (about
         0.4 GB for a 512x512 drawing, 2 GB at 1024x1024). Without it every
         :meth:`solve` factors the fill afresh.
+    progress : callable, optional
+        ``progress(done, total)`` while the fill is factored afresh.
 
     Examples
     --------
@@ -270,7 +274,7 @@ class DepthSession:
     0.0
     """
 
-    def __init__(self, gray, *, epsilon=1.0, seeds=None, incremental=True):
+    def __init__(self, gray, *, epsilon=1.0, seeds=None, incremental=True, progress=None):
         self.gray = np.asarray(gray, np.float64)
         if self.gray.ndim != 2:
             raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
@@ -292,11 +296,13 @@ class DepthSession:
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
         self._chol = None       # the fill's factorization, updated in place
         self._incremental = bool(incremental)
+        self._progress = progress
         self._weights = None    # the image's edge weights (wx, wy)
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
         self.region_levels = {}  # segment label -> level, after solve()
         self.timings = {}
+        self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
 
     # -- constraints ------------------------------------------------------------
 
@@ -538,10 +544,11 @@ class DepthSession:
         rhs[:-1, :] += np.where(free[:-1, :], wy * vals[1:, :], 0.0)
         rhs[1:, :] += np.where(free[1:, :], wy * vals[:-1, :], 0.0)
         if self._chol is None or not self._incremental:
-            self._chol = GridCholesky(diag, east, south, updatable=self._incremental)
-            self.timings["refactored_fronts"] = "all"
+            self._chol = GridCholesky(diag, east, south, updatable=self._incremental,
+                                      progress=self._progress)
+            self.refactored_fronts = self._chol.fronts
         else:
-            self.timings["refactored_fronts"] = self._chol.update(diag, east, south)
+            self.refactored_fronts = self._chol.update(diag, east, south)
         d = self._chol.solve(rhs.ravel()).reshape(self.shape)
         return np.where(fixed, vals, d)
 

@@ -77,6 +77,12 @@ class GridCholesky:
         ``A[(y, x), (y+1, x)]``.
     leaf : int, default :data:`LEAF_PIXELS`
         Boxes of at most this many pixels are not split further.
+    updatable : bool, default False
+        Keep the update matrices, which :meth:`update` reuses (they take
+        about three times the memory of the factor).
+    progress : callable, optional
+        Called as ``progress(done, total)`` while factoring (in percent of
+        the estimated flops), e.g. :meth:`inkray.progress.Progress.update`.
 
     Raises
     ------
@@ -94,7 +100,8 @@ class GridCholesky:
     True
     """
 
-    def __init__(self, diagonal, east, south, *, leaf=LEAF_PIXELS, updatable=False):
+    def __init__(self, diagonal, east, south, *, leaf=LEAF_PIXELS, updatable=False,
+                 progress=None):
         if not int(leaf) >= 1:
             raise InputError(f"leaf: expected a positive pixel count, got {leaf}")
         values = self._values(diagonal, east, south)
@@ -102,10 +109,12 @@ class GridCholesky:
         self.n = h * w
         self.updatable = bool(updatable)
         self._plan = _plan(h, w, int(leaf))
+        self.fronts = sum(g.S.shape[0] for g in self._plan)  # nodes of the elimination tree
         self._values_now = values
         with threadpool_limits(limits=1, user_api="blas"):
             self._factors, self._updates = _factorize(self._plan, values,
-                                                      keep_updates=self.updatable)
+                                                      keep_updates=self.updatable,
+                                                      progress=progress)
 
     def _values(self, diagonal, east, south):
         diagonal = np.asarray(diagonal, np.float64)
@@ -291,7 +300,8 @@ def grid_operator(diagonal, east, south):
                          shape=(h * w, h * w))
 
 
-def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None):
+def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
+               progress=None):
     """Dense partial Cholesky of every front, children before parents.
 
     Returns ``factors`` (per group ``(Li, W)``) and ``updates`` (per group the
@@ -307,7 +317,15 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
         for gid, _, _ in g.children:
             uses[gid] = uses.get(gid, 0) + 1
     redo, redone = [], 0
+    if progress is not None:
+        cost = np.cumsum([g.S.shape[0] * (g.s ** 3 / 3 + g.s ** 2 * g.r + g.s * g.r ** 2)
+                          for g in plan])
+        done = np.floor(100 * cost / cost[-1]).astype(int)
+        shown = -1
     for i, g in enumerate(plan):
+        if progress is not None and i and done[i - 1] != shown:
+            shown = int(done[i - 1])
+            progress(shown, 100)
         nb, s = g.S.shape
         if previous is None:
             sel = slice(None)
@@ -369,6 +387,8 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None)
                 uses[gid] -= 1
                 if uses[gid] == 0:
                     updates[gid] = None
+    if progress is not None:
+        progress(100, 100)
     if previous is None:
         return factors, updates
     return factors, updates, redone

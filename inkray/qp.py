@@ -165,6 +165,8 @@ class GroundedLaplacian:
         pixels in raster order: it is then factored by the grid's nested
         dissection (:class:`inkray.grid_cholesky.GridCholesky`, several times
         faster on images); otherwise by SuperLU with a minimum-degree order.
+    progress : callable, optional
+        ``progress(done, total)`` during a grid factorization.
 
     Examples
     --------
@@ -176,7 +178,7 @@ class GroundedLaplacian:
     True
     """
 
-    def __init__(self, laplacian, *, shape=None):
+    def __init__(self, laplacian, *, shape=None, progress=None):
         L = sp.csr_matrix(laplacian, dtype=np.float64)
         n = L.shape[0]
         if n < 2:
@@ -192,7 +194,7 @@ class GroundedLaplacian:
             diag[-1, -1] = 1.0
             east[-1, -1:] = 0.0
             south[-1:, -1] = 0.0
-            self._grid = GridCholesky(diag, east, south)
+            self._grid = GridCholesky(diag, east, south, progress=progress)
         else:
             self._grid = None
             A = L[:-1, :-1].tocsc()
@@ -478,7 +480,7 @@ def constraint_cycle(p, q, inequality):
 
 
 def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, shape=None,
-                   tol=1e-6, labels=None):
+                   tol=1e-6, labels=None, progress=None):
     """Solve the depth QP exactly.
 
     Parameters
@@ -499,6 +501,8 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
         Every KKT measure of the result must be at most this.
     labels : list of str, optional
         Annotation entries of the constraints, for error messages.
+    progress : callable, optional
+        ``progress(done, total)`` during the factorization.
 
     Returns
     -------
@@ -542,7 +546,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     b = np.where(ineq, float(epsilon), 0.0)
     timings = {}
     if factor is None:
-        factor = GroundedLaplacian(laplacian, shape=shape)
+        factor = GroundedLaplacian(laplacian, shape=shape, progress=progress)
     timings["factorize"] = time.perf_counter() - t0
     lam = np.zeros(m)
     iterations = 0

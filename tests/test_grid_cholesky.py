@@ -98,7 +98,7 @@ def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
     e2 = np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east)
     s2 = np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south)
     redone = f.update(d2, e2, s2)
-    total = sum(g.S.shape[0] for g in f._plan)
+    total = f.fronts
     assert 0 < redone < total / 4
     b = np.random.default_rng(7).standard_normal(h * w)
     assert np.abs(f.solve(b) - GridCholesky(d2, e2, s2).solve(b)).max() < 1e-10
@@ -120,3 +120,11 @@ def test_errors():
         f.solve(np.ones(19))
     with pytest.raises(InputError, match="non-empty"):
         GridCholesky(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros((0, 3)))
+
+
+def test_progress_reports_rising_percentages_up_to_100():
+    diag, east, south = _operator(50, 60)
+    seen = []
+    GridCholesky(diag, east, south, progress=lambda done, total: seen.append((done, total)))
+    assert seen[-1] == (100, 100) and len(seen) > 3
+    assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
