@@ -24,12 +24,14 @@ only, so a new constraint costs the dual matrix and one solve).
 import argparse
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
 from PIL import Image
 
-from inkray.depth import DepthSession
+from inkray.annotations import Order
+from inkray.depth import DepthSession, depth_constraints
 from inkray.drawing import drawing_from_array
 from inkray.examples import example_path
 from inkray.inputs import load_input
@@ -145,12 +147,16 @@ EDITS = [((300, 250), (120, 120)), ((280, 300), (60, 420)), ((330, 220), (450, 8
          ((260, 260), (470, 460)), ((310, 280), (40, 60))]
 
 
+def _turtle():
+    ann, drawing = load_input(example_path("turtle"))
+    return ann, drawing.gray.astype(np.float64)
+
+
 def bench_fast():
     print()
     print("fast method (turtle 512x512, its 4 orders; then 5 edits, each an order added, "
           "solved, removed, solved)")
-    ann, drawing = load_input(example_path("turtle"))
-    gray = drawing.gray.astype(np.float64)
+    ann, gray = _turtle()
     head = f"{'session':>13} {'first solve':>12} {'add: median':>12} {'max':>7} " \
            f"{'remove: median':>15} {'max':>7} {'target':>7} {'worst / target':>15}"
     print(head)
@@ -181,21 +187,17 @@ def bench_exact_resolve():
     print()
     print("exact method with the factorization kept (turtle 512x512, its 4 orders; "
           "the same 5 edits)")
-    ann, drawing = load_input(example_path("turtle"))
-    gray = drawing.gray.astype(np.float64)
+    ann, gray = _turtle()
     L = grid_laplacian(*edge_weights(gray)[:2])
     t = time.perf_counter()
     factor = GroundedLaplacian(L, shape=gray.shape)
     first = time.perf_counter() - t
-    w = gray.shape[1]
-    base = [(o.front, o.back) for o in ann.order]
     times = []
-    for edit in EDITS:
-        pts = base + [edit]
-        p = np.array([round(f[1]) * w + round(f[0]) for f, _ in pts])
-        q = np.array([round(b[1]) * w + round(b[0]) for _, b in pts])
+    for front, back in EDITS:
+        edited = replace(ann, order=ann.order + [Order(front, back, len(ann.order))])
+        p, q, ineq, labels = depth_constraints(edited)
         t = time.perf_counter()
-        solve_depth_qp(L, p, q, np.ones(len(pts), bool), factor=factor)
+        solve_depth_qp(L, p, q, ineq, factor=factor, labels=labels)
         times.append(time.perf_counter() - t)
     print(f"  factorization {first:.3f} s; re-solve with one more order: median "
           f"{np.median(times):.3f} s, worst {max(times):.3f} s")
