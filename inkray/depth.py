@@ -297,7 +297,7 @@ class DepthSession:
         self._chol = None       # the fill's factorization, updated in place
         self._incremental = bool(incremental)
         self._progress = progress
-        self._weights = None    # the image's edge weights (wx, wy)
+        self._weights = None    # the image's edge weights (wx, wy) and pixel degrees
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
         self.region_levels = {}  # segment label -> level, after solve()
@@ -524,15 +524,11 @@ class DepthSession:
         set only inside a window refactors the fronts of that window.
         """
         if self._weights is None:
-            self._weights = edge_weights(self.gray)[:2]
-        wx, wy = self._weights
+            wx, wy, _ = edge_weights(self.gray)
+            self._weights = wx, wy, grid_laplacian(wx, wy).diagonal().reshape(self.shape)
+        wx, wy, deg = self._weights
         vals = np.where(fixed, vals, 0.0)
         free = ~fixed
-        deg = np.zeros(self.shape)
-        deg[:, :-1] += wx
-        deg[:, 1:] += wx
-        deg[:-1, :] += wy
-        deg[1:, :] += wy
         # Edges between two free pixels stay; an edge from a free pixel to a
         # fixed one moves to the right-hand side.
         diag = np.where(fixed, 1.0, deg)

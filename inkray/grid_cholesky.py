@@ -104,7 +104,7 @@ class GridCholesky:
                  progress=None):
         if not int(leaf) >= 1:
             raise InputError(f"leaf: expected a positive pixel count, got {leaf}")
-        values = self._values(diagonal, east, south)
+        values, self.shape = _operator_values(diagonal, east, south)
         h, w = self.shape
         self.n = h * w
         self.updatable = bool(updatable)
@@ -115,21 +115,6 @@ class GridCholesky:
             self._factors, self._updates = _factorize(self._plan, values,
                                                       keep_updates=self.updatable,
                                                       progress=progress)
-
-    def _values(self, diagonal, east, south):
-        diagonal = np.asarray(diagonal, np.float64)
-        if diagonal.ndim != 2 or diagonal.size == 0:
-            raise InputError(f"diagonal: expected a non-empty (H, W) array, got shape "
-                             f"{diagonal.shape}")
-        h, w = diagonal.shape
-        if getattr(self, "shape", (h, w)) != (h, w):
-            raise InputError(f"diagonal: shape {(h, w)} differs from the factored {self.shape}")
-        self.shape = (h, w)
-        e = np.zeros((h, w))
-        e[:, :-1] = np.asarray(east, np.float64).reshape(h, w - 1)
-        s = np.zeros((h, w))
-        s[:-1, :] = np.asarray(south, np.float64).reshape(h - 1, w)
-        return np.concatenate([diagonal.ravel(), e.ravel(), s.ravel()])
 
     def update(self, diagonal, east, south):
         """Refactor for new operator values, redoing only the fronts they change.
@@ -165,7 +150,9 @@ class GridCholesky:
         if not self.updatable:
             raise InputError("update: this factorization keeps no update matrices "
                              "(make it with updatable=True)")
-        values = self._values(diagonal, east, south)
+        values, shape = _operator_values(diagonal, east, south)
+        if shape != self.shape:
+            raise InputError(f"diagonal: shape {shape} differs from the factored {self.shape}")
         changed = values != self._values_now
         self._values_now = values
         with threadpool_limits(limits=1, user_api="blas"):
@@ -300,6 +287,21 @@ def grid_operator(diagonal, east, south):
                          shape=(h * w, h * w))
 
 
+def _operator_values(diagonal, east, south):
+    """The operator's entries as one vector ``[diagonal, east, south]`` (each H*W,
+    zero where a pixel has no east or south neighbour), and the grid shape."""
+    diagonal = np.asarray(diagonal, np.float64)
+    if diagonal.ndim != 2 or diagonal.size == 0:
+        raise InputError(f"diagonal: expected a non-empty (H, W) array, got shape "
+                         f"{diagonal.shape}")
+    h, w = diagonal.shape
+    e = np.zeros((h, w))
+    e[:, :-1] = np.asarray(east, np.float64).reshape(h, w - 1)
+    s = np.zeros((h, w))
+    s[:-1, :] = np.asarray(south, np.float64).reshape(h - 1, w)
+    return np.concatenate([diagonal.ravel(), e.ravel(), s.ravel()]), (h, w)
+
+
 def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                progress=None):
     """Dense partial Cholesky of every front, children before parents.
@@ -313,7 +315,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     factors, updates = [], []
     # A group's updates may feed several parent groups: keep them until the last.
     uses = {}
-    for g in plan:
+    for g in ([] if keep_updates else plan):
         for gid, _, _ in g.children:
             uses[gid] = uses.get(gid, 0) + 1
     redo, redone = [], 0
