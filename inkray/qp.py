@@ -207,9 +207,11 @@ class GroundedLaplacian:
     def _solve_grounded(self, b):
         """``L_g^-1 b`` on full-length vectors; ``b``'s ground row is ignored, ``x``'s is 0."""
         if self._grid is not None:
-            b = b.copy()
-            b[self.ground] = 0.0
-            return self._grid.solve(b)
+            # The ground's row and column are the identity: b's ground entry
+            # reaches x's ground entry only, which is set to 0.
+            x = self._grid.solve(b)
+            x[self.ground] = 0.0
+            return x
         x = np.zeros_like(b)
         x[:-1] = self._lu.solve(b[:-1])
         return x
