@@ -340,9 +340,10 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 factors.append(previous[0][i])
                 updates.append(previous[1][i])
                 continue
-            sel = np.flatnonzero(dirty)
-            nb = len(sel)
-            redone += nb
+            redone += int(dirty.sum())
+            # A group redone whole is built afresh, like a first factorization.
+            sel = slice(None) if dirty.all() else np.flatnonzero(dirty)
+            nb = nb if isinstance(sel, slice) else len(sel)
         r = g.r
         # The front in three blocks: F_SS and F_RS (lower triangle of the
         # eliminated rows) and the ring block, which accumulates the children's
@@ -357,7 +358,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
         # Extend-add of the children's updates, one block per pair of
         # contiguous runs that lands on or below the diagonal.
         for gid, pos, runs in g.children:
-            Uc = updates[gid][pos] if previous is None else \
+            Uc = updates[gid][pos] if isinstance(sel, slice) else \
                 updates[gid][np.arange(len(updates[gid]))[pos][sel]]
             for a0, b0, na in runs:
                 for c0, d0, nc in runs:
@@ -377,7 +378,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
             Li, W = _partial_cholesky_each(Fss, Frs, U)
         else:
             Li, W = _partial_cholesky_stacked(Fss, Frs, U)
-        if previous is not None:  # in place: the previous factorization is replaced
+        if not isinstance(sel, slice):  # in place: the previous factorization is replaced
             Li0, W0 = previous[0][i]
             Li0[sel], W0[sel] = Li, W
             previous[1][i][sel] = U
