@@ -234,21 +234,32 @@ class GroundedLaplacian:
         """
         r = np.asarray(rhs, np.float64)
         r = r - r.mean(axis=0, keepdims=True)
-        d = self._solve_grounded(r)
-        for _ in range(refine):
-            res = r - self.laplacian @ d
+        return self.refine(self._solve_grounded(r), r, steps=refine)
+
+    def refine(self, d, rhs, *, steps=1):
+        """Iterative refinement of a solution ``d`` of ``L d = rhs`` (``rhs`` with zero sum).
+
+        At most ``steps`` steps, none once the residual is at rounding level
+        (``1e-12`` of the right-hand side).
+
+        Parameters
+        ----------
+        d, rhs : (N,) or (N, k) arrays
+
+        Returns
+        -------
+        array shaped like ``d``
+        """
+        for _ in range(steps):
+            res = rhs - self.laplacian @ d
             res[self.ground] = 0.0  # the ground's row was dropped
-            if np.abs(res).max(initial=0.0) <= 1e-12 * np.abs(r).max(initial=0.0):
+            if np.abs(res).max(initial=0.0) <= 1e-12 * np.abs(rhs).max(initial=0.0):
                 break
             d = d + self._solve_grounded(res)
         return d
 
     def dual_matrix(self, p, q):
         """``H = C L_g^-1 C^T`` for constraint rows ``e_p - e_q`` (the ground's entries dropped).
-
-        On a grid by forward substitution over the fronts above the endpoints
-        only (:meth:`inkray.grid_cholesky.GridCholesky.gram`); otherwise by
-        solves with the columns of ``C^T``.
 
         Parameters
         ----------
@@ -265,6 +276,34 @@ class GroundedLaplacian:
         >>> GroundedLaplacian(L, shape=(1, 5)).dual_matrix([0], [4]).tolist()  # resistance 4
         [[4.0]]
         """
+        return self.dual(p, q)[0]
+
+    def dual(self, p, q):
+        """The dual matrix ``H = C L_g^-1 C^T`` and the map ``lam -> L_g^-1 C^T lam``.
+
+        On a grid ``H`` comes from a forward substitution over the fronts
+        above the endpoints only, and the map is the back substitution that
+        completes it (:meth:`inkray.grid_cholesky.GridCholesky.forward`);
+        otherwise both come from solves with the columns of ``C^T``.
+
+        Parameters
+        ----------
+        p, q : (m,) int arrays
+
+        Returns
+        -------
+        H : (m, m) float64 array
+        primal : callable
+            ``primal(lam)`` is the ``(N,)`` depth ``L_g^-1 C^T lam`` (zero at the ground).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))   # a path of 5 nodes
+        >>> H, primal = GroundedLaplacian(L, shape=(1, 5)).dual([0], [4])
+        >>> np.round(primal(np.array([0.25])), 6).tolist()   # the ground is the last node
+        [1.0, 0.75, 0.5, 0.25, 0.0]
+        """
         m = len(p)
         rows = np.r_[p, q]
         cols = np.r_[np.arange(m), np.arange(m)]
@@ -272,9 +311,16 @@ class GroundedLaplacian:
         on = rows != self.ground
         Ct = sp.csr_matrix((vals[on], (rows[on], cols[on])), shape=(self.n, m))
         if self._grid is not None:
-            return self._grid.gram(Ct)
-        H = Ct.T @ self._solve_grounded(Ct.toarray())
-        return 0.5 * (H + H.T)
+            fw = self._grid.forward(Ct)
+
+            def primal(lam):
+                x = self._grid.backward(fw, lam)
+                x[self.ground] = 0.0
+                return x
+            return fw.gram, primal
+        X = self._solve_grounded(Ct.toarray())
+        H = Ct.T @ X
+        return 0.5 * (H + H.T), lambda lam: X @ np.asarray(lam, np.float64)
 
 
 def _grid_parts(L, shape):
@@ -555,14 +601,15 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     if keep.any():
         t = time.perf_counter()
         kp, kq, kb, kin = p[keep], q[keep], b[keep], ineq[keep]
-        H = factor.dual_matrix(kp, kq)
+        H, primal = factor.dual(kp, kq)
         timings["dual_matrix"] = time.perf_counter() - t
         t = time.perf_counter()
         klam, iterations = _active_set(H, kb, kin)
         lam[keep] = klam
         timings["active_set"] = time.perf_counter() - t
     t = time.perf_counter()
-    d = factor.solve(_ct(p, q, lam, n), refine=1)
+    d = primal(lam[keep]) if keep.any() else np.zeros(n)
+    d = factor.refine(d, _ct(p, q, lam, n))
     # Polish: the small system used H from unrefined solves; correct the
     # multipliers of the active constraints on the measured slack.
     for _ in range(3):
