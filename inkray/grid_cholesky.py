@@ -23,7 +23,6 @@ dominates its cost, and by the fast depth method's Laplace fill
 (:mod:`inkray.depth`).
 """
 
-import threading
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -43,8 +42,6 @@ LEAF_PIXELS = 16
 #: front with the triangular and symmetric BLAS kernels, which skip half the
 #: flops (thresholds from 48 to 96 measured alike at 512x512).
 _STACK_FRONT = 64
-#: Grids of at least this many pixels factor the root's two subtrees in two threads.
-_HALVES_PIXELS = 64 * 64
 
 
 @dataclass
@@ -60,7 +57,6 @@ class _Group:
     in_s: np.ndarray        # (k,) bool: the entry's row is an eliminated pixel
     vidx: np.ndarray        # (nb, k) indices of those entries in [diag, east, south]
     children: list          # [(group id, (nb,) batch positions, runs of front positions)]
-    split: int              # boxes [0, split) lie in the root's first subtree, the rest in its second
     ring: tuple = None      # built by _ring_scatter on first use
 
 
@@ -131,14 +127,10 @@ class GridCholesky:
         self._plan = _plan(h, w, int(leaf))
         self.fronts = sum(g.S.shape[0] for g in self._plan)  # nodes of the elimination tree
         self._values_now = values
-        if not self.updatable and len(self._plan) > 1 and self.n >= _HALVES_PIXELS:
-            self._factors, self._updates = _factorize_halves(self._plan, values,
-                                                             progress=progress)
-        else:
-            with _one_blas_thread():
-                self._factors, self._updates = _factorize(self._plan, values,
-                                                          keep_updates=self.updatable,
-                                                          progress=progress)
+        with _one_blas_thread():
+            self._factors, self._updates = _factorize(self._plan, values,
+                                                      keep_updates=self.updatable,
+                                                      progress=progress)
 
     def update(self, diagonal, east, south):
         """Refactor for new operator values, redoing only the fronts they change.
@@ -439,71 +431,6 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     return factors, updates, redone
 
 
-def _factorize_halves(plan, values, *, progress=None):
-    """:func:`_factorize` (no kept updates) with the root's two subtrees factored
-    concurrently, one thread each, then the root.
-
-    The subtrees share no front, and within every group the boxes of the first
-    subtree come first (``_Group.split``), so each thread factors one
-    contiguous range of every group straight into the shared factor arrays.
-    numpy's kernels release the GIL, so the threads overlap where the work is
-    in kernels rather than in Python (about 15 % faster at 512x512).
-    """
-    factors = [(np.empty((g.S.shape[0], g.s, g.s)), np.empty((g.S.shape[0], g.s, g.r)))
-               for g in plan]
-    report = _progress_steps(plan, progress)
-    tops = [{}, {}]  # per subtree: group -> update matrices of its range
-    errors = []
-
-    def subtree(half):
-        try:
-            updates = tops[half]
-            uses = {}
-            for g in plan[:-1]:
-                for gid, _, _ in g.children:
-                    uses[gid] = uses.get(gid, 0) + 1
-            for i, g in enumerate(plan[:-1]):
-                if half == 0:
-                    report(i)
-                lo, hi = (0, g.split) if half == 0 else (g.split, g.S.shape[0])
-                if lo == hi:
-                    continue
-                kids = []
-                for gid, pos, runs in g.children:
-                    at = np.arange(plan[gid].S.shape[0])[pos][lo:hi]
-                    at -= 0 if half == 0 else plan[gid].split
-                    kids.append((updates[gid][_as_slice(at)], runs))
-                Fss, Frs, U = _assemble(g, values, slice(lo, hi), kids, hi - lo)
-                _eliminate(Fss, Frs, U, out=(factors[i][0][lo:hi], factors[i][1][lo:hi]))
-                updates[i] = U
-                for gid, _, _ in g.children:
-                    uses[gid] -= 1
-                    if uses[gid] == 0 and gid not in root_kids:
-                        del updates[gid]
-        except BaseException as e:  # re-raised in the calling thread
-            errors.append(e)
-
-    root = plan[-1]
-    root_kids = {gid for gid, _, _ in root.children}
-    with _one_blas_thread():
-        worker = threading.Thread(target=subtree, args=(1,))
-        worker.start()
-        subtree(0)
-        worker.join()
-        if errors:
-            raise errors[0]
-        kids = []
-        for gid, pos, runs in root.children:
-            at = int(np.arange(plan[gid].S.shape[0])[pos][0])
-            half = int(at >= plan[gid].split)
-            at -= plan[gid].split if half else 0
-            kids.append((tops[half][gid][at:at + 1], runs))
-        Fss, Frs, U = _assemble(root, values, slice(None), kids, 1)
-        _eliminate(Fss, Frs, U, out=factors[-1])
-    report(len(plan))
-    return factors, [None] * len(plan)
-
-
 def _progress_steps(plan, progress):
     """``report(i)``: calls ``progress(percent, 100)`` when group ``i``'s start
     (by the flops before it) reaches a new percent."""
@@ -553,37 +480,33 @@ def _assemble(g, values, sel, kids, nb):
     return Fss, Frs, U
 
 
-def _eliminate(Fss, Frs, U, out=None):
+def _eliminate(Fss, Frs, U):
     """Partial Cholesky of assembled fronts: ``(Li, W)``, ``U`` updated in place."""
     if Fss.shape[1] + Frs.shape[1] > _STACK_FRONT:
-        return _partial_cholesky_each(Fss, Frs, U, out)
-    return _partial_cholesky_stacked(Fss, Frs, U, out)
+        return _partial_cholesky_each(Fss, Frs, U)
+    return _partial_cholesky_stacked(Fss, Frs, U)
 
 
-def _partial_cholesky_stacked(Fss, Frs, U, out=None):
+def _partial_cholesky_stacked(Fss, Frs, U):
     """``Li = chol(F_SS)^-1``, ``W = Li F_SR`` and ``U -= W^T W`` for a stack of small fronts.
 
-    Reads the lower triangle of ``F_SS``; ``U`` is updated in its lower
-    triangle; ``Li`` and ``W`` go to ``out`` when given.
+    Reads the lower triangle of ``F_SS``; ``U`` is updated in its lower triangle.
     """
     try:
         Lc = np.linalg.cholesky(Fss)
     except np.linalg.LinAlgError:
         raise StageError("grid Cholesky: the operator is not positive definite") from None
-    if out is None:
-        out = np.linalg.inv(Lc), np.empty(Fss.shape[:2] + Frs.shape[1:2])
-    else:
-        out[0][...] = np.linalg.inv(Lc)
-    Li, W = out
-    np.matmul(Li, Frs.transpose(0, 2, 1), out=W)
+    Li = np.linalg.inv(Lc)
+    W = Li @ Frs.transpose(0, 2, 1)
     U -= W.transpose(0, 2, 1) @ W
     return Li, W
 
 
-def _partial_cholesky_each(Fss, Frs, U, out=None):
+def _partial_cholesky_each(Fss, Frs, U):
     """The same for larger fronts, one LAPACK/BLAS call each."""
     nb, r, s = Frs.shape
-    Li, W = (np.empty((nb, s, s)), np.empty((nb, s, r))) if out is None else out
+    Li = np.empty((nb, s, s))
+    W = np.empty((nb, s, r))
     for b in range(nb):
         c, info = _lapack.dpotrf(Fss[b], lower=1, clean=1)
         if info != 0:
@@ -602,12 +525,10 @@ def _plan(h, w, leaf):
     """The nested-dissection tree of an ``h x w`` grid, as groups in elimination order."""
     # The tree level by level: boxes (r0, r1, c0, c1) and, per box, the
     # indices of its two children (left/top, right/bottom) in the next level.
-    levels, kids, subtree = [], [], []
+    levels, kids = [], []
     box = np.array([[0, h, 0, w]], np.int64)
-    in_first = np.zeros(1, bool)  # in the root's first subtree
     while len(box):
         levels.append(box)
-        subtree.append(in_first)
         bh, bw = box[:, 1] - box[:, 0], box[:, 3] - box[:, 2]
         split = (bh * bw > leaf) & (np.maximum(bh, bw) >= 3)
         cols = split & (bw >= bh)
@@ -625,8 +546,6 @@ def _plan(h, w, leaf):
         child[nxt, 1] = 2 * np.arange(len(nxt)) + 1
         kids.append(child)
         box = np.stack([first[nxt], second[nxt]], axis=1).reshape(-1, 4)
-        in_first = (np.repeat(in_first[nxt], 2) if len(levels) > 1
-                    else np.tile([True, False], len(nxt)))
     # Groups: boxes of one level with the same size and the same sides inside the image.
     keys, where = [], {}   # key -> (level, member indices); per level: box -> (group, pos)
     gid_of, pos_of = [], []
@@ -688,12 +607,8 @@ def _plan(h, w, leaf):
                 _, crel = _front(*keys[cg[0]][1:], leaf)
                 m = local[crel[:, 0] + oy + 1, crel[:, 1] + ox + 1]
                 children.append((int(cg[0]), _as_slice(pos_of[d + 1][ck]), _runs(m, s)))
-        in_first = subtree[d][ids]
-        split = int(in_first.sum())
-        if not in_first[:split].all():
-            raise StageError("grid Cholesky: a group mixes the root's subtrees out of order")
         groups.append(_Group(s=s, r=r, S=S, R=R, li=li, lj=lj, in_s=li < s, vidx=vidx,
-                             children=children, split=split))
+                             children=children))
     return groups
 
 
@@ -714,8 +629,8 @@ _CONTROLLER = []
 
 
 def _one_blas_thread():
-    """A context with BLAS limited to one thread: the fronts are many and small,
-    and the root's subtrees run in two threads of their own."""
+    """A context with BLAS limited to one thread: most fronts are small, and two
+    BLAS threads on the large ones measured slower."""
     if not _CONTROLLER:  # scanning the loaded libraries takes milliseconds: once
         _CONTROLLER.append(ThreadpoolController())
     return _CONTROLLER[0].limit(limits=1, user_api="blas")
