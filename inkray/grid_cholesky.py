@@ -503,21 +503,23 @@ def _partial_cholesky_stacked(Fss, Frs, U):
 
 
 def _partial_cholesky_each(Fss, Frs, U):
-    """The same for larger fronts, one LAPACK/BLAS call each."""
-    nb, r, s = Frs.shape
-    Li = np.empty((nb, s, s))
-    W = np.empty((nb, s, r))
-    for b in range(nb):
-        c, info = _lapack.dpotrf(Fss[b], lower=1, clean=1)
+    """The same for larger fronts, one LAPACK/BLAS call each, in place.
+
+    Each call gets the Fortran-ordered transpose of a C-ordered block (no
+    copy): ``F_SS^T``'s upper triangle becomes ``chol(F_SS)^-T``, so ``Fss``
+    becomes ``Li``, and ``F_RS^T`` becomes ``W``.
+    """
+    for b in range(Fss.shape[0]):
+        c, info = _lapack.dpotrf(Fss[b].T, lower=0, overwrite_a=1, clean=1)
         if info != 0:
             raise StageError("grid Cholesky: the operator is not positive definite")
-        c, info = _lapack.dtrtri(c, lower=1)
-        Li[b] = c
-        if r:
-            W[b] = _blas.dtrmm(1.0, c, Frs[b].T, lower=1)
-            # U^T is Fortran-ordered: syrk updates its upper triangle (U's lower) in place.
-            _blas.dsyrk(-1.0, W[b], beta=1.0, c=U[b].T, trans=1, lower=0, overwrite_c=1)
-    return Li, W
+        c, _ = _lapack.dtrtri(c, lower=0, overwrite_c=1)
+        if Frs.shape[1]:
+            Wb = Frs[b].T
+            _blas.dtrmm(1.0, c, Wb, lower=0, trans_a=1, overwrite_b=1)
+            # U^T is Fortran-ordered: syrk updates its upper triangle (U's lower).
+            _blas.dsyrk(-1.0, Wb, beta=1.0, c=U[b].T, trans=1, lower=0, overwrite_c=1)
+    return Fss, Frs.transpose(0, 2, 1)
 
 
 @lru_cache(maxsize=4)
