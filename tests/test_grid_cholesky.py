@@ -87,6 +87,22 @@ def test_gram_is_the_inverse_quadratic_form_of_point_sources():
     assert np.abs(f.gram(sp.csr_matrix(B)) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
+def test_backward_completes_the_forward_substitution_of_point_sources():
+    h, w = 57, 70
+    diag, east, south = _operator(h, w, seed=8, weak=0.1)
+    f = GridCholesky(diag, east, south)
+    B = np.zeros((h * w, 4))
+    B[[0, 1000, 2222, h * w - 1], [0, 1, 2, 3]] = 1.0
+    B[[3000, 17, 2223, 5], [0, 1, 2, 3]] = -1.0
+    fw = f.forward(B)
+    coef = np.array([0.5, -2.0, 1.0, 3.0])
+    ref = f.solve(B @ coef)
+    assert np.abs(f.backward(fw, coef) - ref).max() <= 1e-10 * np.abs(ref).max()
+    assert np.abs(fw.gram - B.T @ f.solve(B)).max() <= 1e-10 * np.abs(fw.gram).max()
+    with pytest.raises(InputError, match="coef: expected 4"):
+        f.backward(fw, coef[:3])
+
+
 def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
     h, w = 96, 80
     diag, east, south = _operator(h, w, seed=6, weak=0.05)
