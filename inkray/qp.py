@@ -626,7 +626,8 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     timings["recover"] = time.perf_counter() - t
     slack = d[p] - d[q] - b
     ct = _ct(p, q, lam, n)
-    resid = laplacian @ d - ct
+    Ld = laplacian @ d
+    resid = Ld - ct
     kkt = {
         "stationarity": float(np.abs(resid).max() / max(1.0, np.abs(ct).max())) if n else 0.0,
         "primal": float(max(0.0, (-slack[ineq]).max(initial=0.0),
@@ -639,7 +640,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
         raise StageError(f"depth QP: KKT {worst} residual {kkt[worst]:.2e} exceeds {tol:g} "
                          "(the Laplacian is too ill-conditioned; raise the weight floor)")
     active = (~ineq) | (np.abs(slack) <= max(tol, 1e-9 * epsilon))
-    objective = 0.5 * float(d @ (laplacian @ d))
+    objective = 0.5 * float(d @ Ld)
     return QPResult(depth=d, multipliers=lam, active=active, objective=objective, kkt=kkt,
                     iterations=iterations, timings=timings)
 
