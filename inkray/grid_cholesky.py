@@ -68,12 +68,9 @@ class Forward:
     ----------
     gram : (k, k) array
         ``B^T A^-1 B = Y^T Y``.
-    k : int
-        Columns of ``B``.
     """
 
     gram: np.ndarray
-    k: int
     _ys: list = field(repr=False)  # per group None or (fronts reached, their blocks of Y)
 
 
@@ -259,7 +256,7 @@ class GridCholesky:
                     np.subtract.at(b, lut[g.R[sel]].ravel(),
                                    (W[sel].transpose(0, 2, 1) @ y).reshape(-1, k))
                 ys.append((sel, y))
-        return Forward(gram=0.5 * (gram + gram.T), k=k, _ys=ys)
+        return Forward(gram=0.5 * (gram + gram.T), _ys=ys)
 
     def gram(self, rhs):
         """``rhs^T A^-1 rhs`` by forward substitution alone (:meth:`forward`).
@@ -297,8 +294,9 @@ class GridCholesky:
         True
         """
         coef = np.asarray(coef, np.float64).reshape(-1)
-        if len(coef) != forward.k or len(forward._ys) != len(self._plan):
-            raise InputError(f"coef: expected {forward.k} coefficients for this factorization")
+        k = forward.gram.shape[0]
+        if len(coef) != k or len(forward._ys) != len(self._plan):
+            raise InputError(f"coef: expected {k} coefficients for this factorization")
         ys = []
         for g, part in zip(self._plan, forward._ys):
             y = np.zeros((g.S.shape[0], g.s, 1))
@@ -389,9 +387,15 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
         for gid, _, _ in g.children:
             uses[gid] = uses.get(gid, 0) + 1
     redo, redone = [], 0
-    report = _progress_steps(plan, progress)
+    if progress is not None:
+        cost = np.cumsum([g.S.shape[0] * (g.s ** 3 / 3 + g.s ** 2 * g.r + g.s * g.r ** 2)
+                          for g in plan])
+        done = np.floor(100 * cost / cost[-1]).astype(int)
+        shown = -1
     for i, g in enumerate(plan):
-        report(i)
+        if progress is not None and i and done[i - 1] != shown:
+            shown = int(done[i - 1])
+            progress(shown, 100)
         nb = g.S.shape[0]
         if previous is None:
             sel = slice(None)
@@ -425,27 +429,11 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 uses[gid] -= 1
                 if uses[gid] == 0:
                     updates[gid] = None
-    report(len(plan))
+    if progress is not None:
+        progress(100, 100)
     if previous is None:
         return factors, updates
     return factors, updates, redone
-
-
-def _progress_steps(plan, progress):
-    """``report(i)``: calls ``progress(percent, 100)`` when group ``i``'s start
-    (by the flops before it) reaches a new percent."""
-    if progress is None:
-        return lambda i: None
-    cost = np.cumsum([g.S.shape[0] * (g.s ** 3 / 3 + g.s ** 2 * g.r + g.s * g.r ** 2)
-                      for g in plan])
-    done = np.r_[0, np.floor(100 * cost / cost[-1]).astype(int)]
-    shown = [-1]
-
-    def report(i):
-        if i and done[i] != shown[0]:
-            shown[0] = int(done[i])
-            progress(shown[0], 100)
-    return report
 
 
 def _assemble(g, values, sel, kids, nb):
@@ -627,15 +615,15 @@ def _ring_scatter(g, n):
     return g.ring
 
 
-_CONTROLLER = []
+@lru_cache(maxsize=1)
+def _controller():
+    return ThreadpoolController()  # scanning the loaded libraries takes milliseconds: once
 
 
 def _one_blas_thread():
     """A context with BLAS limited to one thread: most fronts are small, and two
     BLAS threads on the large ones measured slower."""
-    if not _CONTROLLER:  # scanning the loaded libraries takes milliseconds: once
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
+    return _controller().limit(limits=1, user_api="blas")
 
 
 def _as_slice(pos):

@@ -311,13 +311,10 @@ class GroundedLaplacian:
         on = rows != self.ground
         Ct = sp.csr_matrix((vals[on], (rows[on], cols[on])), shape=(self.n, m))
         if self._grid is not None:
+            # The ground's row is the identity and C^T is zero there, so the
+            # back substitution gives 0 at the ground by itself.
             fw = self._grid.forward(Ct)
-
-            def primal(lam):
-                x = self._grid.backward(fw, lam)
-                x[self.ground] = 0.0
-                return x
-            return fw.gram, primal
+            return fw.gram, lambda lam: self._grid.backward(fw, lam)
         X = self._solve_grounded(Ct.toarray())
         H = Ct.T @ X
         return 0.5 * (H + H.T), lambda lam: X @ np.asarray(lam, np.float64)
