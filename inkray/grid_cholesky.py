@@ -409,13 +409,18 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 updates.append(previous[1][i])
                 continue
             redone += int(dirty.sum())
-            # A group redone whole is built afresh, like a first factorization.
             sel = slice(None) if dirty.all() else np.flatnonzero(dirty)
             nb = nb if isinstance(sel, slice) else len(sel)
         kids = [(updates[gid][pos] if isinstance(sel, slice) else
                  updates[gid][np.arange(len(updates[gid]))[pos][sel]], runs)
                 for gid, pos, runs in g.children]
-        Fss, Frs, U = _assemble(g, values, sel, kids, nb)
+        out = None
+        if previous is not None and isinstance(sel, slice) and g.s + g.r > _STACK_FRONT:
+            # Redone whole and factored in place: into the previous arrays, since
+            # fresh ones cost a page fault per 4 KiB (the first update twice the next).
+            Li0, W0 = previous[0][i]
+            out = Li0, W0.transpose(0, 2, 1), previous[1][i]
+        Fss, Frs, U = _assemble(g, values, sel, kids, nb, out)
         Li, W = _eliminate(Fss, Frs, U)
         if not isinstance(sel, slice):  # in place: the previous factorization is replaced
             Li0, W0 = previous[0][i]
@@ -436,16 +441,19 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     return factors, updates, redone
 
 
-def _assemble(g, values, sel, kids, nb):
+def _assemble(g, values, sel, kids, nb, out=None):
     """The fronts ``sel`` of group ``g`` in three blocks: F_SS and F_RS (lower
     triangle of the eliminated rows) and the ring block, which accumulates the
     children's updates ``kids`` (``[(U_child, runs)]``) and becomes the fronts'
     update in place. Fronts and updates are symmetric: only their lower
-    triangles are formed and read."""
+    triangles are formed and read. ``out``: the three blocks' arrays to reuse."""
     s, r = g.s, g.r
-    Fss = np.zeros((nb, s, s))
-    Frs = np.zeros((nb, r, s))
-    U = np.zeros((nb, r, r))
+    if out is None:
+        Fss, Frs, U = np.zeros((nb, s, s)), np.zeros((nb, r, s)), np.zeros((nb, r, r))
+    else:
+        Fss, Frs, U = out
+        for a in out:
+            a.fill(0.0)
     vals = values[g.vidx[sel]]
     Fss[:, g.li[g.in_s], g.lj[g.in_s]] = vals[:, g.in_s]
     Frs[:, g.li[~g.in_s] - s, g.lj[~g.in_s]] = vals[:, ~g.in_s]

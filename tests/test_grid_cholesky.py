@@ -123,6 +123,25 @@ def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
     assert np.abs(f.solve(b) - GridCholesky(diag, east, south).solve(b)).max() < 1e-10
 
 
+def test_updates_in_sequence_that_redo_whole_groups_equal_fresh_factorizations():
+    # A fixed row across the grid dirties every front it crosses, so groups of
+    # large fronts are redone whole (in the arrays of the previous factorization).
+    h, w = 130, 120
+    diag, east, south = _operator(h, w, seed=8, weak=0.05)
+    f = GridCholesky(diag, east, south, updatable=True)
+    b = np.random.default_rng(9).standard_normal(h * w)
+    for rows, cols in ((slice(60, 62), slice(None)), (slice(None), slice(33, 34)),
+                       (slice(0, 0), slice(0, 0))):
+        fixed = np.zeros((h, w), bool)
+        fixed[rows, cols] = True
+        d2 = np.where(fixed, 1.0, diag)
+        e2 = np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east)
+        s2 = np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south)
+        f.update(d2, e2, s2)
+        ref = GridCholesky(d2, e2, s2).solve(b)
+        assert np.abs(f.solve(b) - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
 def test_errors():
     diag, east, south = _operator(4, 5)
     with pytest.raises(StageError, match="not positive definite"):
