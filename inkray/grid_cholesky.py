@@ -415,7 +415,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                  updates[gid][np.arange(len(updates[gid]))[pos][sel]], runs)
                 for gid, pos, runs in g.children]
         out = None
-        if previous is not None and isinstance(sel, slice) and g.s + g.r > _STACK_FRONT:
+        if previous is not None and isinstance(sel, slice) and _in_place(g.s, g.r):
             # Redone whole and factored in place: into the previous arrays, since
             # fresh ones cost a page fault per 4 KiB (the first update twice the next).
             Li0, W0 = previous[0][i]
@@ -478,9 +478,15 @@ def _assemble(g, values, sel, kids, nb, out=None):
 
 def _eliminate(Fss, Frs, U):
     """Partial Cholesky of assembled fronts: ``(Li, W)``, ``U`` updated in place."""
-    if Fss.shape[1] + Frs.shape[1] > _STACK_FRONT:
+    if _in_place(Fss.shape[1], Frs.shape[1]):
         return _partial_cholesky_each(Fss, Frs, U)
     return _partial_cholesky_stacked(Fss, Frs, U)
+
+
+def _in_place(s, r):
+    """Whether fronts of ``s`` eliminated and ``r`` ring pixels are factored front
+    by front in their own arrays (``Li`` and ``W`` are ``F_SS`` and ``F_RS^T``)."""
+    return s + r > _STACK_FRONT
 
 
 def _partial_cholesky_stacked(Fss, Frs, U):

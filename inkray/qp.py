@@ -616,9 +616,11 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
             break
         fi = np.flatnonzero(free)
         Hf = H[np.ix_(np.flatnonzero(free[keep]), np.flatnonzero(free[keep]))]
-        dl = _pinv_solve(Hf, -slack[fi])
-        lam[fi] += dl
-        d = d + factor.solve(_ct(p[fi], q[fi], dl, n), refine=1)
+        dl = np.zeros(m)
+        dl[fi] = _pinv_solve(Hf, -slack[fi])
+        lam += dl
+        # The dual's map back-substitutes from its forward pass: no new solve.
+        d = d + factor.refine(primal(dl[keep]), _ct(p, q, dl, n))
     d -= d.mean()
     timings["recover"] = time.perf_counter() - t
     slack = d[p] - d[q] - b

@@ -103,16 +103,20 @@ def test_backward_completes_the_forward_substitution_of_point_sources():
         f.backward(fw, coef[:3])
 
 
+def _dirichlet(fixed, diag, east, south):
+    """The operator with the ``fixed`` pixels' rows and columns made the identity,
+    as the fast depth fill does."""
+    return (np.where(fixed, 1.0, diag), np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east),
+            np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south))
+
+
 def test_update_equals_a_fresh_factorization_and_redoes_only_a_window():
     h, w = 96, 80
     diag, east, south = _operator(h, w, seed=6, weak=0.05)
     f = GridCholesky(diag, east, south, updatable=True)
-    # Make a window's pixels Dirichlet (identity rows), as the fast depth fill does.
     fixed = np.zeros((h, w), bool)
     fixed[40:52, 30:44] = True
-    d2 = np.where(fixed, 1.0, diag)
-    e2 = np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east)
-    s2 = np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south)
+    d2, e2, s2 = _dirichlet(fixed, diag, east, south)
     redone = f.update(d2, e2, s2)
     total = f.fronts
     assert 0 < redone < total / 4
@@ -134,9 +138,7 @@ def test_updates_in_sequence_that_redo_whole_groups_equal_fresh_factorizations()
                        (slice(0, 0), slice(0, 0))):
         fixed = np.zeros((h, w), bool)
         fixed[rows, cols] = True
-        d2 = np.where(fixed, 1.0, diag)
-        e2 = np.where(fixed[:, :-1] | fixed[:, 1:], 0.0, east)
-        s2 = np.where(fixed[:-1, :] | fixed[1:, :], 0.0, south)
+        d2, e2, s2 = _dirichlet(fixed, diag, east, south)
         f.update(d2, e2, s2)
         ref = GridCholesky(d2, e2, s2).solve(b)
         assert np.abs(f.solve(b) - ref).max() <= 1e-10 * np.abs(ref).max()
