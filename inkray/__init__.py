@@ -11,32 +11,32 @@ functions so that ``import inkray`` mirrors the command line.
 
 __version__ = "0.1.0"
 
-from .annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
+from inkray.input.annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
                           load_annotations, parse_annotations, rescale_annotations)
-from .drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
-from .depth import (DepthResult, DepthSession, depth, depth_constraints,  # noqa: E402
+from inkray.input.drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
+from inkray.depthmap.estimation import (DepthResult, DepthSession, depth, depth_constraints,  # noqa: E402
                     depth_png, normal_map, shaded_preview, write_depth_outputs)
-from .qp import QPResult, constraint_cycle, edge_weights, grid_laplacian, solve_depth_qp  # noqa: E402
-from .check import check_file, failed_requirements, mesh_quality, quality_report  # noqa: E402
-from .errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
-from .export import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
+from inkray.depthmap.quadratic_program import QPResult, constraint_cycle, edge_weights, grid_laplacian, solve_depth_qp  # noqa: E402
+from inkray.formats.mesh_report import check_file, failed_requirements, mesh_quality, quality_report  # noqa: E402
+from inkray.errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
+from inkray.formats.meshes import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
                      scene_coordinates)
-from .inputs import load_input  # noqa: E402
-from .inflate import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E402
+from inkray.input.loading import load_input  # noqa: E402
+from inkray.relief.inflation import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E402
                       dirichlet_vertices, inflate_mesh, inflate_region)
-from .outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
-from .rasterize import Raster, fit_view, rasterize, vertex_normals  # noqa: E402
-from .render import (Rendering, has_mitsuba, output_size, read_relief, render,  # noqa: E402
+from inkray.relief.outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
+from inkray.view.rasterization import Raster, fit_view, rasterize, vertex_normals  # noqa: E402
+from inkray.view.rendering import (Rendering, has_mitsuba, output_size, read_relief, render,  # noqa: E402
                      render_turntable, write_renderings)
-from .scribbles import load_scribble_layer, seed_image  # noqa: E402
-from .triangulate import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
-from .segment import Segmentation, lazybrush, segment  # noqa: E402
-from .complete import Completion, Place, complete_regions, continue_outline  # noqa: E402
-from .order import Relation, depth_order, predict_place  # noqa: E402
-from .stitch import Layers, stitch  # noqa: E402
-from .assemble import assemble, close_part, union_parts  # noqa: E402
-from .relief import Part, Relief  # noqa: E402
-from .pipeline import ReliefResult, build_relief  # noqa: E402
+from inkray.input.scribbles import load_scribble_layer, seed_image  # noqa: E402
+from inkray.relief.triangulation import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
+from inkray.segmentation import Segmentation, lazybrush, segment  # noqa: E402
+from inkray.relief.completion import Completion, Place, complete_regions, continue_outline  # noqa: E402
+from inkray.relief.ordering import Relation, depth_order, predict_place  # noqa: E402
+from inkray.relief.stitching import Layers, stitch  # noqa: E402
+from inkray.relief.assembly import assemble, close_part, union_parts  # noqa: E402
+from inkray.relief.model import Part, Relief  # noqa: E402
+from inkray.chain import ReliefResult, build_relief  # noqa: E402
 
 __all__ = [
     "__version__",

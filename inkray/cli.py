@@ -3,7 +3,7 @@
 Exit codes: 0 ok, 1 failed on valid input, 2 bad input or usage. Errors are
 one line on stderr (``--debug`` shows the traceback). Every command validates
 its whole input before it writes anything, and writes through
-:func:`inkray.io.atomic_outputs`.
+:func:`inkray.formats.atomic.atomic_outputs`.
 """
 
 import argparse
@@ -11,9 +11,9 @@ import sys
 import traceback
 from pathlib import Path
 
-from . import __version__
-from .errors import InkrayError, InputError
-from .progress import Progress
+from inkray import __version__
+from inkray.errors import InkrayError, InputError
+from inkray.progress import Progress
 
 __all__ = ["main"]
 
@@ -39,7 +39,7 @@ def _add_input(p):
 
 
 def _load(args):
-    from .inputs import load_input
+    from inkray.input.loading import load_input
 
     return load_input(args.annotation, drawing=args.drawing, rescale=args.rescale,
                       scribble_layer=args.scribbles, legend=args.legend)
@@ -69,8 +69,8 @@ def _cmd_segment(args, progress):
     import numpy as np
     from PIL import Image
 
-    from .io import atomic_outputs
-    from .segment import label_palette, segment
+    from inkray.formats.atomic import atomic_outputs
+    from inkray.segmentation import label_palette, segment
 
     _check_output(args.output, (".png",))
     if args.npy is not None and Path(args.npy).suffix.lower() != ".npy":
@@ -118,10 +118,10 @@ def _cmd_regions(args, progress):
     import numpy as np
     from PIL import Image
 
-    from .complete import complete_regions
-    from .io import atomic_outputs
-    from .order import depth_order
-    from .segment import segment
+    from inkray.relief.completion import complete_regions
+    from inkray.formats.atomic import atomic_outputs
+    from inkray.relief.ordering import depth_order
+    from inkray.segmentation import segment
 
     _check_output(args.output, (".json",))
     ann, drawing = _load(args)
@@ -177,7 +177,7 @@ def _cmd_regions(args, progress):
 
 
 def _cmd_depth(args, progress):
-    from .depth import depth, write_depth_outputs
+    from inkray.depthmap.estimation import depth, write_depth_outputs
 
     _check_output(args.output, (".png",))
     for flag, path, allowed in (("--npy", args.npy, (".npy",)), ("--normals", args.normals, (".png",)),
@@ -197,10 +197,10 @@ def _cmd_depth(args, progress):
 
 
 def _cmd_relief(args, progress):
-    from .export import export_relief
-    from .io import atomic_outputs
-    from .pipeline import build_relief
-    from .render import render, write_renderings
+    from inkray.formats.meshes import export_relief
+    from inkray.formats.atomic import atomic_outputs
+    from inkray.chain import build_relief
+    from inkray.view.rendering import render, write_renderings
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
     if args.units_per_pixel <= 0:
@@ -238,7 +238,7 @@ def _cmd_relief(args, progress):
 
 
 def _cmd_render(args, progress):
-    from .render import (GI_MAX_SIDE, output_size, read_relief, render, render_turntable,
+    from inkray.view.rendering import (GI_MAX_SIDE, output_size, read_relief, render, render_turntable,
                          write_renderings)
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
@@ -277,8 +277,8 @@ def _cmd_render(args, progress):
 
 
 def _cmd_check(args, progress):
-    from .check import check_file, failed_requirements, format_report, parse_requirements
-    from .io import write_text
+    from inkray.formats.mesh_report import check_file, failed_requirements, format_report, parse_requirements
+    from inkray.formats.atomic import write_text
 
     if args.output:
         _check_output(args.output, (".json",))
@@ -297,7 +297,7 @@ def _cmd_check(args, progress):
 
 
 def _cmd_demo(args, progress):
-    from .examples import example_path
+    from inkray.examples import example_path
 
     ann = example_path(args.example)
     out = Path(args.output)
@@ -309,7 +309,7 @@ def _cmd_demo(args, progress):
         ("relief", ["relief", str(ann), "-o", str(out / "relief.glb")]),
         ("render", ["render", str(out / "relief.glb"), "-o", str(out / "shaded.png")]),
     ]
-    from .render import has_mitsuba
+    from inkray.view.rendering import has_mitsuba
 
     if has_mitsuba():
         steps.append(("gi", ["render", str(out / "relief.glb"), "-o", str(out / "gi.png"),

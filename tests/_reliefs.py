@@ -9,7 +9,7 @@ inkray.relief: drawing pixels (centres at integers, the drawing spanning
 import numpy as np
 import triangle
 
-from inkray.relief import Part, Relief
+from inkray.relief.model import Part, Relief
 
 SIZE = (160, 120)  # (W, H): not square, so swapped axes show
 # (name, centre x, centre y, radius, base height): "head" overlaps "body" and stands on it.

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import shared_drawing_names, SHARED
-from inkray.annotations import load_annotations, parse_annotations, rescale_annotations
+from inkray.input.annotations import load_annotations, parse_annotations, rescale_annotations
 from inkray.errors import InputError
 
 

@@ -12,7 +12,7 @@ from PIL import Image
 
 from inkray import cli
 from inkray.errors import StageMissing
-from inkray.io import atomic_outputs, write_text
+from inkray.formats.atomic import atomic_outputs, write_text
 
 
 @pytest.fixture
@@ -93,7 +93,7 @@ def test_flags_before_the_command_are_kept():
 
 
 def test_demo_runs_the_whole_job(tmp_path, capsys):
-    from inkray.render import has_mitsuba
+    from inkray.view.rendering import has_mitsuba
 
     code, out, err = _run(capsys, "--quiet", "demo", "-o", str(tmp_path / "demo"), "--spp", "2")
     assert code == 0, err

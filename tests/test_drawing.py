@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from inkray.drawing import drawing_from_array, flatten_paper, load_drawing
+from inkray.input.drawing import drawing_from_array, flatten_paper, load_drawing
 from inkray.errors import InputError
 
 

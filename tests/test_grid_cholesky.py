@@ -6,7 +6,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from inkray.errors import InputError, StageError
-from inkray.grid_cholesky import GridCholesky, grid_operator
+from inkray.numerics.grid_cholesky import GridCholesky, grid_operator
 
 
 def _operator(h, w, seed=0, *, weak=0.0):

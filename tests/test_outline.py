@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from inkray.errors import InputError
-from inkray.outline import (FLAT, FRAME, INKED, INVENTED, STITCH, check_boundaries, edge_length,
+from inkray.relief.outline import (FLAT, FRAME, INKED, INVENTED, STITCH, check_boundaries, edge_length,
                             region_outline)
 
 

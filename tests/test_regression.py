@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from inkray.examples import example_path
-from inkray.inputs import load_input
-from inkray.pipeline import build_relief
-from inkray.render import read_relief
+from inkray.input.loading import load_input
+from inkray.chain import build_relief
+from inkray.view.rendering import read_relief
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 

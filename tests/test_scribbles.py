@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from inkray.annotations import parse_annotations
+from inkray.input.annotations import parse_annotations
 from inkray.errors import InputError
-from inkray.inputs import load_input
-from inkray.scribbles import BACKGROUND, UNSEEDED, load_scribble_layer, polyline_pixels, seed_image
+from inkray.input.loading import load_input
+from inkray.input.scribbles import BACKGROUND, UNSEEDED, load_scribble_layer, polyline_pixels, seed_image
 
 
 def test_polyline_is_connected_and_brush_widens_it():

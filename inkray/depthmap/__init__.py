@@ -1,0 +1,1 @@
+"""Depth maps from sparse depth (in)equalities (Sýkora et al., CGF 2010)."""

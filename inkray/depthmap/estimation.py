@@ -1,0 +1,759 @@
+"""Depth maps from sparse depth (in)equalities.
+
+Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
+(In)equalities", Computer Graphics Forum 29(2), 2010 (METHOD.md section 1):
+
+- ``method="exact"``: the quadratic program over every pixel, solved exactly
+  through its constraint multipliers (:mod:`inkray.qp`).
+- ``method="fast"``: the paper's interactive approximation. (1) LazyBrush
+  (Sýkora, Dingliana, Collins, CGF 2009) segments the drawing from seeds at
+  the constraint endpoints (and the region and background scribbles when
+  given); (2) equalities merge endpoints into nodes, inequalities are directed
+  edges, Kahn's topological sort gives each node a level (longest chain of
+  inequalities below it); (3) every endpoint pixel, and every pixel of an
+  endpoint's segment that touches another segment across ink, is fixed at its
+  node's level times epsilon; (4) the Laplace equation fills in the rest, so
+  steps stay at ink lines and the depth is smooth across cuts through paper
+  and over unconstrained areas. :class:`DepthSession` keeps the segmentation
+  and the factorization of step (4) and reuses them when a constraint is
+  added or removed.
+
+Depth grows toward the viewer; both methods return a zero-mean depth map in
+units of the annotation's epsilon (default 1). Annotation points are rounded
+to the nearest pixel.
+"""
+
+import io
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+from inkray.errors import InputError, StageError
+from inkray.numerics.grid_cholesky import GridCholesky
+from inkray.depthmap.quadratic_program import WEIGHT_FLOOR, check_constraints, edge_weights, grid_laplacian, solve_depth_qp
+
+__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "depth_png",
+           "normal_map", "shaded_preview", "write_depth_outputs", "METHODS"]
+
+METHODS = ("exact", "fast")
+#: Grey level below which a pixel counts as ink when deciding whether a
+#: segment boundary is a step (on ink) or a cut through paper.
+INK_LEVEL = 0.5
+#: LazyBrush seed strength for the fast method: above the cost of cutting
+#: around one pixel (4 paper edges), so an endpoint keeps its own label.
+_SEED_STRENGTH = 5.0
+
+
+@dataclass
+class DepthResult:
+    """A depth map and how it was obtained.
+
+    Attributes
+    ----------
+    depth : (H, W) float64 array
+        Depth toward the viewer, zero mean, in units of epsilon's scale.
+    method : str
+        ``"exact"`` or ``"fast"``.
+    epsilon : float
+        The depth step of an ``order`` entry.
+    info : dict
+        ``exact``: ``kkt`` (measured KKT residuals), ``objective``,
+        ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
+        (``{segment label: level}`` for the segments holding endpoints),
+        ``labels`` (the segmentation), ``timings``.
+    """
+
+    depth: np.ndarray
+    method: str
+    epsilon: float
+    info: dict = field(default_factory=dict)
+
+
+def depth_constraints(annotations):
+    """The ``order`` and ``equal`` entries as pixel-index constraints.
+
+    Parameters
+    ----------
+    annotations : Annotations
+
+    Returns
+    -------
+    p, q : (m,) int64 arrays
+        Raster indices ``y * W + x`` of the rounded points: ``front``/``a``
+        and ``back``/``b``.
+    inequality : (m,) bool array
+        True for ``order`` entries (``d[p] - d[q] >= epsilon``).
+    labels : list of str
+        ``"order[i]"`` / ``"equal[i]"``, the entries' key paths.
+
+    Examples
+    --------
+    >>> from inkray.input.annotations import parse_annotations
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [10, 10],
+    ...     "order": [{"front": [1, 2], "back": [5.4, 5.6]}]})
+    >>> p, q, ineq, labels = depth_constraints(ann)
+    >>> p.tolist(), q.tolist(), labels
+    ([21], [65], ['order[0]'])
+    """
+    w, h = annotations.size
+
+    def pix(pt):
+        x = min(max(int(np.floor(pt[0] + 0.5)), 0), w - 1)
+        y = min(max(int(np.floor(pt[1] + 0.5)), 0), h - 1)
+        return y * w + x
+
+    p, q, ineq, labels = [], [], [], []
+    for o in annotations.order:
+        p.append(pix(o.front))
+        q.append(pix(o.back))
+        ineq.append(True)
+        labels.append(f"order[{o.index}]")
+    for e in annotations.equal:
+        p.append(pix(e.a))
+        q.append(pix(e.b))
+        ineq.append(False)
+        labels.append(f"equal[{e.index}]")
+    return (np.array(p, np.int64), np.array(q, np.int64), np.array(ineq, bool), labels)
+
+
+def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
+          weight_floor=WEIGHT_FLOOR, progress=None):
+    """Depth map of a drawing from its annotation's ``order`` and ``equal`` entries.
+
+    Parameters
+    ----------
+    annotations : Annotations
+        Needs no regions; region and background scribbles, when present, seed
+        the fast method's segmentation.
+    drawing : Drawing or (H, W) float array
+        Grey image in [0, 1], paper 1.
+    method : {"exact", "fast"}, default "exact"
+        The exact QP or the interactive approximation (see module docstring).
+    epsilon : float, default 1.0
+        Depth step of an ``order`` entry (> 0).
+    sigma : float, optional
+        Contrast scale of the edge weights (exact method); default the mean
+        squared contrast of the image's edges, see :func:`inkray.depthmap.quadratic_program.edge_weights`.
+    weight_floor : float, default :data:`inkray.depthmap.quadratic_program.WEIGHT_FLOOR`
+        Smallest edge weight (exact method).
+    progress : inkray.progress.Progress, optional
+
+    Returns
+    -------
+    DepthResult
+
+    Raises
+    ------
+    InputError
+        Unknown method, bad epsilon, or contradictory constraints (the message
+        lists the entries, e.g. ``order[3] -> order[7] -> order[3]: ...``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import parse_annotations
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [9, 1],
+    ...     "order": [{"front": [0, 0], "back": [8, 0]}]})
+    >>> r = depth(ann, np.ones((1, 9)))
+    >>> round(float(r.depth[0, 0] - r.depth[0, 8]), 6)
+    1.0
+    """
+    if method not in METHODS:
+        raise InputError(f"method: unknown method {method!r} "
+                         f"(expected one of {', '.join(METHODS)})")
+    if not (isinstance(epsilon, (int, float)) and np.isfinite(epsilon) and epsilon > 0):
+        raise InputError(f"epsilon: expected a positive number, got {epsilon!r}")
+    gray = np.asarray(getattr(drawing, "gray", drawing), np.float64)
+    w, h = annotations.size
+    if gray.shape != (h, w):
+        raise InputError(f"drawing: the image is {gray.shape[1]}x{gray.shape[0]} but the "
+                         f"annotation is for {w}x{h}")
+    p, q, ineq, labels = depth_constraints(annotations)
+    same = np.flatnonzero(ineq & (p == q))
+    if len(same):
+        y, x = divmod(int(p[same[0]]), w)
+        raise InputError(f"{labels[same[0]]}: front and back round to the same pixel ({x}, {y})")
+    check_constraints(p, q, ineq, labels)
+    if method == "exact":
+        return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
+    session = DepthSession(gray, epsilon=epsilon, seeds=_scribble_seeds(annotations),
+                           incremental=False,
+                           progress=None if progress is None else progress.update)
+    for i in range(len(p)):
+        session.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i])
+    if progress is not None:
+        with progress.stage("depth (fast)"):
+            d = session.solve()
+    else:
+        d = session.solve()
+    return DepthResult(depth=d, method="fast", epsilon=float(epsilon),
+                       info={"levels": session.region_levels, "labels": session.labels,
+                             "timings": dict(session.timings)})
+
+
+def _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress):
+    h, w = gray.shape
+    if h * w < 2:
+        raise InputError("drawing: needs at least 2 pixels")
+
+    def run():
+        wx, wy, s = edge_weights(gray, sigma=sigma, floor=weight_floor)
+        L = grid_laplacian(wx, wy)
+        if len(p) == 0:
+            return np.zeros(h * w), {"sigma": s, "kkt": {}, "objective": 0.0,
+                                     "multipliers": np.zeros(0), "timings": {}}
+        r = solve_depth_qp(L, p, q, ineq, epsilon=epsilon, shape=(h, w), labels=labels,
+                           progress=None if progress is None else progress.update)
+        return r.depth, {"sigma": s, "kkt": r.kkt, "objective": r.objective,
+                         "multipliers": r.multipliers, "timings": r.timings,
+                         "iterations": r.iterations}
+
+    if progress is not None:
+        with progress.stage("depth (exact QP)"):
+            d, info = run()
+    else:
+        d, info = run()
+    return DepthResult(depth=d.reshape(h, w), method="exact", epsilon=float(epsilon), info=info)
+
+
+def _scribble_seeds(annotations):
+    """Region scribbles as labels 0..R-1 and background scribbles as -1, or None."""
+    if not annotations.regions and not annotations.background and \
+            annotations.background_pixels is None:
+        return None
+    from inkray.input.scribbles import seed_image
+
+    return seed_image(annotations)
+
+
+class DepthSession:
+    """Interactive depth from (in)equalities: the fast method with caches.
+
+    Add and remove constraints, then :meth:`solve`. Nodes of the region graph
+    are the segments of a LazyBrush labelling: of the region and background
+    scribbles when given (fixed for the session), otherwise of seeds at the
+    constraint endpoints (a small disk of paper around each; a new endpoint
+    re-segments only the segment it lands in, a removed one only its own).
+    The Laplace fill is one system over the grid (fixed pixels as identity
+    rows) whose nested-dissection factorization is kept and updated in place:
+    a change that moves the fixed pixels only inside a window refactors the
+    fronts of that window and their ancestors, and a change that only
+    moves levels costs back-substitutions.
+
+    Parameters
+    ----------
+    gray : (H, W) float array in [0, 1]
+        The drawing, paper 1.
+    epsilon : float, default 1.0
+        Depth step of an inequality.
+    seeds : (H, W) int array, optional
+        Region scribbles ``0..R-1`` and background ``-1`` (``-2`` elsewhere),
+        as :func:`inkray.input.scribbles.seed_image` makes. When given, they alone
+        define the regions.
+    incremental : bool, default True
+        Keep what a re-solve reuses: the fill's update matrices (about
+        0.4 GB for a 512x512 drawing, 2 GB at 1024x1024). Without it every
+        :meth:`solve` factors the fill afresh.
+    progress : callable, optional
+        ``progress(done, total)`` while the fill is factored afresh.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray = np.ones((20, 20)); gray[:, 10] = 0.0           # one vertical ink line
+    >>> s = DepthSession(gray)
+    >>> k = s.add((3, 5), (15, 5))                            # left in front of right
+    >>> d = s.solve()
+    >>> bool(d[:, :10].min() > d[:, 11:].max())
+    True
+    >>> s.remove(k); float(np.abs(s.solve()).max())
+    0.0
+    """
+
+    def __init__(self, gray, *, epsilon=1.0, seeds=None, incremental=True, progress=None):
+        self.gray = np.asarray(gray, np.float64)
+        if self.gray.ndim != 2:
+            raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
+        if not epsilon > 0:
+            raise InputError(f"epsilon: expected a positive depth step, got {epsilon}")
+        self.epsilon = float(epsilon)
+        h, w = self.shape = self.gray.shape
+        self._scribbles = None
+        if seeds is not None:
+            seeds = np.asarray(seeds, np.int32)
+            if seeds.shape != (h, w):
+                raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {(h, w)}")
+            if (seeds != -2).any():
+                self._scribbles = seeds
+        self._constraints = {}  # handle -> (p, q, inequality, label)
+        self._next = 0
+        self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
+        self._dirty = set()     # endpoint pixels added or removed since the last segmentation
+        self.labels = None      # (H, W) int32 segmentation, None before the first solve
+        self._chol = None       # the fill's factorization, updated in place
+        self._incremental = bool(incremental)
+        self._progress = progress
+        self._weights = None    # the image's edge weights (wx, wy) and pixel degrees
+        self._ink = self.gray < INK_LEVEL
+        self._radius = max(2, int(round(0.01 * max(h, w))))
+        self.region_levels = {}  # segment label -> level, after solve()
+        self.timings = {}
+        self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
+
+    # -- constraints ------------------------------------------------------------
+
+    def add(self, p, q, *, inequality=True, label=None):
+        """Add ``d[p] - d[q] >= epsilon`` (or ``d[p] = d[q]``).
+
+        Parameters
+        ----------
+        p, q : int or (x, y)
+            Raster index ``y * W + x`` or a point ``(x, y)`` (rounded).
+        inequality : bool, default True
+        label : str, optional
+            Name used in error messages (default ``order[k]``/``equal[k]``
+            with ``k`` the handle).
+
+        Returns
+        -------
+        int
+            A handle for :meth:`remove`.
+        """
+        p, q = self._index(p), self._index(q)
+        k = self._next
+        if label is None:
+            label = f"{'order' if inequality else 'equal'}[{k}]"
+        if inequality and p == q:
+            raise InputError(f"{label}: front and back are the same pixel")
+        self._next += 1
+        self._constraints[k] = (p, q, bool(inequality), label)
+        for v in (p, q):
+            if v not in self._endpoint_label:
+                self._endpoint_label[v] = None
+                self._dirty.add(v)
+        return k
+
+    def remove(self, handle):
+        """Remove the constraint ``handle`` returned by :meth:`add`."""
+        if handle not in self._constraints:
+            raise InputError(f"constraint {handle}: no such constraint in this session")
+        p, q, _, _ = self._constraints.pop(handle)
+        used = {v for c in self._constraints.values() for v in c[:2]}
+        for v in (p, q):
+            if v not in used and v in self._endpoint_label:
+                del self._endpoint_label[v]
+                self._dirty.add(v)
+
+    def _index(self, v):
+        h, w = self.shape
+        if np.ndim(v) == 0:
+            v = int(v)
+            if not 0 <= v < h * w:
+                raise InputError(f"pixel index {v} lies outside the {w}x{h} drawing")
+            return v
+        x, y = (int(np.floor(float(c) + 0.5)) for c in v)
+        if not (0 <= x < w and 0 <= y < h):
+            raise InputError(f"point ({x}, {y}) lies outside the {w}x{h} drawing")
+        return y * w + x
+
+    def constraints(self):
+        """The current constraints as ``p, q, inequality, labels`` (handle order)."""
+        items = sorted(self._constraints.items())
+        p = np.array([c[0] for _, c in items], np.int64)
+        q = np.array([c[1] for _, c in items], np.int64)
+        ineq = np.array([c[2] for _, c in items], bool)
+        return p, q, ineq, [c[3] for _, c in items]
+
+    # -- solve ------------------------------------------------------------------
+
+    def solve(self):
+        """The depth map for the current constraints.
+
+        Returns
+        -------
+        (H, W) float64 array
+            Zero mean; all zeros without constraints.
+
+        Raises
+        ------
+        InputError
+            Contradictory constraints, between points or between the regions
+            they lie in (the entries of a cycle are listed).
+        """
+        h, w = self.shape
+        p, q, ineq, labels = self.constraints()
+        check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
+        if not len(p):
+            self._dirty = set()
+            self.region_levels = {}
+            return np.zeros((h, w))
+        t = time.perf_counter()
+        self._segment()
+        self.timings["segment"] = time.perf_counter() - t
+        t = time.perf_counter()
+        lab = self.labels
+        level = _levels(lab.flat[p], lab.flat[q], ineq, labels, what="region")
+        self.region_levels = level
+        lo = int(lab.min())
+        value = np.full(int(lab.max()) - lo + 1, np.nan)
+        for k, v in level.items():
+            value[k - lo] = self.epsilon * v
+        lvl = value[lab - lo]  # NaN on segments without endpoints: they are free
+        fixed = np.zeros((h, w), bool)
+        # Segment boundaries on ink are steps: both sides keep their level.
+        for axis in (0, 1):
+            a = [slice(None)] * 2
+            b = [slice(None)] * 2
+            a[axis], b[axis] = slice(None, -1), slice(1, None)
+            a, b = tuple(a), tuple(b)
+            step = (lab[a] != lab[b]) & (self._ink[a] | self._ink[b])
+            fixed[a] |= step & ~np.isnan(lvl[a])
+            fixed[b] |= step & ~np.isnan(lvl[b])
+        fixed.flat[np.concatenate([p, q])] = True
+        d = self._fill(fixed, np.where(fixed, lvl, 0.0))
+        self.timings["laplace"] = time.perf_counter() - t
+        return d - d.mean()
+
+    def _segment(self):
+        from inkray.segmentation import lazybrush
+
+        if self.labels is not None and not self._dirty:
+            return
+        if self._scribbles is not None:
+            if self.labels is None:
+                self.labels = lazybrush(self.gray, self._scribbles, frame_background=False)
+            self._dirty = set()
+            return
+        if self.labels is None:
+            self._fresh()
+            return
+        # Re-segment only where the changed endpoints lie: a removed endpoint's
+        # whole segment (its label goes), for a new one the part of its host
+        # segment within a window around it (the new label cannot reach
+        # farther; a cut at the window edge runs through paper and the Laplace
+        # fill keeps the depth smooth across it).
+        h, w = self.shape
+        nxt = max([k for k in self._endpoint_label.values() if k is not None] + [-1]) + 1
+        area = np.zeros(self.shape, bool)
+        r = max(32, int(0.1 * max(h, w)))
+        for v in sorted(self._dirty):
+            seg = self.labels == self.labels.flat[v]
+            if self._endpoint_label.get(v, 0) is None:
+                self._endpoint_label[v] = nxt
+                nxt += 1
+                y, x = divmod(v, w)
+                window = np.zeros(self.shape, bool)
+                window[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1] = True
+                seg &= window
+            area |= seg
+        self._dirty = set()
+        # Apart areas (the two ends of a long order) are cut one crop each.
+        parts, n = ndimage.label(area)
+        for c in range(1, n + 1):
+            self._resegment(parts == c)
+
+    def _disk(self, v):
+        """Seed pixels of endpoint ``v``: the paper within a small disk that connects to it."""
+        h, w = self.shape
+        y, x = divmod(v, w)
+        r = self._radius
+        r0, r1, c0, c1 = max(y - r, 0), min(y + r + 1, h), max(x - r, 0), min(x + r + 1, w)
+        yy, xx = np.mgrid[r0:r1, c0:c1]
+        disk = ((yy - y) ** 2 + (xx - x) ** 2 <= r * r) & ~self._ink[r0:r1, c0:c1]
+        disk[y - r0, x - c0] = True
+        comp, _ = ndimage.label(disk)
+        sel = comp == comp[y - r0, x - c0]
+        return yy[sel], xx[sel]
+
+    def _seed_endpoints(self, seeds, offset=(0, 0), inside=None):
+        y0, x0 = offset
+        for v, k in sorted(self._endpoint_label.items()):
+            yy, xx = self._disk(v)
+            yy, xx = yy - y0, xx - x0
+            ok = (yy >= 0) & (yy < seeds.shape[0]) & (xx >= 0) & (xx < seeds.shape[1])
+            yy, xx = yy[ok], xx[ok]
+            if inside is not None:
+                keep = inside[yy, xx]
+                yy, xx = yy[keep], xx[keep]
+            seeds[yy, xx] = k
+
+    def _fresh(self):
+        from inkray.segmentation import lazybrush
+
+        for i, v in enumerate(sorted(self._endpoint_label)):
+            self._endpoint_label[v] = i
+        seeds = np.full(self.shape, -2, np.int32)
+        self._seed_endpoints(seeds)
+        self.labels = lazybrush(self.gray, seeds, frame_background=False,
+                                seed_strength=_SEED_STRENGTH)
+        self._pin()
+        self._dirty = set()
+
+    def _pin(self):
+        for v, k in self._endpoint_label.items():
+            self.labels.flat[v] = k  # an endpoint always keeps its own label
+
+    def _resegment(self, area):
+        from inkray.segmentation import lazybrush
+
+        h, w = self.shape
+        rows = np.flatnonzero(area.any(axis=1))
+        cols = np.flatnonzero(area.any(axis=0))
+        r0, r1 = max(rows[0] - 2, 0), min(rows[-1] + 3, h)
+        c0, c1 = max(cols[0] - 2, 0), min(cols[-1] + 3, w)
+        crop = (slice(r0, r1), slice(c0, c1))
+        inside = area[crop]
+        # Outside the area the labels stay; they take part as hard seeds.
+        seeds = np.where(inside, -2, self.labels[crop]).astype(np.int32)
+        self._seed_endpoints(seeds, (r0, c0), inside)
+        new = lazybrush(self.gray[crop], seeds, frame_background=False,
+                        seed_strength=_SEED_STRENGTH)
+        self.labels[crop] = np.where(inside, new, self.labels[crop])
+        self._pin()
+
+    def _fill(self, fixed, vals):
+        """Laplace equation with the image's edge weights and Dirichlet ``vals`` on ``fixed``.
+
+        One system over the whole grid: a fixed pixel's row and column are the
+        identity and its couplings move to the right-hand side. The session's
+        factorization is updated in place, so a change that moves the fixed
+        set only inside a window refactors the fronts of that window.
+        """
+        if self._weights is None:
+            wx, wy, _ = edge_weights(self.gray)
+            self._weights = wx, wy, grid_laplacian(wx, wy).diagonal().reshape(self.shape)
+        wx, wy, deg = self._weights
+        vals = np.where(fixed, vals, 0.0)
+        free = ~fixed
+        # Edges between two free pixels stay; an edge from a free pixel to a
+        # fixed one moves to the right-hand side.
+        diag = np.where(fixed, 1.0, deg)
+        east = np.where(free[:, :-1] & free[:, 1:], -wx, 0.0)
+        south = np.where(free[:-1, :] & free[1:, :], -wy, 0.0)
+        rhs = vals.copy()
+        rhs[:, :-1] += np.where(free[:, :-1], wx * vals[:, 1:], 0.0)
+        rhs[:, 1:] += np.where(free[:, 1:], wx * vals[:, :-1], 0.0)
+        rhs[:-1, :] += np.where(free[:-1, :], wy * vals[1:, :], 0.0)
+        rhs[1:, :] += np.where(free[1:, :], wy * vals[:-1, :], 0.0)
+        if self._chol is None or not self._incremental:
+            self._chol = GridCholesky(diag, east, south, updatable=self._incremental,
+                                      progress=self._progress)
+            self.refactored_fronts = self._chol.fronts
+        else:
+            self.refactored_fronts = self._chol.update(diag, east, south)
+        d = self._chol.solve(rhs.ravel()).reshape(self.shape)
+        return np.where(fixed, vals, d)
+
+
+def _levels(p, q, ineq, labels, *, what="point"):
+    """Level of every node: equalities merged, Kahn's topological sort.
+
+    Returns ``{node: level}`` with ``level(front) >= level(back) + 1`` for every
+    inequality (the longest chain of inequalities below a node); raises
+    InputError listing the entries of a cycle.
+    """
+    check_constraints(p, q, ineq, labels, what=what)
+    parent = {}
+
+    def find(v):
+        parent.setdefault(v, v)
+        while parent[v] != v:
+            parent[v] = parent[parent[v]]
+            v = parent[v]
+        return v
+
+    for i in range(len(p)):
+        a, b = find(int(p[i])), find(int(q[i]))
+        if not ineq[i] and a != b:
+            parent[max(a, b)] = min(a, b)
+    nodes = sorted({find(int(v)) for v in list(p) + list(q)})
+    fronts = {v: [] for v in nodes}   # back -> the nodes in front of it
+    pending = {v: 0 for v in nodes}   # inequalities from a node whose back has no level yet
+    for i in range(len(p)):
+        if ineq[i]:
+            f, b = find(int(p[i])), find(int(q[i]))
+            fronts[b].append(f)
+            pending[f] += 1
+    # Kahn on the reverse graph: a node is ready when every node behind it has its level.
+    level = {v: 0 for v in nodes}
+    ready = [v for v in nodes if pending[v] == 0]
+    done = 0
+    while ready:
+        v = ready.pop()
+        done += 1
+        for f in fronts[v]:
+            level[f] = max(level[f], level[v] + 1)
+            pending[f] -= 1
+            if pending[f] == 0:
+                ready.append(f)
+    if done != len(nodes):  # check_constraints already reported any cycle
+        raise StageError("depth: the constraint graph has a cycle the cycle test missed")
+    return {int(v): level[find(int(v))] for v in list(p) + list(q)}
+
+
+# -- outputs --------------------------------------------------------------------
+
+def depth_png(depth_map):
+    """Encode a depth map as a 16-bit grey PNG normalized to the full range.
+
+    Parameters
+    ----------
+    depth_map : (H, W) float array
+
+    Returns
+    -------
+    png : bytes
+        0 is the farthest pixel, 65535 the nearest; the text chunks
+        ``inkray:depth_min`` and ``inkray:depth_max`` hold the range.
+    meta : dict
+        ``{"depth_min", "depth_max", "scale"}``: ``depth = min + value * scale``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> png, meta = depth_png(np.array([[0.0, 2.0]]))
+    >>> meta["depth_max"], png[:4] == b"\\x89PNG"
+    (2.0, True)
+    """
+    from PIL import Image
+    from PIL.PngImagePlugin import PngInfo
+
+    d = np.asarray(depth_map, np.float64)
+    lo, hi = float(d.min()), float(d.max())
+    span = hi - lo
+    u16 = np.zeros(d.shape, np.uint16) if span <= 0 else \
+        np.round((d - lo) / span * 65535).astype(np.uint16)
+    info = PngInfo()
+    info.add_text("inkray:depth_min", repr(lo))
+    info.add_text("inkray:depth_max", repr(hi))
+    buf = io.BytesIO()
+    Image.fromarray(u16).save(buf, format="PNG", pnginfo=info)
+    return buf.getvalue(), {"depth_min": lo, "depth_max": hi, "scale": span / 65535}
+
+
+def normal_map(depth_map, *, relief=0.1):
+    """Surface normals of the depth map as an RGB image.
+
+    Parameters
+    ----------
+    depth_map : (H, W) float array
+    relief : float, default 0.1
+        Height of the full depth range as a fraction of the longer image side
+        (depth has no pixel scale of its own).
+
+    Returns
+    -------
+    normals : (H, W, 3) float64 array
+        Unit normals ``(x right, y up, z toward the viewer)``.
+    rgb : (H, W, 3) uint8 array
+        ``(n + 1) / 2 * 255``, the usual tangent-space encoding.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> n, rgb = normal_map(np.zeros((4, 4)))
+    >>> n[0, 0].tolist(), rgb[0, 0].tolist()
+    ([0.0, 0.0, 1.0], [128, 128, 255])
+    """
+    d = np.asarray(depth_map, np.float64)
+    span = float(d.max() - d.min())
+    height = d * (relief * max(d.shape) / span) if span > 0 else np.zeros_like(d)
+    gy, gx = np.gradient(height) if min(d.shape) > 1 else (np.zeros_like(d), np.zeros_like(d))
+    # Image rows grow downward; the normal's y points up.
+    n = np.stack([0.0 - gx, gy, np.ones_like(d)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    rgb = np.round((n + 1.0) * 0.5 * 255).astype(np.uint8)
+    return n, rgb
+
+
+def shaded_preview(depth_map, drawing=None, *, light=(-1.0, 1.0, 1.5), ambient=0.15, relief=0.1):
+    """Lambert-shaded preview of the depth map, with the drawing's ink on top.
+
+    Parameters
+    ----------
+    depth_map : (H, W) float array
+    drawing : Drawing or (H, W) / (H, W, 3) array, optional
+        Multiplied onto the shading (ink stays dark).
+    light : 3-tuple, default (-1, 1, 1.5)
+        Direction toward the light (x right, y up, z toward the viewer): upper left.
+    ambient : float, default 0.15
+    relief : float, default 0.1
+        See :func:`normal_map`.
+
+    Returns
+    -------
+    (H, W, 3) uint8 array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = shaded_preview(np.zeros((2, 2)))
+    >>> img.shape, bool((img == img[0, 0]).all())
+    ((2, 2, 3), True)
+    """
+    n, _ = normal_map(depth_map, relief=relief)
+    l = np.asarray(light, np.float64)
+    l = l / np.linalg.norm(l)
+    shade = ambient + (1 - ambient) * np.clip(n @ l, 0.0, 1.0)
+    img = np.repeat(shade[:, :, None], 3, axis=2)
+    if drawing is not None:
+        tex = getattr(drawing, "rgb", drawing)
+        tex = np.asarray(tex, np.float64)
+        tex = tex / 255.0 if tex.max(initial=0) > 1.0 else tex
+        if tex.ndim == 2:
+            tex = np.repeat(tex[:, :, None], 3, axis=2)
+        img = img * tex
+    return np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)
+
+
+def write_depth_outputs(result, output, *, npy=None, normals=None, shading=None, drawing=None):
+    """Write a depth result: all files together or none.
+
+    Parameters
+    ----------
+    result : DepthResult
+    output : str or pathlib.Path
+        The 16-bit PNG; a sidecar ``<stem>.json`` beside it holds the range,
+        the method and epsilon (and the KKT residuals for the exact method).
+    npy, normals, shading : str or pathlib.Path, optional
+        Float depth (``.npy``), normal map PNG, shaded preview PNG.
+    drawing : Drawing, optional
+        Ink for the shaded preview.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    from PIL import Image
+
+    from inkray.formats.atomic import atomic_outputs
+
+    output = Path(output)
+    png, meta = depth_png(result.depth)
+    sidecar = output.with_suffix(".json")
+    doc = {"depth_min": meta["depth_min"], "depth_max": meta["depth_max"],
+           "scale": meta["scale"], "encoding": "depth = depth_min + value * scale (16-bit)",
+           "method": result.method, "epsilon": result.epsilon}
+    if result.method == "exact":
+        doc["kkt"] = result.info.get("kkt", {})
+        doc["objective"] = result.info.get("objective")
+        doc["sigma"] = result.info.get("sigma")
+    written = [output, sidecar]
+    with atomic_outputs() as out:
+        out.write_bytes(output, png)
+        out.write_text(sidecar, json.dumps(doc, indent=2) + "\n")
+        if npy is not None:
+            np.save(out.path(npy), result.depth)
+            written.append(Path(npy))
+        if normals is not None:
+            Image.fromarray(normal_map(result.depth)[1]).save(out.path(normals))
+            written.append(Path(normals))
+        if shading is not None:
+            Image.fromarray(shaded_preview(result.depth, drawing)).save(out.path(shading))
+            written.append(Path(shading))
+    return written

@@ -1,0 +1,556 @@
+"""Relief meshes to files: GLB, OBJ (+ MTL + PNG) and PLY, with the drawing as texture.
+
+The relief of Sýkora et al., "Ink-and-Ray: Bas-Relief Meshes for Adding Global
+Illumination Effects to Hand-Drawn Characters" (TOG 2014, section 6), is a
+stack of region meshes that, seen from the front, reproduces the drawing;
+planar texture coordinates map the drawing onto it. This module writes it in
+the formats renderers open without fixes, and reads meshes (inkray's or
+anyone's) back as named triangle meshes for :mod:`inkray.check`.
+
+Scene frame of every written file: ``X`` right, ``Y`` up, ``Z`` toward the
+viewer, ``units_per_pixel`` scene units per drawing pixel (default 0.001: a
+1000 px tall drawing is 1 unit tall), on all three axes. ``anchor="center"``
+puts the drawing's centre at the origin; ``anchor="top-left"`` puts its
+top-left corner there (the drawing then covers ``X >= 0, Y <= 0``). Pixel
+centres are at integer drawing coordinates (:mod:`inkray.relief`), so the
+centre is pixel position ``((W - 1) / 2, (H - 1) / 2)`` and the top-left
+corner ``(-0.5, -0.5)``. The
+drawing plane (height 0) is ``Z = 0``. Front faces are counter-clockwise seen
+from ``+Z`` (glTF's convention), so their normals point toward the viewer.
+"""
+
+import re
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from inkray.errors import InputError
+from inkray.formats.atomic import atomic_outputs
+from inkray.view.rasterization import vertex_normals
+
+__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "pixel_coordinates",
+           "read_meshes", "scene_coordinates"]
+
+ANCHORS = ("center", "top-left")
+FORMATS = (".glb", ".obj", ".ply")
+
+# PLY header comments carrying what GLB keeps in its scene extras.
+_PLY_PART = re.compile(r"^comment inkray part (\d+) (\S+)$")
+
+
+class NamedMesh(NamedTuple):
+    """One triangle mesh read from a file.
+
+    Attributes
+    ----------
+    name : str
+        Node, group or part name (the file's stem when the format has none).
+    vertices : (n, 3) float array
+        Positions in the file's frame (for inkray's files: the scene frame).
+    faces : (m, 3) int array
+        Vertex indices, in the file's winding.
+    """
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+
+
+def scene_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
+    """Drawing pixels ``(x, y down, z toward viewer)`` to the scene frame (y up).
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        Positions in drawing pixels, as in :attr:`inkray.relief.model.Part.vertices`.
+    size : (int, int)
+        ``(width, height)`` of the drawing in pixels.
+    units_per_pixel : float, optional
+        Scene units per pixel, the same on every axis.
+    anchor : {"center", "top-left"}, optional
+        The drawing point put at the origin.
+
+    Returns
+    -------
+    (n, 3) float array
+        ``X`` right, ``Y`` up, ``Z`` toward the viewer.
+
+    Examples
+    --------
+    >>> scene_coordinates([[99.5, 49.5, 10]], (200, 100), units_per_pixel=0.01)
+    array([[0. , 0. , 0.1]])
+    >>> scene_coordinates([[99.5, 49.5, 10]], (200, 100), units_per_pixel=0.01, anchor="top-left")
+    array([[ 1. , -0.5,  0.1]])
+    """
+    _check_frame(units_per_pixel, anchor)
+    p = np.asarray(points, float).reshape(-1, 3)
+    x0, y0 = _origin(size, anchor)
+    s = float(units_per_pixel)
+    return np.stack([(p[:, 0] - x0) * s, (y0 - p[:, 1]) * s, p[:, 2] * s], axis=1)
+
+
+def pixel_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
+    """Inverse of :func:`scene_coordinates`: scene frame back to drawing pixels.
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        ``X`` right, ``Y`` up, ``Z`` toward the viewer, in scene units.
+    size : (int, int)
+        ``(width, height)`` of the drawing in pixels.
+    units_per_pixel : float, optional
+    anchor : {"center", "top-left"}, optional
+
+    Returns
+    -------
+    (n, 3) float array
+        ``(x, y down, z)`` in drawing pixels.
+
+    Examples
+    --------
+    >>> pixel_coordinates([[0, 0, 0.1]], (200, 100), units_per_pixel=0.01)
+    array([[99.5, 49.5, 10. ]])
+    """
+    _check_frame(units_per_pixel, anchor)
+    p = np.asarray(points, float).reshape(-1, 3)
+    x0, y0 = _origin(size, anchor)
+    s = float(units_per_pixel)
+    return np.stack([p[:, 0] / s + x0, y0 - p[:, 1] / s, p[:, 2] / s], axis=1)
+
+
+def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outputs=None):
+    """Write a relief as GLB, OBJ (+ MTL + PNG) or PLY, chosen by ``path``'s suffix.
+
+    - ``.glb``: one node and one mesh per part, named after it; positions,
+      vertex normals, planar UVs (``TEXCOORD_0``); one material (roughness 1,
+      metallic 0) with the drawing embedded as PNG base-colour texture; scene
+      ``extras = {"inkray": {"drawing_size": [W, H], "units_per_pixel": s,
+      "anchor": anchor}}``. Indices are unsigned 32-bit; the texture sampler
+      filters linearly (mipmapped) and clamps to the edge.
+    - ``.obj``: ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
+      ``f v/vt/vn``; beside it ``<stem>.mtl`` and the texture
+      ``<stem>_drawing.png``.
+    - ``.ply``: binary little-endian, one mesh of all parts; per vertex
+      position, normal, RGBA colour sampled (bilinearly) from the drawing and
+      UV as ``s, t``; per face the part index ``part``; header comments
+      ``comment inkray part <i> <name>`` and ``comment inkray drawing_size W H
+      units_per_pixel s anchor a``.
+
+    All files of one export are written together (or, on error, none).
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+        Vertices in drawing pixels (see :mod:`inkray.relief`).
+    path : str or Path
+        Output file; its suffix picks the format.
+    units_per_pixel : float, optional
+        Scene units per drawing pixel (all axes).
+    anchor : {"center", "top-left"}, optional
+        Drawing point put at the scene origin.
+    outputs : object from :func:`inkray.formats.atomic.atomic_outputs`, optional
+        Write into this group (to commit the mesh with other files of one
+        command); by default the export is its own group.
+
+    Returns
+    -------
+    list of Path
+        The files written (the mesh file first).
+
+    Raises
+    ------
+    InputError
+        Unknown suffix or anchor, non-positive scale, or a relief that is not
+        valid (names, shapes, indices, texture size, vertices off the drawing's
+        ``[-0.5, W - 0.5] x [-0.5, H - 0.5]``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> [p.name for p in export_relief(r, d / "r.obj")]
+    ['r.obj', 'r.mtl', 'r_drawing.png']
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
+                         f"(expected {', '.join(FORMATS)})")
+    _check_frame(units_per_pixel, anchor)
+    _check_relief(relief)
+    meshes = _scene_meshes(relief, units_per_pixel, anchor)
+    if suffix == ".glb":
+        files = {path: _glb_bytes(relief, meshes, units_per_pixel, anchor)}
+    elif suffix == ".obj":
+        files = _obj_files(relief, meshes, path)
+    else:
+        files = {path: _ply_bytes(relief, meshes, units_per_pixel, anchor)}
+    if outputs is None:
+        with atomic_outputs() as out:
+            for target, data in files.items():
+                out.write_bytes(target, data)
+    else:
+        for target, data in files.items():
+            outputs.write_bytes(target, data)
+    return list(files)
+
+
+def read_meshes(path):
+    """Load a GLB/glTF, OBJ or PLY file as a list of named triangle meshes.
+
+    GLB/glTF: one mesh per node that holds triangles, named after the node,
+    with the node's world transform applied. OBJ: one mesh per ``o``/``g``
+    group. PLY: one mesh named after the file, or, for inkray's PLY, one per
+    part (``part`` face property and ``comment inkray part`` lines). Nothing
+    is merged: a GLB mesh keeps its vertices; an OBJ group or PLY part gets the
+    vertices its faces use, in file order (OBJ corners whose texture or normal
+    indices differ become separate vertices, as renderers see them). Points
+    and lines are ignored.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    list of NamedMesh
+
+    Raises
+    ------
+    InputError
+        The file is missing, of another type, unreadable, or holds no
+        triangles.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> [(m.name, len(m.vertices), len(m.faces)) for m in read_meshes(p)]
+    [('a', 3, 1)]
+    """
+    import trimesh
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".glb", ".gltf", ".obj", ".ply"):
+        raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
+                         f"(expected .glb, .gltf, .obj, .ply)")
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        if suffix == ".ply":
+            meshes = _read_ply(path)
+        else:
+            # OBJ: one mesh per o/g group even when groups share a material.
+            options = ({"group_material": False, "split_objects": True, "skip_materials": True}
+                       if suffix == ".obj" else {})
+            meshes = _scene_to_named(trimesh.load_scene(path, process=False, **options))
+    except InputError:
+        raise
+    except Exception as e:  # every parser failure means the same: not a readable mesh
+        raise InputError(f"{path}: cannot read {suffix[1:].upper()}: "
+                         f"{type(e).__name__}: {' '.join(str(e).split())}") from e
+    meshes = [m for m in meshes if len(m.faces)]
+    if not meshes:
+        raise InputError(f"{path}: holds no triangles")
+    return meshes
+
+
+# -- validation --------------------------------------------------------------
+
+def _check_frame(units_per_pixel, anchor):
+    if anchor not in ANCHORS:
+        raise InputError(f"anchor: {anchor!r} is not one of {', '.join(ANCHORS)}")
+    try:
+        s = float(units_per_pixel)
+    except (TypeError, ValueError):
+        s = float("nan")
+    if not (np.isfinite(s) and s > 0):
+        raise InputError(f"units_per_pixel: expected a positive number, got {units_per_pixel!r}")
+
+
+def _origin(size, anchor):
+    w, h = size
+    # Pixel centres are integers: the drawing spans [-0.5, W - 0.5] x [-0.5, H - 0.5].
+    return ((w - 1) / 2.0, (h - 1) / 2.0) if anchor == "center" else (-0.5, -0.5)
+
+
+def _check_relief(relief):
+    w, h = relief.size
+    if not (int(w) == w and int(h) == h and w > 0 and h > 0):
+        raise InputError(f"relief.size: expected positive integer (width, height), "
+                         f"got {relief.size}")
+    tex = relief.texture
+    if tex is not None:
+        tex = np.asarray(tex)
+        if tex.shape != (h, w, 3) or tex.dtype != np.uint8:
+            raise InputError(f"relief.texture: expected a ({h}, {w}, 3) uint8 array for the "
+                             f"{w}x{h} drawing, got {tex.shape} {tex.dtype}")
+    if not relief.parts:
+        raise InputError("relief.parts: the relief has no parts")
+    seen = set()
+    # Pixel centres are integers: the drawing spans [-0.5, W - 0.5]; allow
+    # round-off past that edge.
+    tol = 0.5 + 1e-6 * max(w, h)  # from the outermost pixel centre to the drawing's edge
+    for i, part in enumerate(relief.parts):
+        where = f"parts[{i}]"
+        name = part.name
+        if not isinstance(name, str) or not name or re.search(r"\s", name):
+            raise InputError(f"{where}.name: expected a non-empty name without spaces, "
+                             f"got {name!r}")
+        if name in seen:
+            raise InputError(f"{where}.name: duplicate part name {name!r}")
+        seen.add(name)
+        where = f"part {name!r}"
+        v = np.asarray(part.vertices)
+        f = np.asarray(part.faces)
+        if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+            raise InputError(f"{where}: vertices must be a non-empty (n, 3) array, got {v.shape}")
+        if not np.issubdtype(v.dtype, np.number) or not np.all(np.isfinite(v)):
+            raise InputError(f"{where}: vertices must be finite numbers")
+        if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+            raise InputError(f"{where}: faces must be a non-empty (m, 3) array, got {f.shape}")
+        if not np.issubdtype(f.dtype, np.integer):
+            raise InputError(f"{where}: faces must be integers, got {f.dtype}")
+        if f.min() < 0 or f.max() >= len(v):
+            bad = int(np.argmax((f < 0).any(axis=1) | (f >= len(v)).any(axis=1)))
+            raise InputError(f"{where}: face {bad} {f[bad].tolist()} indexes past the "
+                             f"{len(v)} vertices")
+        off = ((v[:, 0] < -tol) | (v[:, 0] > w - 1 + tol) | (v[:, 1] < -tol)
+               | (v[:, 1] > h - 1 + tol))
+        if off.any():
+            k = int(np.argmax(off))
+            raise InputError(f"{where}: vertex {k} at pixel ({v[k, 0]:g}, {v[k, 1]:g}) lies "
+                             f"outside the {w}x{h} drawing")
+
+
+# -- shared geometry ---------------------------------------------------------
+
+class _SceneMesh(NamedTuple):
+    name: str
+    vertices: np.ndarray  # scene frame
+    faces: np.ndarray
+    normals: np.ndarray  # unit, scene frame
+    uv: np.ndarray  # (u, v), v up (OpenGL / OBJ convention)
+    pixels: np.ndarray  # (x, y) drawing pixels, for colour sampling
+
+
+def _scene_meshes(relief, units_per_pixel, anchor):
+    meshes = []
+    for part in relief.parts:
+        px = np.asarray(part.vertices, float)
+        faces = np.asarray(part.faces, np.int64)
+        v = scene_coordinates(px, relief.size, units_per_pixel=units_per_pixel, anchor=anchor)
+        # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
+        # down) into counter-clockwise seen from +Z, so faces are kept as they are.
+        uv = np.clip(relief.uv(px), 0.0, 1.0)
+        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, px[:, :2]))
+    return meshes
+
+
+def _scene_normals(pixel_vertices, faces):
+    """Unit vertex normals in the scene frame (y up); +Z where a vertex has no
+    area around it, since glTF requires unit normals."""
+    n = vertex_normals(pixel_vertices, faces) * [1.0, -1.0, 1.0]
+    n[np.linalg.norm(n, axis=1) == 0] = (0.0, 0.0, 1.0)
+    return n
+
+
+def _texture(relief):
+    """The drawing as an RGB image (mid grey when the relief has none)."""
+    w, h = relief.size
+    if relief.texture is None:
+        return np.full((h, w, 3), 128, np.uint8)
+    return np.asarray(relief.texture, np.uint8)
+
+
+def _png_bytes(image):
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="PNG", optimize=False)
+    return buf.getvalue()
+
+
+# -- GLB ---------------------------------------------------------------------
+
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+# Linear filtering with mipmaps; clamp, so the drawing's left edge never bleeds
+# into its right edge (UVs reach exactly 0 and 1 on the border).
+_SAMPLER = {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}
+
+
+def _glb_bytes(relief, meshes, units_per_pixel, anchor):
+    import trimesh
+    from PIL import Image
+
+    from inkray import __version__
+
+    material = trimesh.visual.material.PBRMaterial(
+        name="drawing", baseColorTexture=Image.fromarray(_texture(relief)),
+        baseColorFactor=[255, 255, 255, 255], metallicFactor=0.0, roughnessFactor=1.0)
+    scene = trimesh.Scene()
+    for m in meshes:
+        mesh = trimesh.Trimesh(m.vertices, m.faces, vertex_normals=m.normals, process=False,
+                               visual=trimesh.visual.TextureVisuals(uv=m.uv, material=material))
+        scene.add_geometry(mesh, geom_name=m.name, node_name=m.name)
+    w, h = relief.size
+    scene.metadata["inkray"] = {"drawing_size": [int(w), int(h)],
+                                "units_per_pixel": float(units_per_pixel), "anchor": anchor}
+
+    def finish(tree):
+        tree["asset"]["generator"] = f"inkray {__version__} (trimesh)"
+        # Buffer-view targets tell loaders which views are vertex or index data.
+        targets = {}
+        for mesh in tree.get("meshes", []):
+            for prim in mesh["primitives"]:
+                for acc in prim["attributes"].values():
+                    targets[tree["accessors"][acc]["bufferView"]] = _ARRAY_BUFFER
+                targets[tree["accessors"][prim["indices"]]["bufferView"]] = _ELEMENT_ARRAY_BUFFER
+        for view, target in targets.items():
+            tree["bufferViews"][view]["target"] = target
+        tree["samplers"] = [dict(_SAMPLER)]
+        for texture in tree["textures"]:
+            texture["sampler"] = 0
+
+    return trimesh.exchange.gltf.export_glb(scene, include_normals=True, unitize_normals=True,
+                                            tree_postprocessor=finish)
+
+
+# -- OBJ ---------------------------------------------------------------------
+
+def _obj_files(relief, meshes, path):
+    # trimesh's OBJ writer names objects only from metadata and rewrites the
+    # material; a direct writer gives groups per part and stable file names.
+    mtl_path = path.with_suffix(".mtl")
+    png_path = path.with_name(f"{path.stem}_drawing.png")
+    chunks = ["# inkray relief: X right, Y up, Z toward the viewer\n",
+              f"mtllib {mtl_path.name}\n"]
+    base = 1
+    for m in meshes:
+        chunks += [f"o {m.name}\ng {m.name}\nusemtl drawing\n",
+                   _format_rows("v %.9g %.9g %.9g\n", m.vertices),
+                   _format_rows("vt %.9g %.9g\n", m.uv),
+                   _format_rows("vn %.6f %.6f %.6f\n", m.normals),
+                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n",
+                                np.repeat(m.faces + base, 3, axis=1))]
+        base += len(m.vertices)
+    mtl = ["# inkray relief material: the drawing, matte",
+           "newmtl drawing",
+           "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
+           "Pr 1", "Pm 0",  # PBR extension (Blender, three.js): roughness 1, metallic 0
+           f"map_Kd {png_path.name}"]
+    return {path: "".join(chunks).encode(),
+            mtl_path: ("\n".join(mtl) + "\n").encode(),
+            png_path: _png_bytes(_texture(relief))}
+
+
+def _format_rows(line, array):
+    """``line`` (a %-format of one row) applied to every row, in one formatting call."""
+    return (line * len(array)) % tuple(np.asarray(array).ravel().tolist())
+
+
+# -- PLY ---------------------------------------------------------------------
+
+def _ply_bytes(relief, meshes, units_per_pixel, anchor):
+    import trimesh
+
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
+    vertices = np.concatenate([m.vertices for m in meshes])
+    faces = np.concatenate([m.faces + o for m, o in zip(meshes, offsets)])
+    uv = np.concatenate([m.uv for m in meshes]).astype(np.float32)
+    rgb = _sample_bilinear(_texture(relief), np.concatenate([m.pixels for m in meshes]))
+    rgba = np.concatenate([rgb, np.full((len(rgb), 1), 255, np.uint8)], axis=1)
+    part = np.repeat(np.arange(len(meshes), dtype=np.int32), [len(m.faces) for m in meshes])
+    mesh = trimesh.Trimesh(vertices, faces, process=False,
+                           vertex_normals=np.concatenate([m.normals for m in meshes]),
+                           vertex_colors=rgba,
+                           vertex_attributes={"s": uv[:, 0], "t": uv[:, 1]},
+                           face_attributes={"part": part})
+    data = trimesh.exchange.ply.export_ply(mesh, encoding="binary", vertex_normal=True)
+    w, h = relief.size
+    comments = [f"comment inkray drawing_size {int(w)} {int(h)} units_per_pixel "
+                f"{float(units_per_pixel)!r} anchor {anchor}",
+                "comment inkray frame X right, Y up, Z toward the viewer"]
+    comments += [f"comment inkray part {i} {m.name}" for i, m in enumerate(meshes)]
+    head, sep, body = data.partition(b"end_header\n")
+    lines = [ln for ln in head.decode("ascii").splitlines() if not ln.startswith("comment ")]
+    return ("\n".join(lines[:2] + comments + lines[2:]) + "\n").encode("ascii") + sep + body
+
+
+def _sample_bilinear(image, xy):
+    """Colours of ``image`` at pixel positions ``xy`` (pixel ``c`` centred at ``c``)."""
+    h, w = image.shape[:2]
+    x = np.clip(xy[:, 0], 0, w - 1)
+    y = np.clip(xy[:, 1], 0, h - 1)
+    x0 = np.minimum(np.floor(x).astype(int), w - 2) if w > 1 else np.zeros(len(x), int)
+    y0 = np.minimum(np.floor(y).astype(int), h - 2) if h > 1 else np.zeros(len(y), int)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    img = image.astype(float)
+    top = img[y0, x0] * (1 - fx) + img[y0, x1] * fx
+    bottom = img[y1, x0] * (1 - fx) + img[y1, x1] * fx
+    return np.clip(np.rint(top * (1 - fy) + bottom * fy), 0, 255).astype(np.uint8)
+
+
+# -- reading -----------------------------------------------------------------
+
+def _scene_to_named(scene):
+    meshes = []
+    nodes = scene.graph.geometry_nodes
+    for geom_name, geom in scene.geometry.items():
+        if not hasattr(geom, "faces"):
+            continue
+        for node in nodes.get(geom_name, []):
+            transform, _ = scene.graph[node]
+            v = np.asarray(geom.vertices, float)
+            v = v @ transform[:3, :3].T + transform[:3, 3]
+            f = np.asarray(geom.faces, np.int64)
+            if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node flips the winding
+                f = f[:, ::-1]
+            meshes.append(NamedMesh(str(node), v, f))
+    return meshes
+
+
+def _read_ply(path):
+    import trimesh
+
+    names = {}
+    with open(path, "rb") as fh:
+        first = fh.readline()
+        if not first.startswith(b"ply"):
+            raise InputError(f"{path}: not a PLY file (no 'ply' magic)")
+        for raw in fh:
+            line = raw.decode("ascii", "replace").strip()
+            if line == "end_header":
+                break
+            match = _PLY_PART.match(line)
+            if match:
+                names[int(match.group(1))] = match.group(2)
+    mesh = trimesh.load_mesh(path, file_type="ply", process=False)
+    if not hasattr(mesh, "faces"):
+        return []
+    v = np.asarray(mesh.vertices, float)
+    f = np.asarray(mesh.faces, np.int64)
+    raw = mesh.metadata.get("_ply_raw", {}).get("face", {}).get("data")
+    part = None
+    if names and raw is not None and raw.dtype.names and "part" in raw.dtype.names:
+        part = np.asarray(raw["part"]).reshape(-1)
+    if part is None or len(part) != len(f):
+        return [NamedMesh(path.stem, v, f)]
+    meshes = []
+    for i in sorted(set(part.tolist())):
+        sub = f[part == i]
+        used, inverse = np.unique(sub, return_inverse=True)
+        meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3)))
+    return meshes
+

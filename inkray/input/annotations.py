@@ -1,0 +1,437 @@
+"""The annotation file format, version 1 (``<name>.inkray.json``).
+
+Reads and validates the input contract of ``shared/ANNOTATIONS.md``: region
+scribbles, background scribbles, depth (in)equalities in the sense of
+Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth (In)equalities"
+(CGF 2010) and boundary conditions of Sýkora et al., "Ink-and-Ray" (TOG 2014).
+Every rule violation raises :class:`~inkray.errors.InputError` whose message
+starts with the key path, e.g.
+``regions[2].scribbles[0][3]: point (1302, 40) lies outside the 1180x1236 drawing``.
+
+Keys beginning with ``_`` are comments and ignored anywhere; any other key the
+format does not define is an error (a misspelt ``boundries`` must not be
+silently dropped).
+"""
+
+import json
+import math
+import numbers
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from inkray.errors import InputError
+
+__all__ = [
+    "Annotations", "Region", "Order", "Equal", "Boundary",
+    "load_annotations", "parse_annotations", "rescale_annotations",
+    "PROFILES", "BOUNDARY_TYPES",
+]
+
+FORMAT = "inkray-annotations"
+VERSION = 1
+PROFILES = ("sqrt", "linear", "flat")
+BOUNDARY_TYPES = ("stitch", "graft", "flat")
+DEFAULT_INFLATION = 2.0
+_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+_TOP_KEYS = ("format", "version", "drawing", "size", "regions", "background",
+             "order", "equal", "boundaries")
+_REGION_KEYS = ("name", "scribbles", "inflation", "profile")
+
+
+@dataclass
+class Region:
+    """A part of the character.
+
+    Attributes
+    ----------
+    name : str
+        Unique name (letters, digits, ``_``, ``-``).
+    scribbles : list of (k, 2) float arrays
+        Polylines in drawing pixels, ``[x, y]`` rows; one point is a dot.
+    inflation : float
+        The constant ``c`` of ``-lap f = c``.
+    profile : str
+        Cross-section function: ``"sqrt"``, ``"linear"`` or ``"flat"``.
+    pixels : (n, 2) int array or None
+        Extra seed pixels ``[x, y]`` (from a scribble PNG layer).
+    """
+
+    name: str
+    scribbles: list
+    inflation: float = DEFAULT_INFLATION
+    profile: str = "sqrt"
+    pixels: np.ndarray = None
+
+
+@dataclass
+class Order:
+    """``front`` is nearer the viewer than ``back``; ``index`` is its place in ``order``."""
+
+    front: tuple
+    back: tuple
+    index: int
+
+
+@dataclass
+class Equal:
+    """``a`` and ``b`` have the same depth; ``index`` is its place in ``equal``."""
+
+    a: tuple
+    b: tuple
+    index: int
+
+
+@dataclass
+class Boundary:
+    """A boundary condition along a polyline ``path`` near a region outline."""
+
+    type: str
+    path: np.ndarray
+    index: int
+
+
+@dataclass
+class Annotations:
+    """A validated annotation file.
+
+    Attributes
+    ----------
+    size : tuple of int
+        ``(width, height)`` of the drawing the coordinates refer to.
+    regions, background, order, equal, boundaries
+        As in the format; ``background`` is a list of (k, 2) float arrays.
+    drawing : pathlib.Path or None
+        The drawing, resolved relative to the annotation file.
+    source : pathlib.Path or None
+        The annotation file itself.
+    background_pixels : (n, 2) int array or None
+        Extra background seed pixels ``[x, y]`` (from a scribble PNG layer).
+    """
+
+    size: tuple
+    regions: list = field(default_factory=list)
+    background: list = field(default_factory=list)
+    order: list = field(default_factory=list)
+    equal: list = field(default_factory=list)
+    boundaries: list = field(default_factory=list)
+    drawing: Path = None
+    source: Path = None
+    background_pixels: np.ndarray = None
+
+    @property
+    def width(self):
+        return self.size[0]
+
+    @property
+    def height(self):
+        return self.size[1]
+
+    def region_index(self, name):
+        """Index of the region called ``name`` (``KeyError`` when absent)."""
+        for i, r in enumerate(self.regions):
+            if r.name == name:
+                return i
+        raise KeyError(name)
+
+
+def load_annotations(path):
+    """Read and validate an annotation file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ``.inkray.json`` file.
+
+    Returns
+    -------
+    Annotations
+        With ``drawing`` resolved relative to the file's folder.
+
+    Raises
+    ------
+    InputError
+        When the file is missing, is not UTF-8 JSON, or breaks a rule of the
+        format; the message names the key path.
+
+    Examples
+    --------
+    >>> ann = load_annotations("examples/turtle/drawing.inkray.json")  # doctest: +SKIP
+    >>> [r.name for r in ann.regions]  # doctest: +SKIP
+    ['head', 'leg_front', 'shell', 'foot_hind']
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such annotation file") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not UTF-8 text (byte {e.start})") from None
+    try:
+        data = json.loads(text, object_pairs_hook=_no_duplicate_keys,
+                          parse_constant=_reject_constant)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+    except _DuplicateKey as e:
+        raise InputError(f"{path}: duplicate key {str(e)!r} in a JSON object") from None
+    except _BadConstant as e:
+        raise InputError(f"{path}: {e} is not valid JSON") from None
+    ann = parse_annotations(data)
+    ann.source = path
+    if ann.drawing is not None:
+        ann.drawing = (path.parent / ann.drawing)
+    return ann
+
+
+class _DuplicateKey(Exception):
+    pass
+
+
+class _BadConstant(Exception):
+    pass
+
+
+def _no_duplicate_keys(pairs):
+    out = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k)
+        out[k] = v
+    return out
+
+
+def _reject_constant(name):
+    raise _BadConstant(name)
+
+
+def parse_annotations(data):
+    """Validate a decoded annotation document and return typed objects.
+
+    Parameters
+    ----------
+    data : object
+        The result of ``json.load`` on an annotation file.
+
+    Returns
+    -------
+    Annotations
+        ``drawing`` is the raw relative path (a ``Path``) or None.
+
+    Raises
+    ------
+    InputError
+        Naming the key path and the problem.
+
+    Examples
+    --------
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1,
+    ...                          "size": [10, 10], "order": [{"front": [1, 1], "back": [5, 5]}]})
+    >>> ann.order[0].front
+    (1.0, 1.0)
+    """
+    _expect(isinstance(data, dict), "(top level)", f"expected an object, got {_kind(data)}")
+    _check_keys(data, _TOP_KEYS, "")
+    for key in ("format", "version", "size"):
+        if key not in data:
+            raise InputError(f"{key}: missing required key")
+    _expect(data["format"] == FORMAT and isinstance(data["format"], str), "format",
+            f"expected \"{FORMAT}\", got {_show(data['format'])}")
+    version = data["version"]
+    _expect(_is_int(version), "version", f"expected the integer 1, got {_show(version)}")
+    _expect(version == VERSION, "version", f"unsupported version {version} (this inkray reads version 1)")
+
+    drawing = data.get("drawing")
+    if drawing is not None:
+        _expect(isinstance(drawing, str) and drawing.strip() != "", "drawing",
+                f"expected a non-empty path string, got {_show(drawing)}")
+        drawing = Path(drawing)
+
+    size = data["size"]
+    _expect(isinstance(size, list) and len(size) == 2, "size",
+            f"expected [width, height], got {_show(size)}")
+    for i, s in enumerate(size):
+        _expect(_is_int(s) and s > 0, f"size[{i}]", f"expected a positive integer, got {_show(s)}")
+    size = (int(size[0]), int(size[1]))
+
+    regions = []
+    names = {}
+    raw_regions = _list(data, "regions", "regions")
+    for i, r in enumerate(raw_regions):
+        where = f"regions[{i}]"
+        _expect(isinstance(r, dict), where, f"expected an object, got {_kind(r)}")
+        _check_keys(r, _REGION_KEYS, where)
+        for key in ("name", "scribbles"):
+            if key not in r:
+                raise InputError(f"{where}.{key}: missing required key")
+        name = r["name"]
+        _expect(isinstance(name, str), f"{where}.name", f"expected a string, got {_kind(name)}")
+        _expect(bool(_NAME.match(name)), f"{where}.name",
+                f"{name!r} may only contain letters, digits, '_' and '-'")
+        _expect(name not in names, f"{where}.name",
+                f"duplicate region name {name!r} (first used by regions[{names.get(name)}])")
+        names[name] = i
+        scribbles = r["scribbles"]
+        _expect(isinstance(scribbles, list), f"{where}.scribbles",
+                f"expected a list of polylines, got {_kind(scribbles)}")
+        _expect(len(scribbles) > 0, f"{where}.scribbles", "a region needs at least one scribble")
+        polylines = [_polyline(s, f"{where}.scribbles[{j}]", size) for j, s in enumerate(scribbles)]
+        inflation = r.get("inflation", DEFAULT_INFLATION)
+        _expect(_is_number(inflation) and math.isfinite(inflation) and inflation > 0,
+                f"{where}.inflation", f"expected a positive number, got {_show(inflation)}")
+        profile = r.get("profile", "sqrt")
+        _expect(isinstance(profile, str) and profile in PROFILES, f"{where}.profile",
+                f"unknown profile {_show(profile)} (expected one of {', '.join(PROFILES)})")
+        regions.append(Region(name=name, scribbles=polylines, inflation=float(inflation),
+                              profile=profile))
+
+    background = [_polyline(s, f"background[{j}]", size)
+                  for j, s in enumerate(_list(data, "background", "background"))]
+
+    order = []
+    for i, o in enumerate(_list(data, "order", "order")):
+        where = f"order[{i}]"
+        pts = _pair(o, where, ("front", "back"), size)
+        _expect(pts[0] != pts[1], where,
+                f"front and back are the same point {_fmt_point(pts[0])}: it cannot be in front of itself")
+        order.append(Order(front=pts[0], back=pts[1], index=i))
+
+    equal = []
+    for i, e in enumerate(_list(data, "equal", "equal")):
+        pts = _pair(e, f"equal[{i}]", ("a", "b"), size)
+        equal.append(Equal(a=pts[0], b=pts[1], index=i))
+
+    boundaries = []
+    for i, b in enumerate(_list(data, "boundaries", "boundaries")):
+        where = f"boundaries[{i}]"
+        _expect(isinstance(b, dict), where, f"expected an object, got {_kind(b)}")
+        _check_keys(b, ("type", "path"), where)
+        for key in ("type", "path"):
+            if key not in b:
+                raise InputError(f"{where}.{key}: missing required key")
+        _expect(isinstance(b["type"], str) and b["type"] in BOUNDARY_TYPES, f"{where}.type",
+                f"unknown boundary type {_show(b['type'])} (expected one of {', '.join(BOUNDARY_TYPES)})")
+        path = _polyline(b["path"], f"{where}.path", size)
+        _expect(len(path) >= 2, f"{where}.path", "a boundary path needs at least 2 points")
+        boundaries.append(Boundary(type=b["type"], path=path, index=i))
+
+    return Annotations(size=size, regions=regions, background=background, order=order,
+                       equal=equal, boundaries=boundaries, drawing=drawing)
+
+
+def rescale_annotations(ann, size):
+    """Scale every coordinate of ``ann`` to a drawing of another ``size``.
+
+    Parameters
+    ----------
+    ann : Annotations
+    size : (int, int)
+        The new ``(width, height)``.
+
+    Returns
+    -------
+    Annotations
+        A copy; a point ``p`` maps to ``(p + 0.5) * new / old - 0.5`` so pixel
+        centres stay pixel centres.
+    """
+    sx = size[0] / ann.size[0]
+    sy = size[1] / ann.size[1]
+    scale = np.array([sx, sy])
+
+    def arr(p):
+        q = (np.asarray(p, float) + 0.5) * scale - 0.5
+        return np.clip(q, 0, np.array(size, float) - 1)
+
+    def pt(p):
+        return tuple(float(v) for v in arr(p))
+
+    def pix(p):
+        if p is None:
+            return None
+        return np.clip(np.round(arr(p)).astype(np.int64), 0, np.array(size) - 1)
+
+    regions = [replace(r, scribbles=[arr(s) for s in r.scribbles], pixels=pix(r.pixels))
+               for r in ann.regions]
+    return replace(
+        ann, size=(int(size[0]), int(size[1])), regions=regions,
+        background=[arr(s) for s in ann.background],
+        order=[replace(o, front=pt(o.front), back=pt(o.back)) for o in ann.order],
+        equal=[replace(e, a=pt(e.a), b=pt(e.b)) for e in ann.equal],
+        boundaries=[replace(b, path=arr(b.path)) for b in ann.boundaries],
+        background_pixels=pix(ann.background_pixels),
+    )
+
+
+# -- validation helpers ------------------------------------------------------
+
+def _expect(ok, where, message):
+    if not ok:
+        raise InputError(f"{where}: {message}")
+
+
+def _is_int(v):
+    return isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_number(v):
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def _kind(v):
+    return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
+            int: "a number", float: "a number", type(None): "null"}.get(type(v), type(v).__name__)
+
+
+def _show(v):
+    s = json.dumps(v, ensure_ascii=False, default=str)
+    return s if len(s) <= 40 else s[:37] + "..."
+
+
+def _fmt_point(p):
+    return "(" + ", ".join(f"{v:g}" for v in p) + ")"
+
+
+def _check_keys(obj, allowed, where):
+    for k in obj:
+        if k.startswith("_") or k in allowed:
+            continue
+        prefix = f"{where}.{k}" if where else k
+        raise InputError(f"{prefix}: unknown key (expected one of {', '.join(allowed)})")
+
+
+def _list(data, key, where):
+    v = data.get(key, [])
+    _expect(isinstance(v, list), where, f"expected a list, got {_kind(v)}")
+    return v
+
+
+def _point(p, where, size):
+    _expect(isinstance(p, list) and len(p) == 2, where, f"expected a point [x, y], got {_show(p)}")
+    for i, v in enumerate(p):
+        _expect(_is_number(v) and math.isfinite(v), f"{where}[{i}]",
+                f"expected a number, got {_show(v)}")
+    x, y = float(p[0]), float(p[1])
+    w, h = size
+    _expect(0 <= x <= w - 1 and 0 <= y <= h - 1, where,
+            f"point {_fmt_point((x, y))} lies outside the {w}x{h} drawing")
+    return x, y
+
+
+def _polyline(s, where, size):
+    _expect(isinstance(s, list), where, f"expected a polyline (a list of points), got {_kind(s)}")
+    _expect(len(s) > 0, where, "a polyline needs at least one point")
+    return np.array([_point(p, f"{where}[{k}]", size) for k, p in enumerate(s)], dtype=float)
+
+
+def _pair(obj, where, keys, size):
+    _expect(isinstance(obj, dict), where, f"expected an object, got {_kind(obj)}")
+    _check_keys(obj, keys, where)
+    for key in keys:
+        if key not in obj:
+            raise InputError(f"{where}.{key}: missing required key")
+    return tuple(_point(obj[k], f"{where}.{k}", size) for k in keys)

@@ -1,0 +1,478 @@
+"""Depth order of neighbouring regions: the user's entries and predictions.
+
+Ink-and-Ray (Sýkora et al., ACM TOG 33(2), 2014, section 4) predicts which of
+two neighbouring parts is in front from the completion of illusory surfaces
+(Geiger, Pao, Rubin, CVPR 1998; see :mod:`inkray.complete`): a part whose
+completion ``B'`` continues its outline under ``A`` is behind ``A``. The
+user's ``order`` arrows correct the prediction where they are drawn.
+
+Order is local. Every relation belongs to a *place*, a connected overlap area
+of two regions (:class:`inkray.relief.completion.Place`), so two interlocking rings (A
+over B at one crossing, B over A at the other) are two consistent local
+relations. Places that touch form a *site*; within a site the relations must
+be acyclic.
+
+Prediction, per place of a pair ``a``/``b``, from the candidate completions:
+
+- Junction cue. At every junction where their common outline ends at a
+  third label (a T- or Y-junction), and that does not lie on a ``graft`` or
+  ``stitch`` boundary of the annotation, the outlines are measured in a disk
+  around the junction: ``X`` covers the angle ``t`` of the disk, ``X``
+  completed under the other ``t'``; completing ``X`` *straightens* its
+  outline by ``|t - 180| - |t' - 180|`` degrees. The occluded region is the
+  one whose outline its completion straightens more: at an ideal T the stem
+  region gains 90 degrees and the bar region loses 45 (the diffusion splits
+  the bar's half disk along the bisector), a difference of 135; at a Y both
+  gain alike. The disk's radius is three half-widths of the thinner region
+  there, at most ``junction_radius`` (40 px): wide enough to see past the
+  ink strokes of a drawing, narrow enough not to measure a thin band's
+  surroundings instead of the band.
+- Area cue (the paper's "B' larger than B under A"): ``(|B' in A| - |A' in
+  B|) / (|B' in A| + |A' in B|)``, in [-1, 1].
+- The score is ``3 * mean difference / 135 + area_weight * area cue`` (an
+  ideal T counts 3); its sign says who is in front and ``|score| / (3 +
+  area_weight)``, clipped to 1, is the confidence.
+- A place without junctions is a closed contact: one region encloses a part
+  of the other. The enclosing region's completion fills the enclosed part
+  completely (``A'`` covers ``B``), so the enclosed part is in front (an eye
+  on a head, a button on a coat) with the covered fraction as confidence.
+
+The junction radius and the area weight were chosen on the shared drawings
+(see ``docs/regions.md`` for the measured agreement).
+
+``equal`` entries say that two regions meet at the same depth where the entry
+is drawn: that place gets a relation of kind ``"equal"``, no prediction, and
+no hidden part (:meth:`inkray.relief.completion.Completion.ordered`); within a site an
+equality merges the two regions, so ``A = B`` with ``A > B`` is a
+contradiction like ``A > B > A``.
+"""
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from inkray.errors import InputError
+
+__all__ = ["Relation", "depth_order", "predict_place"]
+
+_T_SCORE = 135.0  # straightening difference at an ideal T-junction (degrees)
+
+
+@dataclass
+class Relation:
+    """One local depth relation between two regions.
+
+    Attributes
+    ----------
+    front, back : int
+        Region indices: ``front`` is nearer the viewer than ``back`` where
+        the relation applies. For ``kind == "equal"`` they are the regions of
+        the entry's points ``a`` and ``b``, at the same depth.
+    front_name, back_name : str
+    where : (float, float)
+        ``(x, y)`` in drawing pixels: the middle of the user's entry, or for
+        a prediction a pixel in the middle of the regions' common outline.
+    source : str
+        ``"user"`` or ``"predicted"``.
+    confidence : float
+        In (0, 1]; 1 for the user's entries.
+    place : int or None
+        Index into :attr:`inkray.relief.completion.Completion.places`: the overlap
+        area the relation applies to. ``None`` for a user entry between two
+        regions that never touch.
+    entry : int or None
+        Index of the user's entry in the annotation's ``order`` (or
+        ``equal``) list; ``None`` for predictions.
+    kind : str
+        ``"order"`` (front over back) or ``"equal"`` (same depth).
+    """
+
+    front: int
+    back: int
+    front_name: str
+    back_name: str
+    where: tuple
+    source: str
+    confidence: float
+    place: int = None
+    entry: int = None
+    kind: str = "order"
+
+    @property
+    def label(self):
+        """The entry's key path (``order[3]``) or a description of the prediction."""
+        if self.entry is not None:
+            return f"{self.kind}[{self.entry}]"
+        return f"predicted {self.front_name} over {self.back_name}"
+
+
+def depth_order(annotations, labels, completion, *, predict=True, junction_radius=40.0,
+                area_weight=0.5, min_confidence=0.0):
+    """Local depth relations of all neighbouring regions.
+
+    Parameters
+    ----------
+    annotations : inkray.input.annotations.Annotations
+        Its ``order`` and ``equal`` entries are the user's relations.
+    labels : (H, W) int array
+        The segmentation the completion was computed on.
+    completion : inkray.relief.completion.Completion
+        From :func:`inkray.relief.completion.complete_regions` on ``labels``.
+    predict : bool, default True
+        Predict the order of the places the user's entries leave open.
+    junction_radius : float, default 40.0
+        Largest radius in pixels of the disk measured around a junction (see
+        :func:`predict_place`).
+    area_weight : float, default 0.5
+        Weight of the area cue (see :func:`predict_place`).
+    min_confidence : float, default 0.0
+        Predictions below this confidence are not made (the pair is left
+        unordered there, e.g. at a symmetric Y-junction).
+
+    Returns
+    -------
+    relations : list of Relation
+        The user's relations in entry order (``order`` then ``equal``), then
+        the predictions by place.
+    warnings : list of str
+        Entries that cannot be a relation between two regions (a point in
+        the background, both points in one region), entries between regions
+        that never touch, and predictions dropped because they closed a cycle.
+
+    Raises
+    ------
+    InputError
+        When ``labels`` does not match the completion or the annotation's
+        size, or when the user's entries contradict each other at one site;
+        the message names the entries along the cycle, e.g.
+        ``order[3] -> order[7] -> order[3]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import Annotations
+    >>> from inkray.relief.completion import complete_regions
+    >>> labels = np.full((40, 60), -1, np.int32)
+    >>> labels[10:30, 10:50] = 0; labels[:, 26:34] = 1       # a band over a square
+    >>> c = complete_regions(labels, names=["square", "band"])
+    >>> rel, warn = depth_order(Annotations(size=(60, 40)), labels, c)
+    >>> [(r.front_name, r.back_name, r.source) for r in rel]
+    [('band', 'square', 'predicted')]
+    """
+    labels = np.asarray(labels)
+    if labels.shape != completion.labels.shape or not np.array_equal(labels, completion.labels):
+        raise InputError(f"labels: the {labels.shape[1]}x{labels.shape[0]} label image is not "
+                         f"the one the completion was computed on")
+    h, w = labels.shape
+    if tuple(annotations.size) != (w, h):
+        raise InputError(f"size: the annotation is for a {annotations.size[0]}x"
+                         f"{annotations.size[1]} drawing but the labels are {w}x{h}")
+    warnings = []
+    user = []
+    for kind, entries in (("order", annotations.order), ("equal", annotations.equal)):
+        for e in entries:
+            p, q = (e.front, e.back) if kind == "order" else (e.a, e.b)
+            r = _user_relation(kind, e.index, p, q, labels, completion, warnings)
+            if r is not None:
+                user.append(r)
+    graph = _SiteGraph(completion)
+    for r in user:
+        graph.add_user(r)
+    relations = list(user)
+    if predict:
+        seams = [b.path for b in annotations.boundaries if b.type in ("graft", "stitch")]
+        spoken = {r.place for r in user if r.place is not None}
+        predicted = []
+        for place in completion.places:
+            if place.index in spoken:
+                continue
+            r = predict_place(completion, place, junction_radius=junction_radius,
+                              area_weight=area_weight, seams=seams)
+            if r is not None and r.confidence >= min_confidence:
+                predicted.append(r)
+        # Strongest first, so that in a cycle the weakest prediction is the one left out.
+        predicted.sort(key=lambda r: (-r.confidence, r.place))
+        kept = []
+        for r in predicted:
+            cycle = graph.add_prediction(r)
+            if cycle is None:
+                kept.append(r)
+            else:
+                warnings.append(f"predicted order {r.front_name} over {r.back_name} at "
+                                f"({r.where[0]:g}, {r.where[1]:g}) (confidence {r.confidence:.2f}) "
+                                f"dropped: it closes the cycle {cycle}")
+        relations += sorted(kept, key=lambda r: r.place)
+    return relations, warnings
+
+
+def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, seams=(),
+                  seam_distance=6.0):
+    """Predict which region of a place is in front.
+
+    Parameters
+    ----------
+    completion : inkray.relief.completion.Completion
+    place : inkray.relief.completion.Place
+    junction_radius : float, default 40.0
+        Largest radius of the disk measured around each junction; it shrinks
+        to three times the half-width of the thinner region there.
+    area_weight : float, default 0.5
+        Weight of the area cue against the junction cue (which counts 3 at an
+        ideal T-junction).
+    seams : list of (k, 2) arrays
+        Polylines ``[x, y]`` of the annotation's ``graft`` and ``stitch``
+        boundaries: there one region grows out of the other or joins it, so a
+        junction within ``seam_distance`` pixels of them is no occlusion cue.
+    seam_distance : float, default 6.0
+
+    Returns
+    -------
+    Relation or None
+        A ``"predicted"`` relation, or None when the place gives no cue
+        (a closed contact where neither side is enclosed, or a tie).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.completion import complete_regions
+    >>> yy, xx = np.mgrid[:40, :40]
+    >>> labels = np.where((yy - 20) ** 2 + (xx - 20) ** 2 < 300, 0, -1).astype(np.int32)
+    >>> labels[(yy - 20) ** 2 + (xx - 20) ** 2 < 30] = 1      # an eye inside a head
+    >>> c = complete_regions(labels, names=["head", "eye"])
+    >>> r = predict_place(c, c.places[0])
+    >>> (r.front_name, r.back_name)
+    ('eye', 'head')
+    """
+    a, b = place.a, place.b
+    junctions = [j for j in place.junctions
+                 if all(_polyline_distance(j, s) > seam_distance for s in seams)]
+    if junctions:
+        turn = 0.0
+        for j in junctions:
+            radius = _junction_scale(completion.labels, a, b, j, junction_radius)
+            turn += (_straightening(completion, b, a, j, radius)
+                     - _straightening(completion, a, b, j, radius))
+        turn /= len(junctions)
+        score = turn / _T_SCORE * 3.0 + area_weight * _extension(completion, place)
+        if score == 0:
+            return None
+        front, back = (a, b) if score > 0 else (b, a)
+        confidence = min(1.0, abs(score) / (3.0 + area_weight))
+    elif place.junctions:
+        return None
+    else:
+        enclosed = [x for x in (a, b) if _enclosed(completion.labels, place, x, b if x == a else a)]
+        if len(enclosed) != 1:
+            return None
+        front = enclosed[0]
+        back = b if front == a else a
+        confidence = _covered(completion, place, front, back)
+        if confidence == 0:
+            return None
+    names = completion.names
+    return Relation(front=front, back=back, front_name=names[front], back_name=names[back],
+                    where=tuple(float(v) for v in place.where), source="predicted",
+                    confidence=float(confidence), place=place.index)
+
+
+def _junction_scale(labels, a, b, point, limit):
+    """Disk radius for a junction: three half-widths of the thinner of ``a`` and ``b`` nearby.
+
+    A disk much wider than a thin part measures its surroundings, not the
+    junction (a thin band in front covers only a small angle of a big disk).
+    """
+    h, w = labels.shape
+    r = int(np.ceil(limit))
+    y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 2, h)
+    x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 2, w)
+    crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=-2)
+    widths = [ndimage.distance_transform_edt(crop == x).max() for x in (a, b)]
+    return float(np.clip(3.0 * min(widths), 4.0, limit))
+
+
+def _polyline_distance(point, path):
+    """Distance from ``point`` ``(x, y)`` to a polyline of ``[x, y]`` rows."""
+    p = np.asarray(point, float)
+    path = np.asarray(path, float)
+    if len(path) == 1:
+        return float(np.hypot(*(path[0] - p)))
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / length2, 0, 1)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
+
+
+def _extension(completion, place):
+    """Area cue in [-1, 1]: how much more ``b`` extends under ``a`` than ``a`` under ``b``."""
+    y0, y1, x0, x1 = place.box
+    win = (slice(y0, y1), slice(x0, x1))
+    lab, own = completion.labels[win], completion.owner[win]
+    b_under_a = int((place.mask & (lab == place.a) & (own == place.b)).sum())
+    a_under_b = int((place.mask & (lab == place.b) & (own == place.a)).sum())
+    return (b_under_a - a_under_b) / max(b_under_a + a_under_b, 1)
+
+
+def _straightening(completion, x, other, point, radius):
+    """Degrees by which completing ``x`` under ``other`` straightens its outline at ``point``."""
+    labels, owner = completion.labels, completion.owner
+    h, w = labels.shape
+    px, py = point
+    r = int(np.ceil(radius))
+    y0, y1 = max(int(np.floor(py)) - r, 0), min(int(np.ceil(py)) + r + 1, h)
+    x0, x1 = max(int(np.floor(px)) - r, 0), min(int(np.ceil(px)) + r + 1, w)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    disk = (yy - py) ** 2 + (xx - px) ** 2 <= radius * radius
+    lab, own = labels[y0:y1, x0:x1][disk], owner[y0:y1, x0:x1][disk]
+    visible = lab == x
+    completed = visible | ((lab == other) & (own == x))
+    t = 360.0 * visible.mean()
+    tc = 360.0 * completed.mean()
+    return abs(t - 180.0) - abs(tc - 180.0)
+
+
+def _enclosed(labels, place, x, y):
+    """Whether the parts of ``x`` at this place are surrounded by ``y`` alone."""
+    h, w = labels.shape
+    y0, y1, x0, x1 = place.box
+    crop = np.pad(labels[max(y0 - 1, 0):y1 + 1, max(x0 - 1, 0):x1 + 1], 1, constant_values=-2)
+    oy, ox = y0 - max(y0 - 1, 0) + 1, x0 - max(x0 - 1, 0) + 1
+    mine = crop == x
+    comp, n = ndimage.label(mine)
+    touch = np.zeros(crop.shape, bool)
+    touch[oy:oy + place.mask.shape[0], ox:ox + place.mask.shape[1]] = place.contact
+    ids = np.unique(comp[touch & mine])
+    ids = ids[ids > 0]
+    if ids.size == 0:
+        return False
+    part = np.isin(comp, ids)
+    ring = ndimage.binary_dilation(part) & ~part
+    return bool((crop[ring] == y).all())
+
+
+def _covered(completion, place, front, back):
+    """Fraction of ``front``'s pixels in the place that ``back``'s completion covers."""
+    y0, y1, x0, x1 = place.box
+    win = (slice(y0, y1), slice(x0, x1))
+    mine = place.mask & (completion.labels[win] == front)
+    if not mine.any():
+        return 0.0
+    return float((completion.owner[win][mine] == back).mean())
+
+
+def _user_relation(kind, index, p, q, labels, completion, warnings):
+    """The relation of one user entry, or None (with a warning) when it names no region pair."""
+    key = f"{kind}[{index}]"
+    h, w = labels.shape
+    ends = ("front", "back") if kind == "order" else ("a", "b")
+    regions = []
+    for end, (x, y) in zip(ends, (p, q)):
+        lab = int(labels[min(int(round(y)), h - 1), min(int(round(x)), w - 1)])
+        if lab < 0:
+            warnings.append(f"{key}.{end}: point ({x:g}, {y:g}) lies in the background; "
+                            f"the entry is not a relation between regions")
+            return None
+        regions.append(lab)
+    u, v = regions
+    names = completion.names
+    if u == v:
+        warnings.append(f"{key}: both points lie in region {names[u]!r}; a region is not "
+                        f"ordered against itself here")
+        return None
+    lo, hi = min(u, v), max(u, v)
+    candidates = [pl for pl in completion.places if pl.a == lo and pl.b == hi]
+    place = None
+    if candidates:
+        place = min(candidates,
+                    key=lambda pl: (min(pl.distance(p), pl.distance(q)), pl.index)).index
+    else:
+        warnings.append(f"{key}: regions {names[u]!r} and {names[v]!r} do not touch; "
+                        f"the relation has no overlap area")
+    where = ((p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0)
+    return Relation(front=u, back=v, front_name=names[u], back_name=names[v], where=where,
+                    source="user", confidence=1.0, place=place, entry=index, kind=kind)
+
+
+class _SiteGraph:
+    """Directed graphs of relations, one per site: strict edges front -> back,
+    equalities as non-strict edges both ways. A cycle with a strict edge is a
+    contradiction."""
+
+    def __init__(self, completion):
+        self._sites = {p.index: p.site for p in completion.places}
+        self._names = completion.names
+        self._edges = {}  # site -> {node: [(next node, relation, strict)]}
+
+    def _graph(self, r):
+        # A relation without a place stands on its own, shared only with its own pair.
+        site = (self._sites[r.place] if r.place is not None
+                else ("apart", min(r.front, r.back), max(r.front, r.back)))
+        return self._edges.setdefault(site, {})
+
+    def add_user(self, r):
+        edges = self._graph(r)
+        strict = r.kind == "order"
+        ends = [(r.back, r.front)] if strict else [(r.back, r.front), (r.front, r.back)]
+        for start, goal in ends:
+            path = self._path(edges, start, goal, r)
+            if path is not None and (strict or any(s for _, s in path)):
+                chain = [r] + [rel for rel, _ in path]
+                first = min(range(len(chain)), key=lambda i: (chain[i].kind, chain[i].entry))
+                chain = chain[first:] + chain[:first]
+                text = " -> ".join(c.label for c in chain + chain[:1])
+                raise InputError(f"{chain[0].kind}: the entries contradict each other near "
+                                 f"({r.where[0]:g}, {r.where[1]:g}): {text} "
+                                 f"({self._cycle(r, path)})")
+        self._link(edges, r, strict)
+
+    def add_prediction(self, r):
+        """Add a strict edge; return the cycle it would close instead (as text), or None."""
+        edges = self._graph(r)
+        path = self._path(edges, r.back, r.front, r)
+        if path is not None:
+            return self._cycle(r, path)
+        self._link(edges, r, True)
+        return None
+
+    @staticmethod
+    def _link(edges, r, strict):
+        edges.setdefault(r.front, []).append((r.back, r, strict))
+        if not strict:
+            edges.setdefault(r.back, []).append((r.front, r, False))
+
+    def _cycle(self, r, path):
+        """``a > b = c > a``: the regions around the cycle closed by ``r`` and ``path``."""
+        text = [self._names[r.front], ">" if r.kind == "order" else "=", self._names[r.back]]
+        node = r.back
+        for rel, strict in path:
+            node = rel.back if rel.front == node else rel.front
+            text += [">" if strict else "=", self._names[node]]
+        return " ".join(text)
+
+    @staticmethod
+    def _path(edges, start, goal, new):
+        """Edges ``[(relation, strict)]`` of a shortest path start -> goal, or None.
+
+        Relations of ``new``'s pair at another place are left out: a pair may
+        overlap twice with opposite orders (interlocking rings).
+        """
+        pair = {new.front, new.back}
+        came = {start: None}
+        queue = deque([start])
+        while queue:
+            node = queue.popleft()
+            for nxt, rel, strict in edges.get(node, ()):
+                if nxt in came or ({rel.front, rel.back} == pair and rel.place != new.place):
+                    continue
+                came[nxt] = (node, rel, strict)
+                if nxt == goal:
+                    path = []
+                    while came[nxt] is not None:
+                        node, rel, strict = came[nxt]
+                        path.append((rel, strict))
+                        nxt = node
+                    return path[::-1]
+                queue.append(nxt)
+        return None

@@ -1,0 +1,637 @@
+"""Stitching and layering: offsets that put inflated parts at their depths.
+
+Step 5 of Sýkora et al., "Ink-and-Ray: Bas-Relief Meshes for Adding Global
+Illumination Effects to Hand-Drawn Characters" (TOG 2014). Every region ``i``
+gets an offset field ``g_i`` on its mesh so that the heights
+``z_i = h_i + g_i`` (``h_i`` the inflated heights) meet
+
+- **inequalities**: where region ``A`` is in front of ``B`` (a relation of
+  :mod:`inkray.order`, local to its place), ``z_A >= z_B + epsilon`` at
+  corresponding points of their overlap: the vertices of either mesh that lie
+  in the overlap of both completed regions inside that place, plus the user's
+  entry points;
+- **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
+- **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
+  outline carries the entry, inflated with a Neumann condition there) meets
+  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and on
+  every vertex of ``F`` within ``band`` pixels of them that lies over ``K``'s
+  mesh, so ``F`` leaves ``K``'s surface tangentially (no rim);
+- ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
+
+with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
+Laplacian ``L_i``, mass ``M_i``). The small screening term
+``lambda_i = 1e-4 / area_i`` makes the system definite and, being far weaker
+than bending, lets a part that only has to move *move rigidly*: constant
+offsets cost almost nothing, and constraints that already hold leave ``g = 0``.
+
+The QP has few active constraints and many unknowns. It is solved through its
+multipliers (as :mod:`inkray.qp` does for depth maps): each region block is
+factored once; the working set's dual matrix ``H = C Q^-1 C^T`` is built
+column by column with solves on those factors; the small dual is solved
+exactly by :func:`inkray.depthmap.quadratic_program.dual_active_set`. Inequality samples enter by
+constraint generation: all violated ones at ``g = 0`` first, then, round by
+round, the most violated candidates at the current solution, until none is
+violated by more than ``tol``.
+"""
+
+from dataclasses import dataclass
+
+import igl
+import numpy as np
+import scipy.sparse as sp
+from scipy.ndimage import binary_dilation
+from scipy.sparse.linalg import splu
+from threadpoolctl import threadpool_limits
+
+from inkray.errors import InputError, StageError
+from inkray.depthmap.quadratic_program import dual_active_set
+
+__all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
+
+#: Default ``epsilon`` as a fraction of the drawing's longer side.
+DEFAULT_EPSILON_FRACTION = 0.004
+_SCREEN = 1e-4  # lambda_i * area_i: rigid shifts cost 1e-4 of a unit bend
+_INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
+
+
+@dataclass
+class Layers:
+    """Inflated regions placed at their depths.
+
+    Attributes
+    ----------
+    regions : list of InflatedRegion or None
+        Per region index (None for a region without a mesh).
+    offset : list of (n_i,) float arrays or None
+        The offsets ``g_i``.
+    epsilon : float
+        The depth step used for inequalities (px).
+    constraints : int
+        Candidate constraints (equalities plus inequality samples).
+    active : int
+        Constraints with a nonzero multiplier at the solution.
+    rounds : int
+        Constraint-generation rounds.
+    violation : float
+        Largest violation of any candidate constraint at the solution (px).
+    """
+
+    regions: list
+    offset: list
+    epsilon: float
+    constraints: int = 0
+    active: int = 0
+    rounds: int = 0
+    violation: float = 0.0
+
+    def z(self, i):
+        """Final heights ``h_i + g_i`` of region ``i`` (px)."""
+        return self.regions[i].height + self.offset[i]
+
+
+class _Rows:
+    """Constraint rows ``sum_k w_k g[idx_k] (>= | =) rhs`` with a label per row.
+
+    ``graft`` marks the rows that make a grafted region follow its base
+    (solved in the second pass, with the bases fixed).
+    """
+
+    def __init__(self):
+        self.idx, self.w, self.rhs, self.ineq, self.label, self.graft = [], [], [], [], [], []
+        self.xy = []  # where the row speaks (its first point), to spread the working set
+
+    def add(self, idx, w, rhs, ineq, label, graft=False, xy=(0.0, 0.0)):
+        self.idx.append(np.asarray(idx, np.int64))
+        self.w.append(np.asarray(w, float))
+        self.rhs.append(float(rhs))
+        self.ineq.append(bool(ineq))
+        self.label.append(label)
+        self.graft.append(bool(graft))
+        self.xy.append(xy)
+
+    def matrix(self, n):
+        m = len(self.rhs)
+        if m == 0:
+            return sp.csr_matrix((0, n))
+        rows = np.repeat(np.arange(m), [len(i) for i in self.idx])
+        return sp.csr_matrix((np.concatenate(self.w), (rows, np.concatenate(self.idx))),
+                             shape=(m, n))
+
+
+class _Region:
+    """One region's block: factor of ``-L + lambda M``, point location, heights."""
+
+    def __init__(self, inflated, start):
+        mesh = inflated.mesh
+        self.v = np.asarray(mesh.vertices, float)
+        self.f = np.asarray(mesh.faces, np.int64)
+        self.h = np.asarray(inflated.height, float)
+        self.start = start
+        solver = inflated.solver
+        if solver is not None:
+            lap, mass = solver.laplacian, solver.mass
+        else:
+            lap = igl.cotmatrix(self.v, self.f)
+            mass = igl.massmatrix(self.v, self.f, igl.MASSMATRIX_TYPE_VORONOI)
+        area = float(mass.diagonal().sum())
+        self.q = (-lap + (_SCREEN / area) * mass).tocsc()
+        self._lu = None
+        self._v3 = np.column_stack([self.v, np.zeros(len(self.v))])
+
+    def solve(self, rhs):
+        with threadpool_limits(limits=1, user_api="blas"):  # see inkray.depthmap.quadratic_program.dual_active_set
+            return self._solve(rhs)
+
+    def _solve(self, rhs):
+        if self._lu is None:
+            # symmetric positive definite: symmetric ordering, no pivoting
+            self._lu = splu(self.q, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                            options={"SymmetricMode": True})
+        return self._lu.solve(rhs)
+
+    def locate(self, points):
+        """Barycentric location of ``points`` (k, 2) in the mesh.
+
+        Returns (vertex indices (k, 3), weights (k, 3), distance (k,)).
+        """
+        p = np.asarray(points, float).reshape(-1, 2)
+        if len(p) == 0:
+            return np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0)
+        p3 = np.column_stack([p, np.zeros(len(p))])
+        d2, face, closest = igl.point_mesh_squared_distance(p3, self._v3, self.f)
+        tri = self.f[np.asarray(face, np.int64)]
+        a, b, c = (self.v[tri[:, k]] for k in range(3))
+        q = np.asarray(closest)[:, :2]
+        v0, v1, v2 = b - a, c - a, q - a
+        den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+        den = np.where(np.abs(den) > 1e-300, den, 1.0)
+        wb = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / den
+        wc = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / den
+        w = np.clip(np.column_stack([1.0 - wb - wc, wb, wc]), 0.0, 1.0)
+        w /= w.sum(axis=1, keepdims=True)
+        return tri, w, np.sqrt(np.maximum(d2, 0.0))
+
+
+def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, band=None,
+           tol=1e-6, max_rounds=60, progress=None):
+    """Solve the offsets ``g_i`` of every region.
+
+    Parameters
+    ----------
+    inflated : list of InflatedRegion or None
+        Per region index, from :func:`inkray.relief.inflation.inflate_region`.
+    relations : list of inkray.relief.ordering.Relation
+        Depth relations; ``order`` relations with a place become inequalities,
+        user ``equal`` relations equalities at the entry's points.
+    completion : inkray.relief.completion.Completion
+        The completion the meshes were made from (after
+        :meth:`~inkray.relief.completion.Completion.ordered`); its places say where a
+        relation applies.
+    annotations : Annotations, optional
+        For the points of ``order``/``equal`` entries and the ``boundaries``
+        entries (``stitch``, ``graft``; ``flat`` needs no offset).
+    epsilon : float, optional
+        Depth step of an inequality in px; default
+        :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
+    band : float, optional
+        Width in px of the graft band where the front region follows the one
+        behind; default a quarter of the seam's length, at least two outline
+        edges and at most two mean edges of the front mesh.
+    tol : float, default 1e-6
+        Allowed constraint violation (px).
+    max_rounds : int, default 60
+        Constraint-generation rounds before giving up.
+    progress : inkray.progress.Progress, optional
+
+    Returns
+    -------
+    Layers
+
+    Raises
+    ------
+    InputError
+        When the constraints contradict each other (the message lists the
+        annotation entries involved) or a boundary entry has no region on
+        one side.
+    StageError
+        When constraint generation does not converge.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.inflation import inflate_region
+    >>> yy, xx = np.mgrid[:80, :80]
+    >>> disk = inflate_region((xx - 40) ** 2 + (yy - 40) ** 2 <= 30 ** 2)
+    >>> layers = stitch([disk], [], None)
+    >>> float(np.abs(layers.offset[0]).max())
+    0.0
+    """
+    regions = list(inflated)
+    blocks, start = [], 0
+    for r in regions:
+        blocks.append(None if r is None else _Region(r, start))
+        start += 0 if r is None else len(r.height)
+    n = start
+    if epsilon is None:
+        shape = completion.labels.shape if completion is not None else (0, 0)
+        epsilon = DEFAULT_EPSILON_FRACTION * max(shape) if max(shape, default=0) else 1.0
+    if not epsilon > 0:
+        raise InputError(f"epsilon: expected a positive depth step in px, got {epsilon!r}")
+
+    rows = _Rows()
+    zones = []
+    if annotations is not None:
+        zones = _boundary_rows(rows, blocks, regions, relations, annotations, band)
+    keepout = _keepout(zones)
+    if completion is not None:
+        # One set of overlap rows per (front, back, place), however many entries say it.
+        said = {}
+        for rel in relations:
+            if rel.kind == "order" and rel.place is not None:
+                said.setdefault((rel.front, rel.back, rel.place), []).append(rel.label)
+                if annotations is not None and rel.source == "user" and rel.entry is not None:
+                    e = annotations.order[rel.entry]
+                    _entry_rows(rows, blocks, rel, np.array([e.front, e.back], float), epsilon,
+                                keepout)
+            elif rel.kind == "equal" and annotations is not None and rel.entry is not None:
+                _equal_rows(rows, blocks, rel, annotations.equal[rel.entry])
+        for (a, b, place), labels in said.items():
+            _overlap_rows(rows, blocks, a, b, completion.places[place], completion, epsilon,
+                          keepout, " and ".join(labels))
+
+    C = rows.matrix(n)
+    rhs = np.asarray(rows.rhs, float)
+    ineq = np.asarray(rows.ineq, bool)
+    graft = np.asarray(rows.graft, bool)
+    owner = np.full(n, -1, np.int64)
+    for i, b in enumerate(blocks):
+        if b is not None:
+            owner[b.start:b.start + len(b.h)] = i
+    # Pass 1: everything but the graft rows. Pass 2: the bases of grafts stay
+    # where pass 1 put them and everything else is solved again with the
+    # graft rows, so a grafted part follows its base without denting it.
+    bases = {base for _, base, _, _ in zones} - {front for front, _, _, _ in zones}
+    g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner, tol,
+                               max_rounds, progress)
+    if graft.any():
+        fixed = np.isin(owner, sorted(bases))
+        shifted = rhs - C[:, fixed] @ g[fixed]
+        Cf = C.multiply(~fixed[None, :]).tocsr()
+        touches = np.diff(Cf.indptr) > 0
+        g2, active2, rounds2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy, blocks,
+                                      owner, tol, max_rounds, progress)
+        g = np.where(fixed, g, g2)
+        active, rounds = active2, rounds + rounds2
+    slack = C @ g - rhs
+    violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
+    return Layers(regions=regions, epsilon=float(epsilon), constraints=len(rhs), active=active,
+                  rounds=rounds, violation=float(violation),
+                  offset=[None if b is None else g[b.start:b.start + len(b.h)] for b in blocks])
+
+
+# -- constraint rows ---------------------------------------------------------------------
+
+def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
+    """Rows ``sum_t coef_t z_{region_t}(points_t[k]) (>= | =) rhs``, one per k.
+
+    ``terms`` is a list of ``(region, points (k, 2), coef)`` or
+    ``(region, vertex indices (k,), coef)`` when the points are vertices of
+    that region (exact, no interpolation). Rows with a point farther than
+    ``_INSIDE`` from its mesh are skipped. Returns the number of rows added.
+    """
+    located = []
+    ok = None
+    for region, where, coef in terms:
+        blk = blocks[region]
+        where = np.asarray(where)
+        if where.ndim == 1:  # vertex indices
+            tri = np.repeat(where.astype(np.int64)[:, None], 3, axis=1)
+            w = np.tile([1.0, 0.0, 0.0], (len(where), 1))
+            dist = np.zeros(len(where))
+        else:
+            tri, w, dist = blk.locate(where)
+        located.append((blk, tri, w, coef))
+        if len(located) == 1:
+            xy = (blk.v[tri] * w[..., None]).sum(axis=1)
+        ok = dist <= _INSIDE if ok is None else ok & (dist <= _INSIDE)
+    for k in np.flatnonzero(ok):
+        idx = np.concatenate([blk.start + tri[k] for blk, tri, _, _ in located])
+        wts = np.concatenate([coef * w[k] for _, _, w, coef in located])
+        # z = h + g: move the known heights to the right-hand side
+        const = rhs - sum(coef * float(blk.h[tri[k]] @ w[k]) for blk, tri, w, coef in located)
+        rows.add(idx, wts, const, ineq, label, graft, tuple(xy[k]))
+    return int(ok.sum())
+
+
+def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
+    """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap
+    (and along the regions' contact), wherever both meshes are there."""
+    if blocks[a] is None or blocks[b] is None:
+        return
+    y0, y1, x0, x1 = place.box
+    h, w = completion.labels.shape
+    # The overlap of both completed regions inside the place, grown by 2 px so
+    # that outline vertices (half a pixel off the pixel grid) are caught.
+    win = (slice(max(0, y0 - 2), min(h, y1 + 2)), slice(max(0, x0 - 2), min(w, x1 + 2)))
+    lab, own = completion.labels[win], completion.owner[win]
+    both = (((lab == a) | (own == a)) & ((lab == b) | (own == b)))
+    pm = np.zeros_like(both)
+    inner = (slice(y0 - win[0].start, y1 - win[0].start), slice(x0 - win[1].start, x1 - win[1].start))
+    pm[inner] = place.mask
+    # Where neither region continues under the other, the order still holds
+    # along their common outline (the contact), so the step is visible there.
+    contact = np.zeros_like(both)
+    contact[inner] = place.contact
+    zone = binary_dilation(pm, iterations=2) & binary_dilation(both | contact, iterations=2)
+    for src in (a, b):
+        blk = blocks[src]
+        px = np.rint(blk.v).astype(np.int64)
+        iy, ix = px[:, 1] - win[0].start, px[:, 0] - win[1].start
+        inside = (iy >= 0) & (iy < zone.shape[0]) & (ix >= 0) & (ix < zone.shape[1])
+        sel = np.flatnonzero(inside)
+        sel = sel[zone[iy[sel], ix[sel]]]
+        sel = sel[~keepout(src, a if src == b else b, blk.v[sel])]
+        pts = blk.v[sel]
+        front_at = sel if src == a else pts
+        _terms_rows(rows, blocks, [(a, front_at, 1.0), (b, pts, -1.0)], epsilon, True, label)
+
+
+def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
+    """The user's own two points: the front region above the back one at each."""
+    a, b = rel.front, rel.back
+    if blocks[a] is None or blocks[b] is None:
+        return
+    points = points[~keepout(a, b, points)]
+    _terms_rows(rows, blocks, [(a, points, 1.0), (b, points, -1.0)], epsilon, True, rel.label)
+
+
+def _equal_rows(rows, blocks, rel, entry):
+    a, b = rel.front, rel.back
+    if blocks[a] is None or blocks[b] is None:
+        return
+    added = _terms_rows(rows, blocks, [(a, np.array([entry.a]), 1.0), (b, np.array([entry.b]), -1.0)],
+                        0.0, False, rel.label)
+    if not added:
+        raise InputError(f"{rel.label}: a point lies off its region's mesh")
+
+
+def _boundary_rows(rows, blocks, regions, relations, annotations, band):
+    """Rows of the ``stitch`` and ``graft`` entries; returns the graft zones.
+
+    A zone ``(front, base, station points, band width)`` says where
+    inequalities between the two regions are left out.
+    """
+    zones = []
+    for entry in annotations.boundaries:
+        if entry.type == "flat":
+            continue
+        key = f"boundaries[{entry.index}]"
+        holders = [i for i, r in enumerate(regions)
+                   if r is not None and len(r.mesh.station_vertices(entry.index))]
+        if not holders:
+            continue  # reported by the outline stage (no outline within reach)
+        front = holders[0]
+        st = regions[front].mesh.station_vertices(entry.index)
+        other = _behind(regions, blocks, front, st, holders)
+        if other is None:
+            raise InputError(f"{key}: the {entry.type} has no region on the other side of "
+                             f"{regions[front].mesh.name!r}")
+        if entry.type == "stitch":
+            pts = (regions[other].mesh.station_vertices(entry.index) if other in holders
+                   else blocks[front].v[st])
+            if len(pts) != len(st):
+                pts = blocks[front].v[st]
+            _terms_rows(rows, blocks, [(front, st, 1.0), (other, pts, -1.0)], 0.0, False, key)
+            continue
+        if other in holders and _in_front(relations, other, front, blocks):
+            front, other = other, front  # the graft grows out of the region behind
+            st = regions[front].mesh.station_vertices(entry.index)
+        if band is not None:
+            width = band
+        else:
+            seam = blocks[front].v[st]
+            length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
+            width = min(max(2.0 * _mean_outline_edge(regions[front].mesh), 0.25 * length),
+                        2.0 * _mean_edge(regions[front].mesh))
+        _graft_rows(rows, blocks, regions, front, other, st, width, key)
+        zones.append((front, other, blocks[front].v[st], width))
+    return zones
+
+
+def _in_front(relations, a, b, blocks):
+    """Is ``a`` the grafted (front) one of the pair: by an order relation, else the smaller."""
+    for r in relations:
+        if r.kind == "order" and {r.front, r.back} == {a, b}:
+            return r.front == a
+    return len(blocks[a].h) < len(blocks[b].h)
+
+
+def _graft_rows(rows, blocks, regions, front, base, stations, width, key):
+    """The front region grows out of ``base``: no crack, no rim.
+
+    At the stations ``z_front = z_base`` (C0). Where ``base`` continues under
+    ``front`` (it was completed there), every vertex of ``front`` within
+    ``width`` of the stations lies on ``base``'s surface; past that band, or
+    where ``base`` ends at the seam, the slopes across the seam match (C1,
+    :func:`_slope_rows`).
+    """
+    blk = blocks[front]
+    _terms_rows(rows, blocks, [(front, stations, 1.0), (base, blk.v[stations], -1.0)], 0.0, False,
+                key, graft=True)
+    sel = np.flatnonzero(_distance_to_polyline(blk.v, blk.v[stations]) <= width)
+    sel = np.setdiff1d(sel, stations)
+    _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)], 0.0, False, key,
+                graft=True)
+    _slope_rows(rows, blocks, regions, front, base, stations, key)
+
+
+def _slope_rows(rows, blocks, regions, a, b, stations, label):
+    """C1 across a graft seam: equal slopes along the seam normal.
+
+    At every station ``s`` with unit normal ``n`` (pointing into ``a``),
+    ``z_a(s + t n) - z_a(s) = z_b(s) - z_b(s - t n)``: the front region
+    leaves the seam with the slope the region behind arrives with. ``t`` is
+    the first multiple (up to 3) of one outline edge past the part of ``a``
+    that ``b``'s mesh covers; where ``b`` reaches farther, the graft band
+    makes ``a`` follow ``b`` and no slope row is needed.
+    """
+    p = blocks[a].v[stations]
+    if len(p) < 2:
+        return
+    tangent = np.gradient(p, axis=0)
+    n = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    d = _mean_outline_edge(regions[a].mesh)
+    _, _, into_a = blocks[a].locate(p + d * n)
+    _, _, into_b = blocks[a].locate(p - d * n)
+    if np.median(into_a) > np.median(into_b):
+        n = -n
+    t = np.full(len(p), d)
+    inside = np.ones(len(p), bool)
+    for _ in range(3):
+        _, _, covered = blocks[b].locate(p + t[:, None] * n)
+        inside = covered <= _INSIDE
+        if not inside.any():
+            break
+        t[inside] += d
+    # Where b reaches farther under a, the band carries the join; a slope row
+    # there would fight the inequalities that keep a above b.
+    keep = ~inside
+    p, n, t, stations = p[keep], n[keep], t[keep], np.asarray(stations)[keep]
+    step = t[:, None] * n
+    _terms_rows(rows, blocks, [(a, p + step, 1.0), (a, stations, -1.0),
+                               (b, p, -1.0), (b, p - step, 1.0)], 0.0, False, label, graft=True)
+
+
+def _behind(regions, blocks, front, stations, holders):
+    """The region on the other side of a marked stretch of ``front``'s outline."""
+    neigh = regions[front].mesh.neighbour[stations]
+    neigh = neigh[(neigh >= 0) & (neigh != front)]
+    if len(neigh):
+        cand = int(np.bincount(neigh).argmax())
+        if blocks[cand] is not None:
+            return cand
+    for other in holders:
+        if other != front:
+            return other
+    return None
+
+
+def _keepout(zones):
+    """Predicate: is a point of the pair (i, j) too close to a graft between them?
+
+    Inequalities there would fight the equalities that join the two regions.
+    """
+    def near(i, j, pts):
+        out = np.zeros(len(pts), bool)
+        for front, base, line, width in zones:
+            if {front, base} == {i, j} and len(pts):
+                out |= _distance_to_polyline(pts, line) <= 2.0 * width
+        return out
+    return near
+
+
+def _distance_to_polyline(points, line):
+    p = np.asarray(points, float).reshape(-1, 2)
+    line = np.asarray(line, float).reshape(-1, 2)
+    if len(line) == 1:
+        return np.hypot(*(p - line[0]).T)
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    t = ((p[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12)[None]
+    t = np.clip(t, 0.0, 1.0)
+    closest = a[None] + t[..., None] * ab[None]
+    return np.sqrt(((p[:, None, :] - closest) ** 2).sum(-1)).min(axis=1)
+
+
+def _mean_edge(mesh):
+    f = np.asarray(mesh.faces)
+    v = np.asarray(mesh.vertices)
+    return float(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2).mean())
+
+
+def _mean_outline_edge(mesh):
+    e = np.concatenate([mesh.faces[:, [0, 1]], mesh.faces[:, [1, 2]], mesh.faces[:, [2, 0]]])
+    both = mesh.outline[e].all(axis=1)
+    e = e[both]
+    if len(e) == 0:
+        return 4.0
+    return float(np.linalg.norm(mesh.vertices[e[:, 0]] - mesh.vertices[e[:, 1]], axis=1).mean())
+
+
+# -- the QP ------------------------------------------------------------------------------
+
+def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, per_group=4):
+    """Constraint generation around the exact dual active set on the working set.
+
+    Only rows where ``use`` is True take part. The working set starts with the
+    equalities and, per annotation entry, the ``per_group`` inequalities most
+    violated at ``g = 0``; each round adds the most violated candidates per
+    entry, spread apart (neighbouring samples carry nearly the same
+    information and would make the dual singular). Returns
+    ``(g, active, rounds)``.
+    """
+    n = C.shape[1]
+    cand = np.flatnonzero(use)
+    C, rhs, ineq, xy = C[cand], rhs[cand], ineq[cand], np.asarray(xy, float)[cand]
+    group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
+    in_work = ~ineq
+    in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, xy, tol, per_group)
+    if not in_work.any():
+        return np.zeros(n), 0, 0
+    Z = np.zeros((n, 0))
+    order = np.zeros(0, np.int64)  # row of C behind each column of Z
+    lam = np.zeros(0)
+    for rnd in range(1, max_rounds + 1):
+        new = np.setdiff1d(np.flatnonzero(in_work), order)
+        Z = np.hstack([Z, _qinv_rows(C[new], blocks, owner)])
+        order = np.concatenate([order, new])
+        H = C[order] @ Z
+        H = 0.5 * (H + H.T)
+        start = np.concatenate([lam, np.zeros(len(new))])
+        try:
+            lam = dual_active_set(H, rhs[order], ineq[order], what="stitching QP", start=start)
+        except StageError:
+            names = [labels[cand[r]] for r in order]
+            raise InputError(_conflict_message(H, rhs[order], ineq[order], names)) from None
+        g = Z @ lam
+        viol = np.where(ineq, rhs - C @ g, 0.0)
+        viol[in_work] = 0.0  # held by the dual; only new candidates matter
+        if progress is not None:
+            progress.update(rnd, max_rounds)
+        if viol.max(initial=0.0) <= tol:
+            return g, int((np.abs(lam) > 0).sum()), rnd
+        in_work |= _worst_per_group(viol, group, xy, tol, per_group)
+    raise StageError(f"stitching: constraint generation did not converge in {max_rounds} rounds")
+
+
+def _worst_per_group(viol, group, xy, tol, k):
+    """Mask of up to ``k`` violated rows per group: the worst, then the worst
+    farther than a quarter of the group's violated extent from those taken."""
+    out = np.zeros(len(viol), bool)
+    for g in np.unique(group[viol > tol]):
+        bad = np.flatnonzero((group == g) & (viol > tol))
+        bad = bad[np.argsort(-viol[bad], kind="stable")]
+        p = xy[bad]
+        radius = 0.25 * float(np.ptp(p, axis=0).max(initial=0.0))
+        near = np.zeros(len(bad), bool)
+        for _ in range(k):
+            free = np.flatnonzero(~near)
+            if len(free) == 0:
+                break
+            j = free[0]
+            out[bad[j]] = True
+            near |= np.hypot(*(p - p[j]).T) <= radius
+    return out
+
+
+def _qinv_rows(rows, blocks, owner):
+    """``Q^-1 rows^T`` as a dense (n, k) array, one batched solve per region block."""
+    n = rows.shape[1]
+    out = np.zeros((n, rows.shape[0]))
+    if rows.shape[0] == 0:
+        return out
+    csc = rows.tocsc()
+    for i in np.unique(owner[rows.indices]):
+        b = blocks[i]
+        sl = slice(b.start, b.start + len(b.h))
+        out[sl] = b.solve(csc[:, sl].T.toarray())
+    return out
+
+
+def _conflict_message(H, b, ineq, labels):
+    """Name the entries of an irreducible infeasible subset (deletion filter)."""
+    groups = list(dict.fromkeys(labels))
+    keep = set(groups)
+    for grp in groups:
+        trial = keep - {grp}
+        sel = np.array([lab in trial for lab in labels])
+        if not sel.any():
+            continue
+        try:
+            dual_active_set(H[np.ix_(sel, sel)], b[sel], ineq[sel], what="stitching QP")
+        except StageError:
+            keep = trial
+    involved = [g for g in groups if g in keep]
+    return ("stitching: the depth constraints contradict each other: "
+            + " and ".join(involved))

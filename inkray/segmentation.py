@@ -1,0 +1,606 @@
+"""Scribble segmentation that follows ink lines and closes gaps (LazyBrush).
+
+Implements the segmentation of Sýkora, Dingliana, Collins, "LazyBrush:
+Flexible Painting Tool for Hand-drawn Cartoons", Computer Graphics Forum
+28(2), 2009, as used by Ink-and-Ray (Sýkora et al., TOG 2014, section 3).
+
+Energy, with every cost measured in units of one cut edge across clean paper:
+
+- smoothness: cutting the 4-neighbour edge ``p-q`` costs
+  ``f(min(I_p, I_q)) + 1/K`` where ``f`` maps ink to 0 and paper to 1 and
+  ``K = 2 (H + W)``, so a cut runs along dark lines, and across a gap in a line
+  only where no line offers a cheaper way (a gap of ``g`` pixels costs ``g``);
+- data: scribbles are soft where it matters, as in the paper: the part
+  of a stroke that lies on ink or overshoots an ink line into another paper
+  area pays only ``seed_strength`` (< 1) per pixel for taking another label,
+  so it is cheaper to relabel than to cut around and a careless stroke does
+  not leak its label across the line. The rest of the stroke, in the paper
+  area that holds most of it, is hard, so that a short scribble or a dot in
+  an area with a gap still holds its area (a soft dot would lose to any cut
+  longer than one pixel).
+
+The multi-label problem is solved as in the paper by a sequence of binary
+graph cuts (PyMaxflow): label ``c`` against all labels not yet placed, on the
+still unlabelled pixels only; connected pieces of those pixels that hold
+seeds of one label only are assigned without a cut. Large images are solved
+coarse-to-fine: the labelling of a 2x min-pooled copy (ink survives the
+pooling) fixes every pixel far from a label boundary and the full-resolution
+cuts run only in a band around the boundaries and the seeds.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.input.scribbles import BACKGROUND, UNSEEDED, polyline_pixels, seed_image
+
+__all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "label_palette", "INK_THRESHOLD"]
+
+#: Grey level below which a pixel counts as ink for validation and warnings.
+INK_THRESHOLD = 0.5
+
+
+@dataclass
+class Segmentation:
+    """The result of :func:`segment`.
+
+    Attributes
+    ----------
+    labels : (H, W) int32 array
+        ``-1`` background, ``i`` the region ``annotations.regions[i]``; every
+        pixel, ink included, carries a label.
+    names : list of str
+        Region names in annotation order (``names[i]`` is label ``i``).
+    warnings : list of str
+        One-line notes: unscribbled enclosed areas and what they were given.
+    """
+
+    labels: np.ndarray
+    names: list
+    warnings: list = field(default_factory=list)
+
+
+def ink_cost(gray, *, ink_level=0.25, paper_level=0.9, gamma=2.0):
+    """Per-pixel cost of a cut next to a pixel: 0 on ink, 1 on paper.
+
+    Parameters
+    ----------
+    gray : (H, W) float array in [0, 1]
+        Paper 1, ink near 0.
+    ink_level : float, default 0.25
+        Grey at or below which a pixel is full ink (cost 0); photographed
+        marker lines rarely reach 0.
+    paper_level : float, default 0.9
+        Grey at or above which a pixel is full paper (cost 1).
+    gamma : float, default 2.0
+        Exponent on the normalized grey; > 1 makes faint strokes cheap to
+        follow, so sketchy and antialiased lines still hold a cut.
+
+    Returns
+    -------
+    (H, W) float64 array in [0, 1]
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ink_cost(np.array([[0.0, 1.0]])).tolist()
+    [[0.0, 1.0]]
+    """
+    g = np.asarray(gray, np.float64)
+    t = np.clip((g - ink_level) / (paper_level - ink_level), 0.0, 1.0)
+    return t ** gamma
+
+
+def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_level=0.25,
+              paper_level=0.9, gamma=2.0, coarse_to_fine=None, progress=None):
+    """Multi-label LazyBrush segmentation of a drawing from seed pixels.
+
+    Parameters
+    ----------
+    gray : (H, W) float array in [0, 1]
+        The drawing: paper 1, ink near 0 (as :class:`inkray.input.drawing.Drawing`).
+    seeds : (H, W) int array
+        ``-2`` unseeded, ``-1`` background, ``0..R-1`` region labels (the
+        convention of :func:`inkray.input.scribbles.seed_image`); any subset of the
+        labels may be present.
+    frame_background : bool, default False
+        Seed the unseeded pixels of the image border as background (``-1``),
+        except where the frame cuts a part: in a paper area, other than the
+        outer one, that holds a region seed.
+    seed_strength : float, default 0.95
+        Cost of relabelling one seed pixel that lies on ink or outside the
+        paper area holding most of its scribble, in units of one paper edge
+        cut; below 1 such overshoots are soft, above ~2 they act as hard
+        constraints. Seed pixels inside that area are always hard.
+    ink_level, paper_level, gamma : float
+        The grey-to-cost mapping, see :func:`ink_cost`.
+    coarse_to_fine : bool, optional
+        Solve a half-resolution problem first and refine only near its label
+        boundaries; by default on for images above 0.5 Mpx.
+    progress : inkray.progress.Progress, optional
+        Receives ``update(done, total)`` after each binary cut.
+
+    Returns
+    -------
+    (H, W) int32 array
+        ``-1`` background (only where background was seeded), otherwise the
+        region label; every pixel is labelled. A label whose seeds all lose
+        to neighbours may be absent.
+
+    Raises
+    ------
+    InputError
+        Shapes that differ, a grey image with NaN, seed values below -2, or no
+        seed at all.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray = np.ones((20, 20)); gray[:, 10] = 0.0          # one vertical line
+    >>> seeds = np.full((20, 20), -2); seeds[5, 3] = 0; seeds[5, 15] = 1
+    >>> labels = lazybrush(gray, seeds)
+    >>> int(labels[:, :10].max()), int(labels[:, 11:].min())
+    (0, 1)
+    """
+    gray = np.asarray(gray, np.float64)
+    seeds = np.asarray(seeds)
+    if gray.ndim != 2:
+        raise InputError(f"gray: expected an (H, W) image, got shape {gray.shape}")
+    if seeds.shape != gray.shape:
+        raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {gray.shape}")
+    if seeds.dtype.kind not in "iu":
+        raise InputError(f"seeds: expected an integer array, got {seeds.dtype}")
+    if not np.isfinite(gray).all():
+        y, x = np.argwhere(~np.isfinite(gray))[0]
+        raise InputError(f"gray: pixel ({x}, {y}) is not a finite number")
+    if seeds.size and seeds.min() < UNSEEDED:
+        y, x = np.argwhere(seeds < UNSEEDED)[0]
+        raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]} "
+                         f"(expected -2, -1 or >= 0)")
+    if seeds.size and seeds.max() > np.iinfo(np.int32).max:
+        y, x = np.argwhere(seeds > np.iinfo(np.int32).max)[0]
+        raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]}, beyond int32")
+    # Region labels become 0..m-1 inside (any integers may come in, e.g. one
+    # per constraint endpoint), and go back at the end.
+    regions = np.unique(seeds[seeds >= 0])
+    seeds = np.where(seeds >= 0, np.searchsorted(regions, seeds), seeds).astype(np.int32)
+    area, n_areas = ndimage.label(gray >= INK_THRESHOLD)
+    if frame_background:
+        seeds = _frame_seeds(seeds, area, n_areas)
+    if not (seeds != UNSEEDED).any():
+        raise InputError("seeds: no seed pixel at all (nothing to grow labels from)")
+    cost = ink_cost(gray, ink_level=ink_level, paper_level=paper_level, gamma=gamma)
+    h, w = gray.shape
+    if coarse_to_fine is None:
+        coarse_to_fine = h * w > 500_000
+    strength = _seed_strength(seeds, area, seed_strength)
+    if coarse_to_fine and min(h, w) >= 64:
+        # Paper areas are "grey >= INK_THRESHOLD" at every level.
+        paper = float(ink_cost(INK_THRESHOLD, ink_level=ink_level, paper_level=paper_level,
+                               gamma=gamma))
+        labels = _coarse_to_fine(cost, seeds, strength, paper, progress)
+    else:
+        labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
+    if len(regions):
+        labels = np.where(labels >= 0, regions[np.maximum(labels, 0)], labels)
+    return labels.astype(np.int32)
+
+
+_HARD = 1e9  # a seed cost no cut can pay
+
+
+def _frame_seeds(seeds, area, n_areas):
+    """Seed the unseeded border pixels as background, except in paper areas
+    other than the outer one (the area most of the border runs through) that
+    hold a region seed: there the frame cuts a part of the character."""
+    border = np.zeros(seeds.shape, bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
+    on_paper = area[border]
+    on_paper = on_paper[on_paper > 0]
+    part = np.zeros(n_areas + 1, bool)
+    part[area[seeds >= 0]] = True
+    part[0] = False
+    if len(on_paper):
+        part[np.argmax(np.bincount(on_paper))] = False
+    out = seeds.copy()
+    out[border & (seeds == UNSEEDED) & ~part[area]] = BACKGROUND
+    return out
+
+
+def _seed_strength(seeds, area, soft):
+    """Per-pixel cost of relabelling a seed: hard in the paper ``area`` (a
+    label image) that holds most of the pixels of its scribble (an
+    8-connected run of one label), ``soft`` on ink and in other paper areas
+    (overshoots)."""
+    out = np.zeros(seeds.shape)
+    # Bounding box of each label (value v is at index v + 1 of the label image
+    # seeds + 2, whose 0 is the unseeded pixels).
+    boxes = ndimage.find_objects(seeds - UNSEEDED)
+    for c in np.unique(seeds[seeds != UNSEEDED]):
+        box = boxes[c - UNSEEDED - 1]
+        mask = seeds[box] == c
+        stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
+        st, ar = stroke[mask], area[box][mask]
+        on = ar > 0
+        home = np.zeros(n + 1, np.int64)
+        if on.any():
+            pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+            # Ties go to the lowest area number: deterministic.
+            best = np.lexsort((pairs[1], -counts, pairs[0]))
+            first = np.unique(pairs[0][best], return_index=True)[1]
+            home[pairs[0][best][first]] = pairs[1][best][first]
+        out[box][mask] = np.where(on & (ar == home[st]), _HARD, soft)
+    return out
+
+
+def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, min_area=30,
+            progress=None):
+    """Segment a drawing into the annotation's regions and the background.
+
+    Parameters
+    ----------
+    annotations : inkray.input.annotations.Annotations
+        Region scribbles and background scribbles; without background
+        scribbles the image frame is background.
+    drawing : inkray.input.drawing.Drawing or (H, W) float array
+        The drawing (or its ``gray``), of the annotation's ``size``.
+    seed_strength : float, default 0.95
+        Softness of scribbles, see :func:`lazybrush`.
+    coarse_to_fine : bool, optional
+        See :func:`lazybrush`.
+    min_area : int, default 30
+        Paper areas (grey >= ``INK_THRESHOLD``, 4-connected) of at least this
+        many pixels that no scribble touches are reported in ``warnings``.
+    progress : inkray.progress.Progress, optional
+        Progress bar of the binary cuts.
+
+    Returns
+    -------
+    Segmentation
+
+    Raises
+    ------
+    InputError
+        No region, a drawing of the wrong size, a blank or all-ink drawing, or
+        a scribble lying entirely on ink (named by its key path).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import parse_annotations
+    >>> gray = np.ones((40, 40)); gray[10:30, 10] = gray[10:30, 30] = 0
+    >>> gray[10, 10:31] = gray[30, 10:31] = 0                  # a closed square
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1,
+    ...     "size": [40, 40], "regions": [{"name": "box", "scribbles": [[[15, 20], [25, 20]]]}]})
+    >>> seg = segment(ann, gray)
+    >>> seg.names, int(seg.labels[20, 20]), int(seg.labels[2, 2])
+    (['box'], 0, -1)
+    """
+    gray = np.asarray(getattr(drawing, "gray", drawing), np.float64)
+    w, h = annotations.size
+    if gray.shape != (h, w):
+        raise InputError(f"size: the annotation is for a {w}x{h} drawing but the drawing is "
+                         f"{gray.shape[1]}x{gray.shape[0]}")
+    if not annotations.regions:
+        raise InputError("regions: no region scribbles (segmentation needs at least one region)")
+    floor = max(1, int(1e-4 * gray.size))
+    if int((gray < INK_THRESHOLD).sum()) < floor:
+        raise InputError(f"drawing: blank (fewer than {floor} pixels darker than "
+                         f"{INK_THRESHOLD}): no lines to segment along")
+    if int((gray >= INK_THRESHOLD).sum()) < floor:
+        raise InputError(f"drawing: all ink (fewer than {floor} pixels lighter than "
+                         f"{INK_THRESHOLD}): no paper to segment")
+    _check_scribbles_off_ink(annotations, gray)
+    gray = _with_boundary_cuts(gray, annotations.boundaries)
+    seeds = seed_image(annotations)
+    warnings = []
+    names = [r.name for r in annotations.regions]
+    present = np.zeros(len(names) + 1, bool)
+    present[np.unique(seeds[seeds >= 0])] = True
+    for i, name in enumerate(names):
+        if not present[i]:
+            warnings.append(f"regions[{i}] ({name}): no seed pixel left: every pixel of its "
+                            f"scribbles is also under another region's scribble")
+    frame = not (annotations.background or (annotations.background_pixels is not None
+                                            and len(annotations.background_pixels)))
+    labels = lazybrush(gray, seeds, frame_background=frame, seed_strength=seed_strength,
+                       coarse_to_fine=coarse_to_fine, progress=progress)
+    kept = np.zeros(len(names) + 1, bool)
+    kept[np.unique(labels[labels >= 0])] = True
+    for i, name in enumerate(names):
+        if present[i] and not kept[i]:
+            warnings.append(f"regions[{i}] ({name}): lost every pixel to its neighbours "
+                            f"(do its scribbles only overshoot ink lines?)")
+    warnings += _unscribbled_areas(gray, seeds, labels, names, frame, min_area)
+    return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
+
+
+def _with_boundary_cuts(gray, boundaries):
+    """The grey image with every ``graft``/``stitch`` path drawn in as ink.
+
+    A boundary entry is where the user says two parts meet, often across an
+    open stroke; as ink it makes the cut run exactly there, so the region
+    outlines (and the relief's seams) follow the entry.
+    """
+    marks = [b for b in boundaries if b.type in ("graft", "stitch")]
+    if not marks:
+        return gray
+    gray = gray.copy()
+    for b in marks:
+        gray[polyline_pixels(b.path, gray.shape)] = 0.0
+    return gray
+
+
+def label_palette(n):
+    """Colours of a label image: white background, then ``n`` distinct regions.
+
+    Parameters
+    ----------
+    n : int
+        Number of regions.
+
+    Returns
+    -------
+    (n + 1, 3) uint8 array
+        Row 0 is the background (white), row ``i + 1`` region ``i``: 20 hand
+        picked distinguishable colours, then golden-angle hues.
+
+    Examples
+    --------
+    >>> label_palette(2).tolist()
+    [[255, 255, 255], [230, 25, 75], [60, 180, 75]]
+    """
+    out = np.zeros((n + 1, 3), np.uint8)
+    out[0] = 255
+    for i in range(n):
+        if i < len(_COLOURS):
+            out[i + 1] = [int(_COLOURS[i][k:k + 2], 16) for k in (1, 3, 5)]
+        else:
+            import colorsys
+
+            hue = (i * 0.618033988749895) % 1.0
+            light = 0.45 + 0.15 * ((i // 7) % 2)
+            out[i + 1] = np.round(np.array(colorsys.hls_to_rgb(hue, light, 0.75)) * 255)
+    return out
+
+
+# Sasha Trubetskoy's 20 distinct colours (white omitted: it is the background).
+_COLOURS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6",
+            "#bfef45", "#fabed4", "#469990", "#dcbeff", "#9a6324", "#fffac8", "#800000",
+            "#aaffc3", "#808000", "#ffd8b1", "#000075", "#a9a9a9", "#000000")
+
+
+def _check_scribbles_off_ink(ann, gray):
+    """A scribble entirely on ink marks no area: reject it by its key path."""
+    from inkray.input.scribbles import polyline_pixels
+
+    def check(rows, cols, where):
+        if len(rows) and (gray[rows, cols] < INK_THRESHOLD).all():
+            raise InputError(f"{where}: the scribble lies entirely on ink (from pixel "
+                             f"({cols[0]}, {rows[0]})); draw it inside the area it marks")
+
+    for i, region in enumerate(ann.regions):
+        for j, line in enumerate(region.scribbles):
+            check(*polyline_pixels(line, gray.shape), f"regions[{i}].scribbles[{j}]")
+        if region.pixels is not None and len(region.pixels):
+            check(region.pixels[:, 1], region.pixels[:, 0], f"regions[{i}] ({region.name}) layer")
+    for j, line in enumerate(ann.background):
+        check(*polyline_pixels(line, gray.shape), f"background[{j}]")
+
+
+def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):
+    """Warnings for paper areas of ``min_area`` pixels or more without a seed."""
+    comp, n = ndimage.label(gray >= INK_THRESHOLD)
+    if n == 0:
+        return []
+    seeded = np.zeros(n + 1, bool)
+    seeded[comp[seeds != UNSEEDED]] = True
+    if frame:
+        seeded[comp[[0, -1], :]] = True
+        seeded[comp[:, [0, -1]]] = True
+    area = np.bincount(comp.ravel(), minlength=n + 1)
+    boxes = ndimage.find_objects(comp)
+    out = []
+    for k in np.flatnonzero((~seeded) & (area >= min_area)):
+        if k == 0:
+            continue
+        box = boxes[k - 1]
+        ys, xs = np.nonzero(comp[box] == k)
+        ys, xs = ys + box[0].start, xs + box[1].start
+        mid = np.argmin((ys - ys.mean()) ** 2 + (xs - xs.mean()) ** 2)
+        votes = np.bincount(labels[ys, xs] + 1, minlength=len(names) + 1)
+        got = int(np.argmax(votes)) - 1
+        whom = "the background" if got == BACKGROUND else f"region '{names[got]}'"
+        out.append(f"unscribbled area of {area[k]} px at ({xs[mid]}, {ys[mid]}) given to {whom}")
+    return out
+
+
+def _order(seeds):
+    """Labels present in ``seeds``: background first (the biggest, it removes
+    most pixels from the later cuts), then regions ascending."""
+    return [int(v) for v in np.unique(seeds[seeds != UNSEEDED])]  # -1 sorts first
+
+
+def _edge_weights(cost, floor):
+    """Capacities of the right (H, W-1) and down (H-1, W) neighbour edges."""
+    right = np.minimum(cost[:, :-1], cost[:, 1:]) + floor
+    down = np.minimum(cost[:-1, :], cost[1:, :]) + floor
+    return right, down
+
+
+def _neighbours(fixed, right, down, idx):
+    """For the 4 directions, at the pixels ``idx`` (flat indices): the fixed
+    label of the neighbour (UNSEEDED when none), the capacity of the edge to
+    it, and the flat-index offset of the neighbour."""
+    h, w = fixed.shape
+    ys, xs = np.divmod(idx, w)
+    out = []
+    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        ny, nx = ys + dy, xs + dx
+        ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
+        lab = np.full(len(idx), UNSEEDED, np.int32)
+        lab[ok] = fixed[ny[ok], nx[ok]]
+        cap = np.zeros(len(idx))
+        if dx:
+            cx = np.minimum(xs, nx)[ok]
+            cap[ok] = right[ys[ok], cx]
+        else:
+            cy = np.minimum(ys, ny)[ok]
+            cap[ok] = down[cy, xs[ok]]
+        out.append((lab, cap, dy * w + dx))
+    return out
+
+
+def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
+    """Sequential binary cuts on the pixels where ``fixed`` is UNSEEDED.
+
+    Labels are placed in ascending order, so "a label still to be placed"
+    is simply "a label greater than ``c``". Fixed pixels (coarse-to-fine: the
+    labels far from any boundary) keep their label and pull their free
+    neighbours toward it through the edge between them, as a neighbour of
+    that label would."""
+    import maxflow
+
+    h, w = cost.shape
+    right, down = _edge_weights(cost, floor)
+    if fixed is None:
+        fixed = np.full((h, w), UNSEEDED, np.int32)
+    labels = fixed.copy()
+    idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
+    nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
+    order = _order(np.where(fixed != UNSEEDED, fixed, seeds))
+    seed_idx = seeds.ravel()[idx]
+    flat_labels = labels.ravel()
+    for step, c in enumerate(order):
+        alive = flat_labels[idx] == UNSEEDED
+        if not alive.any():
+            break
+        comp, n = ndimage.label(labels == UNSEEDED)
+        ci = comp.ravel()[idx[alive]]
+        si = seed_idx[alive]
+        own = np.bincount(ci[si == c], minlength=n + 1)
+        other = np.bincount(ci[si > c], minlength=n + 1)
+        for lab, _, _ in nbrs:
+            la = lab[alive]
+            own += np.bincount(ci[la == c], minlength=n + 1)
+            other += np.bincount(ci[la > c], minlength=n + 1)
+        own[0] = other[0] = 0
+        flat_labels[idx[alive][((own > 0) & (other == 0))[ci]]] = c
+        cut = (own > 0) & (other > 0)
+        if c != order[-1] and cut.any():
+            on = cut[ci]
+            # Outline ink goes to the character, not to the background: a cut
+            # with an ink pixel on its background side costs 4 floors more
+            # (directed capacities, so the graph stays the same size), enough
+            # that following the outer edge of a thick outline around a
+            # rounded end beats a chord through the ink.
+            pull = 4.0 * floor * (1.0 - cost) if c == BACKGROUND else None
+            sub = [(lab[alive][on], wt[alive][on], off) for lab, wt, off in nbrs]
+            win = _binary_cut(idx[alive][on], (h, w), seeds, c, right, down, sub, strength,
+                              pull, maxflow)
+            flat_labels[win] = c
+        if progress is not None:
+            progress.update(step + 1, len(order))
+    free = labels == UNSEEDED
+    if free.any():
+        # Pieces holding no seed of a label still to be placed (walled in by
+        # placed labels): they take the label around them.
+        _, (iy, ix) = ndimage.distance_transform_edt(free, return_indices=True)
+        labels = labels[iy, ix]
+    return labels
+
+
+def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflow):
+    """Min cut of label ``c`` against the greater labels on the pixels ``flat``
+    (flat indices); ``nbrs`` are their fixed neighbours, ``pull`` (H, W) or
+    None an extra cost of a cut edge whose ``c`` side is that pixel. Returns
+    the flat indices of the pixels that take ``c``."""
+    h, w = shape
+    n = len(flat)
+    node = np.full(h * w, -1, np.int64)
+    node[flat] = np.arange(n)
+    node = node.reshape(h, w)
+    g = maxflow.Graph[float](n, 2 * n)
+    g.add_nodes(n)
+    for axis, cap in ((1, right), (0, down)):
+        first = (slice(None), slice(None, -1)) if axis else (slice(None, -1), slice(None))
+        second = (slice(None), slice(1, None)) if axis else (slice(1, None), slice(None))
+        a, b = node[first], node[second]
+        both = (a >= 0) & (b >= 0)
+        if both.any():
+            fwd = rev = cap[both]
+            if pull is not None:  # a -> b is cut when a takes c and b does not
+                fwd = fwd + pull[first][both]
+                rev = rev + pull[second][both]
+            g.add_edges(a[both], b[both], fwd, rev)
+    s = seeds.ravel()[flat]
+    st = strength.ravel()[flat]
+    src = np.where(s == c, st, 0.0)
+    snk = np.where(s > c, st, 0.0)
+    for lab, wt, offset in nbrs:
+        # The edge to a fixed neighbour becomes a terminal link, with the
+        # directed ``pull`` of whichever end would be on the ``c`` side.
+        to_c, to_rest = lab == c, lab > c
+        src[to_c] += wt[to_c]
+        snk[to_rest] += wt[to_rest]
+        if pull is not None:
+            src[to_c] += pull.ravel()[flat[to_c] + offset]
+            snk[to_rest] += pull.ravel()[flat[to_rest]]
+    ids = np.arange(n)
+    g.add_grid_tedges(ids, src, snk)
+    g.maxflow()
+    return flat[~g.get_grid_segments(ids)]
+
+
+def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5000):
+    """Solve on a 2x min-pooled copy, then only near its boundaries.
+
+    Min-pooling keeps one-pixel lines closed at half resolution. The band of
+    ``band`` pixels around every coarse label boundary is solved again at full
+    resolution, and so are whole paper areas (``cost >= paper``) that the
+    pooling may have cut wrongly: see below."""
+    h, w = cost.shape
+    hp, wp = h + h % 2, w + w % 2
+    padded = np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge")
+    small_cost = padded.reshape(hp // 2, 2, wp // 2, 2).min(axis=(1, 3))
+    padded = np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED)
+    small_seeds = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
+    padded = np.pad(strength, ((0, hp - h), (0, wp - w)))
+    small_strength = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
+    sh, sw = small_cost.shape
+    if sh * sw > 500_000 and min(sh, sw) >= 64:
+        coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, paper, None, band,
+                                 small_area // 4)
+    else:
+        coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)))
+    up = coarse.repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
+    edge = np.zeros((h, w), bool)
+    diff = up[:, :-1] != up[:, 1:]
+    edge[:, :-1] |= diff
+    edge[:, 1:] |= diff
+    diff = up[:-1, :] != up[1:, :]
+    edge[:-1, :] |= diff
+    edge[1:, :] |= diff
+    free = ndimage.maximum_filter(edge.view(np.uint8), size=2 * band + 1).view(bool)
+    wrong = (seeds != UNSEEDED) & (seeds != up)
+    free |= ndimage.maximum_filter(wrong.view(np.uint8), size=2 * band + 1).view(bool)
+    # Pooling may close a thin neck of a small paper area and split it there:
+    # a small area whose fixed pixels and seeds hold two labels, or any area
+    # holding a wrongly labelled seed, is solved again as a whole. (Large
+    # areas that hold several labels are gap closures the band refines.)
+    comp, n = ndimage.label(cost >= paper)
+    seeded = seeds != UNSEEDED
+    inner = np.concatenate([comp[~free], comp[seeded]])
+    inner_up = np.concatenate([up[~free], seeds[seeded]])
+    some = np.zeros(n + 1, np.int32)
+    some[inner] = inner_up  # one label of each area (the last written)
+    mixed = np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0
+    redo = mixed & (np.bincount(comp.ravel(), minlength=n + 1) <= small_area)
+    redo[comp[wrong]] = True
+    redo[0] = False
+    free |= redo[comp]
+    fixed = np.where(free, UNSEEDED, up).astype(np.int32)
+    return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress)

@@ -1,0 +1,1 @@
+"""Looking at a relief: rasterization, shading, stereo and GI renders."""

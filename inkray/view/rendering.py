@@ -1,0 +1,876 @@
+"""Pictures of a relief: shading, normal and depth maps, stereo, global illumination.
+
+The point of Ink-and-Ray (Sýkora et al., "Ink-and-Ray: Bas-Relief Meshes for
+Adding Global Illumination Effects to Hand-Drawn Characters", TOG 2014) is the
+picture: the relief, textured with the drawing's colours, is lit with global
+illumination (soft shadows, self-shadowing, colour bleeding, glossy
+reflections) and the drawing's ink is composited over the result with a
+multiply, so the lines stay as crisp as drawn. The paper also names cheaper
+uses of the same relief: 3D-like shading from its normals, normal and depth
+maps for 2D compositing, and stereoscopic images; all are here.
+
+Modes (see :func:`render`):
+
+- ``shade``: Lambert + ambient + a small highlight from the interpolated
+  normals (:mod:`inkray.rasterize`), ink multiplied on top.
+- ``normals``: the front normal map (RGB = (n + 1) / 2, OpenGL convention:
+  x right, y up, z toward the viewer).
+- ``depth``: a 16-bit depth map, 0 = background, 1..65535 = far..near.
+- ``stereo``: left/right ``shade`` views of an off-axis (sheared) camera pair
+  and their red-cyan anaglyph; zero disparity at the drawing plane.
+- ``gi``: a path-traced render with Mitsuba 3 (``scalar_rgb``): relief on a
+  backdrop, a soft area light plus a dim sky, ink multiplied on top.
+
+Frames: the light direction is given as ``(x right, y up, z toward the
+viewer)``; a turntable ``yaw`` (degrees) moves an orthographic camera around
+the vertical axis through the drawing's centre (positive: to the viewer's
+right), the light stays with the relief.
+"""
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from inkray.errors import InputError, StageError
+from inkray.formats.atomic import atomic_outputs
+from inkray.view.rasterization import fit_view, rasterize, vertex_normals
+from inkray.relief.model import Part, Relief
+
+__all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "read_relief",
+           "render", "render_turntable", "write_renderings"]
+
+MODES = ("shade", "normals", "depth", "stereo", "gi")
+
+# shade/stereo/ink: rasterized at 2x2 samples per pixel and box-filtered
+# (antialiasing), up to this many output pixels; beyond, pixels are small
+# enough and time and memory matter more.
+_SUPERSAMPLE_MAX_PIXELS = 1 << 20
+_INK_LEVEL = 0.6  # brightest channel (paper = 1) at and above which a pixel is not ink
+_SPECULAR = 0.12
+_SHININESS = 40.0
+# Flat colours for parts whose drawing colour is (near) white: soft, distinct.
+_PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
+                     [0.90, 0.55, 0.50], [0.75, 0.60, 0.85], [0.95, 0.85, 0.55],
+                     [0.50, 0.80, 0.75], [0.85, 0.65, 0.45]])
+_RIM = 6.0  # drawing pixels: reach of outline ink past the silhouette (half a thick stroke)
+_GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
+GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
+
+
+@dataclass
+class Rendering:
+    """One rendered picture.
+
+    Attributes
+    ----------
+    mode : str
+    image : array
+        ``(h, w, 4)`` uint8 RGBA (alpha = relief coverage; opaque for ``gi``
+        with a backdrop), or ``(h, w)`` uint16 for ``depth``. For ``stereo``
+        the anaglyph.
+    mask : (h, w) bool array
+        Pixels the relief covers (for ``stereo``: in either view).
+    views : dict
+        ``stereo``: ``{"left": rgba, "right": rgba}``; empty otherwise.
+    depth_range : (float, float) or None
+        ``depth``: the view depths (drawing pixels) mapped to 1 and 65535.
+    """
+
+    mode: str
+    image: np.ndarray
+    mask: np.ndarray
+    views: dict = field(default_factory=dict)
+    depth_range: tuple = None
+
+
+def has_mitsuba():
+    """True when Mitsuba 3 with the ``scalar_rgb`` variant can be imported.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> isinstance(has_mitsuba(), bool)
+    True
+    """
+    try:
+        _mitsuba()
+    except StageError:
+        return False
+    return True
+
+
+def output_size(drawing_size, *, size=None, width=None, height=None, max_side=None):
+    """The image size for a drawing: given, or derived with its aspect ratio kept.
+
+    Parameters
+    ----------
+    drawing_size : (int, int)
+        ``(W, H)`` of the drawing.
+    size : (int, int), optional
+        Both sides; excludes ``width`` and ``height``.
+    width, height : int, optional
+        One side; the other follows the drawing's aspect ratio.
+    max_side : int, optional
+        With nothing given: shrink the drawing's size to fit this.
+
+    Returns
+    -------
+    (int, int)
+
+    Examples
+    --------
+    >>> output_size((200, 100), width=50)
+    (50, 25)
+    >>> output_size((2000, 1000), max_side=800)
+    (800, 400)
+    """
+    dw, dh = (int(v) for v in drawing_size)
+    for name, v in (("width", width), ("height", height)):
+        if v is not None and not (isinstance(v, (int, np.integer)) and 1 <= v <= 16384):
+            raise InputError(f"--{name}: expected an integer in 1..16384, got {v!r}")
+    if size is not None:
+        if width is not None or height is not None:
+            raise InputError("--size: give either --size or --width/--height, not both")
+        return int(size[0]), int(size[1])
+    if width is not None and height is not None:
+        return int(width), int(height)
+    if width is not None:
+        return int(width), max(1, round(width * dh / dw))
+    if height is not None:
+        return max(1, round(height * dw / dh)), int(height)
+    f = min(1.0, max_side / max(dw, dh)) if max_side else 1.0
+    return max(1, round(dw * f)), max(1, round(dh * f))
+
+
+def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
+           flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
+           progress=None):
+    """Render a relief seen from the front (or from ``yaw`` degrees to the side).
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    mode : {"shade", "normals", "depth", "stereo", "gi"}, optional
+    size : (int, int), optional
+        ``(width, height)`` of the image; the drawing is fitted and centred.
+        Default: the drawing's size (for ``gi`` shrunk to fit 800 pixels).
+    light : (3,) float, optional
+        Direction toward the light, ``x`` right, ``y`` up, ``z`` toward the
+        viewer (default: upper left, in front).
+    ambient : float, optional
+        ``shade``/``stereo``: the light a surface facing away still gets (0..1).
+    flat_colors : bool, optional
+        Colour each part with one colour (its drawing colour, or a palette
+        colour where the drawing is white) instead of the drawing's colours.
+    disparity : float, optional
+        ``stereo``: horizontal shift in output pixels between the views at the
+        relief's highest point (zero at height 0). Default: 2% of the width.
+    spp : int, optional
+        ``gi``: samples per pixel.
+    backdrop : bool, optional
+        ``gi``: put a matte backdrop behind the relief to catch its shadows.
+        Without it the background is transparent.
+    yaw : float, optional
+        Camera angle (degrees) around the vertical axis through the drawing's
+        centre; positive moves the camera to the viewer's right.
+    seed : int, optional
+        ``gi``: sampler seed (renders are deterministic for a seed).
+    progress : inkray.progress.Progress, optional
+        ``gi`` reports its passes on it.
+
+    Returns
+    -------
+    Rendering
+
+    Raises
+    ------
+    InputError
+        An argument is out of range.
+    StageError
+        ``gi`` without Mitsuba 3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.model import Part, Relief
+    >>> v = np.array([[2, 2, 3], [8, 2, 3], [8, 8, 3], [2, 8, 3]], float)
+    >>> sq = Part("square", v, np.array([[0, 3, 2], [0, 2, 1]]))
+    >>> r = render(Relief([sq], size=(10, 10)), mode="shade", size=(20, 20))
+    >>> r.image.shape, int(r.mask.sum())
+    ((20, 20, 4), 144)
+    """
+    relief, size, light, yaw = _check(relief, mode, size, light, ambient, disparity, spp, yaw)
+    if mode == "normals":
+        return _normals(relief, size, yaw)
+    if mode == "depth":
+        return _depth(relief, size, yaw)
+    layers = _Layers(relief, flat_colors)
+    if mode == "shade":
+        rgba = _shade(relief, layers, size, yaw, light, ambient)
+        return Rendering("shade", rgba, rgba[..., 3] > 0)
+    if mode == "stereo":
+        return _stereo(relief, layers, size, yaw, light, ambient, disparity)
+    return _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress)
+
+
+def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=None, **options):
+    """Frames of a camera swinging around the vertical axis (small angles).
+
+    The yaw of frame ``k`` is ``angle * sin(2 pi k / frames)``: the sequence
+    starts frontal and loops smoothly.
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    frames : int, optional
+        Number of frames (>= 1).
+    angle : float, optional
+        Largest yaw in degrees (0..60: a relief is meant for near-frontal views).
+    mode : str, optional
+        As for :func:`render`.
+    progress : inkray.progress.Progress, optional
+        Reports frames done.
+    **options
+        Passed to :func:`render` (everything but ``yaw``).
+
+    Returns
+    -------
+    list of Rendering
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.model import Part, Relief
+    >>> v = np.array([[2, 2, 3], [8, 2, 3], [8, 8, 3], [2, 8, 3]], float)
+    >>> sq = Part("square", v, np.array([[0, 3, 2], [0, 2, 1]]))
+    >>> len(render_turntable(Relief([sq], size=(10, 10)), frames=3))
+    3
+    """
+    if not (isinstance(frames, (int, np.integer)) and frames >= 1):
+        raise InputError(f"turntable: frames must be a positive integer, got {frames!r}")
+    if not (np.isfinite(angle) and 0 <= angle <= 60):
+        raise InputError(f"turntable: angle must be within 0..60 degrees, got {angle!r}")
+    if "yaw" in options:
+        raise InputError("turntable: 'yaw' is set per frame; pass 'angle' instead")
+    out = []
+    for k in range(frames):
+        yaw = float(angle) * np.sin(2 * np.pi * k / frames)
+        # one frame: the render's own passes; several: one tick per frame
+        inner = progress if frames == 1 else None
+        out.append(render(relief, mode=mode, yaw=yaw, progress=inner, **options))
+        if progress is not None:
+            progress.update(k + 1, frames)
+    return out
+
+
+def write_renderings(renderings, path, *, fps=12, outputs=None):
+    """Write renderings as PNG(s) or an animated GIF, all files or none.
+
+    One rendering to ``X.png`` writes ``X.png``; ``stereo`` also writes the
+    views ``X-left.png`` and ``X-right.png``. Several renderings (a turntable)
+    to ``X.png`` write frames ``X-000.png``, ``X-001.png``, ...; to ``X.gif``
+    an animation over white. Depth maps are 16-bit greyscale PNGs whose text
+    chunk ``inkray:depth`` records the depth range.
+
+    Parameters
+    ----------
+    renderings : Rendering or list of Rendering
+    path : str or Path
+        ``.png`` or ``.gif``.
+    fps : int, optional
+        GIF frame rate.
+    outputs : optional
+        An open :func:`inkray.formats.atomic.atomic_outputs` group to write into (its
+        files then appear with the group's); default: a group of its own.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> img = np.zeros((2, 3, 4), np.uint8)
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "a.png"
+    >>> [p.name for p in write_renderings(Rendering("shade", img, img[..., 3] > 0), out)]
+    ['a.png']
+    """
+    from PIL import Image
+
+    items = [renderings] if isinstance(renderings, Rendering) else list(renderings)
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if not items:
+        raise InputError(f"{path}: nothing to write")
+    if suffix not in (".png", ".gif"):
+        raise InputError(f"-o {path}: expected .png or .gif")
+    files = {}
+    if suffix == ".gif":
+        files[path] = [_gif_frame(r) for r in items]
+    elif len(items) == 1:
+        files[path] = items[0]
+        for side, rgba in items[0].views.items():
+            files[path.with_name(f"{path.stem}-{side}.png")] = rgba
+    else:
+        for k, r in enumerate(items):
+            files[path.with_name(f"{path.stem}-{k:03d}.png")] = r
+    if outputs is None:
+        with atomic_outputs() as group:
+            return write_renderings(items, path, fps=fps, outputs=group)
+    for target, item in files.items():
+        tmp = outputs.path(target)
+        if isinstance(item, list):
+            item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
+                         duration=round(1000 / fps), loop=0, optimize=False)
+        elif isinstance(item, np.ndarray):
+            Image.fromarray(item).save(tmp, format="PNG")
+        else:
+            _save_png(item, tmp)
+    return list(files)
+
+
+# -- validation ----------------------------------------------------------------
+
+def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
+    if not isinstance(relief, Relief):
+        raise InputError(f"render: expected an inkray.relief.model.Relief, got {type(relief).__name__}")
+    if mode not in MODES:
+        raise InputError(f"render: unknown mode {mode!r} (expected one of {', '.join(MODES)})")
+    if not relief.parts or not any(len(p.faces) for p in relief.parts):
+        raise InputError("render: the relief has no triangles")
+    if size is None:
+        size = output_size(relief.size, max_side=GI_MAX_SIDE if mode == "gi" else None)
+    if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
+            or not all(1 <= s <= 16384 for s in size)):
+        raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
+    light = np.asarray(light, float)
+    if light.shape != (3,) or not np.all(np.isfinite(light)) or not np.linalg.norm(light) > 0:
+        raise InputError(f"render: light must be a non-zero direction (x, y, z), got {light!r}")
+    if not (np.isfinite(ambient) and 0 <= ambient <= 1):
+        raise InputError(f"render: ambient must be within 0..1, got {ambient!r}")
+    if disparity is not None and not (np.isfinite(disparity) and abs(disparity) <= size[0]):
+        raise InputError(f"render: disparity must be a number of pixels within the width, "
+                         f"got {disparity!r}")
+    if not (isinstance(spp, (int, np.integer)) and 1 <= spp <= 65536):
+        raise InputError(f"render: spp must be an integer in 1..65536, got {spp!r}")
+    if not (np.isfinite(yaw) and abs(yaw) < 90):
+        raise InputError(f"render: yaw must be between -90 and 90 degrees, got {yaw!r}")
+    return relief, (int(size[0]), int(size[1])), light / np.linalg.norm(light), float(yaw)
+
+
+# -- camera --------------------------------------------------------------------
+
+def _yaw_view(relief, yaw):
+    """Affine view of a camera turned by ``yaw`` degrees about the vertical centre axis."""
+    a = np.radians(yaw)
+    c, s = np.cos(a), np.sin(a)
+    cx = (relief.size[0] - 1) / 2.0  # pixel centres are integers
+    return np.array([[c, 0, -s, cx - c * cx], [0, 1, 0, 0], [s, 0, c, -s * cx]])
+
+
+def _raster(relief, size, yaw, factor=1, shear=0.0):
+    """Rasterize at ``factor`` times ``size``, fitted and centred like the final image."""
+    w, h = size
+    scale, offset = fit_view(relief.size, size)
+    view = _yaw_view(relief, yaw)
+    view[0] += shear * view[2]  # x += shear * depth: an off-axis stereo camera
+    return rasterize(relief, size=(w * factor, h * factor), scale=scale * factor,
+                     offset=(offset[0] * factor, offset[1] * factor), view=view)
+
+
+def _rim_uv(relief, raster):
+    """Texture coordinates continued past the relief's silhouette, and where they apply.
+
+    Segmentation leaves the outer half of an outline stroke outside the
+    parts. Each pixel within ``_RIM`` drawing pixels of the silhouette takes
+    the coordinates of the nearest relief pixel, continued by its offset at
+    the front view's scale, so that half stroke follows its part in turned
+    views too (exact in the front view).
+    """
+    from scipy import ndimage
+
+    m = raster.mask
+    if not m.any():
+        return None, np.zeros_like(m)
+    dist, (ri, ci) = ndimage.distance_transform_edt(~m, return_indices=True)
+    rows, cols = np.indices(m.shape)
+    w, h = relief.size
+    uv = raster.uv[ri, ci] + np.stack([(cols - ci) / (raster.scale * w),
+                                       (ri - rows) / (raster.scale * h)], axis=-1)
+    return uv, ~m & (dist <= _RIM * raster.scale)
+
+
+def _supersample(size):
+    return 2 if size[0] * size[1] <= _SUPERSAMPLE_MAX_PIXELS else 1
+
+
+def _downsample(a, factor):
+    h, w = a.shape[0] // factor, a.shape[1] // factor
+    return a.reshape(h, factor, w, factor, *a.shape[2:]).mean(axis=(1, 3))
+
+
+# -- colours and ink -------------------------------------------------------------
+
+def _srgb_to_linear(c):
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _srgb_encode(c):
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
+# sRGB encoding by table lookup: ~10x faster than the power law on megapixel
+# images, and within 0.1 of an 8-bit level.
+_SRGB_TABLE = _srgb_encode(np.linspace(0.0, 1.0, 16384))
+
+
+def _linear_to_srgb(c):
+    return _SRGB_TABLE[np.rint(np.clip(c, 0.0, 1.0) * 16383).astype(np.intp)]
+
+
+class _Layers:
+    """The drawing split into a fill texture (ink removed) and an ink multiplier.
+
+    Ink is what is darker, in its brightest channel, than ``_INK_LEVEL`` of
+    the paper (so saturated colours are not ink); the multiplier falls
+    linearly from 1 there to 0 at black, keeping the antialiased edges of the
+    strokes. Under ink the fill takes the colour of the nearest non-ink pixel,
+    so shading and light bounces see the colours of the regions and not the
+    lines. ``fill`` is sRGB, ``albedo`` and ``part_colors`` linear.
+    """
+
+    def __init__(self, relief, flat_colors):
+        from scipy import ndimage
+
+        self.relief = relief
+        tex = relief.texture
+        if tex is None:
+            self.fill = np.ones((1, 1, 3))
+            self.ink = np.ones((1, 1))
+        else:
+            tex = np.asarray(tex)
+            if tex.ndim == 2:
+                tex = np.repeat(tex[..., None], 3, axis=2)
+            tex = tex[..., :3].astype(float) / (255.0 if tex.dtype == np.uint8 else 1.0)
+            value = tex.max(axis=2)  # dark in every channel: saturated colours are not ink
+            paper = max(float(np.percentile(value, 95)), 1e-3)
+            self.ink = np.clip(value / (paper * _INK_LEVEL), 0.0, 1.0)
+            clean = self.ink >= 1.0
+            if clean.any():
+                idx = ndimage.distance_transform_edt(~clean, return_distances=False,
+                                                     return_indices=True)
+                tex = tex[idx[0], idx[1]]
+            self.fill = tex
+        self.albedo = _srgb_to_linear(self.fill)
+        self.part_colors = (_srgb_to_linear(self._part_colors(relief)) if flat_colors
+                            else None)
+
+    def _part_colors(self, relief):
+        front = rasterize(relief, size=(self.fill.shape[1], self.fill.shape[0]))
+        colors = np.empty((len(relief.parts), 3))
+        for i in range(len(relief.parts)):
+            seen = front.part == i
+            c = np.median(self.fill[seen], axis=0) if seen.any() else np.ones(3)
+            colors[i] = _PALETTE[i % len(_PALETTE)] if c.min() > 0.85 else c
+        return colors
+
+    def sample(self, raster, rim=False):
+        """Linear albedo (0 where empty) and ink multiplier at every pixel of a raster.
+
+        On the relief the ink is looked up through the surface's texture
+        coordinates. Elsewhere it is 1, or, with ``rim``, the outer halves of
+        outline strokes are added around the silhouette (see :func:`_rim_uv`).
+        """
+        m = raster.mask
+        albedo = np.zeros(m.shape + (3,))
+        if self.part_colors is not None:
+            albedo[m] = self.part_colors[raster.part[m]]
+        else:
+            albedo[m] = _sample(self.albedo, raster.uv[m])
+        ink = np.ones(m.shape)
+        ink[m] = _sample(self.ink, raster.uv[m])
+        if rim:
+            uv, near = _rim_uv(self.relief, raster)
+            ink[near] = _sample(self.ink, uv[near], outside=1.0)
+        return albedo, ink
+
+
+def _sample(image, uv, outside=None):
+    """Bilinear lookup of ``image`` at planar texture coordinates (v up).
+
+    Off the image: the nearest edge pixel, or ``outside`` when given.
+    """
+    from scipy import ndimage
+
+    h, w = image.shape[:2]
+    rows = (1.0 - uv[:, 1]) * h - 0.5
+    cols = uv[:, 0] * w - 0.5
+    mode, cval = ("nearest", 0.0) if outside is None else ("constant", outside)
+    if image.ndim == 2:
+        return ndimage.map_coordinates(image, [rows, cols], order=1, mode=mode, cval=cval)
+    return np.stack([ndimage.map_coordinates(image[..., c], [rows, cols], order=1, mode=mode,
+                                             cval=cval) for c in range(image.shape[2])], 1)
+
+
+# -- raster modes ------------------------------------------------------------------
+
+def _normals(relief, size, yaw):
+    r = _raster(relief, size, yaw)
+    n = r.normal * [1, -1, 1]  # relief frame (y down) -> OpenGL (y up)
+    rgba = np.zeros(r.mask.shape + (4,), np.uint8)
+    rgba[..., :3] = np.where(r.mask[..., None], np.rint((n + 1) * 127.5), 0).astype(np.uint8)
+    rgba[..., 3] = np.where(r.mask, 255, 0)
+    return Rendering("normals", rgba, r.mask)
+
+
+def _depth(relief, size, yaw):
+    r = _raster(relief, size, yaw)
+    d = r.depth[r.mask]
+    lo, hi = float(d.min()), float(d.max())
+    t = (r.depth - lo) / (hi - lo) if hi > lo else np.ones(r.mask.shape)
+    img = np.where(r.mask, 1 + np.rint(np.clip(t, 0, 1) * 65534), 0).astype(np.uint16)
+    return Rendering("depth", img, r.mask, depth_range=(lo, hi))
+
+
+def _shade(relief, layers, size, yaw, light, ambient, shear=0.0):
+    ss = _supersample(size)
+    r = _raster(relief, size, yaw, ss, shear)
+    albedo, ink = layers.sample(r)
+    l_dir = light * [1, -1, 1]  # user frame (y up) -> relief frame (y down)
+    n = r.normal
+    diffuse = np.clip(n @ l_dir, 0, None)
+    half = l_dir + [0, 0, 1]
+    half /= np.linalg.norm(half)
+    spec = _SPECULAR * np.clip(n @ half, 0, None) ** _SHININESS
+    lin = albedo * (ambient + (1 - ambient) * diffuse)[..., None] + spec[..., None]
+    srgb = _linear_to_srgb(lin) * ink[..., None]
+    cover = r.mask.astype(float)
+    # premultiplied box filter, then un-premultiply
+    rgb = _downsample(srgb * cover[..., None], ss)
+    alpha = _downsample(cover, ss)
+    rgb = np.divide(rgb, alpha[..., None], out=np.zeros_like(rgb), where=alpha[..., None] > 0)
+    return _rgba8(rgb, alpha)
+
+
+def _rgba8(rgb, alpha):
+    out = np.empty(alpha.shape + (4,), np.uint8)
+    out[..., :3] = np.rint(np.clip(rgb, 0, 1) * 255)
+    out[..., 3] = np.rint(np.clip(alpha, 0, 1) * 255)
+    return out
+
+
+def _stereo(relief, layers, size, yaw, light, ambient, disparity):
+    if disparity is None:
+        disparity = 0.02 * size[0]
+    scale, _ = fit_view(relief.size, size)
+    top = max(float(np.max(np.abs(p.vertices[:, 2]))) for p in relief.parts if len(p.vertices))
+    # x shift (drawing pixels) per unit depth, half to each eye; near points
+    # move right in the left view (crossed disparity: in front of the screen).
+    shear = disparity / (2 * top * scale) if top > 0 else 0.0
+    left = _shade(relief, layers, size, yaw, light, ambient, shear=shear)
+    right = _shade(relief, layers, size, yaw, light, ambient, shear=-shear)
+    # Each view over white; red from the left eye's luminance, green and blue
+    # from the right eye's colour.
+    lf, rf = (_over_white(v) for v in (left, right))
+    rgb = np.stack([lf @ [0.299, 0.587, 0.114], rf[..., 1], rf[..., 2]], axis=-1)
+    alpha = np.maximum(left[..., 3], right[..., 3]) / 255.0
+    return Rendering("stereo", _rgba8(rgb, alpha), alpha > 0,
+                     views={"left": left, "right": right})
+
+
+def _over_white(rgba):
+    a = rgba[..., 3:4] / 255.0
+    return rgba[..., :3] / 255.0 * a + (1 - a)
+
+
+# -- global illumination (Mitsuba 3) ------------------------------------------------
+
+def _mitsuba():
+    try:
+        import mitsuba as mi
+
+        mi.set_variant("scalar_rgb")
+    except (ImportError, AttributeError, ValueError) as e:
+        raise StageError("the 'gi' mode needs Mitsuba 3 with the scalar_rgb variant: "
+                         f"pip install 'inkray[render]' ({type(e).__name__}: {e})") from e
+    return mi
+
+
+def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
+    mi = _mitsuba()
+    mi.set_log_level(mi.LogLevel.Warn)
+    w, h = size
+    passes = min(_GI_PASSES, spp)
+    counts = [spp // passes + (k < spp % passes) for k in range(passes)]
+    acc = np.zeros((h, w, 4))
+    try:
+        scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
+        for k, n in enumerate(counts):
+            img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
+            acc += img * n
+            if progress is not None:
+                progress.update(k + 1, passes)
+    except RuntimeError as e:  # Mitsuba reports its failures as RuntimeError
+        raise StageError(f"gi: Mitsuba failed: {' '.join(str(e).split())}") from e
+    img = acc / spp
+    # The ink never goes through the path tracer: it is looked up per pixel
+    # (supersampled) and multiplied on top, so it is as sharp as the output.
+    # With the backdrop (just behind the relief) the outer halves of outline
+    # strokes are drawn on it; a transparent background keeps only the relief.
+    ss = _supersample(size)
+    r = _raster(relief, size, yaw, ss)
+    _, ink = layers.sample(r, rim=backdrop)
+    ink = _downsample(ink, ss)
+    cover = _downsample(r.mask.astype(float), ss)
+    if backdrop:
+        rgb = _linear_to_srgb(img[..., :3]) * ink[..., None]
+        return Rendering("gi", _rgba8(rgb, np.ones((h, w))), cover > 0)
+    alpha = np.clip(img[..., 3], 0, 1)  # Mitsuba's colour is premultiplied by it
+    lin = np.divide(img[..., :3], alpha[..., None], out=np.zeros((h, w, 3)),
+                    where=alpha[..., None] > 0)
+    return Rendering("gi", _rgba8(_linear_to_srgb(lin) * ink[..., None], alpha), cover > 0)
+
+
+def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
+    """Mitsuba scene dict. World: y up, z toward the viewer, image half-width = 1."""
+    from mitsuba import ScalarTransform4f as T
+
+    w, h = size
+    scale, _ = fit_view(relief.size, size)
+    k = 2.0 / w * scale  # drawing pixels -> world units (orthographic film spans x in [-1, 1])
+    cx, cy = (relief.size[0] - 1) / 2.0, (relief.size[1] - 1) / 2.0
+    a = np.radians(yaw)
+    eye = [10 * np.sin(a), 0.0, 10 * np.cos(a)]
+    scene = {
+        "type": "scene",
+        # hidden emitters: the sky lights the scene but leaves alpha 0 where nothing is hit
+        "integrator": {"type": "path", "max_depth": 8, "hide_emitters": True},
+        "sensor": {"type": "orthographic",
+                   "to_world": T().look_at(origin=eye, target=[0, 0, 0], up=[0, 1, 0]),
+                   "near_clip": 0.01, "far_clip": 100.0,
+                   "film": {"type": "hdrfilm", "width": w, "height": h,
+                            "pixel_format": "rgba", "rfilter": {"type": "gaussian"}},
+                   # stratified samples: about half the noise of independent ones
+                   "sampler": {"type": "multijitter"}},
+        # a dim sky for soft ambient light
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.21, 0.23, 0.25]}},
+    }
+    # a soft, slightly warm area light toward `light`, facing the relief,
+    # giving a white surface facing it a radiance of about 0.8
+    dist, half = 6.0, 1.0
+    pos = light * dist
+    scene["sun"] = {"type": "rectangle",
+                    "to_world": T().look_at(origin=pos.tolist(), target=[0, 0, 0],
+                                            up=[0, 1, 0] if abs(light[1]) < 0.99 else [0, 0, 1])
+                    @ T().scale([half, half, 1]),
+                    "emitter": {"type": "area", "radiance": {
+                        "type": "rgb",
+                        "value": (0.8 * np.pi * dist ** 2 / (2 * half) ** 2
+                                  * np.array([1.0, 0.97, 0.92])).tolist()}}}
+    if layers.part_colors is None:
+        fill = layers.albedo.astype(np.float32)
+        texture = {"type": "bitmap", "bitmap": mi.Bitmap(np.ascontiguousarray(fill)),
+                   "filter_type": "bilinear", "wrap_mode": "clamp"}
+    zmin = 0.0
+    for i, p in enumerate(relief.parts):
+        if not len(p.faces):
+            continue
+        v = np.asarray(p.vertices, float)
+        zmin = min(zmin, float(v[:, 2].min()))
+        world = np.stack([(v[:, 0] - cx) * k, (cy - v[:, 1]) * k, v[:, 2] * k], axis=1)
+        normals = vertex_normals(v, p.faces) * [1, -1, 1]  # y down -> y up
+        if layers.part_colors is None:
+            color = texture
+        else:
+            color = {"type": "rgb", "value": layers.part_colors[i].tolist()}
+        bsdf = mi.load_dict({"type": "twosided", "bsdf": {
+            "type": "roughplastic", "distribution": "ggx", "alpha": 0.3,
+            "diffuse_reflectance": color}})
+        # Mitsuba's bitmap rows run top to bottom: v = (y + 0.5) / H, pixel
+        # centres (integers) on texel centres.
+        uv = np.stack([(v[:, 0] + 0.5) / relief.size[0], (v[:, 1] + 0.5) / relief.size[1]],
+                      axis=1)
+        scene[f"part{i}"] = _mesh(mi, f"part{i}", world, np.asarray(p.faces), normals, uv, bsdf)
+    if backdrop:
+        # just behind the lowest point, so the relief rests on it with contact shadows
+        z = zmin * k - 1e-3
+        scene["backdrop"] = {"type": "rectangle",
+                             "to_world": T().translate([0, 0, z]) @ T().scale([20, 20, 1]),
+                             "bsdf": {"type": "diffuse",
+                                      "reflectance": {"type": "rgb", "value": [0.8, 0.8, 0.78]}}}
+    return scene
+
+
+def _mesh(mi, name, vertices, faces, normals, uv, bsdf):
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=True,
+                   has_vertex_texcoords=True)
+    params = mi.traverse(mesh)
+    for key, data in (("vertex_positions", vertices), ("vertex_normals", normals),
+                      ("vertex_texcoords", uv)):
+        params[key] = type(params[key])(np.ascontiguousarray(data, np.float32).ravel())
+    params["faces"] = type(params["faces"])(np.ascontiguousarray(faces, np.uint32).ravel())
+    params.update()
+    return mesh
+
+
+# -- files -----------------------------------------------------------------------
+
+def _gif_frame(r):
+    from PIL import Image
+
+    if r.image.ndim == 2:  # depth: 16 -> 8 bit
+        return Image.fromarray((r.image >> 8).astype(np.uint8)).convert("RGB")
+    return Image.fromarray(np.rint(_over_white(r.image) * 255).astype(np.uint8))
+
+
+def _save_png(r, target):
+    from PIL import Image, PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    if r.depth_range is not None:
+        info.add_text("inkray:depth", json.dumps(
+            {"background": 0, "far": [1, r.depth_range[0]], "near": [65535, r.depth_range[1]],
+             "units": "drawing pixels"}))
+        Image.fromarray(r.image.astype(np.uint16)).save(target, format="PNG", pnginfo=info)
+    else:
+        Image.fromarray(r.image).save(target, format="PNG")
+
+
+def read_relief(path):
+    """A relief from a GLB/glTF, OBJ or PLY file.
+
+    Geometry comes from :func:`inkray.formats.meshes.read_meshes`. inkray's files are
+    placed by the frame their exporter records (GLB scene extras, PLY header
+    comments; see :mod:`inkray.export`); other files with a texture by their
+    texture coordinates (``x = u W - 0.5``, ``y = (1 - v) H - 0.5``: pixel
+    centres at integers, as in :mod:`inkray.relief`); anything else is
+    scaled so its longer side spans 512 pixels. The drawing is the GLB's
+    base-colour texture or the OBJ's ``map_Kd`` (PLY carries none).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    inkray.relief.model.Relief
+
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable, holds no triangles, or its inkray
+        frame record is malformed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from inkray.formats.meshes import export_relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> back = read_relief(p)
+    >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
+    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
+    """
+    import trimesh
+
+    from inkray.formats.meshes import pixel_coordinates, read_meshes
+
+    path = Path(path)
+    meshes = read_meshes(path)
+    try:
+        scene = trimesh.load_scene(path, process=False)
+    except Exception as e:  # read_meshes parsed it; only materials can fail here
+        raise InputError(f"{path}: cannot read its materials: {type(e).__name__}: {e}") from e
+    texture, pairs = None, []
+    for node in scene.graph.nodes_geometry:
+        transform, geom_name = scene.graph[node]
+        geom = scene.geometry[geom_name]
+        uv = getattr(geom.visual, "uv", None)
+        material = getattr(geom.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if path.suffix.lower() == ".ply" or uv is None or image is None:
+            continue
+        if texture is None:
+            texture = np.asarray(image.convert("RGB"))
+        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
+        pairs.append((v, np.asarray(uv, float)))
+    frame = _frame(scene, path)
+    allv = np.concatenate([m.vertices for m in meshes])
+    if frame is not None:
+        size, s, anchor = frame
+
+        def to_pixels(v):
+            return pixel_coordinates(v, size, units_per_pixel=s, anchor=anchor)
+    elif texture is not None:
+        size = (texture.shape[1], texture.shape[0])
+        to_pixels = _uv_fit(pairs, size, path)
+    else:
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
+        s = max(float(np.max(hi[:2] - lo[:2])), 1e-12) / 512
+        size = tuple(max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
+
+        def to_pixels(v):
+            # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
+            return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
+                             v[:, 2] / s], axis=1)
+    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
+    return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
+
+
+def _frame(scene, path):
+    """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
+    meta = scene.metadata or {}
+    info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
+    if info is None and path.suffix.lower() == ".ply":
+        with open(path, "rb") as fh:
+            for raw in fh:
+                line = raw.decode("ascii", "replace").strip()
+                if line == "end_header":
+                    break
+                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
+                             r"(\S+)(?: anchor (\S+))?$", line)
+                if m:
+                    info = {"drawing_size": [int(m[1]), int(m[2])],
+                            "units_per_pixel": float(m[3]), "anchor": m[4] or "center"}
+    if info is None:
+        return None
+    try:
+        w, h = (int(x) for x in info["drawing_size"])
+        s = float(info["units_per_pixel"])
+        anchor = info.get("anchor", "center")
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"{path}: extras.inkray: malformed ({e})") from e
+    if w <= 0 or h <= 0 or not s > 0 or anchor not in ("center", "top-left"):
+        raise InputError(f"{path}: extras.inkray: drawing_size {info.get('drawing_size')}, "
+                         f"units_per_pixel {s}, anchor {anchor!r} out of range")
+    return (w, h), s, anchor
+
+
+def _uv_fit(pairs, size, path):
+    """Scene -> pixel map fitted to texture coordinates: x = u W - 0.5, y = (1 - v) H - 0.5."""
+    v = np.concatenate([p[0] for p in pairs])
+    uv = np.concatenate([p[1] for p in pairs])
+    target = np.stack([uv[:, 0] * size[0] - 0.5, (1 - uv[:, 1]) * size[1] - 0.5], axis=1)
+    coef = []
+    for axis in range(2):
+        a = np.column_stack([v[:, axis], np.ones(len(v))])
+        c, *_ = np.linalg.lstsq(a, target[:, axis], rcond=None)
+        coef.append(c)
+    s = (abs(coef[0][0]) + abs(coef[1][0])) / 2
+    if not s > 0:
+        raise InputError(f"{path}: texture coordinates do not vary with position")
+
+    def to_pixels(p):
+        return np.stack([coef[0][0] * p[:, 0] + coef[0][1], coef[1][0] * p[:, 1] + coef[1][1],
+                         p[:, 2] * s], axis=1)
+    return to_pixels

@@ -1,0 +1,121 @@
+"""Assembly: open reliefs, closed solids, the manifold3d union."""
+
+import manifold3d as m3d
+import numpy as np
+import pytest
+import trimesh
+
+from inkray.input.annotations import parse_annotations
+from inkray.relief.assembly import assemble, close_part
+from inkray.relief.completion import complete_regions
+from inkray.errors import StageError
+from inkray.relief.inflation import inflate_region
+from inkray.relief.ordering import depth_order
+from inkray.relief.model import Part
+from inkray.relief.stitching import stitch
+
+
+def _scene(profile_b="sqrt"):
+    """A disk body, a limb grafted on it, a flat badge on the body; and the image frame
+    cuts the limb (a Neumann stretch of outline)."""
+    h, w = 200, 300
+    yy, xx = np.mgrid[:h, :w]
+    body = (xx - 110) ** 2 + (yy - 100) ** 2 <= 80 ** 2
+    limb = (xx >= 140) & (np.abs(yy - 100) <= 22)  # runs into the right frame edge
+    badge = (xx - 90) ** 2 + (yy - 70) ** 2 <= 15 ** 2
+    labels = np.full((h, w), -1, np.int32)
+    labels[body] = 0
+    labels[limb] = 1
+    labels[badge] = 2
+    ann = parse_annotations({
+        "format": "inkray-annotations", "version": 1, "size": [w, h],
+        "regions": [{"name": "body", "scribbles": [[[60, 120]]]},
+                    {"name": "limb", "scribbles": [[[250, 100]]]},
+                    {"name": "badge", "scribbles": [[[90, 70]]], "profile": profile_b}],
+        "order": [{"front": [200, 100], "back": [120, 150]}, {"front": [90, 70], "back": [90, 95]}],
+        "boundaries": [{"type": "graft", "path": [[139.5, 80], [139.5, 120]]}]})
+    c = complete_regions(labels, names=[r.name for r in ann.regions])
+    relations, _ = depth_order(ann, labels, c)
+    c = c.ordered(relations)
+    inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
+                               name=r.name, boundaries=ann.boundaries, profile=r.profile)
+                for i, r in enumerate(ann.regions)]
+    return stitch(inflated, relations, c, annotations=ann), labels
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return _scene(profile_b="flat")
+
+
+def test_open_relief_parts_follow_the_regions(scene):
+    layers, labels = scene
+    relief = assemble(layers, size=(300, 200))
+    assert [p.name for p in relief.parts] == ["body", "limb", "badge"]
+    assert min(p.vertices[:, 2].min() for p in relief.parts) == pytest.approx(0.0)
+    for i, p in enumerate(relief.parts):
+        np.testing.assert_allclose(p.vertices[:, 2] - p.vertices[:, 2].min(),
+                                   layers.z(i) - layers.z(i).min(), atol=1e-9)
+        mesh = trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces, process=False)
+        # faces toward the viewer: in the y-up frame every normal has +z
+        assert (mesh.face_normals[:, 2] > 0).mean() > 0.99
+        assert not p.closed
+
+
+def test_closed_parts_are_valid_solids(scene):
+    layers, _ = scene
+    relief = assemble(layers, size=(300, 200), closed=True)
+    for p in relief.parts:
+        assert p.closed
+        mesh = trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces, process=True)
+        assert mesh.is_watertight, p.name
+        assert mesh.is_winding_consistent, p.name
+        assert mesh.is_volume and mesh.volume > 0, p.name
+        solid = m3d.Manifold(m3d.Mesh(vert_properties=np.asarray(mesh.vertices, np.float32),
+                                      tri_verts=np.asarray(mesh.faces, np.uint32)))
+        assert solid.status() == m3d.Error.NoError, p.name
+    # the flat badge is a slab of thickness epsilon, not a zero-volume sheet
+    badge = relief.parts[2]
+    z = badge.vertices[:, 2]
+    assert np.ptp(z) == pytest.approx(layers.epsilon + np.ptp(layers.offset[2]), rel=1e-6)
+    assert np.ptp(layers.offset[2]) < 0.01
+
+
+def test_union_is_one_watertight_solid(scene):
+    layers, _ = scene
+    relief = assemble(layers, size=(300, 200), closed=True, union=True)
+    assert [p.name for p in relief.parts] == ["union"]
+    mesh = trimesh.Trimesh(relief.parts[0].vertices * [1, -1, 1], relief.parts[0].faces)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    # no two vertices at one position (other tools weld those into non-manifold edges)
+    assert len(np.unique(relief.parts[0].vertices, axis=0)) == len(relief.parts[0].vertices)
+    parts = assemble(layers, size=(300, 200), closed=True).parts
+    separate = sum(trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces).volume for p in parts)
+    assert mesh.volume <= separate + 1e-6  # overlaps count once
+
+
+def test_union_needs_closed_parts(scene):
+    with pytest.raises(StageError, match="union needs closed parts"):
+        assemble(scene[0], size=(300, 200), union=True)
+
+
+def test_close_part_walls_the_outline():
+    # a square sheet: height 0 on three sides, 5 on the fourth (a Neumann edge)
+    xs = np.linspace(0, 10, 6)
+    yy, xx = np.meshgrid(xs, xs, indexing="ij")
+    v = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(36)])
+    v[:, 2] = np.where(np.isclose(v[:, 0], 10), 5.0, np.where(
+        (v[:, 0] == 0) | (v[:, 1] == 0) | (v[:, 1] == 10), 0.0, 3.0))
+    idx = np.arange(36).reshape(6, 6)
+    quads = np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]], -1).reshape(-1, 4)
+    faces = np.concatenate([quads[:, [0, 2, 1]], quads[:, [0, 3, 2]]])  # all-outline corner ears
+    part = close_part(Part("sq", v, faces), -v[:, 2] - 0.5)
+    mesh = trimesh.Trimesh(part.vertices * [1, -1, 1], part.faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    assert len(part.faces) == 2 * len(faces) + 2 * 20  # 20 outline edges
+    # the thickness 2 h + 0.5 integrated over the square (h piecewise linear)
+    e1, e2 = v[faces[:, 1], :2] - v[faces[:, 0], :2], v[faces[:, 2], :2] - v[faces[:, 0], :2]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    assert mesh.volume == pytest.approx(2 * area @ v[faces, 2].mean(1) + 0.5 * 100, rel=1e-9)
+    with pytest.raises(StageError, match="does not lie below the front"):
+        close_part(Part("sq", v, faces), v[:, 2])

@@ -1,0 +1,192 @@
+"""Region completion (inkray.complete): illusory surfaces under occluders."""
+
+import numpy as np
+import pytest
+
+from inkray.input.annotations import Annotations
+from inkray.relief.completion import complete_regions, continue_outline
+from inkray.errors import InputError
+from inkray.relief.ordering import depth_order
+
+H = W = 200
+YY, XX = np.mgrid[:H, :W]
+
+
+def iou(a, b):
+    return (a & b).sum() / (a | b).sum()
+
+
+def behind_band(shape, fraction, offset):
+    """A square (100 px) or disk (diameter 120 px) with a vertical band over it."""
+    if shape == "square":
+        true = (YY >= 50) & (YY < 150) & (XX >= 50) & (XX < 150)
+        width = 100
+    else:
+        true = (XX - 100.0) ** 2 + (YY - 100.0) ** 2 <= 60 ** 2
+        width = 120
+    bw = int(round(fraction * width))
+    c0 = 100 - bw // 2 + int(round(offset * width))
+    band = (XX >= c0) & (XX < c0 + bw) & (YY >= 20) & (YY < 180)
+    labels = np.full((H, W), -1, np.int32)
+    labels[true] = 0
+    labels[band] = 1
+    return labels, true, band
+
+
+def final_completion(labels, names=("shape", "band")):
+    c = complete_regions(labels, names=list(names))
+    relations, _ = depth_order(Annotations(size=labels.shape[::-1]), labels, c)
+    return c, relations, c.ordered(relations)
+
+
+@pytest.mark.parametrize("shape", ["square", "disk"])
+@pytest.mark.parametrize("fraction", [0.1, 0.2, 0.3, 0.4])
+@pytest.mark.parametrize("offset", [-0.1, 0.0, 0.1])
+def test_shape_behind_band_is_completed(shape, fraction, offset):
+    labels, true, band = behind_band(shape, fraction, offset)
+    c, relations, final = final_completion(labels)
+    assert [(r.front, r.back) for r in relations] == [(1, 0)]
+    completed = final.completed(0)
+    assert iou(completed, true) >= 0.99
+    invented = final.owner == 0
+    assert invented.any()
+    assert not (invented & ~band).any(), "invented pixels must lie inside the occluder"
+    assert (final.hidden_by(0)[invented] == 1).all()
+    # The band in front is not completed under the shape.
+    assert not (final.owner == 1).any()
+
+
+@pytest.mark.parametrize("fraction", [0.1, 0.25, 0.4])
+def test_square_continues_straight_from_the_diffusion_alone(fraction):
+    labels, true, band = behind_band("square", fraction, 0.0)
+    c = complete_regions(labels)
+    # Candidates: the square's pixels under the band are exactly the hidden ones.
+    assert np.array_equal(c.owner[band] == 0, true[band])
+
+
+def test_curvature_continuation_beats_the_chord():
+    """The diffusion joins the ends of a circle by a nearly straight line; the
+    curvature-continuing reshaping recovers the arc."""
+    labels, true, band = behind_band("disk", 0.4, 0.0)
+    c, relations, final = final_completion(labels)
+    chord = iou(c.completed(0), true)
+    arc = iou(final.completed(0), true)
+    assert chord < 0.975 < 0.99 <= arc
+    plain = c.ordered(relations, curvature=False)
+    assert iou(plain.completed(0), true) == pytest.approx(chord)
+
+
+def test_band_touching_the_frame_continues_straight():
+    labels = np.full((80, 120), -1, np.int32)
+    labels[20:60, 10:110] = 0
+    labels[:, 50:70] = 1          # the band runs from frame to frame
+    c = complete_regions(labels)
+    rows = (np.arange(80) >= 20) & (np.arange(80) < 60)
+    assert np.array_equal(c.owner[:, 50:70] == 0, np.repeat(rows[:, None], 20, axis=1))
+
+
+def test_half_plane_contact_gives_the_thales_half_disk():
+    """Harmonic measure of a segment on a straight edge is angle / pi: the 0.5
+    level is the half circle over the segment (closed form)."""
+    n = 401
+    labels = np.full((n, n), 0, np.int32)
+    labels[:, :200] = -1                       # region 0 occupies x >= 200
+    labels[170:230, 199] = 1                   # region 1 touches it along 60 px
+    c = complete_regions(labels, names=["big", "small"])
+    invented = c.owner == 1
+    ys, xs = np.nonzero(invented)
+    r = np.hypot(xs - 199.5, ys - 199.5)
+    assert invented.sum() == pytest.approx(np.pi * 30 ** 2 / 2, rel=0.08)
+    assert r.max() < 32
+
+
+def test_one_owner_per_pixel_and_only_neighbours():
+    labels = np.full((60, 90), -1, np.int32)
+    labels[10:50, 5:30] = 0
+    labels[10:50, 30:60] = 1
+    labels[10:50, 60:85] = 2
+    labels[25:35, 35:55] = 3                   # inside region 1
+    c = complete_regions(labels)
+    assert c.neighbours == [[1], [0, 2, 3], [1], [1]]
+    for a in range(4):
+        owners = set(np.unique(c.owner[labels == a])) - {-1}
+        assert owners <= set(c.neighbours[a])
+    # Region 1 has three neighbours solved from one factorization: each gets candidates.
+    assert set(np.unique(c.owner[labels == 1])) - {-1} == {0, 2, 3}
+    for b in range(4):
+        assert (c.completed(b) >= (labels == b)).all()
+    assert (c.owner[labels < 0] == -1).all()
+
+
+def test_two_crossings_are_two_places():
+    labels = np.full((60, 120), -1, np.int32)
+    labels[20:40, 5:115] = 0                   # a long bar
+    labels[5:55, 30:40] = 1                    # crossed twice by the same region
+    labels[5:55, 80:90] = 1
+    c = complete_regions(labels)
+    places = [p for p in c.places if (p.a, p.b) == (0, 1)]
+    assert len(places) == 2
+    assert places[0].site != places[1].site
+    for p in places:
+        assert len(p.junctions) == 4
+        x, y = p.where
+        assert labels[y, x] in (0, 1)
+
+
+def test_enclosed_region_has_a_closed_place_without_junctions():
+    labels = np.where((YY - 100) ** 2 + (XX - 100) ** 2 < 70 ** 2, 0, -1).astype(np.int32)
+    labels[(YY - 90) ** 2 + (XX - 110) ** 2 < 15 ** 2] = 1
+    c = complete_regions(labels)
+    assert len(c.places) == 1 and c.places[0].junctions == []
+    # The enclosing region's completion fills the enclosed one entirely.
+    assert (c.owner[labels == 1] == 0).all()
+
+
+def test_region_without_boundary_values_and_empty_labels():
+    c = complete_regions(np.zeros((10, 10), np.int32))
+    assert (c.owner == -1).all() and c.places == [] and c.neighbours == [[]]
+    labels = np.full((10, 10), -1, np.int32)
+    labels[2:5, 2:5] = 2                       # labels 0 and 1 are absent
+    c = complete_regions(labels)
+    assert c.names == ["region0", "region1", "region2"]
+    assert (c.owner == -1).all()
+
+
+def test_continue_outline_is_exact_for_straight_edges():
+    labels, true, band = behind_band("square", 0.3, 0.05)
+    owner = np.where(band & (YY > 60) & (YY < 140), 0, -1).astype(np.int32)  # a poor first guess
+    assert continue_outline(labels, owner, 1, 0, (0, H, 0, W), owner == 0)
+    assert np.array_equal(owner == 0, band & true)
+
+
+def test_continue_outline_needs_an_outline():
+    labels = np.where((YY - 100) ** 2 + (XX - 100) ** 2 < 70 ** 2, 0, -1).astype(np.int32)
+    labels[(YY - 100) ** 2 + (XX - 100) ** 2 < 15 ** 2] = 1
+    owner = np.where(labels == 0, 1, -1).astype(np.int32)
+    before = owner.copy()
+    assert not continue_outline(labels, owner, 0, 1, (0, H, 0, W), owner == 1)
+    assert np.array_equal(owner, before)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (np.zeros((4, 4), float), "integer"),
+    (np.zeros((2, 3, 4), np.int32), "shape"),
+    (np.full((4, 4), -3, np.int32), r"pixel \(0, 0\) has label -3"),
+])
+def test_bad_labels(bad, message):
+    with pytest.raises(InputError, match=message):
+        complete_regions(bad)
+
+
+def test_bad_names_and_threshold():
+    with pytest.raises(InputError, match="names"):
+        complete_regions(np.array([[0, 1]], np.int32), names=["only"])
+    with pytest.raises(InputError, match="threshold"):
+        complete_regions(np.array([[0, 1]], np.int32), threshold=0.4)
+
+
+def test_deterministic():
+    labels, _, _ = behind_band("disk", 0.3, 0.1)
+    a = final_completion(labels)[2]
+    b = final_completion(labels)[2]
+    assert np.array_equal(a.owner, b.owner)

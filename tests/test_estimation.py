@@ -1,0 +1,388 @@
+"""Depth from sparse (in)equalities: exact QP, fast approximation, outputs, CLI."""
+
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from PIL import Image
+
+from inkray.input.annotations import parse_annotations, rescale_annotations
+from inkray.cli import main
+from inkray.depthmap.estimation import (DepthSession, depth, depth_constraints, depth_png, normal_map,
+                          shaded_preview, write_depth_outputs)
+from inkray.input.drawing import drawing_from_array
+from inkray.errors import InputError
+from inkray.input.loading import load_input
+from inkray.depthmap.quadratic_program import (GroundedLaplacian, constraint_cycle, edge_weights, grid_laplacian,
+                       solve_depth_qp)
+
+from conftest import shared_drawing_names
+
+
+def _ann(size, order=(), equal=(), **extra):
+    doc = {"format": "inkray-annotations", "version": 1, "size": list(size),
+           "order": [{"front": list(f), "back": list(b)} for f, b in order],
+           "equal": [{"a": list(a), "b": list(b)} for a, b in equal]}
+    doc.update(extra)
+    return parse_annotations(doc)
+
+
+def _line_image(h=40, w=60, col=30, width=3):
+    gray = np.ones((h, w))
+    gray[:, col - width // 2: col + width // 2 + 1] = 0.0
+    return gray
+
+
+# -- the exact QP ----------------------------------------------------------------
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_ramp_in_an_ink_free_strip_is_linear(method):
+    w = 101
+    ann = _ann((w, 1), order=[((0, 0), (w - 1, 0))])
+    d = depth(ann, np.ones((1, w)), method=method).depth[0]
+    ramp = np.linspace(d[0], d[-1], w)
+    assert d[0] - d[-1] >= 1.0 - 1e-9
+    assert np.abs(d - ramp).max() < 0.01 * (d[0] - d[-1])
+
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_step_at_an_ink_line(method):
+    gray = _line_image()
+    ann = _ann((60, 40), order=[((10, 20), (50, 20))])
+    d = depth(ann, gray, method=method).depth
+    left, right = d[:, :27], d[:, 33:]
+    # Each side is flat and the whole step of epsilon sits at the line.
+    assert np.ptp(left) < 0.01 and np.ptp(right) < 0.01
+    assert left.mean() - right.mean() == pytest.approx(1.0, abs=0.01)
+
+
+def test_exact_meets_kkt_measured_independently():
+    rng = np.random.default_rng(1)
+    gray = _line_image(24, 30, col=12)
+    gray[8, :] = 0.0
+    h, w = gray.shape
+    wx, wy, _ = edge_weights(gray)
+    L = grid_laplacian(wx, wy)
+    truth = rng.standard_normal(h * w)
+    pts = rng.choice(h * w, size=(12, 2), replace=False)
+    front = truth[pts[:, 0]] > truth[pts[:, 1]]
+    p = np.where(front, pts[:, 0], pts[:, 1])
+    q = np.where(front, pts[:, 1], pts[:, 0])
+    # Two equalities between points no order relates.
+    free = np.setdiff1d(np.arange(h * w), pts)[[0, 100, 200, 300]]
+    p, q = np.r_[p, free[0], free[2]], np.r_[q, free[1], free[3]]
+    ineq = np.r_[np.ones(12, bool), False, False]
+    r = solve_depth_qp(L, p, q, ineq, epsilon=1.0, shape=(h, w))
+    d, lam = r.depth, r.multipliers
+    slack = d[p] - d[q] - np.where(ineq, 1.0, 0.0)
+    ct = np.bincount(p, lam, minlength=h * w) - np.bincount(q, lam, minlength=h * w)
+    assert slack[ineq].min() >= -1e-6 and np.abs(slack[~ineq]).max() <= 1e-6
+    assert lam[ineq].min() >= -1e-9
+    assert np.abs(lam * slack)[ineq].max() <= 1e-6
+    assert np.abs(L @ d - ct).max() <= 1e-6 * max(1.0, np.abs(ct).max())
+    assert abs(d.mean()) < 1e-9
+    assert max(r.kkt.values()) <= 1e-6
+
+
+def _osqp_solution(L, p, q, ineq, eps):
+    osqp = pytest.importorskip("osqp")
+    n, m = L.shape[0], len(p)
+    C = sp.csc_matrix((np.tile([1.0, -1.0], m), (np.repeat(np.arange(m), 2),
+                                                 np.stack([p, q], 1).ravel())), shape=(m, n))
+    A = sp.vstack([C, sp.csc_matrix(np.ones((1, n)))]).tocsc()
+    lo = np.r_[np.where(ineq, eps, 0.0), 0.0]
+    hi = np.r_[np.where(ineq, np.inf, 0.0), 0.0]
+    solver = osqp.OSQP()
+    solver.setup(P=sp.triu(L).tocsc(), q=np.zeros(n), A=A, l=lo, u=hi, eps_abs=1e-10,
+                 eps_rel=1e-10, max_iter=200000, polishing=True, verbose=False)
+    res = solver.solve(raise_error=False)
+    return res.x - res.x.mean()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_exact_matches_osqp_on_small_problems(seed):
+    rng = np.random.default_rng(seed)
+    h, w = 18, 22
+    gray = np.ones((h, w))
+    gray[rng.integers(0, h), :] = 0.1
+    gray[:, rng.integers(0, w)] = 0.0
+    gray = np.clip(gray + 0.05 * rng.random((h, w)), 0, 1)
+    wx, wy, _ = edge_weights(gray)
+    L = grid_laplacian(wx, wy)
+    truth = rng.permutation(h * w)  # a total order, so the constraints are consistent
+    pts = rng.choice(h * w, size=(10, 2), replace=False)
+    p = np.where(truth[pts[:, 0]] > truth[pts[:, 1]], pts[:, 0], pts[:, 1])
+    q = np.where(truth[pts[:, 0]] > truth[pts[:, 1]], pts[:, 1], pts[:, 0])
+    # Redundant and dependent rows: a duplicate and an implied order.
+    p, q = np.r_[p, p[0]], np.r_[q, q[0]]
+    ineq = np.ones(len(p), bool)
+    # One equality between two points that no order relates.
+    free = np.setdiff1d(np.arange(h * w), np.r_[p, q])[:2]
+    p, q, ineq = np.r_[p, free[0]], np.r_[q, free[1]], np.r_[ineq, False]
+    ours = solve_depth_qp(L, p, q, ineq, epsilon=1.0, shape=(h, w)).depth
+    ref = _osqp_solution(L, p, q, ineq, 1.0)
+    assert np.abs(ours - ref).max() <= 1e-4 * np.abs(ref).max()
+
+
+def test_dependent_equalities_and_orders():
+    # Path of 5 nodes: equal(0,1), equal(1,2), equal(0,2) (a cycle of equalities is fine),
+    # order(2,4) twice and order(0,4): all the same constraint in the end.
+    L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))
+    r = solve_depth_qp(L, [0, 1, 0, 2, 2, 0], [1, 2, 2, 4, 4, 4],
+                       [False, False, False, True, True, True], epsilon=2.0)
+    d = r.depth
+    assert d[0] == pytest.approx(d[2], abs=1e-9)
+    assert d[2] - d[4] == pytest.approx(2.0, abs=1e-9)
+    assert max(r.kkt.values()) <= 1e-6
+
+
+def test_grounded_laplacian_on_a_grid_and_as_a_graph():
+    wx, wy, _ = edge_weights(np.random.default_rng(0).random((7, 9)))
+    L = grid_laplacian(wx, wy)
+    assert np.abs(L @ np.ones(63)).max() < 1e-12
+    r = np.random.default_rng(1).standard_normal(63)
+    r -= r.mean()
+    p, q = np.array([3, 40, 62]), np.array([17, 5, 0])
+    Ct = np.zeros((63, 3))
+    Ct[p, np.arange(3)] += 1.0
+    Ct[q, np.arange(3)] -= 1.0
+    Hs = []
+    for shape in ((7, 9), None):
+        f = GroundedLaplacian(L, shape=shape)
+        d = f.solve(r)
+        assert np.abs(L @ d - r).max() < 1e-10 and d[f.ground] == 0.0
+        H, primal = f.dual(p, q)
+        assert np.allclose(H, Ct.T @ f.solve(Ct), atol=1e-10)
+        lam = np.array([1.0, -0.5, 2.0])
+        x = primal(lam)
+        assert np.abs(x - f.solve(Ct @ lam)).max() < 1e-10 and x[f.ground] == 0.0
+        Hs.append(H)
+    assert np.allclose(Hs[0], Hs[1], atol=1e-10)
+    with pytest.raises(InputError, match="not a 4-neighbour operator"):
+        GroundedLaplacian(L, shape=(9, 7))
+
+
+def test_default_sigma_is_the_mean_squared_contrast():
+    gray = _line_image(10, 10, col=5, width=1)
+    wx, wy, sigma = edge_weights(gray)
+    dx2, dy2 = np.diff(gray, axis=1) ** 2, np.diff(gray, axis=0) ** 2
+    assert sigma == pytest.approx((dx2.sum() + dy2.sum()) / (dx2.size + dy2.size))
+    assert wx.min() == pytest.approx(np.exp(-1.0 / sigma)) and wy.min() == 1.0
+    wx, _, _ = edge_weights(gray, sigma=0.01)
+    assert wx.min() == 1e-5                            # the floor
+
+# -- contradictions ----------------------------------------------------------------
+
+def test_cycle_lists_the_entries():
+    ann = _ann((20, 20), order=[((1, 1), (10, 10)), ((15, 3), (4, 4)), ((10, 10), (1, 1))])
+    for method in ("exact", "fast"):
+        with pytest.raises(InputError, match=r"^order\[0\] -> order\[2\] -> order\[0\]: "):
+            depth(ann, np.ones((20, 20)), method=method)
+
+
+def test_equality_joining_the_two_sides_of_an_order():
+    ann = _ann((20, 20), order=[((1, 1), (10, 10))], equal=[((10, 10), (5, 5)), ((5, 5), (1, 1))])
+    with pytest.raises(InputError, match=r"^order\[0\] -> equal\[0\] -> equal\[1\] -> order\[0\]"):
+        depth(ann, np.ones((20, 20)))
+
+
+def test_cycle_search_on_longer_chains():
+    assert constraint_cycle([0, 1, 2, 3], [1, 2, 3, 1], [True, True, True, True]) == [1, 2, 3]
+    assert constraint_cycle([0, 1], [1, 0], [False, False]) == []
+
+
+def test_cli_contradiction_exits_2_and_writes_nothing(tmp_path):
+    Image.fromarray(np.full((20, 30), 255, np.uint8)).save(tmp_path / "d.png")
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "d.png", "size": [30, 20],
+           "order": [{"front": [2, 2], "back": [20, 10]}, {"front": [20, 10], "back": [2, 2]}]}
+    (tmp_path / "a.inkray.json").write_text(json.dumps(doc))
+    out = tmp_path / "out"
+    code = main(["--quiet", "depth", str(tmp_path / "a.inkray.json"), "-o", str(out / "d.png"),
+                 "--npy", str(out / "d.npy")])
+    assert code == 2
+    assert not out.exists() or not any(out.iterdir())
+
+
+# -- fast method and session -------------------------------------------------------
+
+def test_session_add_remove_reuses_the_segmentation():
+    gray = np.ones((40, 60))
+    gray[:, 20] = 0.0
+    gray[:, 40] = 0.0
+    s = DepthSession(gray)
+    a = s.add((10, 20), (30, 20))
+    d1 = s.solve()
+    labels = s.labels.copy()
+    b = s.add((30, 20), (50, 20))            # new endpoint: only its segment is re-cut
+    d2 = s.solve()
+    assert d2[20, 10] > d2[20, 30] > d2[20, 50]
+    assert (s.labels[:, :19] == labels[:, :19]).all()
+    c = s.add((10, 20), (50, 20), label="order[9]")   # no new endpoint: same segments
+    seg = s.labels.copy()
+    s.solve()
+    assert (s.labels == seg).all()
+    s.remove(b)
+    s.remove(c)
+    assert np.allclose(s.solve(), d1, atol=1e-9)
+    s.remove(a)
+    with pytest.raises(InputError):
+        s.remove(a)
+
+
+def test_session_with_scribbles_keeps_regions():
+    gray = np.ones((30, 60))
+    gray[:, 30] = 0.0
+    seeds = np.full((30, 60), -2, np.int32)
+    seeds[15, 5:25] = 0
+    seeds[15, 35:55] = 1
+    s = DepthSession(gray, seeds=seeds)
+    s.add((10, 5), (50, 25))
+    d = s.solve()
+    assert d[:, :29].min() - d[:, 32:].max() > 0.98
+    s.add((50, 25), (12, 10))                  # contradicts at the region level
+    with pytest.raises(InputError, match=r"order\[0\] -> order\[1\] -> order\[0\].*region"):
+        s.solve()
+
+
+def test_session_updates_its_factorization_and_matches_a_fresh_solve():
+    # Three inked boxes on paper, each with a region scribble.
+    gray = np.ones((96, 128))
+    seeds = np.full(gray.shape, -2, np.int32)
+    for k, (y0, x0) in enumerate(((10, 10), (10, 70), (55, 40))):
+        gray[y0, x0:x0 + 40] = gray[y0 + 30, x0:x0 + 40] = 0.0
+        gray[y0:y0 + 31, x0] = gray[y0:y0 + 31, x0 + 40] = 0.0
+        seeds[y0 + 15, x0 + 5:x0 + 35] = k
+    s = DepthSession(gray, seeds=seeds)
+    s.add((30, 25), (90, 25))
+    s.solve()
+    k = s.add((60, 70), (5, 90))                # the third box in front of the paper
+    d = s.solve()
+    redone = s.refactored_fronts
+    for incremental in (True, False):
+        fresh = DepthSession(gray, seeds=seeds, incremental=incremental)
+        fresh.add((30, 25), (90, 25))
+        fresh.add((60, 70), (5, 90))
+        assert np.abs(d - fresh.solve()).max() < 1e-9
+    assert sum(u.nbytes for u in fresh._chol._updates if u is not None) == 0  # nothing kept
+    assert 0 < redone < s._chol.fronts
+    s.remove(k)
+    again = DepthSession(gray, seeds=seeds)
+    again.add((30, 25), (90, 25))
+    assert np.abs(s.solve() - again.solve()).max() < 1e-9
+
+
+def _reduced(name, max_side=360):
+    ann, drawing = load_input(f"{_shared()}/{name}/drawing.inkray.json")
+    w, h = ann.size
+    s = min(1.0, max_side / max(w, h))
+    if s < 1:
+        size = (round(w * s), round(h * s))
+        rgb = np.asarray(Image.fromarray(drawing.rgb).resize(size, Image.LANCZOS))
+        drawing = drawing_from_array(rgb)
+        ann = rescale_annotations(ann, size)
+    return ann, drawing
+
+
+def _shared():
+    from conftest import SHARED
+    return SHARED
+
+
+def _check_drawing(ann, drawing):
+    p, q, ineq, _ = depth_constraints(ann)
+    exact = depth(ann, drawing, method="exact")
+    fast = depth(ann, drawing, method="fast")
+    assert max(exact.info["kkt"].values()) <= 1e-6
+    de, df = exact.depth.ravel(), fast.depth.ravel()
+    assert (de[p] - de[q])[ineq].min() >= 1.0 - 1e-6
+    assert np.abs(de[p] - de[q])[~ineq].max(initial=0.0) <= 1e-6
+    # fast: the order of every constrained pair is right, and agrees with exact.
+    assert ((df[p] - df[q])[ineq] > 0).all()
+    assert (np.sign(df[p] - df[q]) == np.sign(de[p] - de[q]))[ineq].all()
+
+
+@pytest.mark.parametrize("name", shared_drawing_names())
+def test_constraints_hold_on_shared_drawings(name, shared_drawings):
+    _check_drawing(*_reduced(name))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", shared_drawing_names())
+def test_constraints_hold_on_shared_drawings_full_size(name, shared_drawings):
+    _check_drawing(*load_input(shared_drawings / name / "drawing.inkray.json"))
+
+
+# -- outputs ------------------------------------------------------------------------
+
+def test_depth_png_round_trip_and_sidecar(tmp_path):
+    rng = np.random.default_rng(0)
+    d = rng.standard_normal((12, 16))
+    png, meta = depth_png(d)
+    (tmp_path / "x.png").write_bytes(png)
+    im = Image.open(tmp_path / "x.png")
+    v = np.asarray(im).astype(np.float64)
+    assert v.min() == 0 and v.max() == 65535
+    back = float(im.text["inkray:depth_min"]) + v * meta["scale"]
+    assert np.abs(back - d).max() <= meta["scale"]
+
+    ann = _ann((16, 12), order=[((1, 1), (14, 10))])
+    r = depth(ann, np.ones((12, 16)))
+    files = write_depth_outputs(r, tmp_path / "o" / "depth.png", npy=tmp_path / "o" / "d.npy",
+                                normals=tmp_path / "o" / "n.png", shading=tmp_path / "o" / "s.png")
+    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == sorted(f.name for f in files)
+    side = json.loads((tmp_path / "o" / "depth.json").read_text())
+    assert side["depth_min"] == pytest.approx(r.depth.min())
+    assert side["depth_max"] == pytest.approx(r.depth.max())
+    assert np.array_equal(np.load(tmp_path / "o" / "d.npy"), r.depth)
+
+
+def test_normals_of_a_tilted_plane_and_lambert():
+    x = np.tile(np.arange(50.0), (40, 1))           # rises to the right
+    n, rgb = normal_map(x, relief=0.1)
+    slope = 0.1 * 50 / 49                             # height per pixel
+    expect = np.array([-slope, 0.0, 1.0]) / np.hypot(slope, 1.0)
+    assert np.allclose(n[20, 25], expect)
+    img = shaded_preview(x, light=(0, 0, 1), ambient=0.0)
+    assert abs(int(img[20, 25, 0]) - round(255 * expect[2])) <= 1
+
+
+def test_cli_writes_all_outputs(tmp_path):
+    gray = (_line_image(30, 40, col=20) * 255).astype(np.uint8)
+    Image.fromarray(gray).save(tmp_path / "d.png")
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "d.png", "size": [40, 30],
+           "order": [{"front": [5, 15], "back": [35, 15]}]}
+    (tmp_path / "a.inkray.json").write_text(json.dumps(doc))
+    for method in ("exact", "fast"):
+        out = tmp_path / method
+        code = main(["--quiet", "depth", str(tmp_path / "a.inkray.json"), "-o", str(out / "d.png"),
+                     "--method", method, "--epsilon", "2", "--npy", str(out / "d.npy"),
+                     "--normals", str(out / "n.png"), "--shading", str(out / "s.png")])
+        assert code == 0
+        d = np.load(out / "d.npy")
+        assert d[15, 5] - d[15, 35] >= 2.0 - 1e-6
+        assert json.loads((out / "d.json").read_text())["method"] == method
+        assert np.asarray(Image.open(out / "d.png")).dtype == np.uint16
+
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_no_orders_or_only_equalities_give_a_flat_map(method):
+    for extra in ({}, {"equal": [{"a": [1, 1], "b": [15, 8]}]}):
+        ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [20, 10],
+                                 **extra})
+        assert np.abs(depth(ann, np.ones((10, 20)), method=method).depth).max() == 0.0
+
+
+def test_order_whose_points_round_to_one_pixel():
+    ann = _ann((20, 10), order=[((1.2, 1), (1, 1.3))])
+    pattern = r"^order\[0\]: front and back round to the same pixel \(1, 1\)"
+    with pytest.raises(InputError, match=pattern):
+        depth(ann, np.ones((10, 20)))
+
+
+def test_bad_method_and_epsilon():
+    ann = _ann((5, 5), order=[((0, 0), (4, 4))])
+    with pytest.raises(InputError, match="method"):
+        depth(ann, np.ones((5, 5)), method="slow")
+    with pytest.raises(InputError, match="epsilon"):
+        depth(ann, np.ones((5, 5)), epsilon=0)

@@ -1,0 +1,192 @@
+"""Stitching: inequalities, C0 stitches, C1 grafts (Ink-and-Ray, section 5)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from _mesh import height_at
+from inkray.input.annotations import parse_annotations
+from inkray.relief.completion import complete_regions
+from inkray.errors import InputError
+from inkray.relief.inflation import inflate_region
+from inkray.relief.ordering import depth_order
+from inkray.relief.stitching import stitch
+
+
+def _doc(size, regions=(), order=(), boundaries=()):
+    return parse_annotations({
+        "format": "inkray-annotations", "version": 1, "size": list(size),
+        "regions": [{"name": n, "scribbles": [[list(p)]]} for n, p in regions],
+        "order": [{"front": list(f), "back": list(b)} for f, b in order],
+        "boundaries": [{"type": t, "path": [list(p) for p in path]} for t, path in boundaries]})
+
+
+def _build(labels, ann, names, **kw):
+    c = complete_regions(labels, names=names)
+    relations, _ = depth_order(ann, labels, c)
+    c = c.ordered(relations)
+    inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
+                               name=n, boundaries=ann.boundaries, max_area=30.0)
+                for i, n in enumerate(names)]
+    return stitch(inflated, relations, c, annotations=ann, **kw), c, relations
+
+
+def _disks():
+    h, w = 200, 280
+    yy, xx = np.mgrid[:h, :w]
+    a = (xx - 170) ** 2 + (yy - 100) ** 2 <= 60 ** 2
+    b = (xx - 100) ** 2 + (yy - 100) ** 2 <= 70 ** 2
+    labels = np.full((h, w), -1, np.int32)
+    labels[b] = 1
+    labels[a] = 0
+    return labels
+
+
+def test_front_disk_stays_above_back_disk_everywhere():
+    labels = _disks()
+    ann = _doc((280, 200), order=[((150, 100), (60, 100))])
+    layers, c, rel = _build(labels, ann, ["A", "B"])
+    assert [(r.front_name, r.back_name) for r in rel if r.kind == "order"] == [("A", "B")]
+    A, B = layers.regions
+    # a dense grid of the shared area, not only the constrained vertices
+    yy, xx = np.mgrid[:200, :280]
+    shared = c.completed(0) & c.completed(1)
+    pts = np.column_stack([xx[shared], yy[shared]]).astype(float)
+    za, da = height_at(A.mesh.vertices, A.mesh.faces, layers.z(0), pts)
+    zb, db = height_at(B.mesh.vertices, B.mesh.faces, layers.z(1), pts)
+    inside = (da < 1e-9) & (db < 1e-9)
+    assert inside.sum() > 1000
+    gap = za[inside] - zb[inside]
+    # vertices of both meshes: exact; between them both surfaces are linear, so
+    # the margin can only shrink at edge crossings, by far less than epsilon
+    assert gap.min() >= layers.epsilon - 0.05 * layers.epsilon
+    assert layers.violation <= 1e-6
+    # the parts move rigidly: a constant offset per region
+    assert np.ptp(layers.offset[0]) < 0.05 and np.ptp(layers.offset[1]) < 0.05
+
+
+def test_constraints_that_already_hold_leave_offsets_zero():
+    labels = _disks()
+    ann = _doc((280, 200), order=[((150, 100), (60, 100))])
+    layers, c, rel = _build(labels, ann, ["A", "B"])
+    lifted = replace(layers.regions[0], height=layers.regions[0].height + 500.0)
+    again = stitch([lifted, layers.regions[1]], rel, c, annotations=ann)
+    assert again.active == 0
+    assert np.abs(again.offset[0]).max() == 0 and np.abs(again.offset[1]).max() == 0
+
+
+def _rings():
+    """Two rings crossing twice, with a 12 px gap in each ring where the other passes."""
+    h, w = 220, 320
+    yy, xx = np.mgrid[:h, :w]
+    ra = np.hypot(xx - 120, yy - 110)
+    rb = np.hypot(xx - 200, yy - 110)
+    a = (ra >= 55) & (ra <= 75)
+    b = (rb >= 55) & (rb <= 75)
+    labels = np.full((h, w), -1, np.int32)
+    labels[a] = 0
+    labels[b] = 1
+    top = yy < 110
+    labels[a & b & top] = 0  # A over B at the upper crossing
+    labels[a & b & ~top] = 1  # B over A at the lower crossing
+    return labels
+
+
+def test_interlocking_rings_each_on_top_at_its_crossing():
+    labels = _rings()
+    cross_top = (160, 63)  # the upper crossing: both rings' centre lines meet near here
+    cross_bot = (160, 157)
+    ann = _doc((320, 220), order=[((160, 58), (176, 56)),   # A over B, upper crossing
+                                  ((160, 162), (144, 164))])  # B over A, lower crossing
+    assert labels[58, 160] == 0 and labels[56, 176] == 1
+    assert labels[162, 160] == 1 and labels[164, 144] == 0
+    layers, c, rel = _build(labels, ann, ["A", "B"])
+    user = [(r.front_name, r.back_name) for r in rel if r.source == "user"]
+    assert user == [("A", "B"), ("B", "A")]
+    A, B = layers.regions
+    for (x, y), front in ((cross_top, 0), (cross_bot, 1)):
+        p = np.array([[x, y]], float)
+        za, da = height_at(A.mesh.vertices, A.mesh.faces, layers.z(0), p)
+        zb, db = height_at(B.mesh.vertices, B.mesh.faces, layers.z(1), p)
+        assert da[0] < 1e-9 and db[0] < 1e-9
+        if front == 0:
+            assert za[0] >= zb[0] + layers.epsilon - 1e-6
+        else:
+            assert zb[0] >= za[0] + layers.epsilon - 1e-6
+
+
+def _squares():
+    h, w = 160, 260
+    labels = np.full((h, w), -1, np.int32)
+    labels[30:130, 30:130] = 0
+    labels[30:130, 130:230] = 1
+    return labels
+
+
+def test_c0_stitch_joins_two_regions_exactly():
+    labels = _squares()
+    ann = _doc((260, 160), boundaries=[("stitch", [(129.5, 35), (129.5, 125)])])
+    layers, c, rel = _build(labels, ann, ["left", "right"])
+    L, R = layers.regions
+    sl, sr = L.mesh.station_vertices(0), R.mesh.station_vertices(0)
+    assert len(sl) == len(sr) >= 5
+    np.testing.assert_allclose(L.mesh.vertices[sl], R.mesh.vertices[sr], atol=1e-6)
+    assert np.abs(layers.z(0)[sl] - layers.z(1)[sr]).max() < 1e-6
+
+
+def _limb():
+    """A limb drawn over a disk body, its open end inside the body (a graft there)."""
+    h, w = 220, 360
+    yy, xx = np.mgrid[:h, :w]
+    body = (xx - 120) ** 2 + (yy - 110) ** 2 <= 90 ** 2
+    limb = (xx >= 150) & (xx <= 320) & (np.abs(yy - 110) <= 25)
+    labels = np.full((h, w), -1, np.int32)
+    labels[body] = 0
+    labels[limb] = 1
+    return labels
+
+
+def test_graft_has_no_crack_and_continuous_slope():
+    labels = _limb()
+    ann = _doc((360, 220), order=[((250, 110), (100, 110))],
+               boundaries=[("graft", [(149.5, 88), (149.5, 132)])])
+    layers, c, rel = _build(labels, ann, ["body", "limb"])
+    B, F = layers.regions
+    st = F.mesh.station_vertices(0)
+    assert len(st) >= 5
+    zb, db = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), F.mesh.vertices[st])
+    assert db.max() < 1e-9  # the body continues under the limb
+    assert np.abs(layers.z(1)[st] - zb).max() < 1e-6  # no crack
+    # slope continuity along y = 110: right of the seam the limb leaves with the
+    # slope of the body surface it grows out of (the body continues under it) ...
+    xs = 149.5 + np.array([2.0, 6.0])
+    right = np.column_stack([xs, [110.0, 110.0]])
+    zf, dr = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), right)
+    zk, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), right)
+    assert dr.max() < 1e-9
+    slope_limb, slope_body = np.diff(zf)[0] / 4.0, np.diff(zk)[0] / 4.0
+    assert abs(slope_limb - slope_body) < 0.02, (slope_limb, slope_body)
+    # ... and the visible surface (body left of the seam, limb right of it) has
+    # one-sided slopes 3 px either side that differ by less than 0.1 in dz/dx
+    left = np.array([[149.5 - 4.5, 110.0], [149.5 - 1.5, 110.0]])
+    right = np.array([[149.5 + 1.5, 110.0], [149.5 + 4.5, 110.0]])
+    zl, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), left)
+    zr, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), right)
+    assert abs(np.diff(zr)[0] / 3.0 - np.diff(zl)[0] / 3.0) < 0.1
+    # the body is not dented by the limb: its offset stays rigid
+    assert np.ptp(layers.offset[0]) < 0.01
+    # the limb stands clear of the body beyond the graft band
+    far = np.array([[260.0, 110.0]])
+    assert height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), far)[0][0] > 0
+
+
+def test_contradictory_constraints_name_the_entries():
+    labels = _squares()
+    # a stitch says equal along the seam, an order says 'left' well above 'right' there,
+    # and the epsilon is larger than the rigid room the stitch leaves
+    ann = _doc((260, 160), order=[((128, 80), (131, 80))],
+               boundaries=[("stitch", [(129.5, 35), (129.5, 125)])])
+    with pytest.raises(InputError) as e:
+        _build(labels, ann, ["left", "right"], epsilon=5.0)
+    assert "boundaries[0]" in str(e.value) and "order[0]" in str(e.value)

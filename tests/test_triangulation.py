@@ -1,0 +1,143 @@
+"""Quality triangulation of region outlines: angles, areas, fidelity, orientation."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+from skimage.measure import find_contours
+
+from inkray.errors import InputError
+from inkray.relief.outline import FLAT, INTERIOR, edge_length, region_outline
+from inkray.relief.triangulation import mesh_region, triangulate_outline
+
+
+def _shapes():
+    yy, xx = np.mgrid[:320, :360]
+    disk = (xx - 180) ** 2 + (yy - 160) ** 2 <= 120 ** 2
+    ring = disk & ((xx - 200) ** 2 + (yy - 150) ** 2 > 40 ** 2)
+    blob = ((xx - 120) ** 2 / 90 ** 2 + (yy - 160) ** 2 / 50 ** 2 <= 1) | (
+        (abs(xx - 240) < 60) & (abs(yy - 170) < 110))
+    return {"disk": disk, "ring": ring, "blob": blob}
+
+
+def _angles(v, f):
+    p = v[f]
+    out = []
+    for i in range(3):
+        a = p[:, (i + 1) % 3] - p[:, i]
+        b = p[:, (i + 2) % 3] - p[:, i]
+        cos = (a * b).sum(1) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
+        out.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.stack(out, axis=1)
+
+
+def _signed_area(v, f):
+    p = v[f]
+    a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+
+
+def _dense(curves, step=0.1):
+    out = []
+    for c in curves:
+        seg = np.diff(c, axis=0)
+        n = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / step)).astype(int)
+        for p, d, k in zip(c[:-1], seg, n):
+            out.append(p + d * (np.arange(k) / k)[:, None])
+    return np.vstack(out)
+
+
+def _boundary_curves(mesh):
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    return [mesh.vertices[pair] for pair in u[c == 1]]
+
+
+@pytest.mark.parametrize("name", ["disk", "ring", "blob"])
+def test_quality_orientation_and_fidelity(name):
+    mask = _shapes()[name]
+    mesh = mesh_region(mask, max_area=50.0)
+    ang = _angles(mesh.vertices, mesh.faces)
+    area = _signed_area(mesh.vertices, mesh.faces)
+    # The blob has two concave 90-degree-ish corners; Triangle keeps >= 20 deg everywhere here.
+    assert ang.min() >= 20.0 - 1e-6
+    assert np.all(area < 0)  # clockwise in (x, y): toward the viewer (inkray.relief)
+    assert -area.max() > 1e-2 and -area.min() <= 50.0 + 1e-6  # none degenerate, none too big
+    # Boundary within 1 px of the mask outline, both ways (Hausdorff distance).
+    raw = [c[:, ::-1] - 1 for c in find_contours(np.pad(mask, 1).astype(float), 0.5)]
+    ours, theirs = _dense(_boundary_curves(mesh)), _dense(raw)
+    assert cKDTree(theirs).query(ours)[0].max() < 1.0
+    assert cKDTree(ours).query(theirs)[0].max() < 1.0
+    assert abs(-area.sum() - mask.sum()) < 0.01 * mask.sum()
+    assert np.all(mesh.kind[np.unique(np.concatenate(_boundary_curves_idx(mesh)))] != INTERIOR)
+
+
+def _boundary_curves_idx(mesh):
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    return [u[c == 1].ravel()]
+
+
+def test_sharp_corner_is_the_only_exception_to_the_angle_bound():
+    # A thin wedge with a 10 degree tip: only triangles at the tip may be sharper than 20 deg.
+    yy, xx = np.mgrid[:200, :320]
+    tip = np.array([20.0, 100.0])
+    ang = np.degrees(np.arctan2(yy - tip[1], xx - tip[0]))
+    mask = (np.abs(ang) < 5) & (xx < 300) & (xx > 20)
+    mesh = mesh_region(mask, max_area=30.0)
+    a = _angles(mesh.vertices, mesh.faces)
+    bad = a.min(axis=1) < 20.0
+    centroid = mesh.vertices[mesh.faces].mean(axis=1)
+    assert np.all(np.linalg.norm(centroid[bad] - tip, axis=1) < 15.0)
+
+
+def test_max_area_sets_the_resolution():
+    mask = _shapes()["disk"]
+    coarse = mesh_region(mask, max_area=100.0)
+    fine = mesh_region(mask, max_area=25.0)
+    assert 3.0 < len(fine.faces) / len(coarse.faces) < 5.0
+    for mesh, a in ((coarse, 100.0), (fine, 25.0)):
+        assert -_signed_area(mesh.vertices, mesh.faces).min() <= a + 1e-6
+        b = _boundary_curves(mesh)
+        assert max(np.linalg.norm(s[1] - s[0]) for s in b) <= edge_length(a) + 1e-6
+
+
+def test_outline_vertices_and_stations_survive():
+    mask = np.zeros((300, 300), bool)
+    mask[50:250, 50:250] = True
+    entry = SimpleNamespace(type="flat", path=np.array([[249.5, 60.0], [249.5, 240.0]]), index=0)
+    out = region_outline(mask, boundaries=[entry])
+    mesh = triangulate_outline(out)
+    assert np.array_equal(mesh.vertices[:len(out.points)], out.points)
+    st = mesh.station_vertices(0)
+    assert np.array_equal(mesh.station[st], np.arange(len(st))) and len(st) >= 10
+    assert np.all(mesh.kind[st] == FLAT)
+    assert len(mesh.station_vertices(5)) == 0
+
+
+@pytest.mark.parametrize("kw, msg", [({"max_area": 0.0}, "max_area"), ({"min_angle": 40.0}, "min_angle")])
+def test_bad_options(kw, msg):
+    with pytest.raises(InputError, match=msg):
+        mesh_region(_shapes()["disk"], **kw)
+
+
+def test_small_regions_get_at_least_min_triangles():
+    yy, xx = np.mgrid[:40, :40]
+    dot = (xx - 20) ** 2 + (yy - 20) ** 2 <= 12 ** 2  # ~450 px^2: 9 triangles at 50 px^2
+    mesh = mesh_region(dot, max_area=50.0, min_triangles=200)
+    assert len(mesh.faces) >= 200
+    assert _angles(mesh.vertices, mesh.faces).min() >= 20.0 - 1e-6
+    assert len(mesh_region(dot, max_area=50.0, min_triangles=1, across=0).faces) < 40
+
+
+def test_narrow_parts_get_shorter_edges():
+    mask = np.zeros((64, 440), bool)
+    mask[20:44, 20:420] = True  # 24 px wide
+    for across, longest in ((8, 24 / 8 * 1.2), (0, edge_length(50.0))):
+        mesh = mesh_region(mask, max_area=50.0, across=across)
+        segs = _boundary_curves(mesh)
+        mid = [s for s in segs if np.all(np.abs(s[:, 0] - 220) < 150)]
+        lengths = np.array([np.linalg.norm(s[1] - s[0]) for s in mid])
+        assert lengths.max() <= longest + 1e-6
+    assert lengths.max() > 0.9 * edge_length(50.0)  # across=0: the plain spacing
