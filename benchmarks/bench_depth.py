@@ -3,7 +3,7 @@
 Run as ``python benchmarks/bench_depth.py [--sizes 512,1024] [--constraints 10,50]
 [--no-osqp] [--no-clarabel] [--no-fast] [--repeat N]``.
 
-The problem is the one :func:`inkray.depth.depth` solves: the weighted
+The problem is the one :func:`inkray.depthmap.estimation.depth` solves: the weighted
 4-neighbour Laplacian of a real drawing (the bundled turtle, resampled to
 each size) and ``m`` order constraints between paper pixels, made consistent
 by orienting each random pair along a random total order. The baselines get
@@ -30,14 +30,14 @@ import numpy as np
 import scipy.sparse as sp
 from PIL import Image
 
-from inkray.annotations import Order
-from inkray.depth import DepthSession, depth_constraints
-from inkray.drawing import drawing_from_array
+from inkray.input.annotations import Order
+from inkray.depthmap.estimation import DepthSession, depth_constraints
+from inkray.input.drawing import drawing_from_array
 from inkray.examples import example_path
-from inkray.inputs import load_input
-from inkray.grid_cholesky import _front, _plan
-from inkray.qp import GroundedLaplacian, edge_weights, grid_laplacian, solve_depth_qp
-from inkray.scribbles import seed_image
+from inkray.input.loading import load_input
+from inkray.numerics.grid_cholesky import _front, _plan
+from inkray.depthmap.quadratic_program import GroundedLaplacian, edge_weights, grid_laplacian, solve_depth_qp
+from inkray.input.scribbles import seed_image
 
 
 def problem(size, m, seed=0):

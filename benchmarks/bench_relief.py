@@ -1,6 +1,6 @@
 """Benchmark of the whole relief chain (issue 7): per-stage times and peak memory.
 
-Runs ``inkray.pipeline.build_relief`` on the shared drawings at their own size
+Runs ``inkray.chain.build_relief`` on the shared drawings at their own size
 and upscaled to about 1 Mpx, each case in a fresh process (so peak RSS is that
 case's own), and prints a table against the targets: 5 s and 2 GB for a 1 Mpx
 drawing on a 2-core machine.
@@ -29,8 +29,8 @@ STAGES = ("segment", "complete", "order", "inflate", "stitch", "assemble")
 def _one(name, megapixels):
     from PIL import Image
 
-    from inkray.inputs import load_input
-    from inkray.pipeline import build_relief
+    from inkray.input.loading import load_input
+    from inkray.chain import build_relief
     from inkray.progress import Progress
 
     ann_path = SHARED / name / "drawing.inkray.json"

@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from inkray.examples import example_path
-from inkray.inputs import load_input
-from inkray.pipeline import build_relief
-from inkray.rasterize import rasterize
-from inkray.render import has_mitsuba, render, write_renderings
+from inkray.input.loading import load_input
+from inkray.chain import build_relief
+from inkray.view.rasterization import rasterize
+from inkray.formats.images import write_renderings
+from inkray.view.rendering import has_mitsuba, render
 
 
 def example_relief(name="turtle"):

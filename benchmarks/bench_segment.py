@@ -1,6 +1,6 @@
 """Benchmark: LazyBrush segmentation against skimage's random walker.
 
-Times :func:`inkray.segment.lazybrush` and
+Times :func:`inkray.segmentation.lazybrush` and
 ``skimage.segmentation.random_walker(mode='cg_mg')`` (Grady, PAMI 2006, with
 an algebraic-multigrid preconditioner; needs ``pyamg``) on the same drawing
 and seeds, upscaled to 0.25 and 1 Mpx. Each run happens in a fresh
@@ -35,9 +35,9 @@ def _problem(drawing, mpx):
     """Grey image and seeds of a shared drawing scaled to about ``mpx`` megapixels."""
     from skimage.transform import resize
 
-    from inkray.annotations import rescale_annotations
-    from inkray.inputs import load_input
-    from inkray.scribbles import seed_image
+    from inkray.input.annotations import rescale_annotations
+    from inkray.input.loading import load_input
+    from inkray.input.scribbles import seed_image
 
     ann, d = load_input(SHARED / drawing / "drawing.inkray.json")
     h, w = d.gray.shape
@@ -66,7 +66,7 @@ def _worker(method, drawing, mpx, repeat, out):
             markers = np.where(seeds == -2, 0, seeds + 2)
             labels = random_walker(gray, markers, mode="cg_mg") - 2
         else:
-            from inkray.segment import lazybrush
+            from inkray.segmentation import lazybrush
 
             # lazybrush: the default (coarse-to-fine above 0.5 Mpx); the other
             # two force one way.

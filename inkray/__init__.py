@@ -5,61 +5,63 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
 Global Illumination Effects to Hand-Drawn Characters" (TOG 2014), with
 LazyBrush segmentation (Sýkora, Dingliana, Collins, CGF 2009).
 
-The pipeline is one module per stage; this namespace re-exports the public
-functions so that ``import inkray`` mirrors the command line.
+The namespace is small: the input, the resumable chain, the depth map, the
+relief's files and renders, and the records between them. Everything else
+lives in its module (``inkray.segmentation``, ``inkray.relief.stitching``,
+...). Names load on first use, so ``import inkray`` stays quick.
+
+Examples
+--------
+>>> import inkray
+>>> from inkray.examples import example_path
+>>> ann, drawing = inkray.load_input(example_path("turtle"))
+>>> chain = inkray.ReliefChain(ann, drawing)
+>>> [r.name for r in ann.regions][:2]
+['head', 'leg_front']
 """
 
-__version__ = "0.1.0"
+from importlib import import_module
 
-from inkray.input.annotations import (Annotations, Boundary, Equal, Order, Region,  # noqa: E402
-                          load_annotations, parse_annotations, rescale_annotations)
-from inkray.input.drawing import Drawing, drawing_from_array, load_drawing  # noqa: E402
-from inkray.depthmap.estimation import (DepthResult, DepthSession, depth, depth_constraints,  # noqa: E402
-                    depth_png, normal_map, shaded_preview, write_depth_outputs)
-from inkray.depthmap.quadratic_program import QPResult, constraint_cycle, edge_weights, grid_laplacian, solve_depth_qp  # noqa: E402
-from inkray.formats.mesh_report import check_file, failed_requirements, mesh_quality, quality_report  # noqa: E402
-from inkray.errors import InkrayError, InputError, StageError, StageMissing  # noqa: E402
-from inkray.formats.meshes import (NamedMesh, export_relief, pixel_coordinates, read_meshes,  # noqa: E402
-                     scene_coordinates)
-from inkray.input.loading import load_input  # noqa: E402
-from inkray.relief.inflation import (InflatedRegion, InflationSolver, apply_profile,  # noqa: E402
-                      dirichlet_vertices, inflate_mesh, inflate_region)
-from inkray.relief.outline import RegionOutline, check_boundaries, region_outline  # noqa: E402
-from inkray.view.rasterization import Raster, fit_view, rasterize, vertex_normals  # noqa: E402
-from inkray.view.rendering import (Rendering, has_mitsuba, output_size, read_relief, render,  # noqa: E402
-                     render_turntable, write_renderings)
-from inkray.input.scribbles import load_scribble_layer, seed_image  # noqa: E402
-from inkray.relief.triangulation import RegionMesh, mesh_region, triangulate_outline  # noqa: E402
-from inkray.segmentation import Segmentation, lazybrush, segment  # noqa: E402
-from inkray.relief.completion import Completion, Place, complete_regions, continue_outline  # noqa: E402
-from inkray.relief.ordering import Relation, depth_order, predict_place  # noqa: E402
-from inkray.relief.stitching import Layers, stitch  # noqa: E402
-from inkray.relief.assembly import assemble, close_part, union_parts  # noqa: E402
-from inkray.relief.model import Part, Relief  # noqa: E402
-from inkray.chain import ReliefResult, build_relief  # noqa: E402
+from inkray._version import __version__
 
-__all__ = [
-    "__version__",
-    "Annotations", "Boundary", "Equal", "Order", "Region",
-    "load_annotations", "parse_annotations", "rescale_annotations",
-    "Drawing", "drawing_from_array", "load_drawing",
-    "DepthResult", "DepthSession", "depth", "depth_constraints", "depth_png", "normal_map",
-    "shaded_preview", "write_depth_outputs",
-    "QPResult", "constraint_cycle", "edge_weights", "grid_laplacian", "solve_depth_qp",
-    "InkrayError", "InputError", "StageError", "StageMissing",
-    "NamedMesh", "export_relief", "pixel_coordinates", "read_meshes", "scene_coordinates",
-    "check_file", "failed_requirements", "mesh_quality", "quality_report",
-    "load_input", "load_scribble_layer", "seed_image",
-    "RegionOutline", "region_outline", "check_boundaries",
-    "RegionMesh", "triangulate_outline", "mesh_region",
-    "InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh",
-    "inflate_region",
-    "Segmentation", "lazybrush", "segment",
-    "Completion", "Place", "complete_regions", "continue_outline",
-    "Relation", "depth_order", "predict_place",
-    "Raster", "fit_view", "rasterize", "vertex_normals",
-    "Rendering", "has_mitsuba", "output_size", "read_relief", "render", "render_turntable",
-    "write_renderings",
-    "Layers", "stitch", "assemble", "close_part", "union_parts", "Part", "Relief",
-    "ReliefResult", "build_relief",
-]
+_NAMES = {
+    "load_input": "inkray.input.loading",
+    "Annotations": "inkray.input.annotations",
+    "parse_annotations": "inkray.input.annotations",
+    "Drawing": "inkray.input.drawing",
+    "ReliefChain": "inkray.chain",
+    "ChainOptions": "inkray.chain",
+    "build_relief": "inkray.chain",
+    "ReliefResult": "inkray.chain",
+    "Segmentation": "inkray.segmentation",
+    "segment": "inkray.segmentation",
+    "depth": "inkray.depthmap.estimation",
+    "DepthSession": "inkray.depthmap.estimation",
+    "DepthResult": "inkray.depthmap.estimation",
+    "Relation": "inkray.relief.ordering",
+    "Relief": "inkray.relief.model",
+    "Part": "inkray.relief.model",
+    "render": "inkray.view.rendering",
+    "Rendering": "inkray.view.rendering",
+    "export_relief": "inkray.formats.meshes",
+    "read_relief": "inkray.formats.meshes",
+    "Progress": "inkray.progress",
+    "InkrayError": "inkray.errors",
+    "InputError": "inkray.errors",
+    "StageError": "inkray.errors",
+}
+
+__all__ = ["__version__", *_NAMES]
+
+
+def __getattr__(name):
+    module = _NAMES.get(name)
+    if module is None:
+        raise AttributeError(f"module 'inkray' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_NAMES))

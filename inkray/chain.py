@@ -1,27 +1,110 @@
-"""The whole Ink-and-Ray chain, stage after stage (Sýkora et al., TOG 2014):
-segmentation -> completion and depth order -> meshes and inflation ->
-stitching -> assembly. Each stage is its own module; this one only passes
-their dataclasses along and times them.
+"""The resumable chain: every stage of the method, computed once and reused.
+
+The Ink-and-Ray chain (Sýkora et al., TOG 2014) runs segmentation ->
+completion -> depth order -> per-region meshes and inflation -> stitching ->
+assembly; the 2010 depth map (Sýkora et al., CGF 2010) runs beside it. A
+:class:`ReliefChain` exposes each stage's result as a lazily computed
+attribute. :meth:`ReliefChain.edit` makes the chain of changed annotations or
+options; it shares a content-keyed cache with the chain it came from, so a
+stage runs again only when what it reads changed:
+
+- a new ``order`` arrow re-orders and re-stitches, but does not segment,
+  complete or mesh again;
+- a changed ``inflation`` of one region re-inflates that region only, then
+  re-stitches;
+- a new scribble segments again, and every region whose completed mask,
+  neighbourhood and options did not change keeps its mesh;
+- undo (the earlier annotations again) finds every result in the cache.
+
+Stages read plain records, never the raw annotation file.
 """
 
-from dataclasses import dataclass, field
+import hashlib
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
 
-from inkray.relief.assembly import assemble
-from inkray.relief.completion import complete_regions
+import numpy as np
+
+from inkray.depthmap.estimation import METHODS, DepthResult, DepthSession, depth, depth_constraints
 from inkray.errors import InputError
-from inkray.relief.inflation import inflate_region
-from inkray.relief.ordering import depth_order
-from inkray.relief.outline import DEFAULT_MAX_AREA, check_boundaries
+from inkray.input.scribbles import seed_image
 from inkray.progress import Progress
-from inkray.segmentation import segment
-from inkray.relief.stitching import stitch
+from inkray.relief.assembly import assemble
+from inkray.relief.completion import Completion, complete_regions
+from inkray.relief.inflation import inflate_region
+from inkray.relief.model import Relief
+from inkray.relief.ordering import depth_order
+from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
+from inkray.relief.stitching import Layers, stitch
+from inkray.segmentation import Segmentation, segment
 
-__all__ = ["ReliefResult", "build_relief"]
+__all__ = ["ChainOptions", "ReliefChain", "ReliefResult", "build_relief"]
+
+_LABEL_MARGIN = 6  # px around a region's box that its outline's provenance reads
+
+
+@dataclass(frozen=True)
+class ChainOptions:
+    """Options of a chain; every field may be changed with :meth:`ReliefChain.edit`.
+
+    Attributes
+    ----------
+    predict : bool, default True
+        Predict the depth order where the user's entries are silent.
+    max_area : float, default 50
+        Largest triangle area in px^2 (the mesh resolution).
+    epsilon : float, optional
+        Depth step between a part and the part behind it (px); default 0.4 %
+        of the drawing's longer side.
+    closed : bool, default False
+        Closed solids (mirrored backs) instead of front surfaces.
+    union : bool, default False
+        With ``closed``: one watertight solid.
+    depth_method : {"exact", "fast"}, default "exact"
+        Method of :attr:`ReliefChain.depth_map`.
+    depth_epsilon : float, default 1
+        Depth step of an ``order`` entry in the depth map.
+    interactive : bool, default False
+        Keep the fast depth method's factorization between edits (re-solves
+        after an arrow cost back-substitutions; about 0.4 GB at 512x512).
+
+    Examples
+    --------
+    >>> ChainOptions(max_area=20).mesh.max_area
+    20.0
+    """
+
+    predict: bool = True
+    max_area: float = DEFAULT_MAX_AREA
+    epsilon: float = None
+    closed: bool = False
+    union: bool = False
+    depth_method: str = "exact"
+    depth_epsilon: float = 1.0
+    interactive: bool = False
+
+    def __post_init__(self):
+        if self.union and not self.closed:
+            raise InputError("--union needs --closed (the union of open surfaces is not a solid)")
+        if self.epsilon is not None and not (np.isfinite(self.epsilon) and self.epsilon > 0):
+            raise InputError(f"epsilon: expected a positive depth step in px, got {self.epsilon!r}")
+        if self.depth_method not in METHODS:
+            raise InputError(f"method: unknown method {self.depth_method!r} "
+                             f"(expected one of {', '.join(METHODS)})")
+        if not (np.isfinite(self.depth_epsilon) and self.depth_epsilon > 0):
+            raise InputError(f"epsilon: expected a positive number, got {self.depth_epsilon!r}")
+        MeshOptions(max_area=self.max_area)  # validates max_area
+
+    @property
+    def mesh(self):
+        """The :class:`~inkray.relief.outline.MeshOptions` of every region."""
+        return MeshOptions(max_area=self.max_area)
 
 
 @dataclass
 class ReliefResult:
-    """What :func:`build_relief` produced, with everything needed to inspect it.
+    """The stages of one relief, as :func:`build_relief` returns them.
 
     Attributes
     ----------
@@ -36,34 +119,309 @@ class ReliefResult:
         Seconds per stage.
     """
 
-    relief: object
-    segmentation: object
-    completion: object
+    relief: Relief
+    segmentation: Segmentation
+    completion: Completion
     relations: list
-    layers: object
+    layers: Layers
     warnings: list = field(default_factory=list)
     timings: list = field(default_factory=list)
 
 
-def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_AREA, epsilon=None,
-                 closed=False, union=False, progress=None):
-    """Build the bas-relief of an annotated drawing.
+class _Cache:
+    """Results by content key, least recently used dropped first; shared by a chain's edits."""
+
+    def __init__(self, capacity):
+        self.capacity = capacity
+        self._items = OrderedDict()
+        self._lock = threading.Lock()
+        self.session = None  # (key, DepthSession, {constraint: handle}) of the interactive depth
+
+    def get(self, key):
+        with self._lock:
+            if key in self._items:
+                self._items.move_to_end(key)
+                return self._items[key]
+        return None
+
+    def put(self, key, value):
+        with self._lock:
+            self._items[key] = value
+            self._items.move_to_end(key)
+            while len(self._items) > self.capacity:
+                self._items.popitem(last=False)
+
+
+class ReliefChain:
+    """Every stage of one annotated drawing, computed on first use and cached by content.
 
     Parameters
     ----------
     annotations : inkray.input.annotations.Annotations
     drawing : inkray.input.drawing.Drawing
-    predict : bool, default True
-        Predict the depth order where the user's entries are silent.
-    max_area : float, default 50
-        Largest triangle area in px^2 (the mesh resolution).
-    epsilon : float, optional
-        Depth step between a part and the part behind it (px); default 0.4 %
-        of the drawing's longer side.
-    closed : bool, default False
-        Closed solids (mirrored backs) instead of front surfaces.
-    union : bool, default False
-        With ``closed``: one watertight solid.
+    options : ChainOptions, optional
+    progress : inkray.progress.Progress, optional
+        Stage names, progress bars and timings of what this chain computes.
+    cache_size : int, default 512
+        Results kept (stage results, one per region for the meshes).
+
+    Attributes
+    ----------
+    recomputed : list of str
+        The stages this chain computed itself rather than took from the cache
+        (``"mesh:<region>"`` per region).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import parse_annotations
+    >>> from inkray.input.drawing import drawing_from_array
+    >>> gray = np.ones((60, 80)); gray[10:50, 40] = 0.0; gray[10, 10:70] = 0.0
+    >>> gray[50, 10:71] = 0.0; gray[10:51, 10] = 0.0; gray[10:51, 70] = 0.0
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [80, 60],
+    ...     "regions": [{"name": "a", "scribbles": [[[25, 30]]]},
+    ...                 {"name": "b", "scribbles": [[[55, 30]]]}]})
+    >>> chain = ReliefChain(ann, drawing_from_array(gray))
+    >>> [p.name for p in chain.relief.parts]
+    ['a', 'b']
+    >>> from dataclasses import replace
+    >>> rounder = replace(ann, regions=[ann.regions[0], replace(ann.regions[1], inflation=4.0)])
+    >>> again = chain.edit(annotations=rounder)
+    >>> again.relief is not chain.relief, again.recomputed
+    (True, ['mesh:b', 'stitch', 'assemble'])
+    """
+
+    def __init__(self, annotations, drawing, *, options=None, progress=None, cache_size=512,
+                 _cache=None, _drawing_key=None):
+        self.annotations = annotations
+        self.drawing = drawing
+        self.options = options if options is not None else ChainOptions()
+        if not isinstance(self.options, ChainOptions):
+            raise InputError(f"options: expected ChainOptions, got {type(self.options).__name__}")
+        w, h = annotations.size
+        if tuple(drawing.size) != (w, h):
+            raise InputError(f"size: the annotation is for a {w}x{h} drawing but the drawing is "
+                             f"{drawing.size[0]}x{drawing.size[1]}")
+        self.progress = progress if progress is not None else Progress(quiet=True)
+        self.recomputed = []
+        self._cache = _cache if _cache is not None else _Cache(cache_size)
+        self._drawing_key = _drawing_key or _digest(drawing.gray, drawing.rgb)
+        self._memo = {}
+
+    def edit(self, annotations=None, *, progress=None, **changes):
+        """The chain of other annotations or options, sharing this chain's cache.
+
+        Parameters
+        ----------
+        annotations : Annotations, optional
+            The new annotations (same drawing); default this chain's.
+        progress : Progress, optional
+            Default this chain's.
+        **changes
+            Fields of :class:`ChainOptions` to change.
+
+        Returns
+        -------
+        ReliefChain
+        """
+        return ReliefChain(annotations if annotations is not None else self.annotations,
+                           self.drawing, options=replace(self.options, **changes),
+                           progress=progress if progress is not None else self.progress,
+                           _cache=self._cache, _drawing_key=self._drawing_key)
+
+    # -- stages ------------------------------------------------------------------
+
+    @property
+    def segmentation(self):
+        """:class:`~inkray.segmentation.Segmentation` of the region and background scribbles."""
+        return self._stage("segment", self._segment_key(), lambda: segment(
+            self.annotations, self.drawing, progress=self.progress))
+
+    @property
+    def candidates(self):
+        """:class:`~inkray.relief.completion.Completion` of every neighbouring pair, before the order."""
+        seg = self.segmentation
+        return self._stage("complete", ("complete", self._segment_key()), lambda: complete_regions(
+            seg.labels, names=seg.names, progress=self.progress))
+
+    @property
+    def relations(self):
+        """The user's and the predicted local depth relations (list of Relation)."""
+        return self._ordered()[0]
+
+    @property
+    def completion(self):
+        """The completion after the depth order: hidden parts only under a region in front."""
+        return self._ordered()[1]
+
+    @property
+    def meshes(self):
+        """Per region, its :class:`~inkray.relief.inflation.InflatedRegion` (None when empty)."""
+        if "meshes" in self._memo:
+            return self._memo["meshes"]
+        completion = self.completion
+        labels = completion.labels
+        regions = self.annotations.regions
+        seams = self.annotations.boundaries
+        out, keys = [], []
+        with self.progress.stage("inflate"):
+            for i, region in enumerate(regions):
+                self.progress.update(i, len(regions))
+                mask = completion.completed(i)
+                if not mask.any():
+                    out.append(None)
+                    keys.append(None)
+                    continue
+                key = ("mesh", i, region.name, float(region.inflation), region.profile,
+                       self.options.mesh, _digest(mask, _label_window(labels, mask), *(
+                           (b.type, b.path) for b in seams)))
+                keys.append(key)
+                out.append(self._stage(f"mesh:{region.name}", key, lambda i=i, mask=mask, r=region:
+                                       inflate_region(mask, visible=completion.visible(i),
+                                                      labels=labels, region=i, name=r.name,
+                                                      boundaries=seams, inflation=r.inflation,
+                                                      profile=r.profile,
+                                                      options=self.options.mesh), timed=False))
+            check_boundaries([r.mesh for r in out if r is not None], seams)
+        self._memo["meshes"] = out
+        self._memo["mesh_keys"] = keys
+        return out
+
+    @property
+    def layers(self):
+        """The stitched :class:`~inkray.relief.stitching.Layers` (offsets under the relations)."""
+        meshes = self.meshes
+        key = ("stitch", self._relations_key(), tuple(self._memo["mesh_keys"]), self.options.epsilon)
+        return self._stage("stitch", key, lambda: stitch(
+            meshes, self.relations, self.completion, seams=self.annotations.boundaries,
+            epsilon=self.options.epsilon, progress=self.progress))
+
+    @property
+    def relief(self):
+        """The assembled :class:`~inkray.relief.model.Relief`, textured with the drawing."""
+        layers = self.layers
+        o = self.options
+        key = ("assemble", self._memo["stitch_key"], o.closed, o.union, self._drawing_key)
+        return self._stage("assemble", key, lambda: assemble(
+            layers, size=self.annotations.size, texture=self.drawing.rgb, closed=o.closed,
+            union=o.union))
+
+    @property
+    def depth_map(self):
+        """The 2010 depth map (:class:`~inkray.depthmap.estimation.DepthResult`) of the entries."""
+        o = self.options
+        ann = self.annotations
+        seeds = _seeds(ann)
+        key = ("depth", o.depth_method, o.depth_epsilon, self._drawing_key, _entries_key(ann),
+               None if seeds is None else _digest(seeds))
+        if o.depth_method == "fast" and o.interactive:
+            return self._stage("depth", key, lambda: self._session_depth(seeds))
+        return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
+                                                        epsilon=o.depth_epsilon,
+                                                        progress=self.progress))
+
+    @property
+    def warnings(self):
+        """Warnings of the stages computed so far (segmentation, then order)."""
+        out = []
+        if "segment" in self._memo:
+            out += self._memo["segment"].warnings
+        if "order" in self._memo:
+            out += self._memo["order"][2]
+        if "meshes" in self._memo:
+            out += [f"region {r.name!r}: no pixels after segmentation; left out"
+                    for r, m in zip(self.annotations.regions, self._memo["meshes"]) if m is None]
+        return out
+
+    def result(self):
+        """Every stage of the relief as a :class:`ReliefResult`."""
+        relief = self.relief
+        return ReliefResult(relief=relief, segmentation=self.segmentation,
+                            completion=self.completion, relations=self.relations,
+                            layers=self.layers, warnings=self.warnings,
+                            timings=list(self.progress.timings))
+
+    # -- internals -----------------------------------------------------------------
+
+    def _stage(self, name, key, compute, *, timed=True):
+        memo = name.split(":")[0]
+        if key is not None and name in self._memo and self._memo.get(f"{memo}_key") == key:
+            return self._memo[name]
+        value = self._cache.get(key)
+        if value is None:
+            if timed:
+                with self.progress.stage(name):
+                    value = compute()
+            else:
+                value = compute()
+            self._cache.put(key, value)
+            self.recomputed.append(name)
+        if ":" not in name:
+            self._memo[name] = value
+            self._memo[f"{name}_key"] = key
+        return value
+
+    def _segment_key(self):
+        ann = self.annotations
+        return ("segment", self._drawing_key, _scribbles_key(ann),
+                _digest(*((b.type, b.path) for b in ann.boundaries)))
+
+    def _relations_key(self):
+        ann = self.annotations
+        return ("order", self._segment_key(), _entries_key(ann), self.options.predict,
+                _digest(*((b.type, b.path) for b in ann.boundaries)))
+
+    def _ordered(self):
+        if "order" in self._memo:
+            return self._memo["order"]
+        candidates = self.candidates
+        labels = self.segmentation.labels
+
+        def compute():
+            relations, notes = depth_order(self.annotations, labels, candidates,
+                                           predict=self.options.predict)
+            return relations, candidates.ordered(relations), notes
+
+        value = self._stage("order", self._relations_key(), compute)
+        return value
+
+    def _session_depth(self, seeds):
+        """The fast depth from the kept session: only the changed constraints are re-done."""
+        o = self.options
+        skey = (self._drawing_key, None if seeds is None else _digest(seeds), o.depth_epsilon)
+        cache = self._cache
+        if cache.session is None or cache.session[0] != skey:
+            cache.session = (skey, DepthSession(self.drawing.gray, epsilon=o.depth_epsilon,
+                                                seeds=seeds, incremental=True), {})
+        _, session, handles = cache.session
+        p, q, ineq, labels = depth_constraints(self.annotations)
+        wanted = {(int(a), int(b), bool(c), lab) for a, b, c, lab in zip(p, q, ineq, labels)}
+        for c in [c for c in handles if c not in wanted]:
+            session.remove(handles.pop(c))
+        try:
+            for c in sorted(wanted - set(handles)):
+                handles[c] = session.add(c[0], c[1], inequality=c[2], label=c[3])
+            d = session.solve()
+        except InputError:
+            cache.session = None  # a rejected edit must not stay in the kept session
+            raise
+        return DepthResult(depth=d, method="fast", epsilon=o.depth_epsilon,
+                           info={"levels": dict(session.region_levels), "labels": session.labels,
+                                 "timings": dict(session.timings)})
+
+
+def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_AREA, epsilon=None,
+                 closed=False, union=False, progress=None):
+    """Build the bas-relief of an annotated drawing in one call.
+
+    The same as ``ReliefChain(annotations, drawing, options=ChainOptions(...)).result()``.
+
+    Parameters
+    ----------
+    annotations : inkray.input.annotations.Annotations
+    drawing : inkray.input.drawing.Drawing
+    predict, max_area, epsilon, closed, union
+        See :class:`ChainOptions`.
     progress : inkray.progress.Progress, optional
 
     Returns
@@ -80,40 +438,55 @@ def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_ARE
     """
     if not annotations.regions:
         raise InputError("regions: a relief needs at least one region")
-    if union and not closed:
-        raise InputError("--union needs --closed (the union of open surfaces is not a solid)")
-    progress = progress if progress is not None else Progress(quiet=True)
-    warnings = []
-    with progress.stage("segment"):
-        seg = segment(annotations, drawing, progress=progress)
-        warnings += seg.warnings
-    with progress.stage("complete"):
-        completion = complete_regions(seg.labels, names=seg.names, progress=progress)
-    with progress.stage("order"):
-        relations, more = depth_order(annotations, seg.labels, completion, predict=predict)
-        warnings += more
-        completion = completion.ordered(relations)
-    with progress.stage("inflate"):
-        inflated = []
-        for i, region in enumerate(annotations.regions):
-            progress.update(i, len(annotations.regions))
-            mask = completion.completed(i)
-            if not mask.any():
-                warnings.append(f"region {region.name!r}: no pixels after segmentation; left out")
-                inflated.append(None)
-                continue
-            inflated.append(inflate_region(
-                mask, visible=completion.visible(i), labels=seg.labels, region=i, name=region.name,
-                boundaries=annotations.boundaries, inflation=region.inflation,
-                profile=region.profile, max_area=max_area))
-        check_boundaries([r.mesh for r in inflated if r is not None], annotations.boundaries)
-    with progress.stage("stitch"):
-        layers = stitch(inflated, relations, completion, annotations=annotations, epsilon=epsilon,
-                        progress=progress)
-    with progress.stage("assemble"):
-        relief = assemble(layers, size=annotations.size, texture=drawing.rgb, closed=closed,
-                          union=union)
-    return ReliefResult(relief=relief, segmentation=seg, completion=completion,
-                        relations=relations, layers=layers, warnings=warnings,
-                        timings=list(progress.timings))
+    options = ChainOptions(predict=predict, max_area=max_area, epsilon=epsilon, closed=closed,
+                           union=union)
+    return ReliefChain(annotations, drawing, options=options, progress=progress).result()
+
+
+# -- content keys ------------------------------------------------------------------
+
+def _digest(*parts):
+    """A short hash of arrays, numbers, strings and nested tuples of them."""
+    h = hashlib.blake2b(digest_size=16)
+
+    def feed(x):
+        if isinstance(x, np.ndarray):
+            h.update(f"a{x.dtype.str}{x.shape}".encode())
+            h.update(np.ascontiguousarray(x).tobytes())
+        elif isinstance(x, (tuple, list)):
+            h.update(f"t{len(x)}".encode())
+            for y in x:
+                feed(y)
+        else:
+            h.update(f"s{x!r}".encode())
+    feed(parts)
+    return h.hexdigest()
+
+
+def _scribbles_key(ann):
+    return _digest(tuple(ann.size), *(
+        (r.name, tuple(np.asarray(s, float) for s in r.scribbles),
+         None if r.pixels is None else np.asarray(r.pixels)) for r in ann.regions),
+        tuple(np.asarray(s, float) for s in ann.background),
+        None if ann.background_pixels is None else np.asarray(ann.background_pixels))
+
+
+def _entries_key(ann):
+    return _digest(tuple((tuple(map(float, o.front)), tuple(map(float, o.back))) for o in ann.order),
+                   tuple((tuple(map(float, e.a)), tuple(map(float, e.b))) for e in ann.equal))
+
+
+def _seeds(ann):
+    """The fast depth method's segmentation seeds, or None without scribbles."""
+    if not ann.regions and not ann.background and ann.background_pixels is None:
+        return None
+    return seed_image(ann)
+
+
+def _label_window(labels, mask):
+    """The labels a region's outline reads: its box and a margin."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    h, w = labels.shape
+    return labels[max(rows[0] - _LABEL_MARGIN, 0):min(rows[-1] + _LABEL_MARGIN + 1, h),
+                  max(cols[0] - _LABEL_MARGIN, 0):min(cols[-1] + _LABEL_MARGIN + 1, w)]
 

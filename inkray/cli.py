@@ -11,7 +11,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from inkray import __version__
+from inkray._version import __version__
 from inkray.errors import InkrayError, InputError
 from inkray.progress import Progress
 
@@ -45,6 +45,19 @@ def _load(args):
                       scribble_layer=args.scribbles, legend=args.legend)
 
 
+def _chain(args, progress, **options):
+    """The chain of the command's input: every command is a view of one."""
+    from inkray.chain import ChainOptions, ReliefChain
+
+    ann, drawing = _load(args)
+    return ReliefChain(ann, drawing, options=ChainOptions(**options), progress=progress)
+
+
+def _warn(warnings):
+    for warning in warnings:
+        print(f"inkray: warning: {warning}", file=sys.stderr)
+
+
 def _check_output(path, allowed):
     suffix = Path(path).suffix.lower()
     if suffix not in allowed:
@@ -64,132 +77,59 @@ def _cmd_validate(args, progress):
 
 
 def _cmd_segment(args, progress):
-    import json
-
-    import numpy as np
-    from PIL import Image
-
-    from inkray.formats.atomic import atomic_outputs
-    from inkray.segmentation import label_palette, segment
+    from inkray.formats.labels import write_labels
 
     _check_output(args.output, (".png",))
     if args.npy is not None and Path(args.npy).suffix.lower() != ".npy":
         raise InputError(f"--npy {args.npy}: expected a .npy file")
-    ann, drawing = _load(args)
-    with progress.stage("segment"):
-        seg = segment(ann, drawing, progress=progress)
-    for warning in seg.warnings:
-        print(f"inkray: warning: {warning}", file=sys.stderr)
-    png = Path(args.output)
-    legend_path = png.with_suffix(".json")
-    palette = label_palette(len(seg.names))
-    index = seg.labels + 1  # palette index: 0 background, i + 1 region i
-    if len(palette) <= 256:
-        image = Image.fromarray(index.astype(np.uint8))
-        image.putpalette(palette.ravel().tolist())  # makes it an indexed ("P") image
-    else:
-        image = Image.fromarray(palette[index])
-    hexes = [f"#{r:02x}{g:02x}{b:02x}" for r, g, b in palette.tolist()]
-    counts = np.bincount(index.ravel(), minlength=len(palette))
-    legend = {
-        "format": "inkray-labels", "version": 1, "image": png.name,
-        "size": [int(seg.labels.shape[1]), int(seg.labels.shape[0])],
-        "background": {"label": -1, "index": 0, "colour": hexes[0], "pixels": int(counts[0])},
-        "regions": {name: {"label": i, "index": i + 1, "colour": hexes[i + 1],
-                           "pixels": int(counts[i + 1])}
-                    for i, name in enumerate(seg.names)},
-        "warnings": seg.warnings,
-    }
-    with atomic_outputs() as out:
-        image.save(out.path(png))
-        out.write_text(legend_path, json.dumps(legend, indent=2, ensure_ascii=False) + "\n")
-        if args.npy is not None:
-            np.save(out.path(args.npy), seg.labels.astype(np.int32))
+    seg = _chain(args, progress).segmentation
+    _warn(seg.warnings)
+    written = write_labels(seg, args.output, npy=args.npy)
     progress.summary()
     extra = f" and {args.npy}" if args.npy is not None else ""
-    print(f"{png}: {len(seg.names)} regions and background (legend {legend_path}{extra}), "
+    print(f"{written[0]}: {len(seg.names)} regions and background (legend {written[1]}{extra}), "
           f"{len(seg.warnings)} warnings")
     return 0
 
 
+def _regions_report(chain, masks=None):
+    from inkray.formats.regions_report import regions_report
+
+    return regions_report(chain.segmentation, chain.candidates, chain.completion, chain.relations,
+                          predict=chain.options.predict, warnings=chain.warnings, masks=masks)
+
+
 def _cmd_regions(args, progress):
-    import json
-
-    import numpy as np
-    from PIL import Image
-
-    from inkray.relief.completion import complete_regions
-    from inkray.formats.atomic import atomic_outputs
-    from inkray.relief.ordering import depth_order
-    from inkray.segmentation import segment
+    from inkray.formats.regions_report import write_regions_report
 
     _check_output(args.output, (".json",))
-    ann, drawing = _load(args)
-    with progress.stage("segment"):
-        seg = segment(ann, drawing, progress=progress)
-    with progress.stage("complete"):
-        candidates = complete_regions(seg.labels, names=seg.names, progress=progress)
-    with progress.stage("order"):
-        relations, notes = depth_order(ann, seg.labels, candidates, predict=not args.no_predict)
-        final = candidates.ordered(relations)
-    warnings = seg.warnings + notes
-    for warning in warnings:
-        print(f"inkray: warning: {warning}", file=sys.stderr)
-    names = seg.names
-    visible = np.bincount(seg.labels[seg.labels >= 0], minlength=len(names))
-    invented = np.bincount(final.owner[final.owner >= 0], minlength=len(names))
-    masks = Path(args.masks) if args.masks is not None else None
-
-    def point(p):
-        return [round(float(v), 2) for v in p]
-
-    report = {
-        "format": "inkray-regions", "version": 1,
-        "size": [int(seg.labels.shape[1]), int(seg.labels.shape[0])],
-        "predict": not args.no_predict,
-        "regions": [{"name": n, "label": i, "visible_area": int(visible[i]),
-                     "completed_area": int(visible[i] + invented[i]),
-                     "neighbours": [names[j] for j in candidates.neighbours[i]],
-                     **({"mask": str(masks / f"{n}.png")} if masks is not None else {})}
-                    for i, n in enumerate(names)],
-        "relations": [{"front": r.front_name, "back": r.back_name, "where": point(r.where),
-                       "source": r.source, "confidence": float(f"{r.confidence:.4g}"),
-                       "place": r.place, "entry": None if r.entry is None else f"order[{r.entry}]"}
-                      for r in relations if r.kind == "order"],
-        "equal": [{"a": r.front_name, "b": r.back_name, "where": point(r.where), "place": r.place,
-                   "entry": f"equal[{r.entry}]"} for r in relations if r.kind == "equal"],
-        "places": [{"index": p.index, "a": names[p.a], "b": names[p.b], "where": point(p.where),
-                    "site": p.site} for p in candidates.places],
-        "warnings": warnings,
-    }
-    with atomic_outputs() as out:
-        if masks is not None:
-            for i, n in enumerate(names):
-                image = Image.fromarray(np.where(final.completed(i), 255, 0).astype(np.uint8))
-                image.save(out.path(masks / f"{n}.png"))
-        out.write_text(args.output, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+    chain = _chain(args, progress, predict=not args.no_predict)
+    report = _regions_report(chain, masks=args.masks)
+    _warn(report["warnings"])
+    write_regions_report(report, args.output, completion=chain.completion, masks=args.masks)
     progress.summary()
-    predicted = sum(r.source == "predicted" for r in relations)
-    print(f"{args.output}: {len(names)} regions, {len(report['relations'])} order relations "
-          f"({predicted} predicted), {len(warnings)} warnings"
-          + (f"; masks in {masks}/" if masks is not None else ""))
+    predicted = sum(r["source"] == "predicted" for r in report["relations"])
+    print(f"{args.output}: {len(report['regions'])} regions, {len(report['relations'])} order "
+          f"relations ({predicted} predicted), {len(report['warnings'])} warnings"
+          + (f"; masks in {args.masks}/" if args.masks is not None else ""))
     return 0
 
 
 def _cmd_depth(args, progress):
-    from inkray.depthmap.estimation import depth, write_depth_outputs
+    from inkray.formats.depth_png import write_depth_outputs
 
     _check_output(args.output, (".png",))
     for flag, path, allowed in (("--npy", args.npy, (".npy",)), ("--normals", args.normals, (".png",)),
                                 ("--shading", args.shading, (".png",))):
         if path is not None and Path(path).suffix.lower() not in allowed:
             raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
-    ann, drawing = _load(args)
-    result = depth(ann, drawing, method=args.method, epsilon=args.epsilon, progress=progress)
+    chain = _chain(args, progress, depth_method=args.method, depth_epsilon=args.epsilon)
+    result = chain.depth_map
     written = write_depth_outputs(result, args.output, npy=args.npy, normals=args.normals,
-                                  shading=args.shading, drawing=drawing)
+                                  shading=args.shading, drawing=chain.drawing)
     progress.summary()
     d = result.depth
+    ann = chain.annotations
     print(f"{args.output}: {args.method} depth of {len(ann.order)} order and {len(ann.equal)} equal "
           f"entries, range {float(d.min()):.4g} .. {float(d.max()):.4g} "
           f"(wrote {', '.join(str(p) for p in written)})")
@@ -197,10 +137,10 @@ def _cmd_depth(args, progress):
 
 
 def _cmd_relief(args, progress):
-    from inkray.formats.meshes import export_relief
     from inkray.formats.atomic import atomic_outputs
-    from inkray.chain import build_relief
-    from inkray.view.rendering import render, write_renderings
+    from inkray.formats.images import write_renderings
+    from inkray.formats.meshes import export_relief
+    from inkray.view.rendering import render
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
     if args.units_per_pixel <= 0:
@@ -217,29 +157,30 @@ def _cmd_relief(args, progress):
             target = Path(value) if isinstance(value, str) else out.with_name(f"{out.stem}-{mode}.png")
             _check_output(target, (".png",))
             images[mode] = target
-    ann, drawing = _load(args)
-    result = build_relief(ann, drawing, predict=not args.no_predict, max_area=args.max_area,
-                          epsilon=args.epsilon, closed=args.closed, union=args.union,
-                          progress=progress)
-    for warning in result.warnings:
-        print(f"inkray: warning: {warning}", file=sys.stderr)
+    chain = _chain(args, progress, predict=not args.no_predict, max_area=args.max_area,
+                   epsilon=args.epsilon, closed=args.closed, union=args.union)
+    if not chain.annotations.regions:
+        raise InputError("regions: a relief needs at least one region")
+    relief = chain.relief
+    _warn(chain.warnings)
     with progress.stage("export"):
         with atomic_outputs() as group:
-            written = export_relief(result.relief, out, units_per_pixel=args.units_per_pixel,
+            written = export_relief(relief, out, units_per_pixel=args.units_per_pixel,
                                     anchor=args.anchor, outputs=group)
             for mode, target in images.items():
-                write_renderings(render(result.relief, mode=mode), target, outputs=group)
+                write_renderings(render(relief, mode=mode), target, outputs=group)
                 written.append(target)
     progress.summary()
-    parts = result.relief.parts
+    parts = relief.parts
     print(f"{out}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices, "
           f"{sum(len(p.faces) for p in parts)} faces ({', '.join(str(w) for w in written[1:]) or 'no extra files'})")
     return 0
 
 
 def _cmd_render(args, progress):
-    from inkray.view.rendering import (GI_MAX_SIDE, output_size, read_relief, render, render_turntable,
-                         write_renderings)
+    from inkray.formats.images import write_renderings
+    from inkray.formats.meshes import read_relief
+    from inkray.view.rendering import GI_MAX_SIDE, output_size, render, render_turntable
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
 
@@ -297,32 +238,50 @@ def _cmd_check(args, progress):
 
 
 def _cmd_demo(args, progress):
+    import json
+
+    from inkray.chain import ChainOptions, ReliefChain
     from inkray.examples import example_path
+    from inkray.formats.atomic import atomic_outputs
+    from inkray.formats.depth_png import write_depth_outputs
+    from inkray.formats.images import write_renderings
+    from inkray.formats.labels import write_labels
+    from inkray.formats.meshes import export_relief
+    from inkray.input.loading import load_input
+    from inkray.view.rendering import GI_MAX_SIDE, has_mitsuba, output_size, render
 
-    ann = example_path(args.example)
+    path = example_path(args.example)
     out = Path(args.output)
-    steps = [
-        ("validate", ["validate", str(ann)]),
-        ("segment", ["segment", str(ann), "-o", str(out / "labels.png")]),
-        ("depth", ["depth", str(ann), "-o", str(out / "depth.png")]),
-        ("regions", ["regions", str(ann), "-o", str(out / "regions.json")]),
-        ("relief", ["relief", str(ann), "-o", str(out / "relief.glb")]),
-        ("render", ["render", str(out / "relief.glb"), "-o", str(out / "shaded.png")]),
-    ]
-    from inkray.view.rendering import has_mitsuba
-
+    print(f"demo: {args.example} -> {out}/")
+    ann, drawing = load_input(path)
+    chain = ReliefChain(ann, drawing, options=ChainOptions(), progress=progress)
+    w, h = ann.size
+    print(f"{path}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
+          f"{len(ann.order)} order, {len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
+    report = _regions_report(chain)
+    relief = chain.relief
+    depth = chain.depth_map
+    _warn(chain.warnings)
+    with progress.stage("render shade"):
+        shaded = render(relief, mode="shade")
+    gi = None
     if has_mitsuba():
-        steps.append(("gi", ["render", str(out / "relief.glb"), "-o", str(out / "gi.png"),
-                             "--mode", "gi", "--spp", str(args.spp)]))
+        size = output_size(relief.size, max_side=GI_MAX_SIDE)
+        with progress.stage(f"render gi {size[0]}x{size[1]}"):
+            gi = render(relief, mode="gi", size=size, spp=args.spp, progress=progress)
     else:
         print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
-    flags = (["--quiet"] if args.quiet else []) + (["--debug"] if args.debug else [])
-    print(f"demo: {args.example} -> {out}/")
-    for _, argv in steps:
-        code = _run(flags + argv)
-        if code != 0:
-            return code
-    print(f"demo: done; the files are in {out}/")
+    with atomic_outputs() as group:
+        written = write_labels(chain.segmentation, out / "labels.png", outputs=group)
+        written += write_depth_outputs(depth, out / "depth.png", drawing=drawing, outputs=group)
+        group.write_text(out / "regions.json", json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+        written += export_relief(relief, out / "relief.glb", outputs=group)
+        written += write_renderings(shaded, out / "shaded.png", outputs=group)
+        if gi is not None:
+            written += write_renderings(gi, out / "gi.png", outputs=group)
+    progress.summary()
+    print(f"demo: done; {len(written) + 1} files in {out}/: "
+          f"{', '.join(sorted({p.name for p in written} | {'regions.json'}))}")
     return 0
 
 

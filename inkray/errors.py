@@ -1,7 +1,7 @@
 """Error types shared by every stage.
 
-The CLI maps them to exit codes: :class:`InputError` and
-:class:`StageMissing` exit with 2 (bad input or usage), :class:`StageError`
+The CLI maps them to exit codes: :class:`InputError` exits
+with 2 (bad input or usage), :class:`StageError`
 with 1 (valid input that a stage could not process).
 """
 
@@ -22,14 +22,3 @@ class StageError(InkrayError, RuntimeError):
     """A stage failed on valid input."""
 
     exit_code = 1
-
-
-class StageMissing(InkrayError, NotImplementedError):
-    """A pipeline stage that does not exist yet."""
-
-    exit_code = 2
-
-    def __init__(self, stage, issue=None):
-        where = f" (tracked in issue #{issue})" if issue else ""
-        super().__init__(f"the '{stage}' stage is not implemented yet{where}")
-        self.stage = stage

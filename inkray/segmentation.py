@@ -36,7 +36,7 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.input.scribbles import BACKGROUND, UNSEEDED, polyline_pixels, seed_image
 
-__all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "label_palette", "INK_THRESHOLD"]
+__all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "INK_THRESHOLD"]
 
 #: Grey level below which a pixel counts as ink for validation and warnings.
 INK_THRESHOLD = 0.5
@@ -332,45 +332,6 @@ def _with_boundary_cuts(gray, boundaries):
     for b in marks:
         gray[polyline_pixels(b.path, gray.shape)] = 0.0
     return gray
-
-
-def label_palette(n):
-    """Colours of a label image: white background, then ``n`` distinct regions.
-
-    Parameters
-    ----------
-    n : int
-        Number of regions.
-
-    Returns
-    -------
-    (n + 1, 3) uint8 array
-        Row 0 is the background (white), row ``i + 1`` region ``i``: 20 hand
-        picked distinguishable colours, then golden-angle hues.
-
-    Examples
-    --------
-    >>> label_palette(2).tolist()
-    [[255, 255, 255], [230, 25, 75], [60, 180, 75]]
-    """
-    out = np.zeros((n + 1, 3), np.uint8)
-    out[0] = 255
-    for i in range(n):
-        if i < len(_COLOURS):
-            out[i + 1] = [int(_COLOURS[i][k:k + 2], 16) for k in (1, 3, 5)]
-        else:
-            import colorsys
-
-            hue = (i * 0.618033988749895) % 1.0
-            light = 0.45 + 0.15 * ((i // 7) % 2)
-            out[i + 1] = np.round(np.array(colorsys.hls_to_rgb(hue, light, 0.75)) * 255)
-    return out
-
-
-# Sasha Trubetskoy's 20 distinct colours (white omitted: it is the background).
-_COLOURS = ("#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6",
-            "#bfef45", "#fabed4", "#469990", "#dcbeff", "#9a6324", "#fffac8", "#800000",
-            "#aaffc3", "#808000", "#ffd8b1", "#000075", "#a9a9a9", "#000000")
 
 
 def _check_scribbles_off_ink(ann, gray):

@@ -12,9 +12,9 @@ when the change is intended.
 from pathlib import Path
 
 from inkray.examples import EXAMPLES, example_path
-from inkray.export import export_relief
-from inkray.inputs import load_input
-from inkray.pipeline import build_relief
+from inkray.formats.meshes import export_relief
+from inkray.input.loading import load_input
+from inkray.chain import build_relief
 
 HERE = Path(__file__).resolve().parent
 

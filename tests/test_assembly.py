@@ -40,7 +40,7 @@ def _scene(profile_b="sqrt"):
     inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
                                name=r.name, boundaries=ann.boundaries, profile=r.profile)
                 for i, r in enumerate(ann.regions)]
-    return stitch(inflated, relations, c, annotations=ann), labels
+    return stitch(inflated, relations, c, seams=ann.boundaries), labels
 
 
 @pytest.fixture(scope="module")

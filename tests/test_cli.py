@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from PIL import Image
 
 from inkray import cli
-from inkray.errors import StageMissing
+from inkray.errors import InputError
 from inkray.formats.atomic import atomic_outputs, write_text
 
 
@@ -64,13 +64,13 @@ def test_wrong_output_suffix_is_rejected_before_work(annotated, tmp_path, capsys
     assert not (tmp_path / "x.stl").exists()
 
 
-def test_missing_stage_exits_2_and_says_so(monkeypatch, capsys):
-    def missing(args, progress):
-        raise StageMissing("check", 8)
-    monkeypatch.setitem(cli._COMMANDS, "check", (missing, "x"))
+def test_input_error_exits_2_in_one_line(monkeypatch, capsys):
+    def bad(args, progress):
+        raise InputError("order[3]: front and back round to the same pixel (4, 5)")
+    monkeypatch.setitem(cli._COMMANDS, "check", (bad, "x"))
     code, _, err = _run(capsys, "check", "m.glb")
     assert code == 2
-    assert err == "inkray: error: the 'check' stage is not implemented yet (tracked in issue #8)\n"
+    assert err == "inkray: error: order[3]: front and back round to the same pixel (4, 5)\n"
 
 
 def test_internal_error_is_one_line_and_debug_shows_traceback(monkeypatch, capsys):

@@ -8,7 +8,8 @@ import pytest
 
 import inkray
 
-MODULES = sorted(m.name for m in pkgutil.iter_modules(inkray.__path__, "inkray."))
+MODULES = sorted(["inkray"] + [m.name for m in pkgutil.walk_packages(inkray.__path__, "inkray.")
+                               if not m.name.startswith("inkray.examples")])
 
 
 @pytest.mark.parametrize("name", MODULES)

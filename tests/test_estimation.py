@@ -9,8 +9,7 @@ from PIL import Image
 
 from inkray.input.annotations import parse_annotations, rescale_annotations
 from inkray.cli import main
-from inkray.depthmap.estimation import (DepthSession, depth, depth_constraints, depth_png, normal_map,
-                          shaded_preview, write_depth_outputs)
+from inkray.depthmap.estimation import DepthSession, depth, depth_constraints
 from inkray.input.drawing import drawing_from_array
 from inkray.errors import InputError
 from inkray.input.loading import load_input
@@ -311,40 +310,6 @@ def test_constraints_hold_on_shared_drawings(name, shared_drawings):
 @pytest.mark.parametrize("name", shared_drawing_names())
 def test_constraints_hold_on_shared_drawings_full_size(name, shared_drawings):
     _check_drawing(*load_input(shared_drawings / name / "drawing.inkray.json"))
-
-
-# -- outputs ------------------------------------------------------------------------
-
-def test_depth_png_round_trip_and_sidecar(tmp_path):
-    rng = np.random.default_rng(0)
-    d = rng.standard_normal((12, 16))
-    png, meta = depth_png(d)
-    (tmp_path / "x.png").write_bytes(png)
-    im = Image.open(tmp_path / "x.png")
-    v = np.asarray(im).astype(np.float64)
-    assert v.min() == 0 and v.max() == 65535
-    back = float(im.text["inkray:depth_min"]) + v * meta["scale"]
-    assert np.abs(back - d).max() <= meta["scale"]
-
-    ann = _ann((16, 12), order=[((1, 1), (14, 10))])
-    r = depth(ann, np.ones((12, 16)))
-    files = write_depth_outputs(r, tmp_path / "o" / "depth.png", npy=tmp_path / "o" / "d.npy",
-                                normals=tmp_path / "o" / "n.png", shading=tmp_path / "o" / "s.png")
-    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == sorted(f.name for f in files)
-    side = json.loads((tmp_path / "o" / "depth.json").read_text())
-    assert side["depth_min"] == pytest.approx(r.depth.min())
-    assert side["depth_max"] == pytest.approx(r.depth.max())
-    assert np.array_equal(np.load(tmp_path / "o" / "d.npy"), r.depth)
-
-
-def test_normals_of_a_tilted_plane_and_lambert():
-    x = np.tile(np.arange(50.0), (40, 1))           # rises to the right
-    n, rgb = normal_map(x, relief=0.1)
-    slope = 0.1 * 50 / 49                             # height per pixel
-    expect = np.array([-slope, 0.0, 1.0]) / np.hypot(slope, 1.0)
-    assert np.allclose(n[20, 25], expect)
-    img = shaded_preview(x, light=(0, 0, 1), ambient=0.0)
-    assert abs(int(img[20, 25, 0]) - round(255 * expect[2])) <= 1
 
 
 def test_cli_writes_all_outputs(tmp_path):

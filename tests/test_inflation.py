@@ -11,6 +11,7 @@ from inkray.relief.inflation import (InflationSolver, apply_profile, dirichlet_v
                             inflate_region)
 from inkray.relief.outline import FLAT, FRAME, INKED
 from inkray.relief.triangulation import mesh_region
+from inkray.relief.outline import MeshOptions
 
 R = 200.0
 C0 = 230.0
@@ -24,7 +25,7 @@ def disk():
 
 @pytest.fixture(scope="module")
 def disk_mesh(disk):
-    return mesh_region(disk, max_area=50.0)
+    return mesh_region(disk, options=MeshOptions(max_area=50.0))
 
 
 def _l2(mesh, solver, err):
@@ -143,7 +144,7 @@ def test_flat_linear_and_callable_profiles(disk_mesh):
 
 
 def test_convergence_halving_max_area(disk):
-    peaks = [inflate_region(disk, inflation=4.0, max_area=a).height.max() for a in (50.0, 25.0)]
+    peaks = [inflate_region(disk, inflation=4.0, options=MeshOptions(max_area=a)).height.max() for a in (50.0, 25.0)]
     assert abs(peaks[1] / peaks[0] - 1) < 0.005
 
 
@@ -173,7 +174,7 @@ def test_separate_parts_and_holes():
     left = (xx - 100) ** 2 + (yy - 100) ** 2 <= 80 ** 2
     right = ((xx - 300) ** 2 + (yy - 100) ** 2 <= 80 ** 2) & ((xx - 300) ** 2 + (yy - 100) ** 2 > 30 ** 2)
     # Finer than the default: the annulus is only 50 px wide and its log term is curved.
-    res = inflate_region(left | right, inflation=4.0, max_area=12.5)
+    res = inflate_region(left | right, inflation=4.0, options=MeshOptions(max_area=12.5))
     v, h = res.mesh.vertices, res.height
     assert np.all(h[res.mesh.outline] == 0)
     assert abs(h[v[:, 0] < 200].max() - 80) < 0.015 * 80

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from inkray.errors import InputError
-from inkray.relief.outline import (FLAT, FRAME, INKED, INVENTED, STITCH, check_boundaries, edge_length,
-                            region_outline)
+from inkray.relief.outline import (FLAT, FRAME, INKED, INVENTED, STITCH, MeshOptions,
+                                   check_boundaries, edge_length, region_outline)
 
 
 def _entry(kind, path, index=0):
@@ -24,7 +24,7 @@ def _area(p):
 
 
 def test_disk_outline_is_close_oriented_and_spaced():
-    out = region_outline(_disk(300, 300, 150, 150, 100), max_area=50.0)
+    out = region_outline(_disk(300, 300, 150, 150, 100), options=MeshOptions(max_area=50.0))
     r = np.hypot(*(out.points - 150).T)
     assert np.abs(r - 100).max() < 0.75  # the raster itself is only good to 0.5 px
     assert list(out.hole) == [False]
@@ -80,7 +80,7 @@ def test_marked_stretch_becomes_stations():
     mask = np.zeros((300, 300), bool)
     mask[50:250, 50:250] = True
     entry = _entry("flat", [[249.5, 60], [249.5, 240]], index=3)
-    out = region_outline(mask, boundaries=[entry], station_spacing=10.0)
+    out = region_outline(mask, boundaries=[entry], options=MeshOptions(station_spacing=10.0))
     marked = out.boundary_index == 3
     assert out.matched == (3,)
     assert np.all(out.kind[marked] == FLAT)

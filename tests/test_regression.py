@@ -8,7 +8,7 @@ import pytest
 from inkray.examples import example_path
 from inkray.input.loading import load_input
 from inkray.chain import build_relief
-from inkray.view.rendering import read_relief
+from inkray.formats.meshes import read_relief
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 

@@ -7,10 +7,10 @@ from PIL import Image
 
 from inkray.cli import main
 from inkray.errors import InputError
-from inkray.formats.meshes import export_relief
+from inkray.formats.images import write_renderings
+from inkray.formats.meshes import export_relief, read_relief
 from inkray.relief.model import Part, Relief
-from inkray.view.rendering import (has_mitsuba, output_size, read_relief, render, render_turntable,
-                           write_renderings)
+from inkray.view.rendering import has_mitsuba, output_size, render, render_turntable
 
 needs_mitsuba = pytest.mark.skipif(
     not has_mitsuba(), reason="Mitsuba 3 is not installed (pip install 'inkray[render]'); "

@@ -12,7 +12,7 @@ from inkray.cli import main
 from inkray.errors import InputError
 from inkray.input.loading import load_input
 from inkray.input.scribbles import seed_image
-from inkray.segmentation import Segmentation, label_palette, lazybrush, segment
+from inkray.segmentation import Segmentation, lazybrush, segment
 
 UNSEEDED = -2
 
@@ -276,13 +276,6 @@ def test_segment_rejects_a_scribble_layer_region_on_ink():
         segment(ann, gray)
 
 
-def test_label_palette_is_distinct():
-    pal = label_palette(60)
-    assert pal.shape == (61, 3) and pal.dtype == np.uint8
-    assert len({tuple(c) for c in pal.tolist()}) == 61
-    assert (pal[0] == 255).all() and not (pal[1:] == 255).all(axis=1).any()
-
-
 # -- the shared drawings -----------------------------------------------------
 
 @pytest.mark.parametrize("name", shared_drawing_names())
@@ -379,8 +372,9 @@ def test_cli_rejects_wrong_npy_suffix(tmp_path, shared_drawings):
 
 def test_package_exports():
     import inkray
+    import inkray.segmentation
 
-    assert inkray.lazybrush is lazybrush and inkray.Segmentation is Segmentation
+    assert inkray.segment is segment and inkray.Segmentation is Segmentation
     assert inkray.segmentation.segment is segment  # the module is not hidden by a function
 
 

@@ -9,6 +9,7 @@ from _mesh import height_at
 from inkray.input.annotations import parse_annotations
 from inkray.relief.completion import complete_regions
 from inkray.errors import InputError
+from inkray.relief.outline import MeshOptions
 from inkray.relief.inflation import inflate_region
 from inkray.relief.ordering import depth_order
 from inkray.relief.stitching import stitch
@@ -27,9 +28,9 @@ def _build(labels, ann, names, **kw):
     relations, _ = depth_order(ann, labels, c)
     c = c.ordered(relations)
     inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
-                               name=n, boundaries=ann.boundaries, max_area=30.0)
+                               name=n, boundaries=ann.boundaries, options=MeshOptions(max_area=30.0))
                 for i, n in enumerate(names)]
-    return stitch(inflated, relations, c, annotations=ann, **kw), c, relations
+    return stitch(inflated, relations, c, seams=ann.boundaries, **kw), c, relations
 
 
 def _disks():
@@ -71,7 +72,7 @@ def test_constraints_that_already_hold_leave_offsets_zero():
     ann = _doc((280, 200), order=[((150, 100), (60, 100))])
     layers, c, rel = _build(labels, ann, ["A", "B"])
     lifted = replace(layers.regions[0], height=layers.regions[0].height + 500.0)
-    again = stitch([lifted, layers.regions[1]], rel, c, annotations=ann)
+    again = stitch([lifted, layers.regions[1]], rel, c, seams=ann.boundaries)
     assert again.active == 0
     assert np.abs(again.offset[0]).max() == 0 and np.abs(again.offset[1]).max() == 0
 

@@ -10,6 +10,7 @@ from skimage.measure import find_contours
 from inkray.errors import InputError
 from inkray.relief.outline import FLAT, INTERIOR, edge_length, region_outline
 from inkray.relief.triangulation import mesh_region, triangulate_outline
+from inkray.relief.outline import MeshOptions
 
 
 def _shapes():
@@ -57,7 +58,7 @@ def _boundary_curves(mesh):
 @pytest.mark.parametrize("name", ["disk", "ring", "blob"])
 def test_quality_orientation_and_fidelity(name):
     mask = _shapes()[name]
-    mesh = mesh_region(mask, max_area=50.0)
+    mesh = mesh_region(mask, options=MeshOptions(max_area=50.0))
     ang = _angles(mesh.vertices, mesh.faces)
     area = _signed_area(mesh.vertices, mesh.faces)
     # The blob has two concave 90-degree-ish corners; Triangle keeps >= 20 deg everywhere here.
@@ -85,7 +86,7 @@ def test_sharp_corner_is_the_only_exception_to_the_angle_bound():
     tip = np.array([20.0, 100.0])
     ang = np.degrees(np.arctan2(yy - tip[1], xx - tip[0]))
     mask = (np.abs(ang) < 5) & (xx < 300) & (xx > 20)
-    mesh = mesh_region(mask, max_area=30.0)
+    mesh = mesh_region(mask, options=MeshOptions(max_area=30.0))
     a = _angles(mesh.vertices, mesh.faces)
     bad = a.min(axis=1) < 20.0
     centroid = mesh.vertices[mesh.faces].mean(axis=1)
@@ -94,8 +95,8 @@ def test_sharp_corner_is_the_only_exception_to_the_angle_bound():
 
 def test_max_area_sets_the_resolution():
     mask = _shapes()["disk"]
-    coarse = mesh_region(mask, max_area=100.0)
-    fine = mesh_region(mask, max_area=25.0)
+    coarse = mesh_region(mask, options=MeshOptions(max_area=100.0))
+    fine = mesh_region(mask, options=MeshOptions(max_area=25.0))
     assert 3.0 < len(fine.faces) / len(coarse.faces) < 5.0
     for mesh, a in ((coarse, 100.0), (fine, 25.0)):
         assert -_signed_area(mesh.vertices, mesh.faces).min() <= a + 1e-6
@@ -119,23 +120,23 @@ def test_outline_vertices_and_stations_survive():
 @pytest.mark.parametrize("kw, msg", [({"max_area": 0.0}, "max_area"), ({"min_angle": 40.0}, "min_angle")])
 def test_bad_options(kw, msg):
     with pytest.raises(InputError, match=msg):
-        mesh_region(_shapes()["disk"], **kw)
+        mesh_region(_shapes()["disk"], options=MeshOptions(**kw))
 
 
 def test_small_regions_get_at_least_min_triangles():
     yy, xx = np.mgrid[:40, :40]
     dot = (xx - 20) ** 2 + (yy - 20) ** 2 <= 12 ** 2  # ~450 px^2: 9 triangles at 50 px^2
-    mesh = mesh_region(dot, max_area=50.0, min_triangles=200)
+    mesh = mesh_region(dot, options=MeshOptions(max_area=50.0, min_triangles=200))
     assert len(mesh.faces) >= 200
     assert _angles(mesh.vertices, mesh.faces).min() >= 20.0 - 1e-6
-    assert len(mesh_region(dot, max_area=50.0, min_triangles=1, across=0).faces) < 40
+    assert len(mesh_region(dot, options=MeshOptions(max_area=50.0, min_triangles=1, across=0)).faces) < 40
 
 
 def test_narrow_parts_get_shorter_edges():
     mask = np.zeros((64, 440), bool)
     mask[20:44, 20:420] = True  # 24 px wide
     for across, longest in ((8, 24 / 8 * 1.2), (0, edge_length(50.0))):
-        mesh = mesh_region(mask, max_area=50.0, across=across)
+        mesh = mesh_region(mask, options=MeshOptions(max_area=50.0, across=across))
         segs = _boundary_curves(mesh)
         mid = [s for s in segs if np.all(np.abs(s[:, 0] - 220) < 150)]
         lengths = np.array([np.linalg.norm(s[1] - s[0]) for s in mid])

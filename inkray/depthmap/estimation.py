@@ -23,11 +23,8 @@ units of the annotation's epsilon (default 1). Annotation points are rounded
 to the nearest pixel.
 """
 
-import io
-import json
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
@@ -36,8 +33,7 @@ from inkray.errors import InputError, StageError
 from inkray.numerics.grid_cholesky import GridCholesky
 from inkray.depthmap.quadratic_program import WEIGHT_FLOOR, check_constraints, edge_weights, grid_laplacian, solve_depth_qp
 
-__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "depth_png",
-           "normal_map", "shaded_preview", "write_depth_outputs", "METHODS"]
+__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "METHODS"]
 
 METHODS = ("exact", "fast")
 #: Grey level below which a pixel counts as ink when deciding whether a
@@ -593,167 +589,3 @@ def _levels(p, q, ineq, labels, *, what="point"):
     if done != len(nodes):  # check_constraints already reported any cycle
         raise StageError("depth: the constraint graph has a cycle the cycle test missed")
     return {int(v): level[find(int(v))] for v in list(p) + list(q)}
-
-
-# -- outputs --------------------------------------------------------------------
-
-def depth_png(depth_map):
-    """Encode a depth map as a 16-bit grey PNG normalized to the full range.
-
-    Parameters
-    ----------
-    depth_map : (H, W) float array
-
-    Returns
-    -------
-    png : bytes
-        0 is the farthest pixel, 65535 the nearest; the text chunks
-        ``inkray:depth_min`` and ``inkray:depth_max`` hold the range.
-    meta : dict
-        ``{"depth_min", "depth_max", "scale"}``: ``depth = min + value * scale``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> png, meta = depth_png(np.array([[0.0, 2.0]]))
-    >>> meta["depth_max"], png[:4] == b"\\x89PNG"
-    (2.0, True)
-    """
-    from PIL import Image
-    from PIL.PngImagePlugin import PngInfo
-
-    d = np.asarray(depth_map, np.float64)
-    lo, hi = float(d.min()), float(d.max())
-    span = hi - lo
-    u16 = np.zeros(d.shape, np.uint16) if span <= 0 else \
-        np.round((d - lo) / span * 65535).astype(np.uint16)
-    info = PngInfo()
-    info.add_text("inkray:depth_min", repr(lo))
-    info.add_text("inkray:depth_max", repr(hi))
-    buf = io.BytesIO()
-    Image.fromarray(u16).save(buf, format="PNG", pnginfo=info)
-    return buf.getvalue(), {"depth_min": lo, "depth_max": hi, "scale": span / 65535}
-
-
-def normal_map(depth_map, *, relief=0.1):
-    """Surface normals of the depth map as an RGB image.
-
-    Parameters
-    ----------
-    depth_map : (H, W) float array
-    relief : float, default 0.1
-        Height of the full depth range as a fraction of the longer image side
-        (depth has no pixel scale of its own).
-
-    Returns
-    -------
-    normals : (H, W, 3) float64 array
-        Unit normals ``(x right, y up, z toward the viewer)``.
-    rgb : (H, W, 3) uint8 array
-        ``(n + 1) / 2 * 255``, the usual tangent-space encoding.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> n, rgb = normal_map(np.zeros((4, 4)))
-    >>> n[0, 0].tolist(), rgb[0, 0].tolist()
-    ([0.0, 0.0, 1.0], [128, 128, 255])
-    """
-    d = np.asarray(depth_map, np.float64)
-    span = float(d.max() - d.min())
-    height = d * (relief * max(d.shape) / span) if span > 0 else np.zeros_like(d)
-    gy, gx = np.gradient(height) if min(d.shape) > 1 else (np.zeros_like(d), np.zeros_like(d))
-    # Image rows grow downward; the normal's y points up.
-    n = np.stack([0.0 - gx, gy, np.ones_like(d)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    rgb = np.round((n + 1.0) * 0.5 * 255).astype(np.uint8)
-    return n, rgb
-
-
-def shaded_preview(depth_map, drawing=None, *, light=(-1.0, 1.0, 1.5), ambient=0.15, relief=0.1):
-    """Lambert-shaded preview of the depth map, with the drawing's ink on top.
-
-    Parameters
-    ----------
-    depth_map : (H, W) float array
-    drawing : Drawing or (H, W) / (H, W, 3) array, optional
-        Multiplied onto the shading (ink stays dark).
-    light : 3-tuple, default (-1, 1, 1.5)
-        Direction toward the light (x right, y up, z toward the viewer): upper left.
-    ambient : float, default 0.15
-    relief : float, default 0.1
-        See :func:`normal_map`.
-
-    Returns
-    -------
-    (H, W, 3) uint8 array
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> img = shaded_preview(np.zeros((2, 2)))
-    >>> img.shape, bool((img == img[0, 0]).all())
-    ((2, 2, 3), True)
-    """
-    n, _ = normal_map(depth_map, relief=relief)
-    l = np.asarray(light, np.float64)
-    l = l / np.linalg.norm(l)
-    shade = ambient + (1 - ambient) * np.clip(n @ l, 0.0, 1.0)
-    img = np.repeat(shade[:, :, None], 3, axis=2)
-    if drawing is not None:
-        tex = getattr(drawing, "rgb", drawing)
-        tex = np.asarray(tex, np.float64)
-        tex = tex / 255.0 if tex.max(initial=0) > 1.0 else tex
-        if tex.ndim == 2:
-            tex = np.repeat(tex[:, :, None], 3, axis=2)
-        img = img * tex
-    return np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)
-
-
-def write_depth_outputs(result, output, *, npy=None, normals=None, shading=None, drawing=None):
-    """Write a depth result: all files together or none.
-
-    Parameters
-    ----------
-    result : DepthResult
-    output : str or pathlib.Path
-        The 16-bit PNG; a sidecar ``<stem>.json`` beside it holds the range,
-        the method and epsilon (and the KKT residuals for the exact method).
-    npy, normals, shading : str or pathlib.Path, optional
-        Float depth (``.npy``), normal map PNG, shaded preview PNG.
-    drawing : Drawing, optional
-        Ink for the shaded preview.
-
-    Returns
-    -------
-    list of pathlib.Path
-        The files written.
-    """
-    from PIL import Image
-
-    from inkray.formats.atomic import atomic_outputs
-
-    output = Path(output)
-    png, meta = depth_png(result.depth)
-    sidecar = output.with_suffix(".json")
-    doc = {"depth_min": meta["depth_min"], "depth_max": meta["depth_max"],
-           "scale": meta["scale"], "encoding": "depth = depth_min + value * scale (16-bit)",
-           "method": result.method, "epsilon": result.epsilon}
-    if result.method == "exact":
-        doc["kkt"] = result.info.get("kkt", {})
-        doc["objective"] = result.info.get("objective")
-        doc["sigma"] = result.info.get("sigma")
-    written = [output, sidecar]
-    with atomic_outputs() as out:
-        out.write_bytes(output, png)
-        out.write_text(sidecar, json.dumps(doc, indent=2) + "\n")
-        if npy is not None:
-            np.save(out.path(npy), result.depth)
-            written.append(Path(npy))
-        if normals is not None:
-            Image.fromarray(normal_map(result.depth)[1]).save(out.path(normals))
-            written.append(Path(normals))
-        if shading is not None:
-            Image.fromarray(shaded_preview(result.depth, drawing)).save(out.path(shading))
-            written.append(Path(shading))
-    return written

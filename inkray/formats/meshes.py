@@ -27,10 +27,11 @@ import numpy as np
 
 from inkray.errors import InputError
 from inkray.formats.atomic import atomic_outputs
+from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
-__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "pixel_coordinates",
-           "read_meshes", "scene_coordinates"]
+__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "glb_bytes", "pixel_coordinates",
+           "read_meshes", "read_relief", "scene_coordinates"]
 
 ANCHORS = ("center", "top-left")
 FORMATS = (".glb", ".obj", ".ply")
@@ -199,6 +200,32 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
     return list(files)
 
 
+def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center"):
+    """The GLB file of a relief, as bytes (what :func:`export_relief` writes to ``.glb``).
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    units_per_pixel, anchor
+        As in :func:`export_relief`.
+
+    Returns
+    -------
+    bytes
+
+    Examples
+    --------
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> glb_bytes(Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8)))[:4]
+    b'glTF'
+    """
+    _check_frame(units_per_pixel, anchor)
+    _check_relief(relief)
+    return _glb_bytes(relief, _scene_meshes(relief, units_per_pixel, anchor), units_per_pixel,
+                      anchor)
+
+
 def read_meshes(path):
     """Load a GLB/glTF, OBJ or PLY file as a list of named triangle meshes.
 
@@ -235,23 +262,31 @@ def read_meshes(path):
     >>> [(m.name, len(m.vertices), len(m.faces)) for m in read_meshes(p)]
     [('a', 3, 1)]
     """
+    return _load(Path(path), materials=False)[1]
+
+
+def _load(path, *, materials):
+    """``(scene or None, meshes)``: the file parsed once (the scene when ``materials``)."""
     import trimesh
 
-    path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".glb", ".gltf", ".obj", ".ply"):
         raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
                          f"(expected .glb, .gltf, .obj, .ply)")
     if not path.is_file():
         raise InputError(f"{path}: no such file")
+    scene = None
     try:
         if suffix == ".ply":
             meshes = _read_ply(path)
+            if materials:
+                scene = trimesh.load_scene(path, process=False)
         else:
             # OBJ: one mesh per o/g group even when groups share a material.
-            options = ({"group_material": False, "split_objects": True, "skip_materials": True}
-                       if suffix == ".obj" else {})
-            meshes = _scene_to_named(trimesh.load_scene(path, process=False, **options))
+            options = ({"group_material": False, "split_objects": True,
+                        "skip_materials": not materials} if suffix == ".obj" else {})
+            scene = trimesh.load_scene(path, process=False, **options)
+            meshes = _scene_to_named(scene)
     except InputError:
         raise
     except Exception as e:  # every parser failure means the same: not a readable mesh
@@ -260,7 +295,7 @@ def read_meshes(path):
     meshes = [m for m in meshes if len(m.faces)]
     if not meshes:
         raise InputError(f"{path}: holds no triangles")
-    return meshes
+    return scene, meshes
 
 
 # -- validation --------------------------------------------------------------
@@ -393,7 +428,7 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor):
     import trimesh
     from PIL import Image
 
-    from inkray import __version__
+    from inkray._version import __version__
 
     material = trimesh.visual.material.PBRMaterial(
         name="drawing", baseColorTexture=Image.fromarray(_texture(relief)),
@@ -554,3 +589,125 @@ def _read_ply(path):
         meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3)))
     return meshes
 
+
+def read_relief(path):
+    """A relief from a GLB/glTF, OBJ or PLY file.
+
+    Geometry comes from :func:`inkray.formats.meshes.read_meshes`. inkray's files are
+    placed by the frame their exporter records (GLB scene extras, PLY header
+    comments; see :mod:`inkray.export`); other files with a texture by their
+    texture coordinates (``x = u W - 0.5``, ``y = (1 - v) H - 0.5``: pixel
+    centres at integers, as in :mod:`inkray.relief`); anything else is
+    scaled so its longer side spans 512 pixels. The drawing is the GLB's
+    base-colour texture or the OBJ's ``map_Kd`` (PLY carries none).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    inkray.relief.model.Relief
+
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable, holds no triangles, or its inkray
+        frame record is malformed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> back = read_relief(p)
+    >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
+    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
+    """
+    path = Path(path)
+    scene, meshes = _load(path, materials=True)
+    texture, pairs = None, []
+    for node in scene.graph.nodes_geometry:
+        transform, geom_name = scene.graph[node]
+        geom = scene.geometry[geom_name]
+        uv = getattr(geom.visual, "uv", None)
+        material = getattr(geom.visual, "material", None)
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+        if path.suffix.lower() == ".ply" or uv is None or image is None:
+            continue
+        if texture is None:
+            texture = np.asarray(image.convert("RGB"))
+        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
+        pairs.append((v, np.asarray(uv, float)))
+    frame = _frame(scene, path)
+    allv = np.concatenate([m.vertices for m in meshes])
+    if frame is not None:
+        size, s, anchor = frame
+
+        def to_pixels(v):
+            return pixel_coordinates(v, size, units_per_pixel=s, anchor=anchor)
+    elif texture is not None:
+        size = (texture.shape[1], texture.shape[0])
+        to_pixels = _uv_fit(pairs, size, path)
+    else:
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
+        s = max(float(np.max(hi[:2] - lo[:2])), 1e-12) / 512
+        size = tuple(max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
+
+        def to_pixels(v):
+            # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
+            return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
+                             v[:, 2] / s], axis=1)
+    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
+    return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
+
+
+def _frame(scene, path):
+    """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
+    meta = scene.metadata or {}
+    info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
+    if info is None and path.suffix.lower() == ".ply":
+        with open(path, "rb") as fh:
+            for raw in fh:
+                line = raw.decode("ascii", "replace").strip()
+                if line == "end_header":
+                    break
+                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
+                             r"(\S+)(?: anchor (\S+))?$", line)
+                if m:
+                    info = {"drawing_size": [int(m[1]), int(m[2])],
+                            "units_per_pixel": float(m[3]), "anchor": m[4] or "center"}
+    if info is None:
+        return None
+    try:
+        w, h = (int(x) for x in info["drawing_size"])
+        s = float(info["units_per_pixel"])
+        anchor = info.get("anchor", "center")
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"{path}: extras.inkray: malformed ({e})") from e
+    if w <= 0 or h <= 0 or not s > 0 or anchor not in ("center", "top-left"):
+        raise InputError(f"{path}: extras.inkray: drawing_size {info.get('drawing_size')}, "
+                         f"units_per_pixel {s}, anchor {anchor!r} out of range")
+    return (w, h), s, anchor
+
+
+def _uv_fit(pairs, size, path):
+    """Scene -> pixel map fitted to texture coordinates: x = u W - 0.5, y = (1 - v) H - 0.5."""
+    v = np.concatenate([p[0] for p in pairs])
+    uv = np.concatenate([p[1] for p in pairs])
+    target = np.stack([uv[:, 0] * size[0] - 0.5, (1 - uv[:, 1]) * size[1] - 0.5], axis=1)
+    coef = []
+    for axis in range(2):
+        a = np.column_stack([v[:, axis], np.ones(len(v))])
+        c, *_ = np.linalg.lstsq(a, target[:, axis], rcond=None)
+        coef.append(c)
+    s = (abs(coef[0][0]) + abs(coef[1][0])) / 2
+    if not s > 0:
+        raise InputError(f"{path}: texture coordinates do not vary with position")
+
+    def to_pixels(p):
+        return np.stack([coef[0][0] * p[:, 0] + coef[0][1], coef[1][0] * p[:, 1] + coef[1][1],
+                         p[:, 2] * s], axis=1)
+    return to_pixels

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.sparse.linalg import splu
 
 from inkray.errors import InputError, StageError
-from inkray.relief.outline import DEFAULT_MAX_AREA, DEFAULT_SNAP, DIRICHLET_KINDS
+from inkray.relief.outline import DIRICHLET_KINDS
 from inkray.relief.triangulation import RegionMesh, mesh_region
 
 __all__ = ["InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh", "inflate_region",
@@ -269,23 +269,21 @@ def inflate_mesh(mesh, *, inflation=2.0, profile="sqrt", solver=None):
 
 
 def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                   inflation=2.0, profile="sqrt", max_area=DEFAULT_MAX_AREA, min_triangles=200,
-                   across=8, min_angle=20.0, snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3,
-                   station_spacing=None):
+                   inflation=2.0, profile="sqrt", options=None):
     """Mesh and inflate one completed region.
 
     Parameters
     ----------
     mask : (H, W) bool array
         The completed region.
-    visible, labels, region, name, boundaries, across, snap, smoothing, tolerance, station_spacing
+    visible, labels, region, name, boundaries
         As in :func:`inkray.relief.outline.region_outline`.
     inflation : float, default 2
         ``c`` of ``-lap f = c``.
     profile : str or callable, default "sqrt"
         See :func:`apply_profile`.
-    max_area, min_triangles, min_angle
-        As in :func:`inkray.relief.triangulation.mesh_region`.
+    options : inkray.relief.outline.MeshOptions, optional
+        How the region is meshed (see :func:`inkray.relief.triangulation.mesh_region`).
 
     Returns
     -------
@@ -301,9 +299,7 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
     """
     _check_options(inflation, profile, name if name is not None else "region")
     mesh = mesh_region(mask, visible=visible, labels=labels, region=region, name=name,
-                       boundaries=boundaries, max_area=max_area, min_triangles=min_triangles,
-                       across=across, min_angle=min_angle, snap=snap,
-                       smoothing=smoothing, tolerance=tolerance, station_spacing=station_spacing)
+                       boundaries=boundaries, options=options)
     return inflate_mesh(mesh, inflation=inflation, profile=profile)
 
 

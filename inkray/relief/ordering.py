@@ -87,6 +87,9 @@ class Relation:
         ``equal``) list; ``None`` for predictions.
     kind : str
         ``"order"`` (front over back) or ``"equal"`` (same depth).
+    points : ((float, float), (float, float)) or None
+        The user's entry's two points in drawing pixels, ``(front, back)``
+        (``(a, b)`` for ``equal``); ``None`` for predictions.
     """
 
     front: int
@@ -99,6 +102,7 @@ class Relation:
     place: int = None
     entry: int = None
     kind: str = "order"
+    points: tuple = None
 
     @property
     def label(self):
@@ -392,7 +396,8 @@ def _user_relation(kind, index, p, q, labels, completion, warnings):
                         f"the relation has no overlap area")
     where = ((p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0)
     return Relation(front=u, back=v, front_name=names[u], back_name=names[v], where=where,
-                    source="user", confidence=1.0, place=place, entry=index, kind=kind)
+                    source="user", confidence=1.0, place=place, entry=index, kind=kind,
+                    points=(tuple(map(float, p)), tuple(map(float, q))))
 
 
 class _SiteGraph:

@@ -39,7 +39,7 @@ from skimage.measure import find_contours
 from inkray.errors import InputError
 
 __all__ = [
-    "RegionOutline", "region_outline", "check_boundaries", "edge_length",
+    "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "edge_length",
     "INTERIOR", "INKED", "INVENTED", "FRAME", "STITCH", "GRAFT", "FLAT",
     "KIND_NAMES", "DIRICHLET_KINDS", "DEFAULT_MAX_AREA", "DEFAULT_SNAP",
 ]
@@ -85,6 +85,76 @@ def edge_length(max_area):
     10.75
     """
     return math.sqrt(4.0 * float(max_area) / math.sqrt(3.0))
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """How a completed region becomes a mesh: one record from the outline to the inflation.
+
+    Attributes
+    ----------
+    max_area : float, default 50
+        Largest triangle area (px^2), the resolution knob; outline vertices
+        are at most :func:`edge_length` of it apart.
+    min_triangles : int, default 200
+        Small regions get smaller triangles, at most ``area / min_triangles``.
+    min_angle : float, default 20
+        Smallest triangle angle (degrees), in (0, 34].
+    across : int, default 8
+        Where a region is narrow, outline edges are at most its local width
+        divided by this (not below 1.5 px); 0 turns it off.
+    smoothing : float, default 1
+        Gaussian smoothing of the contour along its arc length (px, sigma).
+    tolerance : float, default 0.3
+        Simplification tolerance (px, Douglas-Peucker).
+    snap : float, default 6
+        A ``boundaries`` path snaps to an outline when its median distance
+        to it is at most this (px).
+    spacing, station_spacing : float, optional
+        Longest outline edge and the distance between stations of a
+        ``boundaries`` entry (px); default :func:`edge_length` of ``max_area``.
+    speckle : float, default 9
+        Loops enclosing less than this area (px^2) are dropped.
+
+    Examples
+    --------
+    >>> MeshOptions(max_area=20).max_area
+    20.0
+    >>> MeshOptions(max_area=-1)
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: max_area: expected a positive area in px^2, got -1
+    """
+
+    max_area: float = DEFAULT_MAX_AREA
+    min_triangles: int = 200
+    min_angle: float = 20.0
+    across: int = 8
+    smoothing: float = 1.0
+    tolerance: float = 0.3
+    snap: float = DEFAULT_SNAP
+    spacing: float = None
+    station_spacing: float = None
+    speckle: float = 9.0
+
+    def __post_init__(self):
+        if not (isinstance(self.max_area, (int, float)) and math.isfinite(self.max_area)
+                and self.max_area > 0):
+            raise InputError(f"max_area: expected a positive area in px^2, got {self.max_area!r}")
+        object.__setattr__(self, "max_area", float(self.max_area))
+        if not (isinstance(self.min_triangles, (int, np.integer)) and self.min_triangles >= 1):
+            raise InputError(f"min_triangles: expected a positive integer, got {self.min_triangles!r}")
+        if not 0 < self.min_angle <= 34:
+            raise InputError(f"min_angle: expected 0 < min_angle <= 34 degrees, "
+                             f"got {self.min_angle!r}")
+        for key in ("spacing", "station_spacing"):
+            value = getattr(self, key)
+            if value is not None and not value > 0:
+                raise InputError(f"{key}: expected a positive length in px, got {value!r}")
+        if not (self.smoothing >= 0 and self.tolerance > 0 and self.snap > 0 and self.across >= 0
+                and self.speckle >= 0):
+            raise InputError("mesh options: tolerance and snap must be positive, smoothing, "
+                             "across and speckle non-negative")
 
 
 @dataclass
@@ -152,8 +222,7 @@ class RegionOutline:
 
 
 def region_outline(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                   max_area=DEFAULT_MAX_AREA, spacing=None, station_spacing=None, across=8,
-                   smoothing=1.0, tolerance=0.3, snap=DEFAULT_SNAP, speckle=9.0):
+                   options=None):
     """Outline of a completed region mask with per-vertex provenance.
 
     Parameters
@@ -176,30 +245,9 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         Annotation entries (``.type``, ``.path`` ``(k, 2)`` ``[x, y]``,
         ``.index``); those within ``snap`` px of an outline mark it, the others
         are ignored here (see :func:`check_boundaries`).
-    max_area : float, default 50
-        Resolution knob (px^2); sets the default ``spacing`` and
-        ``station_spacing`` to :func:`edge_length` of it.
-    spacing : float, optional
-        Longest outline edge (px).
-    station_spacing : float, optional
-        Target distance between stations of a ``boundaries`` entry (px); every
-        region that must share stations must use the same value.
-    across : int, default 8
-        Where the region is narrow, outline edges are shortened to at most
-        its local width divided by this (but not below 1.5 px), so that a
-        thin limb still has about this many triangles across; Triangle grades
-        the mesh inward from there. 0 turns it off.
-    smoothing : float, default 1
-        Gaussian smoothing of the contour along its arc length (px, sigma);
-        corners turning by more than 45 degrees within 3 px are kept sharp.
-    tolerance : float, default 0.3
-        Simplification tolerance (px, Douglas-Peucker).
-    snap : float, default 6
-        A ``boundaries`` path snaps to an outline loop when its median
-        distance to it is at most this (px).
-    speckle : float, default 9
-        Loops enclosing less than this area (px^2) are dropped (unless the
-        whole region is that small).
+    options : MeshOptions, optional
+        ``max_area``, ``spacing``, ``station_spacing``, ``across``,
+        ``smoothing``, ``tolerance``, ``snap`` and ``speckle`` are used here.
 
     Returns
     -------
@@ -219,14 +267,11 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     """
     mask, visible, labels = _check_arrays(mask, visible, labels, region)
     name = name if name is not None else f"region{region if region is not None else ''}"
-    if not max_area > 0:
-        raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
-    spacing = float(spacing) if spacing is not None else edge_length(max_area)
-    station_spacing = float(station_spacing) if station_spacing is not None else edge_length(max_area)
-    if not (spacing > 0 and station_spacing > 0 and smoothing >= 0 and tolerance > 0 and snap > 0
-            and across >= 0):
-        raise InputError(f"region {name}: spacing, station_spacing, tolerance and snap must be "
-                         f"positive, smoothing and across non-negative")
+    o = options if options is not None else MeshOptions()
+    spacing = float(o.spacing) if o.spacing is not None else edge_length(o.max_area)
+    station_spacing = (float(o.station_spacing) if o.station_spacing is not None
+                       else edge_length(o.max_area))
+    across, smoothing, tolerance, snap = o.across, o.smoothing, o.tolerance, o.snap
     if not mask.any():
         raise InputError(f"region {name}: the mask is empty")
     h, w = mask.shape
@@ -236,7 +281,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     y0, y1 = max(rows[0] - _MARGIN, 0), min(rows[-1] + _MARGIN + 1, h)
     x0, x1 = max(cols[0] - _MARGIN, 0), min(cols[-1] + _MARGIN + 1, w)
     box = mask[y0:y1, x0:x1]
-    loops, holes = _contours(box, speckle)
+    loops, holes = _contours(box, o.speckle)
     loops = [p + (x0, y0) for p in loops]
     dense = [_smooth(p, w, h, smoothing) for p in loops]
     paths = [(b, _resample(np.asarray(b.path, float), 0.5)) for b in boundaries]

@@ -172,7 +172,7 @@ class _Region:
         return tri, w, np.sqrt(np.maximum(d2, 0.0))
 
 
-def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, band=None,
+def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None,
            tol=1e-6, max_rounds=60, progress=None):
     """Solve the offsets ``g_i`` of every region.
 
@@ -187,9 +187,9 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
         The completion the meshes were made from (after
         :meth:`~inkray.relief.completion.Completion.ordered`); its places say where a
         relation applies.
-    annotations : Annotations, optional
-        For the points of ``order``/``equal`` entries and the ``boundaries``
-        entries (``stitch``, ``graft``; ``flat`` needs no offset).
+    seams : sequence of inkray.input.annotations.Boundary, default ()
+        The ``boundaries`` entries (``stitch``, ``graft``; ``flat`` needs no
+        offset), found on the meshes by their index.
     epsilon : float, optional
         Depth step of an inequality in px; default
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
@@ -240,8 +240,8 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
 
     rows = _Rows()
     zones = []
-    if annotations is not None:
-        zones = _boundary_rows(rows, blocks, regions, relations, annotations, band)
+    if seams:
+        zones = _boundary_rows(rows, blocks, regions, relations, seams, band)
     keepout = _keepout(zones)
     if completion is not None:
         # One set of overlap rows per (front, back, place), however many entries say it.
@@ -249,12 +249,10 @@ def stitch(inflated, relations, completion, *, annotations=None, epsilon=None, b
         for rel in relations:
             if rel.kind == "order" and rel.place is not None:
                 said.setdefault((rel.front, rel.back, rel.place), []).append(rel.label)
-                if annotations is not None and rel.source == "user" and rel.entry is not None:
-                    e = annotations.order[rel.entry]
-                    _entry_rows(rows, blocks, rel, np.array([e.front, e.back], float), epsilon,
-                                keepout)
-            elif rel.kind == "equal" and annotations is not None and rel.entry is not None:
-                _equal_rows(rows, blocks, rel, annotations.equal[rel.entry])
+                if rel.points is not None:
+                    _entry_rows(rows, blocks, rel, np.array(rel.points, float), epsilon, keepout)
+            elif rel.kind == "equal" and rel.points is not None:
+                _equal_rows(rows, blocks, rel)
         for (a, b, place), labels in said.items():
             _overlap_rows(rows, blocks, a, b, completion.places[place], completion, epsilon,
                           keepout, " and ".join(labels))
@@ -365,24 +363,25 @@ def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
     _terms_rows(rows, blocks, [(a, points, 1.0), (b, points, -1.0)], epsilon, True, rel.label)
 
 
-def _equal_rows(rows, blocks, rel, entry):
+def _equal_rows(rows, blocks, rel):
     a, b = rel.front, rel.back
     if blocks[a] is None or blocks[b] is None:
         return
-    added = _terms_rows(rows, blocks, [(a, np.array([entry.a]), 1.0), (b, np.array([entry.b]), -1.0)],
+    pa, pb = np.array(rel.points, float)
+    added = _terms_rows(rows, blocks, [(a, pa[None], 1.0), (b, pb[None], -1.0)],
                         0.0, False, rel.label)
     if not added:
         raise InputError(f"{rel.label}: a point lies off its region's mesh")
 
 
-def _boundary_rows(rows, blocks, regions, relations, annotations, band):
+def _boundary_rows(rows, blocks, regions, relations, seams, band):
     """Rows of the ``stitch`` and ``graft`` entries; returns the graft zones.
 
     A zone ``(front, base, station points, band width)`` says where
     inequalities between the two regions are left out.
     """
     zones = []
-    for entry in annotations.boundaries:
+    for entry in seams:
         if entry.type == "flat":
             continue
         key = f"boundaries[{entry.index}]"

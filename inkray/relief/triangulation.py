@@ -17,13 +17,14 @@ Faces follow :mod:`inkray.relief`: clockwise in the ``(x, y)`` image plane,
 i.e. counter-clockwise as the viewer sees the drawing.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import triangle
 
 from inkray.errors import InputError, StageError
-from inkray.relief.outline import DEFAULT_MAX_AREA, DEFAULT_SNAP, INTERIOR, edge_length, region_outline
+from inkray.relief.outline import (DEFAULT_MAX_AREA, INTERIOR, MeshOptions, edge_length,
+                                   region_outline)
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
@@ -173,24 +174,19 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
 
 
 def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
-                max_area=DEFAULT_MAX_AREA, min_triangles=200, across=8, min_angle=20.0,
-                snap=DEFAULT_SNAP, smoothing=1.0, tolerance=0.3, station_spacing=None):
+                options=None):
     """Outline and triangulate one completed region.
 
     Parameters
     ----------
     mask : (H, W) bool array
         The completed region.
-    visible, labels, region, name, boundaries, across, snap, smoothing, tolerance, station_spacing
+    visible, labels, region, name, boundaries
         As in :func:`inkray.relief.outline.region_outline`.
-    max_area : float, default 50
-        Largest triangle area (px^2); the outline spacing follows from it.
-    min_triangles : int, default 200
-        Small regions get smaller triangles, at most ``area / min_triangles``,
-        so that they are not faceted. Stations keep the spacing of
-        ``max_area`` (they must agree between regions).
-    min_angle : float, default 20
-        Smallest triangle angle (degrees).
+    options : inkray.relief.outline.MeshOptions, optional
+        Small regions get smaller triangles, at most ``area /
+        options.min_triangles``, so that they are not faceted; stations keep
+        the spacing of ``options.max_area`` (they must agree between regions).
 
     Returns
     -------
@@ -199,21 +195,15 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     Examples
     --------
     >>> yy, xx = np.mgrid[:100, :200]
-    >>> mesh = mesh_region((abs(xx - 100) < 80) & (abs(yy - 50) < 30), max_area=40.0)
+    >>> mesh = mesh_region((abs(xx - 100) < 80) & (abs(yy - 50) < 30),
+    ...                    options=MeshOptions(max_area=40.0))
     >>> float(np.round(np.ptp(mesh.vertices[:, 0])))
     159.0
     """
-    if not max_area > 0:
-        raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
-    if not (isinstance(min_triangles, (int, np.integer)) and min_triangles >= 1):
-        raise InputError(f"min_triangles: expected a positive integer, got {min_triangles!r}")
-    if not 0 < min_angle <= 34:
-        raise InputError(f"min_angle: expected 0 < min_angle <= 34 degrees, got {min_angle!r}")
-    if station_spacing is None:
-        station_spacing = edge_length(max_area)
-    area = min(float(max_area), float(np.count_nonzero(mask)) / min_triangles) or float(max_area)
+    o = options if options is not None else MeshOptions()
+    area = min(o.max_area, float(np.count_nonzero(mask)) / o.min_triangles) or o.max_area
+    station_spacing = o.station_spacing if o.station_spacing is not None else edge_length(o.max_area)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
-                         boundaries=boundaries, max_area=area, across=across, snap=snap,
-                         smoothing=smoothing,
-                         tolerance=tolerance, station_spacing=station_spacing)
-    return triangulate_outline(out, max_area=area, min_angle=min_angle)
+                         boundaries=boundaries,
+                         options=replace(o, max_area=area, station_spacing=station_spacing))
+    return triangulate_outline(out, max_area=area, min_angle=o.min_angle)

@@ -27,20 +27,18 @@ the vertical axis through the drawing's centre (positive: to the viewer's
 right), the light stays with the relief.
 """
 
-import json
-import re
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from inkray.errors import InputError, StageError
-from inkray.formats.atomic import atomic_outputs
+from inkray.numerics.quantization import quantize16
+from inkray.relief.model import Relief
 from inkray.view.rasterization import fit_view, rasterize, vertex_normals
-from inkray.relief.model import Part, Relief
+from inkray.view.shading import over_white
 
-__all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "read_relief",
-           "render", "render_turntable", "write_renderings"]
+__all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "render",
+           "render_turntable"]
 
 MODES = ("shade", "normals", "depth", "stereo", "gi")
 
@@ -269,73 +267,6 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
     return out
 
 
-def write_renderings(renderings, path, *, fps=12, outputs=None):
-    """Write renderings as PNG(s) or an animated GIF, all files or none.
-
-    One rendering to ``X.png`` writes ``X.png``; ``stereo`` also writes the
-    views ``X-left.png`` and ``X-right.png``. Several renderings (a turntable)
-    to ``X.png`` write frames ``X-000.png``, ``X-001.png``, ...; to ``X.gif``
-    an animation over white. Depth maps are 16-bit greyscale PNGs whose text
-    chunk ``inkray:depth`` records the depth range.
-
-    Parameters
-    ----------
-    renderings : Rendering or list of Rendering
-    path : str or Path
-        ``.png`` or ``.gif``.
-    fps : int, optional
-        GIF frame rate.
-    outputs : optional
-        An open :func:`inkray.formats.atomic.atomic_outputs` group to write into (its
-        files then appear with the group's); default: a group of its own.
-
-    Returns
-    -------
-    list of Path
-        The files written.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> img = np.zeros((2, 3, 4), np.uint8)
-    >>> out = pathlib.Path(tempfile.mkdtemp()) / "a.png"
-    >>> [p.name for p in write_renderings(Rendering("shade", img, img[..., 3] > 0), out)]
-    ['a.png']
-    """
-    from PIL import Image
-
-    items = [renderings] if isinstance(renderings, Rendering) else list(renderings)
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if not items:
-        raise InputError(f"{path}: nothing to write")
-    if suffix not in (".png", ".gif"):
-        raise InputError(f"-o {path}: expected .png or .gif")
-    files = {}
-    if suffix == ".gif":
-        files[path] = [_gif_frame(r) for r in items]
-    elif len(items) == 1:
-        files[path] = items[0]
-        for side, rgba in items[0].views.items():
-            files[path.with_name(f"{path.stem}-{side}.png")] = rgba
-    else:
-        for k, r in enumerate(items):
-            files[path.with_name(f"{path.stem}-{k:03d}.png")] = r
-    if outputs is None:
-        with atomic_outputs() as group:
-            return write_renderings(items, path, fps=fps, outputs=group)
-    for target, item in files.items():
-        tmp = outputs.path(target)
-        if isinstance(item, list):
-            item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
-                         duration=round(1000 / fps), loop=0, optimize=False)
-        elif isinstance(item, np.ndarray):
-            Image.fromarray(item).save(tmp, format="PNG")
-        else:
-            _save_png(item, tmp)
-    return list(files)
-
-
 # -- validation ----------------------------------------------------------------
 
 def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
@@ -532,11 +463,8 @@ def _normals(relief, size, yaw):
 
 def _depth(relief, size, yaw):
     r = _raster(relief, size, yaw)
-    d = r.depth[r.mask]
-    lo, hi = float(d.min()), float(d.max())
-    t = (r.depth - lo) / (hi - lo) if hi > lo else np.ones(r.mask.shape)
-    img = np.where(r.mask, 1 + np.rint(np.clip(t, 0, 1) * 65534), 0).astype(np.uint16)
-    return Rendering("depth", img, r.mask, depth_range=(lo, hi))
+    img, depth_range = quantize16(r.depth, r.mask)
+    return Rendering("depth", img, r.mask, depth_range=depth_range)
 
 
 def _shade(relief, layers, size, yaw, light, ambient, shear=0.0):
@@ -578,16 +506,11 @@ def _stereo(relief, layers, size, yaw, light, ambient, disparity):
     right = _shade(relief, layers, size, yaw, light, ambient, shear=-shear)
     # Each view over white; red from the left eye's luminance, green and blue
     # from the right eye's colour.
-    lf, rf = (_over_white(v) for v in (left, right))
+    lf, rf = (over_white(v) for v in (left, right))
     rgb = np.stack([lf @ [0.299, 0.587, 0.114], rf[..., 1], rf[..., 2]], axis=-1)
     alpha = np.maximum(left[..., 3], right[..., 3]) / 255.0
     return Rendering("stereo", _rgba8(rgb, alpha), alpha > 0,
                      views={"left": left, "right": right})
-
-
-def _over_white(rgba):
-    a = rgba[..., 3:4] / 255.0
-    return rgba[..., :3] / 255.0 * a + (1 - a)
 
 
 # -- global illumination (Mitsuba 3) ------------------------------------------------
@@ -722,155 +645,3 @@ def _mesh(mi, name, vertices, faces, normals, uv, bsdf):
     return mesh
 
 
-# -- files -----------------------------------------------------------------------
-
-def _gif_frame(r):
-    from PIL import Image
-
-    if r.image.ndim == 2:  # depth: 16 -> 8 bit
-        return Image.fromarray((r.image >> 8).astype(np.uint8)).convert("RGB")
-    return Image.fromarray(np.rint(_over_white(r.image) * 255).astype(np.uint8))
-
-
-def _save_png(r, target):
-    from PIL import Image, PngImagePlugin
-
-    info = PngImagePlugin.PngInfo()
-    if r.depth_range is not None:
-        info.add_text("inkray:depth", json.dumps(
-            {"background": 0, "far": [1, r.depth_range[0]], "near": [65535, r.depth_range[1]],
-             "units": "drawing pixels"}))
-        Image.fromarray(r.image.astype(np.uint16)).save(target, format="PNG", pnginfo=info)
-    else:
-        Image.fromarray(r.image).save(target, format="PNG")
-
-
-def read_relief(path):
-    """A relief from a GLB/glTF, OBJ or PLY file.
-
-    Geometry comes from :func:`inkray.formats.meshes.read_meshes`. inkray's files are
-    placed by the frame their exporter records (GLB scene extras, PLY header
-    comments; see :mod:`inkray.export`); other files with a texture by their
-    texture coordinates (``x = u W - 0.5``, ``y = (1 - v) H - 0.5``: pixel
-    centres at integers, as in :mod:`inkray.relief`); anything else is
-    scaled so its longer side spans 512 pixels. The drawing is the GLB's
-    base-colour texture or the OBJ's ``map_Kd`` (PLY carries none).
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    inkray.relief.model.Relief
-
-    Raises
-    ------
-    InputError
-        The file is missing, unreadable, holds no triangles, or its inkray
-        frame record is malformed.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from inkray.formats.meshes import export_relief
-    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
-    >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
-    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
-    >>> back = read_relief(p)
-    >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
-    ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
-    """
-    import trimesh
-
-    from inkray.formats.meshes import pixel_coordinates, read_meshes
-
-    path = Path(path)
-    meshes = read_meshes(path)
-    try:
-        scene = trimesh.load_scene(path, process=False)
-    except Exception as e:  # read_meshes parsed it; only materials can fail here
-        raise InputError(f"{path}: cannot read its materials: {type(e).__name__}: {e}") from e
-    texture, pairs = None, []
-    for node in scene.graph.nodes_geometry:
-        transform, geom_name = scene.graph[node]
-        geom = scene.geometry[geom_name]
-        uv = getattr(geom.visual, "uv", None)
-        material = getattr(geom.visual, "material", None)
-        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
-        if path.suffix.lower() == ".ply" or uv is None or image is None:
-            continue
-        if texture is None:
-            texture = np.asarray(image.convert("RGB"))
-        v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
-        pairs.append((v, np.asarray(uv, float)))
-    frame = _frame(scene, path)
-    allv = np.concatenate([m.vertices for m in meshes])
-    if frame is not None:
-        size, s, anchor = frame
-
-        def to_pixels(v):
-            return pixel_coordinates(v, size, units_per_pixel=s, anchor=anchor)
-    elif texture is not None:
-        size = (texture.shape[1], texture.shape[0])
-        to_pixels = _uv_fit(pairs, size, path)
-    else:
-        lo, hi = allv.min(axis=0), allv.max(axis=0)
-        s = max(float(np.max(hi[:2] - lo[:2])), 1e-12) / 512
-        size = tuple(max(1, int(np.ceil((hi[i] - lo[i]) / s))) for i in range(2))
-
-        def to_pixels(v):
-            # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
-            return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
-                             v[:, 2] / s], axis=1)
-    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
-    return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
-
-
-def _frame(scene, path):
-    """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
-    meta = scene.metadata or {}
-    info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
-    if info is None and path.suffix.lower() == ".ply":
-        with open(path, "rb") as fh:
-            for raw in fh:
-                line = raw.decode("ascii", "replace").strip()
-                if line == "end_header":
-                    break
-                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
-                             r"(\S+)(?: anchor (\S+))?$", line)
-                if m:
-                    info = {"drawing_size": [int(m[1]), int(m[2])],
-                            "units_per_pixel": float(m[3]), "anchor": m[4] or "center"}
-    if info is None:
-        return None
-    try:
-        w, h = (int(x) for x in info["drawing_size"])
-        s = float(info["units_per_pixel"])
-        anchor = info.get("anchor", "center")
-    except (KeyError, TypeError, ValueError) as e:
-        raise InputError(f"{path}: extras.inkray: malformed ({e})") from e
-    if w <= 0 or h <= 0 or not s > 0 or anchor not in ("center", "top-left"):
-        raise InputError(f"{path}: extras.inkray: drawing_size {info.get('drawing_size')}, "
-                         f"units_per_pixel {s}, anchor {anchor!r} out of range")
-    return (w, h), s, anchor
-
-
-def _uv_fit(pairs, size, path):
-    """Scene -> pixel map fitted to texture coordinates: x = u W - 0.5, y = (1 - v) H - 0.5."""
-    v = np.concatenate([p[0] for p in pairs])
-    uv = np.concatenate([p[1] for p in pairs])
-    target = np.stack([uv[:, 0] * size[0] - 0.5, (1 - uv[:, 1]) * size[1] - 0.5], axis=1)
-    coef = []
-    for axis in range(2):
-        a = np.column_stack([v[:, axis], np.ones(len(v))])
-        c, *_ = np.linalg.lstsq(a, target[:, axis], rcond=None)
-        coef.append(c)
-    s = (abs(coef[0][0]) + abs(coef[1][0])) / 2
-    if not s > 0:
-        raise InputError(f"{path}: texture coordinates do not vary with position")
-
-    def to_pixels(p):
-        return np.stack([coef[0][0] * p[:, 0] + coef[0][1], coef[1][0] * p[:, 1] + coef[1][1],
-                         p[:, 2] * s], axis=1)
-    return to_pixels
