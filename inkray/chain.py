@@ -28,6 +28,7 @@ import numpy as np
 
 from inkray.depthmap.estimation import METHODS, DepthResult, DepthSession, depth, depth_constraints
 from inkray.errors import InputError
+from inkray.input.constraints import constraints
 from inkray.input.scribbles import seed_image
 from inkray.progress import Progress
 from inkray.relief.assembly import assemble
@@ -377,10 +378,18 @@ class ReliefChain:
         candidates = self.candidates
         labels = self.segmentation.labels
 
+        # Reshaped hidden parts by (front, back, place): a new arrow reshapes only its own.
+        memo_key = ("continuations", self._segment_key())
+        memo = self._cache.get(memo_key)
+        if memo is None:
+            memo = {}
+            self._cache.put(memo_key, memo)
+
         def compute():
-            relations, notes = depth_order(self.annotations, labels, candidates,
+            relations, notes = depth_order(constraints(self.annotations), labels, candidates,
+                                           seams=self.annotations.boundaries,
                                            predict=self.options.predict)
-            return relations, candidates.ordered(relations), notes
+            return relations, candidates.ordered(relations, memo=memo), notes
 
         value = self._stage("order", self._relations_key(), compute)
         return value

@@ -13,6 +13,7 @@ from inkray.relief.inflation import inflate_region
 from inkray.relief.ordering import depth_order
 from inkray.relief.model import Part
 from inkray.relief.stitching import stitch
+from inkray.input.constraints import constraints
 
 
 def _scene(profile_b="sqrt"):
@@ -35,7 +36,7 @@ def _scene(profile_b="sqrt"):
         "order": [{"front": [200, 100], "back": [120, 150]}, {"front": [90, 70], "back": [90, 95]}],
         "boundaries": [{"type": "graft", "path": [[139.5, 80], [139.5, 120]]}]})
     c = complete_regions(labels, names=[r.name for r in ann.regions])
-    relations, _ = depth_order(ann, labels, c)
+    relations, _ = depth_order(constraints(ann), labels, c, seams=ann.boundaries)
     c = c.ordered(relations)
     inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
                                name=r.name, boundaries=ann.boundaries, profile=r.profile)

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from inkray.input.annotations import Annotations
 from inkray.relief.completion import complete_regions, continue_outline
 from inkray.errors import InputError
 from inkray.relief.ordering import depth_order
@@ -35,7 +34,7 @@ def behind_band(shape, fraction, offset):
 
 def final_completion(labels, names=("shape", "band")):
     c = complete_regions(labels, names=list(names))
-    relations, _ = depth_order(Annotations(size=labels.shape[::-1]), labels, c)
+    relations, _ = depth_order([], labels, c)
     return c, relations, c.ordered(relations)
 
 

@@ -13,6 +13,7 @@ from inkray.relief.outline import MeshOptions
 from inkray.relief.inflation import inflate_region
 from inkray.relief.ordering import depth_order
 from inkray.relief.stitching import stitch
+from inkray.input.constraints import constraints
 
 
 def _doc(size, regions=(), order=(), boundaries=()):
@@ -25,7 +26,7 @@ def _doc(size, regions=(), order=(), boundaries=()):
 
 def _build(labels, ann, names, **kw):
     c = complete_regions(labels, names=names)
-    relations, _ = depth_order(ann, labels, c)
+    relations, _ = depth_order(constraints(ann), labels, c, seams=ann.boundaries)
     c = c.ordered(relations)
     inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
                                name=n, boundaries=ann.boundaries, options=MeshOptions(max_area=30.0))

@@ -141,7 +141,7 @@ class Completion:
         """(H, W) int32 image: the region hiding each invented pixel of ``region``, else -1."""
         return np.where(self.owner == region, self.labels, -1).astype(np.int32)
 
-    def ordered(self, relations, *, curvature=True):
+    def ordered(self, relations, *, curvature=True, memo=None):
         """Keep only the hidden parts under a region that is in front of them.
 
         Parameters
@@ -156,6 +156,10 @@ class Completion:
             continues with its curvature, not only its direction (see
             :func:`continue_outline`); the diffusion alone joins the two ends
             of a curved outline with a nearly straight line.
+        memo : dict, optional
+            Reshaped parts by ``(front, back, place)``, filled and reused:
+            pass the same dict to every call on this completion and a
+            changed order reshapes only the parts it adds.
 
         Returns
         -------
@@ -187,9 +191,13 @@ class Completion:
             owner[win][piece] = r.back
             kept.append((r.front, r.back, p, piece))
         if curvature:
+            memo = {} if memo is None else memo
             for front, back, p, piece in kept:
                 if piece.any():
-                    continue_outline(self.labels, owner, front, back, p.box, piece)
+                    key = (front, back, p.index)
+                    if key not in memo:
+                        memo[key] = _continuation(self.labels, front, back, p.box, piece)
+                    _apply_continuation(owner, back, memo[key])
         return replace(self, owner=owner)
 
 
@@ -246,6 +254,14 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     >>> bool(((owner == 0) != hidden).sum() < 0.01 * hidden.sum())
     True
     """
+    found = _continuation(labels, front, back, box, piece, margin=margin, band=band)
+    if found is not None:
+        _apply_continuation(owner, back, found)
+    return found is not None
+
+
+def _continuation(labels, front, back, box, piece, *, margin=0.25, band=1.5):
+    """``(window, old, grown)`` of :func:`continue_outline`, or None: it reads no ``owner``."""
     h, w = labels.shape
     py, px = np.nonzero(piece)
     py, px = py + box[0], px + box[2]
@@ -259,7 +275,7 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     mine = outer == back
     other = (outer != back) & (outer != front)
     if not (mine & ndimage.binary_dilation(other)).any():
-        return False  # no outline of its own here: nothing to continue
+        return None  # no outline of its own here: nothing to continue
     # Half-pixel offsets keep the spacing even across the outline (0.5 | -0.5).
     phi = np.where(mine, ndimage.distance_transform_edt(~other) - 0.5,
                    0.5 - ndimage.distance_transform_edt(~mine))
@@ -281,12 +297,17 @@ def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, ban
     comp, _ = ndimage.label(grown)
     touching = ndimage.binary_dilation(labels[wy0:wy1, wx0:wx1] == back) & grown
     grown = np.isin(comp, np.unique(comp[touching])) & grown
-    region = owner[wy0:wy1, wx0:wx1]
     old = np.zeros(hidden.shape, bool)
     old[py - wy0, px - wx0] = True
+    return (slice(wy0, wy1), slice(wx0, wx1)), old, grown
+
+
+def _apply_continuation(owner, back, found):
+    """Replace the old hidden part by the grown one, never over another region's pixel."""
+    window, old, grown = found
+    region = owner[window]
     region[old] = -1
     region[grown & (region < 0)] = back
-    return True
 
 
 def check_labels(labels, *, names=None):

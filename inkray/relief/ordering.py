@@ -112,18 +112,21 @@ class Relation:
         return f"predicted {self.front_name} over {self.back_name}"
 
 
-def depth_order(annotations, labels, completion, *, predict=True, junction_radius=40.0,
+def depth_order(constraints, labels, completion, *, seams=(), predict=True, junction_radius=40.0,
                 area_weight=0.5, min_confidence=0.0):
     """Local depth relations of all neighbouring regions.
 
     Parameters
     ----------
-    annotations : inkray.input.annotations.Annotations
-        Its ``order`` and ``equal`` entries are the user's relations.
+    constraints : list of inkray.input.constraints.Constraint
+        The user's ``order`` and ``equal`` entries.
     labels : (H, W) int array
         The segmentation the completion was computed on.
     completion : inkray.relief.completion.Completion
         From :func:`inkray.relief.completion.complete_regions` on ``labels``.
+    seams : sequence of inkray.input.annotations.Boundary, default ()
+        The ``boundaries`` entries; predictions give way near ``graft`` and
+        ``stitch`` seams.
     predict : bool, default True
         Predict the order of the places the user's entries leave open.
     junction_radius : float, default 40.0
@@ -148,20 +151,19 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
     Raises
     ------
     InputError
-        When ``labels`` does not match the completion or the annotation's
-        size, or when the user's entries contradict each other at one site;
+        When ``labels`` does not match the completion, or when the user's
+        entries contradict each other at one site;
         the message names the entries along the cycle, e.g.
         ``order[3] -> order[7] -> order[3]``.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from inkray.input.annotations import Annotations
     >>> from inkray.relief.completion import complete_regions
     >>> labels = np.full((40, 60), -1, np.int32)
     >>> labels[10:30, 10:50] = 0; labels[:, 26:34] = 1       # a band over a square
     >>> c = complete_regions(labels, names=["square", "band"])
-    >>> rel, warn = depth_order(Annotations(size=(60, 40)), labels, c)
+    >>> rel, warn = depth_order([], labels, c)
     >>> [(r.front_name, r.back_name, r.source) for r in rel]
     [('band', 'square', 'predicted')]
     """
@@ -169,31 +171,26 @@ def depth_order(annotations, labels, completion, *, predict=True, junction_radiu
     if labels.shape != completion.labels.shape or not np.array_equal(labels, completion.labels):
         raise InputError(f"labels: the {labels.shape[1]}x{labels.shape[0]} label image is not "
                          f"the one the completion was computed on")
-    h, w = labels.shape
-    if tuple(annotations.size) != (w, h):
-        raise InputError(f"size: the annotation is for a {annotations.size[0]}x"
-                         f"{annotations.size[1]} drawing but the labels are {w}x{h}")
     warnings = []
     user = []
-    for kind, entries in (("order", annotations.order), ("equal", annotations.equal)):
-        for e in entries:
-            p, q = (e.front, e.back) if kind == "order" else (e.a, e.b)
-            r = _user_relation(kind, e.index, p, q, labels, completion, warnings)
-            if r is not None:
-                user.append(r)
+    for con in constraints:
+        r = _user_relation(con.kind, con.entry, con.first, con.second, labels, completion,
+                           warnings)
+        if r is not None:
+            user.append(r)
     graph = _SiteGraph(completion)
     for r in user:
         graph.add_user(r)
     relations = list(user)
     if predict:
-        seams = [b.path for b in annotations.boundaries if b.type in ("graft", "stitch")]
+        paths = [b.path for b in seams if b.type in ("graft", "stitch")]
         spoken = {r.place for r in user if r.place is not None}
         predicted = []
         for place in completion.places:
             if place.index in spoken:
                 continue
             r = predict_place(completion, place, junction_radius=junction_radius,
-                              area_weight=area_weight, seams=seams)
+                              area_weight=area_weight, seams=paths)
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
         # Strongest first, so that in a cycle the weakest prediction is the one left out.
