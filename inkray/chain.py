@@ -317,9 +317,10 @@ class ReliefChain:
                None if seeds is None else _digest(seeds))
         if o.depth_method == "fast" and o.interactive:
             return self._stage("depth", key, lambda: self._session_depth(seeds))
+        # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
         return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
                                                         epsilon=o.depth_epsilon,
-                                                        progress=self.progress))
+                                                        progress=self.progress), timed=False)
 
     @property
     def warnings(self):

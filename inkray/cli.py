@@ -258,10 +258,12 @@ def _cmd_demo(args, progress):
     w, h = ann.size
     print(f"{path}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
           f"{len(ann.order)} order, {len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
+    depth_map = _beside(lambda: chain.edit(progress=Progress(quiet=True)).depth_map)
     report = _regions_report(chain)
     relief = chain.relief
-    depth = chain.depth_map
     _warn(chain.warnings)
+    with progress.stage("depth"):
+        depth = depth_map()
     with progress.stage("render shade"):
         shaded = render(relief, mode="shade")
     gi = None
@@ -283,6 +285,45 @@ def _cmd_demo(args, progress):
     print(f"demo: done; {len(written) + 1} files in {out}/: "
           f"{', '.join(sorted({p.name for p in written} | {'regions.json'}))}")
     return 0
+
+
+def _beside(compute):
+    """Start ``compute()`` in a forked process when there is a core to spare.
+
+    Returns a function that waits for the result (or computes it here, where
+    there is no fork or no second core). The demo's depth map (the 2010
+    method) shares nothing with the relief, so it runs beside it.
+    """
+    import multiprocessing
+    import os
+
+    if "fork" not in multiprocessing.get_all_start_methods() or (os.cpu_count() or 1) < 2:
+        return compute
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+
+    def child():
+        try:
+            send.send((True, compute()))
+        except BaseException as e:  # re-raised in the parent
+            send.send((False, e))
+
+    worker = context.Process(target=child, daemon=True)
+    worker.start()
+    send.close()
+
+    def result():
+        try:
+            ok, value = receive.recv()
+        except EOFError:
+            raise InkrayError("the depth map's worker process ended without a result") from None
+        finally:
+            worker.join()
+        if not ok:
+            raise value
+        return value
+
+    return result
 
 
 _COMMANDS = {
