@@ -103,3 +103,96 @@ def test_relief_command_rejects_bad_input_and_writes_nothing(tmp_path, capsys):
     assert not out.parent.exists() or not any(out.parent.iterdir())
     assert cli.main(["relief", str(ann), "-o", str(out), "--union"]) == 2
     assert "--union needs --closed" in capsys.readouterr().err
+
+
+# -- the resumable chain ---------------------------------------------------------
+
+def _turtle():
+    from inkray.examples import example_path
+
+    return load_input(example_path("turtle"))
+
+
+def _same_relief(a, b):
+    assert [p.name for p in a.parts] == [p.name for p in b.parts]
+    for p, q in zip(a.parts, b.parts):
+        assert np.array_equal(p.faces, q.faces) and np.allclose(p.vertices, q.vertices, atol=1e-9)
+
+
+def test_an_edit_recomputes_only_what_it_touches_and_equals_a_fresh_chain():
+    from dataclasses import replace
+
+    from inkray.chain import ReliefChain
+
+    ann, drawing = _turtle()
+    without = replace(ann, order=ann.order[:-1])
+    cold = ReliefChain(without, drawing)
+    cold.relief
+    assert cold.recomputed[:3] == ["segment", "complete", "order"]
+
+    arrow = cold.edit(annotations=ann)            # one order entry more
+    _same_relief(arrow.relief, ReliefChain(ann, drawing).relief)
+    assert "segment" not in arrow.recomputed and "complete" not in arrow.recomputed
+    assert "order" in arrow.recomputed and "stitch" in arrow.recomputed
+
+    regions = list(ann.regions)
+    regions[1] = replace(regions[1], inflation=regions[1].inflation * 2)
+    rounder = replace(ann, regions=regions)
+    inflated = arrow.edit(annotations=rounder)
+    _same_relief(inflated.relief, ReliefChain(rounder, drawing).relief)
+    assert inflated.recomputed == [f"mesh:{regions[1].name}", "stitch", "assemble"]
+
+    undo = inflated.edit(annotations=ann)
+    undo.relief
+    assert undo.recomputed == []                  # every result from the cache
+    _same_relief(undo.relief, arrow.relief)
+
+
+def test_a_new_scribble_segments_again_and_keeps_untouched_regions():
+    from dataclasses import replace
+
+    from inkray.chain import ReliefChain
+
+    ann, drawing = _turtle()
+    chain = ReliefChain(ann, drawing)
+    chain.relief
+    head = next(i for i, r in enumerate(ann.regions) if r.name == "head")
+    regions = list(ann.regions)
+    extra = np.asarray(regions[head].scribbles[0], float)[:1]   # a dot on the head's own scribble
+    regions[head] = replace(regions[head], scribbles=regions[head].scribbles + [extra])
+    more = chain.edit(annotations=replace(ann, regions=regions))
+    _same_relief(more.relief, chain.relief)       # the same labels, so the same relief
+    assert more.recomputed[0] == "segment"
+    assert not any(s.startswith("mesh:") for s in more.recomputed)
+
+
+def test_options_are_validated_and_edits_change_them():
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.errors import InputError
+
+    with pytest.raises(InputError, match="--union needs --closed"):
+        ChainOptions(union=True)
+    with pytest.raises(InputError, match="max_area"):
+        ChainOptions(max_area=0)
+    ann, drawing = _turtle()
+    chain = ReliefChain(ann, drawing)
+    closed = chain.edit(closed=True)
+    assert closed.options.closed and not chain.options.closed
+    assert all(p.closed for p in closed.relief.parts)
+
+
+def test_the_interactive_depth_session_equals_the_one_shot_fast_method():
+    from dataclasses import replace
+
+    from inkray.chain import ReliefChain
+
+    ann, drawing = _turtle()
+    chain = ReliefChain(replace(ann, order=ann.order[:1]), drawing, options=None).edit(
+        depth_method="fast", interactive=True)
+    first = chain.depth_map.depth
+    edited = chain.edit(annotations=ann)          # entries added to the kept session
+    back = edited.edit(annotations=replace(ann, order=ann.order[:1]))
+    once = ReliefChain(ann, drawing).edit(depth_method="fast").depth_map.depth
+    assert np.allclose(edited.depth_map.depth, once, atol=1e-8)
+    assert np.array_equal(back.depth_map.depth, first)   # undo: from the cache
+    assert back.recomputed == []
