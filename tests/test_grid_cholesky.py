@@ -162,6 +162,11 @@ def test_errors():
 def test_progress_reports_rising_percentages_up_to_100():
     diag, east, south = _operator(50, 60)
     seen = []
-    GridCholesky(diag, east, south, progress=lambda done, total: seen.append((done, total)))
+
+    class Recorder:
+        def update(self, done, total):
+            seen.append((done, total))
+
+    GridCholesky(diag, east, south, progress=Recorder())
     assert seen[-1] == (100, 100) and len(seen) > 3
     assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))

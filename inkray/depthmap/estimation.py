@@ -178,7 +178,7 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
     session = DepthSession(gray, epsilon=epsilon, seeds=_scribble_seeds(annotations),
                            incremental=False,
-                           progress=None if progress is None else progress.update)
+                           progress=progress)
     for i in range(len(p)):
         session.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i])
     if progress is not None:
@@ -203,7 +203,7 @@ def _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress):
             return np.zeros(h * w), {"sigma": s, "kkt": {}, "objective": 0.0,
                                      "multipliers": np.zeros(0), "timings": {}}
         r = solve_depth_qp(L, p, q, ineq, epsilon=epsilon, shape=(h, w), labels=labels,
-                           progress=None if progress is None else progress.update)
+                           progress=progress)
         return r.depth, {"sigma": s, "kkt": r.kkt, "objective": r.objective,
                          "multipliers": r.multipliers, "timings": r.timings,
                          "iterations": r.iterations}
@@ -254,8 +254,8 @@ class DepthSession:
         Keep what a re-solve reuses: the fill's update matrices (about
         0.4 GB for a 512x512 drawing, 2 GB at 1024x1024). Without it every
         :meth:`solve` factors the fill afresh.
-    progress : callable, optional
-        ``progress(done, total)`` while the fill is factored afresh.
+    progress : inkray.progress.Progress, optional
+        Its ``update(done, total)`` while the fill is factored afresh.
 
     Examples
     --------

@@ -165,8 +165,8 @@ class GroundedLaplacian:
         pixels in raster order: it is then factored by the grid's nested
         dissection (:class:`inkray.numerics.grid_cholesky.GridCholesky`, several times
         faster on images); otherwise by SuperLU with a minimum-degree order.
-    progress : callable, optional
-        ``progress(done, total)`` during a grid factorization.
+    progress : inkray.progress.Progress, optional
+        Its ``update(done, total)`` during a grid factorization.
 
     Examples
     --------
@@ -546,8 +546,8 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
         Every KKT measure of the result must be at most this.
     labels : list of str, optional
         Annotation entries of the constraints, for error messages.
-    progress : callable, optional
-        ``progress(done, total)`` during the factorization.
+    progress : inkray.progress.Progress, optional
+        Its ``update(done, total)`` during the factorization.
 
     Returns
     -------

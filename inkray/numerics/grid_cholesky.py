@@ -93,9 +93,9 @@ class GridCholesky:
     updatable : bool, default False
         Keep the update matrices, which :meth:`update` reuses (they take
         about three times the memory of the factor).
-    progress : callable, optional
-        Called as ``progress(done, total)`` while factoring (in percent of
-        the estimated flops), e.g. :meth:`inkray.progress.Progress.update`.
+    progress : object with ``update(done, total)``, optional
+        Told the progress while factoring (in percent of the estimated
+        flops), e.g. an :class:`inkray.progress.Progress`.
 
     Raises
     ------
@@ -395,7 +395,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     for i, g in enumerate(plan):
         if progress is not None and i and done[i - 1] != shown:
             shown = int(done[i - 1])
-            progress(shown, 100)
+            progress.update(shown, 100)
         nb = g.S.shape[0]
         if previous is None:
             sel = slice(None)
@@ -435,7 +435,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 if uses[gid] == 0:
                     updates[gid] = None
     if progress is not None:
-        progress(100, 100)
+        progress.update(100, 100)
     if previous is None:
         return factors, updates
     return factors, updates, redone
