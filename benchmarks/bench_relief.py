@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "drawings"
+SHARED = ROOT / "examples"  # the bundled drawings
 TARGET_S, TARGET_MB = 5.0, 2048.0
 STAGES = ("segment", "complete", "order", "inflate", "stitch", "assemble")
 

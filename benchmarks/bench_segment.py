@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "drawings"
+SHARED = Path(__file__).resolve().parents[1] / "examples"  # the bundled drawings
 METHODS = ("random_walker", "lazybrush", "lazybrush_c2f", "lazybrush_full_res")
 
 

@@ -4,21 +4,19 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "drawings"
 EXAMPLES = ROOT / "examples"
+# Every drawing of the project's shared set is bundled under examples/, with
+# its attribution (examples/SOURCES.md): the tests need nothing outside the clone.
+SHARED = EXAMPLES
 
 
 def shared_drawing_names():
-    if not SHARED.is_dir():
-        return []
     return sorted(p.name for p in SHARED.iterdir() if (p / "drawing.inkray.json").is_file())
 
 
 @pytest.fixture
 def shared_drawings():
-    """Folder of the shared drawings (../shared/drawings); skips when absent."""
-    if not SHARED.is_dir():
-        pytest.skip("../shared/drawings is not present beside the checkout")
+    """Folder of the bundled drawings, one folder each with drawing.inkray.json."""
     return SHARED
 
 

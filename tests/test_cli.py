@@ -102,7 +102,7 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
     expected = {"labels.png", "labels.json", "depth.png", "depth.json", "regions.json",
                 "relief.glb", "shaded.png"} | ({"gi.png"} if has_mitsuba() else set())
     assert expected <= written, expected - written
-    code, _, err = _run(capsys, "demo", "--example", "dragon")
+    code, _, err = _run(capsys, "demo", "--example", "unicorn")
     assert code == 2 and "no such bundled example" in err
 
 
