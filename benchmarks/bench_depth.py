@@ -36,7 +36,8 @@ from inkray.input.drawing import drawing_from_array
 from inkray.examples import example_path
 from inkray.input.loading import load_input
 from inkray.numerics.grid_cholesky import _front, _plan
-from inkray.depthmap.quadratic_program import GroundedLaplacian, edge_weights, grid_laplacian, solve_depth_qp
+from inkray.depthmap.quadratic_program import GroundedLaplacian, solve_depth_qp
+from inkray.numerics.grid import edge_weights, grid_laplacian
 from inkray.input.scribbles import seed_image
 
 

@@ -13,8 +13,8 @@ from inkray.depthmap.estimation import DepthSession, depth, depth_constraints
 from inkray.input.drawing import drawing_from_array
 from inkray.errors import InputError
 from inkray.input.loading import load_input
-from inkray.depthmap.quadratic_program import (GroundedLaplacian, constraint_cycle, edge_weights, grid_laplacian,
-                       solve_depth_qp)
+from inkray.depthmap.quadratic_program import GroundedLaplacian, constraint_cycle, solve_depth_qp
+from inkray.numerics.grid import edge_weights, grid_laplacian
 
 from conftest import shared_drawing_names
 

@@ -6,7 +6,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from inkray.errors import InputError, StageError
-from inkray.numerics.grid_cholesky import GridCholesky, grid_operator
+from inkray.numerics.grid import grid_operator
+from inkray.numerics.grid_cholesky import GridCholesky
 
 
 def _operator(h, w, seed=0, *, weak=0.0):

@@ -29,9 +29,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from inkray.errors import InputError, StageError
+from inkray.errors import InputError
 from inkray.numerics.grid_cholesky import GridCholesky
-from inkray.depthmap.quadratic_program import WEIGHT_FLOOR, check_constraints, edge_weights, grid_laplacian, solve_depth_qp
+from inkray.numerics.order_graph import OrderGraph
+from inkray.depthmap.quadratic_program import check_constraints, solve_depth_qp
+from inkray.numerics.grid import WEIGHT_FLOOR, edge_weights, grid_degree, grid_laplacian
 
 __all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "METHODS"]
 
@@ -133,8 +135,8 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         Depth step of an ``order`` entry (> 0).
     sigma : float, optional
         Contrast scale of the edge weights (exact method); default the mean
-        squared contrast of the image's edges, see :func:`inkray.depthmap.quadratic_program.edge_weights`.
-    weight_floor : float, default :data:`inkray.depthmap.quadratic_program.WEIGHT_FLOOR`
+        squared contrast of the image's edges, see :func:`inkray.numerics.grid.edge_weights`.
+    weight_floor : float, default :data:`inkray.numerics.grid.WEIGHT_FLOOR`
         Smallest edge weight (exact method).
     progress : inkray.progress.Progress, optional
 
@@ -521,7 +523,7 @@ class DepthSession:
         """
         if self._weights is None:
             wx, wy, _ = edge_weights(self.gray)
-            self._weights = wx, wy, grid_laplacian(wx, wy).diagonal().reshape(self.shape)
+            self._weights = wx, wy, grid_degree(wx, wy)
         wx, wy, deg = self._weights
         vals = np.where(fixed, vals, 0.0)
         free = ~fixed
@@ -546,46 +548,14 @@ class DepthSession:
 
 
 def _levels(p, q, ineq, labels, *, what="point"):
-    """Level of every node: equalities merged, Kahn's topological sort.
+    """Level of every node: ``level(front) >= level(back) + 1`` for every inequality.
 
-    Returns ``{node: level}`` with ``level(front) >= level(back) + 1`` for every
-    inequality (the longest chain of inequalities below a node); raises
-    InputError listing the entries of a cycle.
+    Returns ``{node: level}`` (the longest chain of inequalities below a
+    node, equal nodes sharing one); raises InputError listing the entries of
+    a cycle.
     """
     check_constraints(p, q, ineq, labels, what=what)
-    parent = {}
-
-    def find(v):
-        parent.setdefault(v, v)
-        while parent[v] != v:
-            parent[v] = parent[parent[v]]
-            v = parent[v]
-        return v
-
+    graph = OrderGraph()
     for i in range(len(p)):
-        a, b = find(int(p[i])), find(int(q[i]))
-        if not ineq[i] and a != b:
-            parent[max(a, b)] = min(a, b)
-    nodes = sorted({find(int(v)) for v in list(p) + list(q)})
-    fronts = {v: [] for v in nodes}   # back -> the nodes in front of it
-    pending = {v: 0 for v in nodes}   # inequalities from a node whose back has no level yet
-    for i in range(len(p)):
-        if ineq[i]:
-            f, b = find(int(p[i])), find(int(q[i]))
-            fronts[b].append(f)
-            pending[f] += 1
-    # Kahn on the reverse graph: a node is ready when every node behind it has its level.
-    level = {v: 0 for v in nodes}
-    ready = [v for v in nodes if pending[v] == 0]
-    done = 0
-    while ready:
-        v = ready.pop()
-        done += 1
-        for f in fronts[v]:
-            level[f] = max(level[f], level[v] + 1)
-            pending[f] -= 1
-            if pending[f] == 0:
-                ready.append(f)
-    if done != len(nodes):  # check_constraints already reported any cycle
-        raise StageError("depth: the constraint graph has a cycle the cycle test missed")
-    return {int(v): level[find(int(v))] for v in list(p) + list(q)}
+        graph.add(int(p[i]), int(q[i]), strict=bool(ineq[i]))
+    return graph.levels()

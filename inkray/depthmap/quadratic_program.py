@@ -40,114 +40,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as sla
-from threadpoolctl import threadpool_limits
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.active_set import dual_active_set, psd_lstsq
 from inkray.numerics.grid_cholesky import GridCholesky
+from inkray.numerics.order_graph import constraint_cycle
+from inkray.numerics.spd import spd_factor
 
-__all__ = ["edge_weights", "grid_laplacian", "GroundedLaplacian",
-           "QPResult", "solve_depth_qp", "dual_active_set", "constraint_cycle", "check_constraints",
-           "WEIGHT_FLOOR", "SIGMA_FLOOR"]
-
-#: Smallest edge weight: keeps the pixel graph connected and L well enough
-#: conditioned for a 1e-6 KKT check, while a step across ink still costs
-#: 1e5 times less than the same step across paper.
-WEIGHT_FLOOR = 1e-5
-#: Smallest sigma, so a blank or nearly blank image gives uniform weights
-#: instead of turning paper noise into walls.
-SIGMA_FLOOR = 1e-4
-
-
-def edge_weights(gray, *, sigma=None, floor=WEIGHT_FLOOR):
-    """4-neighbour edge weights ``w_pq = max(exp(-(I_p - I_q)^2 / sigma), floor)``.
-
-    Parameters
-    ----------
-    gray : (H, W) float array in [0, 1]
-        Paper 1, ink near 0.
-    sigma : float, optional
-        Contrast scale. Default: the mean contrast of the image's edges,
-        ``mean((I_p - I_q)^2)`` over all 4-neighbour pairs (at least
-        :data:`SIGMA_FLOOR`), so only edges much stronger than the typical
-        one (ink outlines) become weak.
-    floor : float, default :data:`WEIGHT_FLOOR`
-        Smallest weight (> 0).
-
-    Returns
-    -------
-    wx : (H, W-1) float64 array
-        Weights between ``(y, x)`` and ``(y, x+1)``.
-    wy : (H-1, W) float64 array
-        Weights between ``(y, x)`` and ``(y+1, x)``.
-    sigma : float
-        The sigma used.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> wx, wy, s = edge_weights(np.ones((3, 4)))
-    >>> float(wx.min()), wx.shape, wy.shape
-    (1.0, (3, 3), (2, 4))
-    """
-    g = np.asarray(gray, np.float64)
-    if g.ndim != 2 or min(g.shape) < 1:
-        raise InputError(f"gray: expected an (H, W) image, got shape {g.shape}")
-    if not np.isfinite(g).all():
-        y, x = np.argwhere(~np.isfinite(g))[0]
-        raise InputError(f"gray: pixel ({x}, {y}) is not a finite number")
-    if not floor > 0:
-        raise InputError(f"floor: expected a positive weight floor, got {floor}")
-    dx2 = np.diff(g, axis=1) ** 2
-    dy2 = np.diff(g, axis=0) ** 2
-    if sigma is None:
-        n = dx2.size + dy2.size
-        sigma = (dx2.sum() + dy2.sum()) / n if n else 0.0
-        sigma = max(float(sigma), SIGMA_FLOOR)
-    elif not sigma > 0:
-        raise InputError(f"sigma: expected a positive contrast scale, got {sigma}")
-    wx = np.maximum(np.exp(-dx2 / sigma), floor)
-    wy = np.maximum(np.exp(-dy2 / sigma), floor)
-    return wx, wy, float(sigma)
-
-
-def grid_laplacian(wx, wy):
-    """Weighted graph Laplacian ``L = D - W`` of the 4-neighbour grid.
-
-    Parameters
-    ----------
-    wx : (H, W-1) array
-        Horizontal edge weights.
-    wy : (H-1, W) array
-        Vertical edge weights.
-
-    Returns
-    -------
-    (H*W, H*W) scipy.sparse.csr_matrix
-        Pixels in raster order (``y * W + x``); ``d^T L d`` is the sum over
-        edges of ``w_pq (d_p - d_q)^2``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> L = grid_laplacian(np.ones((1, 1)), np.zeros((0, 2)))
-    >>> L.toarray().tolist()
-    [[1.0, -1.0], [-1.0, 1.0]]
-    """
-    wx = np.asarray(wx, np.float64)
-    wy = np.asarray(wy, np.float64)
-    h, w = wx.shape[0], wx.shape[1] + 1
-    n = h * w
-    idx = np.arange(n).reshape(h, w)
-    i = np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()])
-    j = np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()])
-    v = np.concatenate([wx.ravel(), wy.ravel()])
-    deg = np.bincount(i, v, minlength=n) + np.bincount(j, v, minlength=n)
-    rows = np.concatenate([i, j, idx.ravel()])
-    cols = np.concatenate([j, i, idx.ravel()])
-    vals = np.concatenate([-v, -v, deg])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
-
+__all__ = ["GroundedLaplacian", "QPResult", "solve_depth_qp", "check_constraints"]
 
 class GroundedLaplacian:
     """A factorization of a connected graph Laplacian with one node grounded.
@@ -171,6 +71,7 @@ class GroundedLaplacian:
     Examples
     --------
     >>> import numpy as np
+    >>> from inkray.numerics.grid import grid_laplacian
     >>> L = grid_laplacian(np.ones((2, 2)), np.ones((1, 3)))
     >>> f = GroundedLaplacian(L, shape=(2, 3))
     >>> r = np.array([1.0, 0, 0, 0, 0, -1.0])
@@ -199,9 +100,8 @@ class GroundedLaplacian:
             self._grid = None
             A = L[:-1, :-1].tocsc()
             try:
-                self._lu = sla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                    options=dict(SymmetricMode=True))
-            except RuntimeError as e:  # singular: the graph is not connected
+                self._lu = spd_factor(A)
+            except np.linalg.LinAlgError as e:  # singular: the graph is not connected
                 raise StageError(f"the graph is not connected ({e})") from None
 
     def _solve_grounded(self, b):
@@ -272,6 +172,7 @@ class GroundedLaplacian:
         Examples
         --------
         >>> import numpy as np
+        >>> from inkray.numerics.grid import grid_laplacian
         >>> L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))   # a path of 5 nodes
         >>> GroundedLaplacian(L, shape=(1, 5)).dual_matrix([0], [4]).tolist()  # resistance 4
         [[4.0]]
@@ -299,6 +200,7 @@ class GroundedLaplacian:
         Examples
         --------
         >>> import numpy as np
+        >>> from inkray.numerics.grid import grid_laplacian
         >>> L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))   # a path of 5 nodes
         >>> H, primal = GroundedLaplacian(L, shape=(1, 5)).dual([0], [4])
         >>> np.round(primal(np.array([0.25])), 6).tolist()   # the ground is the last node
@@ -398,7 +300,7 @@ def check_constraints(p, q, inequality, labels, *, what="point"):
     ------
     InputError
         Listing the entries of a contradictory cycle, see
-        :func:`constraint_cycle`.
+        :func:`inkray.numerics.order_graph.constraint_cycle`.
 
     Examples
     --------
@@ -412,116 +314,6 @@ def check_constraints(p, q, inequality, labels, *, what="point"):
         names = [labels[i] for i in cycle]
         raise InputError(" -> ".join(names + names[:1]) + ": contradictory depth constraints: "
                          f"following them, a {what} must lie in front of itself")
-
-
-def constraint_cycle(p, q, inequality):
-    """Find a cycle of constraints that no depth map can satisfy.
-
-    With ``epsilon > 0`` the system of (in)equalities is feasible exactly when
-    no closed chain of constraints (equalities walked either way,
-    inequalities from front to back) contains an inequality. This is the
-    infeasibility test of the exact QP and the cycle test of the region graph.
-
-    Parameters
-    ----------
-    p, q : (m,) int arrays
-        Node indices (``p`` in front for inequalities).
-    inequality : (m,) bool array
-
-    Returns
-    -------
-    list of int
-        Constraint indices around one such cycle (starting with the smallest
-        inequality index on it), or an empty list when the constraints are
-        consistent.
-
-    Examples
-    --------
-    >>> constraint_cycle([0, 1, 2], [1, 2, 0], [True, False, True])
-    [0, 1, 2]
-    >>> constraint_cycle([0, 1], [1, 2], [True, True])
-    []
-    """
-    p = [int(v) for v in np.asarray(p).ravel()]
-    q = [int(v) for v in np.asarray(q).ravel()]
-    ineq = [bool(v) for v in np.asarray(inequality).ravel()]
-    m = len(p)
-    # Equalities: adjacency for paths inside one equality class.
-    eq_adj = {}
-    for i in range(m):
-        if not ineq[i]:
-            eq_adj.setdefault(p[i], []).append((q[i], i))
-            eq_adj.setdefault(q[i], []).append((p[i], i))
-    comp = {}
-    for start in sorted(set(p) | set(q)):
-        if start in comp:
-            continue
-        comp[start] = start
-        todo = [start]
-        while todo:
-            u = todo.pop()
-            for v, _ in eq_adj.get(u, ()):
-                if v not in comp:
-                    comp[v] = start
-                    todo.append(v)
-
-    def eq_path(a, b):
-        # Constraint indices of an equality path from node a to node b (BFS).
-        if a == b:
-            return []
-        prev = {a: None}
-        todo = [a]
-        for u in todo:
-            for v, i in sorted(eq_adj.get(u, ())):
-                if v not in prev:
-                    prev[v] = (u, i)
-                    todo.append(v)
-        path, v = [], b
-        while prev[v] is not None:
-            u, i = prev[v]
-            path.append(i)
-            v = u
-        return path[::-1]
-
-    # Directed graph of equality classes, one edge per inequality (front -> back).
-    out = {}
-    for i in range(m):
-        if ineq[i]:
-            out.setdefault(comp[p[i]], []).append(i)
-    for first in range(m):
-        if not ineq[first]:
-            continue
-        # Shortest chain of inequalities from back(first) back to front(first).
-        target = comp[p[first]]
-        prev = {comp[q[first]]: None}
-        todo = [comp[q[first]]]
-        found = target in prev
-        for u in todo:
-            if found:
-                break
-            for i in out.get(u, ()):
-                v = comp[q[i]]
-                if v not in prev:
-                    prev[v] = (u, i)
-                    todo.append(v)
-                    if v == target:
-                        found = True
-                        break
-        if not found:
-            continue
-        chain, v = [], target
-        while prev[v] is not None:
-            u, i = prev[v]
-            chain.append(i)
-            v = u
-        chain = [first] + chain[::-1]
-        cycle = []
-        for k, i in enumerate(chain):
-            j = chain[(k + 1) % len(chain)]
-            cycle.append(i)
-            cycle += eq_path(q[i], p[j])
-        return cycle  # the smallest inequality on a cycle: a deterministic report
-    return []
 
 
 def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, shape=None,
@@ -563,6 +355,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
     Examples
     --------
     >>> import numpy as np
+    >>> from inkray.numerics.grid import grid_laplacian
     >>> L = grid_laplacian(np.ones((1, 4)), np.zeros((0, 5)))   # a path of 5 nodes
     >>> r = solve_depth_qp(L, [0], [4], [True], epsilon=1.0)
     >>> np.round(r.depth, 6).tolist()
@@ -601,7 +394,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
         H, primal = factor.dual(kp, kq)
         timings["dual_matrix"] = time.perf_counter() - t
         t = time.perf_counter()
-        klam, iterations = _active_set(H, kb, kin)
+        klam, iterations = dual_active_set(H, kb, kin, what="depth QP", return_iterations=True)
         lam[keep] = klam
         timings["active_set"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -617,7 +410,7 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
         fi = np.flatnonzero(free)
         Hf = H[np.ix_(np.flatnonzero(free[keep]), np.flatnonzero(free[keep]))]
         dl = np.zeros(m)
-        dl[fi] = _pinv_solve(Hf, -slack[fi])
+        dl[fi] = psd_lstsq(Hf, -slack[fi])
         lam += dl
         # The dual's map back-substitutes from its forward pass: no new solve.
         d = d + factor.refine(primal(dl[keep]), _ct(p, q, dl, n))
@@ -647,139 +440,3 @@ def solve_depth_qp(laplacian, p, q, inequality, *, epsilon=1.0, factor=None, sha
 def _ct(p, q, lam, n):
     """``C^T lam`` for constraint rows ``e_p - e_q``."""
     return np.bincount(p, lam, minlength=n) - np.bincount(q, lam, minlength=n)
-
-
-def _pinv_solve(H, r):
-    """Minimum-norm least-squares solution of ``H x = r`` for a symmetric PSD ``H``."""
-    w, V = np.linalg.eigh(H)
-    cut = 1e-12 * max(1.0, w.max(initial=0.0))
-    c = V.T @ r
-    c = np.where(w > cut, c / np.where(w > cut, w, 1.0), 0.0)
-    return V @ c
-
-
-def dual_active_set(H, b, inequality, *, what="QP", start=None):
-    """Exact minimizer of the small dual ``1/2 x^T H x - b^T x``, ``x_i >= 0`` where ``inequality``.
-
-    The multiplier problem of any QP ``min 1/2 y^T Q y`` subject to ``C y = b``
-    (rows where ``inequality`` is False) and ``C y >= b`` (True), with
-    ``H = C Q^-1 C^T``; the primal solution is ``y = Q^-1 C^T x``. Used by the
-    depth QP here and by :mod:`inkray.stitch`.
-
-    Parameters
-    ----------
-    H : (m, m) symmetric positive semi-definite array
-    b : (m,) array
-    inequality : (m,) bool array
-    what : str, default "QP"
-        Names the problem in error messages.
-    start : (m,) array, optional
-        A feasible warm start (``>= 0`` on the inequalities), e.g. the
-        multipliers of a smaller working set padded with zeros: rows with a
-        positive value start free, which saves most iterations when a
-        constraint-generation loop adds a few rows at a time.
-
-    Returns
-    -------
-    (m,) float array
-        The multipliers.
-
-    Raises
-    ------
-    StageError
-        When the dual is unbounded (contradictory constraints) or the method
-        does not converge.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> dual_active_set(np.eye(2), np.array([1.0, -1.0]), np.array([True, True])).tolist()
-    [1.0, 0.0]
-    """
-    # One BLAS thread: these matrices are small (hundreds), and on a busy
-    # machine a multithreaded Cholesky of a 300x300 matrix was measured 400x
-    # slower than a single-threaded one (0.67 s vs 1.8 ms).
-    with threadpool_limits(limits=1, user_api="blas"):
-        x, _ = _active_set(np.asarray(H, float), np.asarray(b, float),
-                           np.asarray(inequality, bool), what, start=start)
-    return x
-
-
-def _active_set(H, b, ineq, what="depth QP", start=None):
-    """Exact minimizer of ``1/2 x^T H x - b^T x`` s.t. ``x_i >= 0`` where ``ineq``.
-
-    A primal active-set method on the bounds (the inequality multipliers held
-    at 0 form the working set). ``H`` may be singular (dependent constraints):
-    on a face the step is the Newton step on the range of ``H_FF``, or, when
-    the gradient has a component in its null space, a zero-curvature descent
-    direction followed to the nearest bound. Where ``H_FF`` is positive
-    definite (the usual case) the step comes from a Cholesky factor, far
-    cheaper than the eigendecomposition the singular case needs.
-    """
-    m = len(b)
-    x = np.zeros(m)
-    fixed = ineq.copy()
-    if start is not None:
-        x = np.where(ineq, np.maximum(np.asarray(start, float), 0.0), np.asarray(start, float))
-        fixed = ineq & (x <= 0.0)
-    scale = max(1.0, np.abs(b).max(initial=0.0))
-    gtol = 1e-11 * scale
-    max_iter = 20 * m + 50
-    for it in range(1, max_iter + 1):
-        free = ~fixed
-        if free.any():
-            fi = np.flatnonzero(free)
-            g = H[fi] @ x - b[fi]
-            step = _cholesky_step(H[np.ix_(fi, fi)], g)
-            if step is not None:
-                alpha_max = 1.0
-            else:
-                step, alpha_max = _singular_step(H[np.ix_(fi, fi)], g, gtol)
-            block = ineq[fi] & (step < -1e-15 * scale)
-            alpha, j = alpha_max, -1
-            if block.any():
-                ratios = -x[fi[block]] / step[block]
-                k = int(np.argmin(ratios))
-                if ratios[k] < alpha:
-                    alpha, j = max(0.0, float(ratios[k])), int(fi[block][k])
-            if not np.isfinite(alpha):
-                raise StageError(f"{what}: the dual is unbounded (contradictory constraints "
-                                 "that the cycle test missed)")
-            x[fi] += alpha * step
-            if j >= 0:
-                x[j] = 0.0
-                fixed[j] = True
-                continue
-        g = H @ x - b
-        cand = fixed & (g < -gtol)
-        if not cand.any():
-            return x, it
-        fixed[int(np.argmin(np.where(cand, g, np.inf)))] = False
-    raise StageError(f"{what}: the active-set method did not converge in {max_iter} iterations")
-
-
-def _cholesky_step(Hff, g):
-    """Newton step ``-Hff^-1 g``, or None when ``Hff`` is not safely positive definite."""
-    from scipy.linalg import LinAlgError, cho_factor, cho_solve
-
-    try:
-        c = cho_factor(Hff, lower=True, check_finite=False)
-    except LinAlgError:
-        return None
-    d = np.abs(np.diag(c[0]))
-    if d.min() <= 1e-7 * d.max():  # nearly singular: the eigen path handles it exactly
-        return None
-    return -cho_solve(c, g, check_finite=False)
-
-
-def _singular_step(Hff, g, gtol):
-    """Step on a face whose ``Hff`` may be singular: Newton on its range, or a
-    zero-curvature descent direction when the gradient leaves the range."""
-    w, V = np.linalg.eigh(Hff)
-    cut = 1e-12 * max(1.0, w.max(initial=0.0))
-    rng = w > cut
-    c = V.T @ g
-    null_g = V[:, ~rng] @ c[~rng]
-    if np.abs(null_g).max(initial=0.0) > gtol:
-        return -null_g, np.inf
-    return -(V[:, rng] @ (c[rng] / w[rng])), 1.0

@@ -34,7 +34,7 @@ from threadpoolctl import ThreadpoolController
 
 from inkray.errors import InputError, StageError
 
-__all__ = ["Forward", "GridCholesky", "grid_operator"]
+__all__ = ["Forward", "GridCholesky"]
 
 #: Boxes of at most this many pixels are leaves (eliminated as one dense front).
 LEAF_PIXELS = 16
@@ -107,6 +107,7 @@ class GridCholesky:
     >>> import numpy as np
     >>> diag = np.full((3, 4), 4.0)
     >>> f = GridCholesky(diag, -np.ones((3, 3)), -np.ones((2, 4)))
+    >>> from inkray.numerics.grid import grid_operator
     >>> A = grid_operator(diag, -np.ones((3, 3)), -np.ones((2, 4)))
     >>> b = np.arange(12.0)
     >>> bool(np.allclose(A @ f.solve(b), b))
@@ -321,38 +322,6 @@ class GridCholesky:
         if b.ndim not in (1, 2) or b.shape[0] != self.n:
             raise InputError(f"rhs: expected {self.n} rows, got shape {b.shape}")
         return b.reshape(self.n, -1)
-
-
-def grid_operator(diagonal, east, south):
-    """The 5-point operator of :class:`GridCholesky` as a sparse matrix.
-
-    Parameters
-    ----------
-    diagonal : (H, W) array
-    east : (H, W-1) array
-    south : (H-1, W) array
-
-    Returns
-    -------
-    (H*W, H*W) scipy.sparse.csr_matrix
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> grid_operator(np.full((1, 2), 2.0), -np.ones((1, 1)), np.zeros((0, 2))).toarray().tolist()
-    [[2.0, -1.0], [-1.0, 2.0]]
-    """
-    diagonal = np.asarray(diagonal, np.float64)
-    h, w = diagonal.shape
-    idx = np.arange(h * w).reshape(h, w)
-    i = np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()])
-    j = np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()])
-    v = np.concatenate([np.asarray(east, np.float64).ravel(),
-                        np.asarray(south, np.float64).ravel()])
-    rows = np.concatenate([i, j, idx.ravel()])
-    cols = np.concatenate([j, i, idx.ravel()])
-    return sp.csr_matrix((np.concatenate([v, v, diagonal.ravel()]), (rows, cols)),
-                         shape=(h * w, h * w))
 
 
 def _operator_values(diagonal, east, south):

@@ -29,15 +29,13 @@ import scipy.sparse.linalg as sla
 from scipy import ndimage
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.grid import grid_laplacian
+from inkray.numerics.spd import MinQuadWithFixed
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "check_labels"]
 
 _OUTSIDE = -2  # beyond the image frame: no neighbour (zero normal derivative there)
 _STEPS = ((0, 1), (1, 0), (0, -1), (-1, 0))
-# Second differences (dy, dx, weight) of the thin-plate energy f_xx^2 + 2 f_xy^2 + f_yy^2.
-_HESSIAN = (((0, 0, 1.0), (0, 1, -2.0), (0, 2, 1.0)),
-            ((0, 0, 1.0), (1, 0, -2.0), (2, 0, 1.0)),
-            ((0, 0, 2 ** 0.5), (0, 1, -2 ** 0.5), (1, 0, -2 ** 0.5), (1, 1, 2 ** 0.5)))
 
 
 @dataclass
@@ -447,37 +445,20 @@ def _complete_under(labels, a, box, owner, threshold, reach):
     n = int(inside.sum())
     if n == 0:
         return
-    index = np.full(crop.shape, -1, np.int64)
-    index[inside] = np.arange(n)
     nbrs = np.unique(crop[np.pad(ndimage.binary_dilation(inside[1:-1, 1:-1]), 1) & ~inside])
     nbrs = nbrs[nbrs >= 0]
     if nbrs.size == 0:
         return
-    column = np.full(int(nbrs.max()) + 1, -1)
-    column[nbrs] = np.arange(nbrs.size)
-    diag = np.zeros(n)
-    rows, cols = [], []
-    rhs = np.zeros((n, nbrs.size))
-    for dy, dx in _STEPS:
-        nb = np.roll(crop, (-dy, -dx), axis=(0, 1))[inside]
-        nb_index = np.roll(index, (-dy, -dx), axis=(0, 1))[inside]
-        me = np.flatnonzero(nb != _OUTSIDE)
-        diag[me] += 1
-        link = nb_index >= 0
-        rows.append(np.flatnonzero(link))
-        cols.append(nb_index[link])
-        hit = np.flatnonzero((nb >= 0) & ~link)
-        np.add.at(rhs, (hit, column[nb[hit]]), 1.0)
-    r = np.concatenate(rows + [np.arange(n)])
-    c = np.concatenate(cols + [np.arange(n)])
-    v = np.concatenate([-np.ones(sum(len(x) for x in rows)), diag])
-    lap = sp.csc_matrix((v, (r, c)), shape=(n, n))
+    # Harmonic interpolation of each neighbour's indicator over a's pixels: unit
+    # weights between pixels inside the frame (no flux across it), every pixel
+    # that is not a's fixed at 1 for its own label's column and 0 elsewhere.
+    valid = crop != _OUTSIDE
+    laplacian = grid_laplacian(valid[:, :-1] & valid[:, 1:], valid[:-1, :] & valid[1:, :])
+    known = ~inside.ravel()
+    values = (crop.ravel()[known][:, None] == nbrs[None, :]).astype(float)
     try:
-        # Symmetric positive definite: symmetric ordering and no pivoting, many
-        # times faster than SuperLU's general mode on pixel grids.
-        u = sla.splu(lap, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                     options={"SymmetricMode": True}).solve(rhs)
-    except RuntimeError as e:  # a singular system would be a bug in the frame handling above
+        u = MinQuadWithFixed(laplacian, known).solve(None, values)[inside.ravel()]
+    except np.linalg.LinAlgError as e:  # a singular system would be a bug in the frame handling above
         raise StageError(f"completion under region {a}: cannot factor the Laplacian "
                          f"({e})") from None
     best = np.argmax(u, axis=1)

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 import igl
 import numpy as np
-from scipy.sparse.linalg import splu
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.spd import MinQuadWithFixed
 from inkray.relief.outline import DIRICHLET_KINDS
 from inkray.relief.triangulation import RegionMesh, mesh_region
 
@@ -108,14 +108,9 @@ class InflationSolver:
                              f"is flat, graft or image frame); give it the 'flat' profile")
         self.laplacian = igl.cotmatrix(v, faces).tocsr()
         self.mass = igl.massmatrix(v, faces, igl.MASSMATRIX_TYPE_VORONOI).tocsr()
-        self._free = np.flatnonzero(~self.dirichlet)
-        self._fixed = np.flatnonzero(self.dirichlet)
-        self._coupling = self.laplacian[self._free][:, self._fixed]
-        system = -self.laplacian[self._free][:, self._free]
-        # The system is symmetric positive definite: symmetric ordering, no pivoting
-        # (about 30x faster than SuperLU's general default).
-        self._lu = (splu(system.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                         options={"SymmetricMode": True}) if len(self._free) else None)
+        # -lap f = c with f fixed on the Dirichlet vertices: the minimizer of
+        # 1/2 f^T (-L) f - f^T M c (the cotangent Laplacian L is negative semi-definite).
+        self._solver = MinQuadWithFixed(-self.laplacian, self.dirichlet)
 
     def solve(self, source=2.0, *, values=None):
         """Solve ``-lap f = source`` with ``f = values`` on the Dirichlet vertices.
@@ -134,13 +129,8 @@ class InflationSolver:
         """
         n = self.laplacian.shape[0]
         src = np.broadcast_to(np.asarray(source, float), (n,))
-        fixed = np.zeros(len(self._fixed)) if values is None else np.asarray(values, float)[self._fixed]
-        f = np.zeros(n)
-        f[self._fixed] = fixed
-        if self._lu is not None:
-            rhs = (self.mass @ src)[self._free] + self._coupling @ fixed
-            f[self._free] = self._lu.solve(rhs)
-        return f
+        fixed = None if values is None else np.asarray(values, float)[self._solver.known]
+        return self._solver.solve(-(self.mass @ src), fixed)
 
 
 def dirichlet_vertices(mesh):

@@ -47,13 +47,14 @@ equality merges the two regions, so ``A = B`` with ``A > B`` is a
 contradiction like ``A > B > A``.
 """
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
 from inkray.errors import InputError
+from inkray.numerics.order_graph import OrderGraph
+from inkray.numerics.polyline import point_polyline_distance
 
 __all__ = ["Relation", "depth_order", "predict_place"]
 
@@ -248,7 +249,7 @@ def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, s
     """
     a, b = place.a, place.b
     junctions = [j for j in place.junctions
-                 if all(_polyline_distance(j, s) > seam_distance for s in seams)]
+                 if all(point_polyline_distance(j, s) > seam_distance for s in seams)]
     if junctions:
         turn = 0.0
         for j in junctions:
@@ -291,19 +292,6 @@ def _junction_scale(labels, a, b, point, limit):
     crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=-2)
     widths = [ndimage.distance_transform_edt(crop == x).max() for x in (a, b)]
     return float(np.clip(3.0 * min(widths), 4.0, limit))
-
-
-def _polyline_distance(point, path):
-    """Distance from ``point`` ``(x, y)`` to a polyline of ``[x, y]`` rows."""
-    p = np.asarray(point, float)
-    path = np.asarray(path, float)
-    if len(path) == 1:
-        return float(np.hypot(*(path[0] - p)))
-    a, b = path[:-1], path[1:]
-    ab = b - a
-    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / length2, 0, 1)
-    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
 
 
 def _extension(completion, place):
@@ -398,27 +386,26 @@ def _user_relation(kind, index, p, q, labels, completion, warnings):
 
 
 class _SiteGraph:
-    """Directed graphs of relations, one per site: strict edges front -> back,
-    equalities as non-strict edges both ways. A cycle with a strict edge is a
-    contradiction."""
+    """One order graph of relations per site: strict edges front -> back,
+    equalities both ways. A cycle with a strict edge is a contradiction."""
 
     def __init__(self, completion):
         self._sites = {p.index: p.site for p in completion.places}
         self._names = completion.names
-        self._edges = {}  # site -> {node: [(next node, relation, strict)]}
+        self._graphs = {}  # site -> OrderGraph of region indices, relations as labels
 
     def _graph(self, r):
         # A relation without a place stands on its own, shared only with its own pair.
         site = (self._sites[r.place] if r.place is not None
                 else ("apart", min(r.front, r.back), max(r.front, r.back)))
-        return self._edges.setdefault(site, {})
+        return self._graphs.setdefault(site, OrderGraph())
 
     def add_user(self, r):
-        edges = self._graph(r)
+        graph = self._graph(r)
         strict = r.kind == "order"
         ends = [(r.back, r.front)] if strict else [(r.back, r.front), (r.front, r.back)]
         for start, goal in ends:
-            path = self._path(edges, start, goal, r)
+            path = graph.path(start, goal, skip=_other_place(r))
             if path is not None and (strict or any(s for _, s in path)):
                 chain = [r] + [rel for rel, _ in path]
                 first = min(range(len(chain)), key=lambda i: (chain[i].kind, chain[i].entry))
@@ -427,22 +414,16 @@ class _SiteGraph:
                 raise InputError(f"{chain[0].kind}: the entries contradict each other near "
                                  f"({r.where[0]:g}, {r.where[1]:g}): {text} "
                                  f"({self._cycle(r, path)})")
-        self._link(edges, r, strict)
+        graph.add(r.front, r.back, strict=strict, label=r)
 
     def add_prediction(self, r):
         """Add a strict edge; return the cycle it would close instead (as text), or None."""
-        edges = self._graph(r)
-        path = self._path(edges, r.back, r.front, r)
+        graph = self._graph(r)
+        path = graph.path(r.back, r.front, skip=_other_place(r))
         if path is not None:
             return self._cycle(r, path)
-        self._link(edges, r, True)
+        graph.add(r.front, r.back, label=r)
         return None
-
-    @staticmethod
-    def _link(edges, r, strict):
-        edges.setdefault(r.front, []).append((r.back, r, strict))
-        if not strict:
-            edges.setdefault(r.back, []).append((r.front, r, False))
 
     def _cycle(self, r, path):
         """``a > b = c > a``: the regions around the cycle closed by ``r`` and ``path``."""
@@ -453,28 +434,9 @@ class _SiteGraph:
             text += [">" if strict else "=", self._names[node]]
         return " ".join(text)
 
-    @staticmethod
-    def _path(edges, start, goal, new):
-        """Edges ``[(relation, strict)]`` of a shortest path start -> goal, or None.
 
-        Relations of ``new``'s pair at another place are left out: a pair may
-        overlap twice with opposite orders (interlocking rings).
-        """
-        pair = {new.front, new.back}
-        came = {start: None}
-        queue = deque([start])
-        while queue:
-            node = queue.popleft()
-            for nxt, rel, strict in edges.get(node, ()):
-                if nxt in came or ({rel.front, rel.back} == pair and rel.place != new.place):
-                    continue
-                came[nxt] = (node, rel, strict)
-                if nxt == goal:
-                    path = []
-                    while came[nxt] is not None:
-                        node, rel, strict = came[nxt]
-                        path.append((rel, strict))
-                        nxt = node
-                    return path[::-1]
-                queue.append(nxt)
-        return None
+def _other_place(new):
+    """Relations of ``new``'s pair at another place are left out of its paths: a pair
+    may overlap twice with opposite orders (interlocking rings)."""
+    pair = {new.front, new.back}
+    return lambda rel: {rel.front, rel.back} == pair and rel.place != new.place

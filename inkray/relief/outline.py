@@ -37,6 +37,7 @@ from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
 from inkray.errors import InputError
+from inkray.numerics.polyline import arc_length, resample_polyline
 
 __all__ = [
     "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "edge_length",
@@ -284,7 +285,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     loops, holes = _contours(box, o.speckle)
     loops = [p + (x0, y0) for p in loops]
     dense = [_smooth(p, w, h, smoothing) for p in loops]
-    paths = [(b, _resample(np.asarray(b.path, float), 0.5)) for b in boundaries]
+    paths = [(b, resample_polyline(np.asarray(b.path, float), 0.5)) for b in boundaries]
 
     marks = [[] for _ in dense]
     matched, distances = [], {}
@@ -300,12 +301,12 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
         near = dist <= snap
         if med > snap or near.sum() < 2:
             continue
-        length = _cumlen(dense[li], closed=True)[-1]
+        length = arc_length(dense[li], closed=True)[-1]
         tn = t[near]
         steps = (np.diff(tn) + length / 2) % length - length / 2
         total = float(steps.sum())
         total = math.copysign(min(abs(total), length * (1 - 1e-6)), total)
-        k = max(1, math.ceil(_cumlen(np.asarray(b.path, float), closed=False)[-1] / station_spacing))
+        k = max(1, math.ceil(arc_length(np.asarray(b.path, float), closed=False)[-1] / station_spacing))
         start = float(tn[0])
         lo, hi = (start, start + total) if total > 0 else (start + total, start)
         for other in marks[li]:
@@ -424,7 +425,7 @@ def _smooth(p, w, h, sigma):
     if sigma == 0 or _on_frame(p, w, h).all():
         return p
     # Marching-squares points are unevenly spaced; smooth on a uniform resampling.
-    s = _cumlen(p, closed=True)
+    s = arc_length(p, closed=True)
     n = max(8, math.ceil(s[-1] / _SMOOTH_STEP))
     step = s[-1] / n
     t = np.linspace(0.0, s[-1], n, endpoint=False)
@@ -525,7 +526,7 @@ def _local_spacing(d, inside, spacing, across):
 
 def _loop_vertices(d, base_kind, base_neigh, marks, local, tolerance):
     """Outline vertices of one loop: stations, provenance changes, simplified curve."""
-    s = _cumlen(d, closed=True)
+    s = arc_length(d, closed=True)
     length = s[-1]
     s = s[:-1]
     # Candidates with priorities: stations 2, provenance changes 1, curve points 0.
@@ -639,22 +640,10 @@ def _arcs_overlap(lo1, hi1, lo2, hi2, length):
 
 # -- geometry ----------------------------------------------------------------
 
-def _cumlen(p, *, closed):
-    q = np.vstack([p, p[:1]]) if closed else p
-    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))]
-
-
-def _resample(p, step):
-    s = _cumlen(p, closed=False)
-    n = max(2, math.ceil(s[-1] / step) + 1)
-    t = np.linspace(0, s[-1], n)
-    return np.stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])], axis=1)
-
-
 def _project(q, loop):
     """Distance of each point to a closed polyline and the arc parameter of its projection."""
     n = len(loop)
-    s = _cumlen(loop, closed=True)
+    s = arc_length(loop, closed=True)
     _, near = cKDTree(loop).query(q)
     # The nearest segment touches the nearest vertex (up to the vertex spacing): try both.
     best_d = np.full(len(q), np.inf)

@@ -28,7 +28,7 @@ The QP has few active constraints and many unknowns. It is solved through its
 multipliers (as :mod:`inkray.qp` does for depth maps): each region block is
 factored once; the working set's dual matrix ``H = C Q^-1 C^T`` is built
 column by column with solves on those factors; the small dual is solved
-exactly by :func:`inkray.depthmap.quadratic_program.dual_active_set`. Inequality samples enter by
+exactly by :func:`inkray.numerics.active_set.dual_active_set`. Inequality samples enter by
 constraint generation: all violated ones at ``g = 0`` first, then, round by
 round, the most violated candidates at the current solution, until none is
 violated by more than ``tol``.
@@ -40,11 +40,12 @@ import igl
 import numpy as np
 import scipy.sparse as sp
 from scipy.ndimage import binary_dilation
-from scipy.sparse.linalg import splu
 from threadpoolctl import threadpool_limits
 
 from inkray.errors import InputError, StageError
-from inkray.depthmap.quadratic_program import dual_active_set
+from inkray.numerics.active_set import dual_active_set
+from inkray.numerics.polyline import point_polyline_distance
+from inkray.numerics.spd import spd_factor
 
 __all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
 
@@ -139,14 +140,12 @@ class _Region:
         self._v3 = np.column_stack([self.v, np.zeros(len(self.v))])
 
     def solve(self, rhs):
-        with threadpool_limits(limits=1, user_api="blas"):  # see inkray.depthmap.quadratic_program.dual_active_set
+        with threadpool_limits(limits=1, user_api="blas"):  # see inkray.numerics.active_set.dual_active_set
             return self._solve(rhs)
 
     def _solve(self, rhs):
         if self._lu is None:
-            # symmetric positive definite: symmetric ordering, no pivoting
-            self._lu = splu(self.q, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                            options={"SymmetricMode": True})
+            self._lu = spd_factor(self.q)
         return self._lu.solve(rhs)
 
     def locate(self, points):
@@ -437,7 +436,7 @@ def _graft_rows(rows, blocks, regions, front, base, stations, width, key):
     blk = blocks[front]
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, blk.v[stations], -1.0)], 0.0, False,
                 key, graft=True)
-    sel = np.flatnonzero(_distance_to_polyline(blk.v, blk.v[stations]) <= width)
+    sel = np.flatnonzero(point_polyline_distance(blk.v, blk.v[stations]) <= width)
     sel = np.setdiff1d(sel, stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)], 0.0, False, key,
                 graft=True)
@@ -505,22 +504,9 @@ def _keepout(zones):
         out = np.zeros(len(pts), bool)
         for front, base, line, width in zones:
             if {front, base} == {i, j} and len(pts):
-                out |= _distance_to_polyline(pts, line) <= 2.0 * width
+                out |= point_polyline_distance(pts, line) <= 2.0 * width
         return out
     return near
-
-
-def _distance_to_polyline(points, line):
-    p = np.asarray(points, float).reshape(-1, 2)
-    line = np.asarray(line, float).reshape(-1, 2)
-    if len(line) == 1:
-        return np.hypot(*(p - line[0]).T)
-    a, b = line[:-1], line[1:]
-    ab = b - a
-    t = ((p[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12)[None]
-    t = np.clip(t, 0.0, 1.0)
-    closest = a[None] + t[..., None] * ab[None]
-    return np.sqrt(((p[:, None, :] - closest) ** 2).sum(-1)).min(axis=1)
 
 
 def _mean_edge(mesh):
