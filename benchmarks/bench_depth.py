@@ -1,4 +1,4 @@
-"""Benchmark of inkray depth (issue 4): the exact QP against OSQP (and Clarabel).
+"""Benchmark of inkray depth: the exact QP against OSQP (and Clarabel).
 
 Run as ``python benchmarks/bench_depth.py [--sizes 512,1024] [--constraints 10,50]
 [--no-osqp] [--no-clarabel] [--no-fast] [--repeat N]``.
@@ -16,7 +16,7 @@ max depth difference, and the time ratio baseline / exact.
 A second table times the fast method on the 512x512 turtle, with its region
 scribbles and without: the first solve, then five edits, each an order added
 (new points), solved, removed and solved again in the same session, against
-the issue's 0.2 s target for one incremental re-solve; and the exact method's
+the 0.2 s target for one incremental re-solve; and the exact method's
 re-solve when its factorization is kept (the Laplacian depends on the drawing
 only, so a new constraint costs the dual matrix and one solve).
 """

@@ -1,4 +1,4 @@
-"""Benchmark of the whole relief chain (issue 7): per-stage times and peak memory.
+"""Benchmark of the whole relief chain: per-stage times and peak memory.
 
 Runs ``inkray.chain.build_relief`` on the shared drawings at their own size
 and upscaled to about 1 Mpx, each case in a fresh process (so peak RSS is that

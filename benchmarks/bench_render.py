@@ -2,7 +2,7 @@
 
 Run as ``python benchmarks/bench_render.py [--example NAME] [--spp N] [--size N]
 [--out DIR]``.
-Issue 9 asks for the time of that render; the table also shows the cheap
+The GI render is the one worth timing; the table also shows the cheap
 modes and the rasterizer, with ratios against the ``shade`` render of the same
 relief (the baseline: what a preview costs).
 

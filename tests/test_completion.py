@@ -189,3 +189,21 @@ def test_deterministic():
     a = final_completion(labels)[2]
     b = final_completion(labels)[2]
     assert np.array_equal(a.owner, b.owner)
+
+
+def test_ordering_keeps_a_hidden_part_without_an_outline_of_its_own():
+    # A disk (0) inside a region (1) that fills the image: the disk's outline meets
+    # nothing but its occluder, so there is no outline to continue.
+    from inkray.relief.ordering import Relation
+
+    yy, xx = np.mgrid[:60, :60]
+    labels = np.where((yy - 30) ** 2 + (xx - 30) ** 2 <= 10 ** 2, 0, 1).astype(np.int32)
+    c = complete_regions(labels, names=["disk", "sheet"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    over = Relation(front=1, back=0, front_name="sheet", back_name="disk", where=place.where,
+                    source="user", confidence=1.0, place=place.index, entry=0)
+    memo = {}
+    first = c.ordered([over], memo=memo)
+    assert list(memo.values()) == [None]       # nothing reshaped: the diffusion's part is kept
+    assert np.array_equal(first.owner, c.ordered([over], curvature=False).owner)
+    assert np.array_equal(c.ordered([over], memo=memo).owner, first.owner)

@@ -195,7 +195,8 @@ class Completion:
                     key = (front, back, p.index)
                     if key not in memo:
                         memo[key] = _continuation(self.labels, front, back, p.box, piece)
-                    _apply_continuation(owner, back, memo[key])
+                    if memo[key] is not None:  # None: no outline of its own to continue
+                        _apply_continuation(owner, back, memo[key])
         return replace(self, owner=owner)
 
 
