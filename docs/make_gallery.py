@@ -35,8 +35,9 @@ def _thumbnail(image, width):
 
 def _save(image, name, width):
     buf = io.BytesIO()
-    # 64 colours are plenty for line art and keep the pages light.
-    _thumbnail(image, width).quantize(64).save(buf, format="PNG", optimize=True)
+    # 32 colours are plenty for line art and keep the page light (a few
+    # hundred KB for all drawings; the photographed paper costs the most).
+    _thumbnail(image, width).quantize(32).save(buf, format="PNG", optimize=True)
     (OUT / name).write_bytes(buf.getvalue())
     return f"images/gallery/{name}"
 
@@ -95,7 +96,8 @@ def main():
         cells, notes, ann, chain = _pictures(name, args.width)
         w, h = ann.size
         predicted = ("" if cells["relief"] is None else
-                     f"; {sum(r.source == 'predicted' for r in chain.relations)} relations predicted")
+                     f"; {sum(r.source == 'predicted' for r in chain.relations)} depth relations "
+                     "predicted beyond the file's")
         lines += [f"## {name}", "",
                   f"{w}x{h}, {len(ann.regions)} regions, {len(ann.order)} order and "
                   f"{len(ann.equal)} equal entries, {len(ann.boundaries)} boundaries{predicted}.", "",
