@@ -1,4 +1,4 @@
-"""Every rule of ANNOTATIONS.md broken once, with the key path checked in the message."""
+"""Every rule of the annotation format (docs/format.md) broken once, the key path checked."""
 
 import json
 
