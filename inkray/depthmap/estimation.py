@@ -353,9 +353,12 @@ class DepthSession:
             if not 0 <= v < h * w:
                 raise InputError(f"pixel index {v} lies outside the {w}x{h} drawing")
             return v
-        x, y = (int(np.floor(float(c) + 0.5)) for c in v)
-        if not (0 <= x < w and 0 <= y < h):
-            raise InputError(f"point ({x}, {y}) lies outside the {w}x{h} drawing")
+        fx, fy = (float(c) for c in v)
+        # The drawing covers [-0.5, W - 0.5]: its edge rounds into the last pixel.
+        if not (-0.5 <= fx <= w - 0.5 and -0.5 <= fy <= h - 0.5):
+            raise InputError(f"point ({fx:g}, {fy:g}) lies outside the {w}x{h} drawing")
+        x = min(max(int(np.floor(fx + 0.5)), 0), w - 1)
+        y = min(max(int(np.floor(fy + 0.5)), 0), h - 1)
         return y * w + x
 
     def constraints(self):

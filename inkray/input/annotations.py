@@ -23,10 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from inkray.errors import InputError
+from inkray.input.files import read_bytes
+from inkray.input.limits import DEFAULT_LIMITS
 
 __all__ = [
     "Annotations", "Region", "Order", "Equal", "Boundary",
-    "load_annotations", "parse_annotations", "rescale_annotations",
+    "load_annotations", "decode_annotations", "parse_annotations", "rescale_annotations",
     "PROFILES", "BOUNDARY_TYPES",
 ]
 
@@ -35,7 +37,10 @@ VERSION = 1
 PROFILES = ("sqrt", "linear", "flat")
 BOUNDARY_TYPES = ("stitch", "graft", "flat")
 DEFAULT_INFLATION = 2.0
-_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+#: Largest ``inflation``: c = 4 gives a hemisphere, 1000 a part ~16 times as tall
+#: as it is wide; beyond, heights stop being a relief (and soon a float).
+MAX_INFLATION = 1000.0
+_NAME = re.compile(r"[A-Za-z0-9_-]+")  # matched whole (fullmatch): no trailing newline
 _TOP_KEYS = ("format", "version", "drawing", "size", "regions", "background",
              "order", "equal", "boundaries")
 _REGION_KEYS = ("name", "scribbles", "inflation", "profile")
@@ -137,13 +142,15 @@ class Annotations:
         raise KeyError(name)
 
 
-def load_annotations(path):
+def load_annotations(path, *, limits=DEFAULT_LIMITS):
     """Read and validate an annotation file.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The ``.inkray.json`` file.
+    limits : inkray.input.limits.Limits, optional
+        Bounds on the file's size, nesting, points and entries.
 
     Returns
     -------
@@ -153,8 +160,9 @@ def load_annotations(path):
     Raises
     ------
     InputError
-        When the file is missing, is not UTF-8 JSON, or breaks a rule of the
-        format; the message names the key path.
+        When the file is missing or not a regular file, is too large, is not
+        UTF-8 JSON, or breaks a rule of the format; the message names the key
+        path.
 
     Examples
     --------
@@ -163,60 +171,138 @@ def load_annotations(path):
     ['head', 'leg_front', 'shell', 'foot_hind']
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such annotation file") from None
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror})") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not UTF-8 text (byte {e.start})") from None
-    try:
-        data = json.loads(text, object_pairs_hook=_no_duplicate_keys,
-                          parse_constant=_reject_constant)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
-    except _DuplicateKey as e:
-        raise InputError(f"{path}: duplicate key {str(e)!r} in a JSON object") from None
-    except _BadConstant as e:
-        raise InputError(f"{path}: {e} is not valid JSON") from None
-    ann = parse_annotations(data)
+    raw = read_bytes(path, "annotation file", limit=limits.file_bytes)
+    ann = parse_annotations(decode_annotations(raw, where=str(path), limits=limits),
+                            limits=limits)
     ann.source = path
     if ann.drawing is not None:
         ann.drawing = (path.parent / ann.drawing)
     return ann
 
 
-class _DuplicateKey(Exception):
-    pass
+def decode_annotations(raw, *, where="annotations", limits=DEFAULT_LIMITS):
+    """Decode the JSON text of an annotation file, refusing what JSON leaves open.
+
+    Duplicate keys, ``NaN``/``Infinity``, integers of more than 30 digits and
+    nesting deeper than ``limits.depth`` are errors that name the key path and
+    the line and column.
+
+    Parameters
+    ----------
+    raw : bytes or str
+    where : str, default "annotations"
+        Names the document in messages (its path).
+    limits : inkray.input.limits.Limits, optional
+
+    Returns
+    -------
+    object
+        The decoded document (for :func:`parse_annotations`).
+
+    Raises
+    ------
+    InputError
+
+    Examples
+    --------
+    >>> decode_annotations(b'{"order": [{"front": [1, 2], "front": [3, 4]}]}')
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: annotations: order[0].front: duplicate key (line 1, column 30)
+    """
+    if isinstance(raw, bytes):
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise InputError(f"{where}: not UTF-8 text (byte {e.start})") from None
+    else:
+        text = raw
+    problem = _json_problem(text, limits.depth)
+    if problem:
+        raise InputError(f"{where}: {problem}")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{where}: not valid JSON: {e.msg} (line {e.lineno}, column {e.colno})") from None
+    except (RecursionError, ValueError) as e:  # the scan above should have caught these
+        raise InputError(f"{where}: not valid JSON ({type(e).__name__})") from None
 
 
-class _BadConstant(Exception):
-    pass
+_JSON_TOKEN = re.compile(r'"(?:[^"\\\x00-\x1f]|\\.)*"|[{}\[\]:,]|[^\s{}\[\]:,"]+|"', re.S)
+_MAX_DIGITS = 30
 
 
-def _no_duplicate_keys(pairs):
-    out = {}
-    for k, v in pairs:
-        if k in out:
-            raise _DuplicateKey(k)
-        out[k] = v
-    return out
+def _json_problem(text, depth):
+    """The first duplicate key, non-JSON constant, huge integer or too deep nesting, or None.
+
+    An iterative scan that keeps the key path, so any depth is safe; other
+    syntax errors are left to the JSON parser.
+    """
+    stack = []  # [kind, keys seen or index, key]
+
+    def path(extra=None):
+        out = ""
+        for frame in stack:
+            if frame[0] == "[":
+                out += f"[{frame[1]}]"
+            elif frame[2] is not None:
+                out += ("." if out else "") + frame[2]
+        if extra is not None:
+            out += ("." if out else "") + extra
+        return (out if len(out) <= 80 else out[:40] + "..." + out[-30:]) or "(top level)"
+
+    def at(m):
+        line = text.count("\n", 0, m.start()) + 1
+        column = m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1
+        return f"(line {line}, column {column})"
+
+    expect_key = False
+    for m in _JSON_TOKEN.finditer(text):
+        tok = m.group()
+        if tok in "{[":
+            if len(stack) >= depth:
+                return f"{path()}: nested deeper than {depth} levels {at(m)}"
+            stack.append(["{", set(), None] if tok == "{" else ["[", 0, None])
+            expect_key = tok == "{"
+        elif tok in "}]":
+            if stack:
+                stack.pop()
+            expect_key = False
+        elif tok == ",":
+            if stack and stack[-1][0] == "[":
+                stack[-1][1] += 1
+            expect_key = bool(stack) and stack[-1][0] == "{"
+        elif tok == ":":
+            expect_key = False
+        elif tok.startswith('"'):
+            if expect_key and stack and len(tok) >= 2:
+                try:
+                    key = json.loads(tok)
+                except ValueError:
+                    return None  # a broken string: the parser says where
+                if key in stack[-1][1]:
+                    stack[-1][2] = None
+                    return f"{path(key)}: duplicate key {at(m)}"
+                stack[-1][1].add(key)
+                stack[-1][2] = key
+        elif tok in ("NaN", "Infinity", "-Infinity"):
+            return f"{path()}: {tok} is not valid JSON {at(m)}"
+        elif tok.lstrip("-").isdigit() and len(tok.lstrip("-")) > _MAX_DIGITS:
+            return (f"{path()}: an integer of {len(tok.lstrip('-'))} digits (at most "
+                    f"{_MAX_DIGITS}) {at(m)}")
+    return None
 
 
-def _reject_constant(name):
-    raise _BadConstant(name)
-
-
-def parse_annotations(data):
+def parse_annotations(data, *, limits=DEFAULT_LIMITS):
     """Validate a decoded annotation document and return typed objects.
 
     Parameters
     ----------
     data : object
-        The result of ``json.load`` on an annotation file.
+        The result of ``json.load`` on an annotation file (see
+        :func:`decode_annotations`).
+    limits : inkray.input.limits.Limits, optional
+        Bounds on points and entries.
 
     Returns
     -------
@@ -237,6 +323,7 @@ def parse_annotations(data):
     """
     _expect(isinstance(data, dict), "(top level)", f"expected an object, got {_kind(data)}")
     _check_keys(data, _TOP_KEYS, "")
+    budget = _Budget(limits)
     for key in ("format", "version", "size"):
         if key not in data:
             raise InputError(f"{key}: missing required key")
@@ -261,7 +348,7 @@ def parse_annotations(data):
 
     regions = []
     names = {}
-    raw_regions = _list(data, "regions", "regions")
+    raw_regions = _list(data, "regions", "regions", budget)
     for i, r in enumerate(raw_regions):
         where = f"regions[{i}]"
         _expect(isinstance(r, dict), where, f"expected an object, got {_kind(r)}")
@@ -271,7 +358,7 @@ def parse_annotations(data):
                 raise InputError(f"{where}.{key}: missing required key")
         name = r["name"]
         _expect(isinstance(name, str), f"{where}.name", f"expected a string, got {_kind(name)}")
-        _expect(bool(_NAME.match(name)), f"{where}.name",
+        _expect(bool(_NAME.fullmatch(name)), f"{where}.name",
                 f"{name!r} may only contain letters, digits, '_' and '-'")
         _expect(name not in names, f"{where}.name",
                 f"duplicate region name {name!r} (first used by regions[{names.get(name)}])")
@@ -280,21 +367,24 @@ def parse_annotations(data):
         _expect(isinstance(scribbles, list), f"{where}.scribbles",
                 f"expected a list of polylines, got {_kind(scribbles)}")
         _expect(len(scribbles) > 0, f"{where}.scribbles", "a region needs at least one scribble")
-        polylines = [_polyline(s, f"{where}.scribbles[{j}]", size) for j, s in enumerate(scribbles)]
+        budget.entries(scribbles, f"{where}.scribbles")
+        polylines = [_polyline(s, f"{where}.scribbles[{j}]", size, budget)
+                     for j, s in enumerate(scribbles)]
         inflation = r.get("inflation", DEFAULT_INFLATION)
-        _expect(_is_number(inflation) and math.isfinite(inflation) and inflation > 0,
-                f"{where}.inflation", f"expected a positive number, got {_show(inflation)}")
+        _expect(_is_number(inflation) and _finite(inflation) and 0 < inflation <= MAX_INFLATION,
+                f"{where}.inflation", f"expected a positive number at most {MAX_INFLATION:g}, "
+                                      f"got {_show(inflation)}")
         profile = r.get("profile", "sqrt")
         _expect(isinstance(profile, str) and profile in PROFILES, f"{where}.profile",
                 f"unknown profile {_show(profile)} (expected one of {', '.join(PROFILES)})")
         regions.append(Region(name=name, scribbles=polylines, inflation=float(inflation),
                               profile=profile))
 
-    background = [_polyline(s, f"background[{j}]", size)
-                  for j, s in enumerate(_list(data, "background", "background"))]
+    background = [_polyline(s, f"background[{j}]", size, budget)
+                  for j, s in enumerate(_list(data, "background", "background", budget))]
 
     order = []
-    for i, o in enumerate(_list(data, "order", "order")):
+    for i, o in enumerate(_list(data, "order", "order", budget)):
         where = f"order[{i}]"
         pts = _pair(o, where, ("front", "back"), size)
         _expect(pts[0] != pts[1], where,
@@ -302,12 +392,12 @@ def parse_annotations(data):
         order.append(Order(front=pts[0], back=pts[1], index=i))
 
     equal = []
-    for i, e in enumerate(_list(data, "equal", "equal")):
+    for i, e in enumerate(_list(data, "equal", "equal", budget)):
         pts = _pair(e, f"equal[{i}]", ("a", "b"), size)
         equal.append(Equal(a=pts[0], b=pts[1], index=i))
 
     boundaries = []
-    for i, b in enumerate(_list(data, "boundaries", "boundaries")):
+    for i, b in enumerate(_list(data, "boundaries", "boundaries", budget)):
         where = f"boundaries[{i}]"
         _expect(isinstance(b, dict), where, f"expected an object, got {_kind(b)}")
         _check_keys(b, ("type", "path"), where)
@@ -316,7 +406,7 @@ def parse_annotations(data):
                 raise InputError(f"{where}.{key}: missing required key")
         _expect(isinstance(b["type"], str) and b["type"] in BOUNDARY_TYPES, f"{where}.type",
                 f"unknown boundary type {_show(b['type'])} (expected one of {', '.join(BOUNDARY_TYPES)})")
-        path = _polyline(b["path"], f"{where}.path", size)
+        path = _polyline(b["path"], f"{where}.path", size, budget)
         _expect(len(path) >= 2, f"{where}.path", "a boundary path needs at least 2 points")
         boundaries.append(Boundary(type=b["type"], path=path, index=i))
 
@@ -382,14 +472,25 @@ def _is_number(v):
     return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
+def _finite(v):
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer too large for a float
+        return False
+
+
 def _kind(v):
     return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
             int: "a number", float: "a number", type(None): "null"}.get(type(v), type(v).__name__)
 
 
 def _show(v):
-    s = json.dumps(v, ensure_ascii=False, default=str)
-    return s if len(s) <= 40 else s[:37] + "..."
+    try:
+        s = json.dumps(v, ensure_ascii=False, default=str)
+    except (RecursionError, ValueError, TypeError):
+        return _kind(v)
+    s = s if len(s) <= 40 else s[:37] + "..."
+    return s.encode("unicode_escape").decode("ascii") if not s.isprintable() else s
 
 
 def _fmt_point(p):
@@ -404,31 +505,56 @@ def _check_keys(obj, allowed, where):
         raise InputError(f"{prefix}: unknown key (expected one of {', '.join(allowed)})")
 
 
-def _list(data, key, where):
+def _list(data, key, where, budget):
     v = data.get(key, [])
     _expect(isinstance(v, list), where, f"expected a list, got {_kind(v)}")
+    budget.entries(v, where)
     return v
+
+
+class _Budget:
+    """Counts points and entries against the limits while a document is parsed."""
+
+    def __init__(self, limits):
+        self.limits = limits
+        self.points = 0
+
+    def entries(self, items, where):
+        if len(items) > self.limits.entries:
+            raise InputError(f"{where}: {len(items)} entries exceeds the limit of "
+                             f"{self.limits.entries}")
+
+    def polyline(self, n, where):
+        if n > self.limits.points:
+            raise InputError(f"{where}: {n} points exceeds the limit of {self.limits.points} "
+                             f"per polyline (raise it with --max-points)")
+        self.points += n
+        if self.points > self.limits.total_points:
+            raise InputError(f"{where}: the file holds more than {self.limits.total_points} "
+                             f"points (raise the limit with --max-points)")
 
 
 def _point(p, where, size):
     _expect(isinstance(p, list) and len(p) == 2, where, f"expected a point [x, y], got {_show(p)}")
     for i, v in enumerate(p):
-        _expect(_is_number(v) and math.isfinite(v), f"{where}[{i}]",
+        _expect(_is_number(v) and _finite(v), f"{where}[{i}]",
                 f"expected a number, got {_show(v)}")
     x, y = float(p[0]), float(p[1])
     w, h = size
-    _expect(0 <= x <= w - 1 and 0 <= y <= h - 1, where,
+    # Pixel centres are integers: the drawing covers [-0.5, W - 0.5] x [-0.5, H - 0.5].
+    _expect(-0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5, where,
             f"point {_fmt_point((x, y))} lies outside the {w}x{h} drawing")
     return x, y
 
 
-def _polyline(s, where, size):
+def _polyline(s, where, size, budget):
     _expect(isinstance(s, list), where, f"expected a polyline (a list of points), got {_kind(s)}")
     _expect(len(s) > 0, where, "a polyline needs at least one point")
+    budget.polyline(len(s), where)
     return np.array([_point(p, f"{where}[{k}]", size) for k, p in enumerate(s)], dtype=float)
 
 
-def _pair(obj, where, keys, size):
+def _pair(obj, where, keys, size):  # two points: no polyline budget needed
     _expect(isinstance(obj, dict), where, f"expected an object, got {_kind(obj)}")
     _check_keys(obj, keys, where)
     for key in keys:

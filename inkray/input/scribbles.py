@@ -48,7 +48,10 @@ def polyline_pixels(points, shape, *, radius=0):
     """
     from skimage.draw import line
 
+    h, w = shape
+    # Points on the drawing's edge (x = W - 0.5) round into its last pixel, not past it.
     p = np.rint(np.asarray(points, float)).astype(np.int64).reshape(-1, 2)
+    p = np.clip(p, 0, [max(w - 1, 0), max(h - 1, 0)])
     rr, cc = [p[:1, 1]], [p[:1, 0]]
     for (x0, y0), (x1, y1) in zip(p[:-1], p[1:]):
         r, c = line(y0, x0, y1, x1)
@@ -61,7 +64,6 @@ def polyline_pixels(points, shape, *, radius=0):
         disk = dy ** 2 + dx ** 2 <= radius ** 2 + radius
         rr = (rr[:, None] + dy[disk][None, :]).ravel()
         cc = (cc[:, None] + dx[disk][None, :]).ravel()
-    h, w = shape
     keep = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
     flat = np.unique(rr[keep] * w + cc[keep])
     return flat // w, flat % w
