@@ -13,6 +13,7 @@ from pathlib import Path
 
 from inkray._version import __version__
 from inkray.errors import InkrayError, InputError
+from inkray.input.limits import DEFAULT_LIMITS, Limits
 from inkray.progress import Progress
 
 __all__ = ["main"]
@@ -24,7 +25,9 @@ class _UsageError(Exception):
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2, instead of usage + message
-        raise _UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+        command = self.prog.partition(" ")[2]
+        raise _UsageError(f"{command + ': ' if command else ''}{message} "
+                          f"(see '{self.prog} --help')")
 
 
 def _add_input(p):
@@ -36,13 +39,27 @@ def _add_input(p):
                    help="scribble layer: transparent PNG, one flat colour per region")
     p.add_argument("--legend", metavar="JSON",
                    help="colour legend for --scribbles: {\"#rrggbb\": \"name\", ...}")
+    p.add_argument("--max-pixels", type=int, default=DEFAULT_LIMITS.pixels, metavar="N",
+                   help=f"largest drawing in pixels (default: {DEFAULT_LIMITS.pixels})")
+    p.add_argument("--max-points", type=int, default=DEFAULT_LIMITS.points, metavar="N",
+                   help=f"most points in one scribble or path (default: {DEFAULT_LIMITS.points}; "
+                        f"the file's total may be 50 times that)")
+
+
+def _limits(args):
+    try:
+        return Limits(pixels=args.max_pixels, points=args.max_points,
+                      total_points=max(DEFAULT_LIMITS.total_points, 50 * args.max_points))
+    except InputError as e:
+        raise InputError(f"--max-{str(e).partition('.')[2].partition(':')[0]}: expected a "
+                         f"positive integer") from None
 
 
 def _load(args):
     from inkray.input.loading import load_input
 
     return load_input(args.annotation, drawing=args.drawing, rescale=args.rescale,
-                      scribble_layer=args.scribbles, legend=args.legend)
+                      scribble_layer=args.scribbles, legend=args.legend, limits=_limits(args))
 
 
 def _chain(args, progress, **options):
@@ -463,7 +480,7 @@ def main(argv=None):
     except SystemExit as e:  # --help and --version
         return e.code if isinstance(e.code, int) else 0
     except _UsageError as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"inkray: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except InkrayError as e:
         if debug:
@@ -485,7 +502,9 @@ def main(argv=None):
 
 
 def _one_line(e):
-    return " ".join(str(e).split())
+    """The message on one line, control characters escaped (a file name may hold any)."""
+    text = " ".join(str(e).split())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def entry():

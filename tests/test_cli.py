@@ -49,7 +49,22 @@ def test_usage_errors_exit_2_one_line(capsys):
     for argv in (["nonsense"], ["segment", "a.json"], [], ["validate"]):
         code, out, err = _run(capsys, *argv)
         assert code == 2, argv
-        assert err.count("\n") == 1 and err.startswith("error: inkray"), err
+        assert err.count("\n") == 1 and err.startswith("inkray: error: "), err
+    code, _, err = _run(capsys, "segment", "a.json")
+    assert err.startswith("inkray: error: segment: the following arguments are required: -o")
+
+
+def test_messages_escape_control_characters(tmp_path, capsys):
+    code, _, err = _run(capsys, "validate", str(tmp_path / "a\x1b[31mred.inkray.json"))
+    assert code == 2 and "\x1b" not in err and "\\x1b[31mred" in err, err
+
+
+def test_limits_from_the_command_line(annotated, capsys):
+    w, h = 10, 8
+    code, _, err = _run(capsys, "validate", str(annotated), "--max-pixels", str(w * h - 1))
+    assert code == 2 and f"exceeds the limit of {w * h - 1} (raise it with --max-pixels)" in err
+    code, _, err = _run(capsys, "validate", str(annotated), "--max-points", "0")
+    assert code == 2 and err == "inkray: error: --max-points: expected a positive integer\n"
 
 
 def test_help_and_version(capsys):

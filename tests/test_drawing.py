@@ -100,3 +100,87 @@ def test_array_input_validation():
         drawing_from_array(np.zeros((4, 4, 2)))
     d = drawing_from_array(np.ones((4, 5)), normalize=False)
     assert d.size == (5, 4) and d.rgb.dtype == np.uint8
+
+
+def _png(width, height, chunks=()):
+    """A PNG byte string with the given header size and extra chunks, no real pixel data."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    body = b"".join(chunk(k, d) for k, d in chunks)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + body
+            + chunk(b"IDAT", zlib.compress(b"\0" * 16)) + chunk(b"IEND", b""))
+
+
+def test_size_is_checked_from_the_header_before_decoding(tmp_path):
+    from inkray.input.limits import Limits
+
+    (tmp_path / "large.png").write_bytes(_png(9000, 9000))
+    with pytest.raises(InputError, match=r"large.png: 9000x9000 = 81000000 pixels exceeds "
+                                         r"the limit of 16777216 \(raise it with --max-pixels\)"):
+        load_drawing(tmp_path / "large.png")
+    (tmp_path / "huge.png").write_bytes(_png(60000, 60000))
+    with pytest.raises(InputError, match=r"huge.png: 3600000000 pixels exceeds the limit"):
+        load_drawing(tmp_path / "huge.png")
+    Image.fromarray(_ring()).save(tmp_path / "small.png")
+    with pytest.raises(InputError, match="exceeds the limit of 1000"):
+        load_drawing(tmp_path / "small.png", limits=Limits(pixels=1000))
+
+
+def test_hostile_and_corrupt_images_are_input_errors(tmp_path):
+    import zlib
+
+    bomb = _png(8, 8, [(b"zTXt", b"comment\0\0" + zlib.compress(b"x" * (8 << 20)))])
+    (tmp_path / "text.png").write_bytes(bomb)
+    Image.fromarray(_ring()).save(tmp_path / "ok.png")
+    data = (tmp_path / "ok.png").read_bytes()
+    (tmp_path / "truncated.png").write_bytes(data[: len(data) // 2])
+    (tmp_path / "garbage.tiff").write_bytes(b"II*\0" + b"\xff" * 64)
+    for name in ("text.png", "truncated.png", "garbage.tiff"):
+        with pytest.raises(InputError, match=rf"{name}: not a readable image \(\w+: .+\)"):
+            load_drawing(tmp_path / name)
+
+
+def test_special_files_are_refused_by_kind(tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "pipe.png")
+    (tmp_path / "dir.png").mkdir()
+    for path, kind in ((tmp_path / "pipe.png", "a FIFO"), (tmp_path / "dir.png", "a directory"),
+                       ("/dev/zero", "a device")):
+        with pytest.raises(InputError, match=f"not a regular file \\({kind}\\); expected a drawing"):
+            load_drawing(path)
+    with pytest.raises(InputError, match="cannot open the drawing file"):
+        load_drawing(tmp_path / ("x" * 300 + ".png"))
+
+
+def test_svg_size_is_checked_before_rasterizing(tmp_path):
+    svg = ('<svg xmlns="http://www.w3.org/2000/svg" width="20000" height="20000">'
+           '<circle cx="50" cy="50" r="40" fill="none" stroke="black"/></svg>')
+    (tmp_path / "big.svg").write_text(svg)
+    with pytest.raises(InputError, match="big.svg: 20000x20000 = 400000000 pixels exceeds"):
+        load_drawing(tmp_path / "big.svg")
+    (tmp_path / "mm.svg").write_text(svg.replace('width="20000" height="20000"',
+                                                 'width="2000mm" height="10mm"'))
+    with pytest.raises(InputError, match="mm.svg: 7560x38 = "):
+        from inkray.input.limits import Limits
+
+        load_drawing(tmp_path / "mm.svg", limits=Limits(pixels=1000))
+    (tmp_path / "box.svg").write_text(svg.replace('width="20000" height="20000"',
+                                                  'viewBox="0 0 100 60"'))
+    assert load_drawing(tmp_path / "box.svg").size == (100, 60)
+    (tmp_path / "bad.svg").write_text("<html></html>")
+    with pytest.raises(InputError, match="root element is not <svg>"):
+        load_drawing(tmp_path / "bad.svg")
+
+
+def test_float_tiff_in_unit_range_is_not_all_ink(tmp_path):
+    ring = _ring().astype(np.float32) / 255.0
+    Image.fromarray(ring, mode="F").save(tmp_path / "f.tiff")
+    d = load_drawing(tmp_path / "f.tiff")
+    np.testing.assert_allclose(d.gray, ring, atol=1 / 255)

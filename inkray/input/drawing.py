@@ -9,13 +9,18 @@ local maximum filter that removes the ink and keeps the illumination).
 """
 
 import io
+import re
+import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 from inkray.errors import InputError
+from inkray.input.files import read_bytes, regular_file
+from inkray.input.limits import DEFAULT_LIMITS
 
 __all__ = ["Drawing", "load_drawing", "drawing_from_array", "flatten_paper"]
 
@@ -45,8 +50,12 @@ class Drawing:
         return (self.gray.shape[1], self.gray.shape[0])
 
 
-def load_drawing(path, *, normalize=True, svg_width=None):
+def load_drawing(path, *, normalize=True, svg_width=None, limits=DEFAULT_LIMITS):
     """Load a drawing from a PNG, JPG or SVG file.
+
+    The image size is read from the file's header (for SVG, from the root
+    element) and checked against ``limits.pixels`` before anything is decoded
+    or rasterized, so an oversized file costs nothing.
 
     Parameters
     ----------
@@ -55,6 +64,8 @@ def load_drawing(path, *, normalize=True, svg_width=None):
         Flatten uneven paper shading (see :func:`flatten_paper`).
     svg_width : int, optional
         Raster width for SVG input; by default the SVG's own size.
+    limits : inkray.input.limits.Limits, optional
+        Bounds on the pixel count (and, for SVG, the file size).
 
     Returns
     -------
@@ -63,7 +74,8 @@ def load_drawing(path, *, normalize=True, svg_width=None):
     Raises
     ------
     InputError
-        Missing file, unknown format, or an unreadable image.
+        Missing or not a regular file, unknown format, an image over the
+        pixel limit, or an unreadable image.
 
     Examples
     --------
@@ -71,21 +83,15 @@ def load_drawing(path, *, normalize=True, svg_width=None):
     >>> d.size  # doctest: +SKIP
     (512, 512)
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such drawing file")
+    path, _ = regular_file(path, "drawing file")
     suffix = path.suffix.lower()
     if suffix == ".svg":
-        image = _rasterize_svg(path, svg_width)
+        image = _rasterize_svg(path, svg_width, limits)
     elif suffix in _RASTER:
-        try:
-            image = Image.open(path)
-            image.load()
-        except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as e:
-            raise InputError(f"{path}: not a readable image ({e})") from None
+        image = _decode_raster(path, limits)
     else:
         raise InputError(f"{path}: unsupported drawing format {suffix!r} "
-                         f"(expected PNG, JPG or SVG)")
+                         f"(expected PNG, JPG, TIFF, BMP, WebP or SVG)")
     drawing = drawing_from_array(_to_rgb_on_white(image), normalize=normalize)
     drawing.path = path
     return drawing
@@ -171,22 +177,87 @@ def flatten_paper(gray, *, window=None):
     return np.clip(g / paper, 0.0, 1.0).astype(np.float32)
 
 
-def _rasterize_svg(path, width):
+def _decode_raster(path, limits):
+    try:
+        with warnings.catch_warnings():  # a corrupt file errs below or decodes; no noise
+            warnings.simplefilter("ignore")
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            image = Image.open(path)
+            limits.check_pixels(image.size, str(path))
+            image.load()
+    except InputError:
+        raise
+    except Image.DecompressionBombError as e:  # Pillow's own bound, met before ours
+        n = re.search(r"\((\d+) pixels\)", str(e))
+        raise InputError(f"{path}: {n.group(1) if n else 'too many'} pixels exceeds the limit of "
+                         f"{limits.pixels} (raise it with --max-pixels)") from None
+    except Exception as e:  # Pillow raises many types on corrupt or hostile files
+        raise InputError(f"{path}: not a readable image ({type(e).__name__}: "
+                         f"{str(e) or 'corrupt data'})") from None
+    return image
+
+
+# CSS absolute units in px (96 dpi), as SVG renderers resolve them.
+_UNITS = {"": 1.0, "px": 1.0, "pt": 4 / 3, "pc": 16.0, "mm": 96 / 25.4, "cm": 96 / 2.54,
+          "in": 96.0, "q": 96 / 101.6, "em": 16.0, "ex": 8.0}
+_LENGTH = re.compile(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*([a-zA-Z]*)\s*")
+
+
+def _svg_length(value):
+    m = _LENGTH.fullmatch(value or "")
+    if not m or m.group(2).lower() not in _UNITS:
+        return None
+    return float(m.group(1)) * _UNITS[m.group(2).lower()]
+
+
+def _svg_size(path, data):
+    """The raster size an SVG declares on its root element, without rendering it."""
+    try:
+        parser = ET.XMLPullParser(events=("start",))
+        parser.feed(data)
+        root = next((el for _, el in parser.read_events()), None)
+    except ET.ParseError as e:
+        raise InputError(f"{path}: cannot rasterize SVG (not XML: {e})") from None
+    if root is None or not root.tag.endswith("svg"):
+        raise InputError(f"{path}: cannot rasterize SVG (the root element is not <svg>)")
+    box = [_svg_length(v) for v in re.split(r"[\s,]+", (root.get("viewBox") or "").strip())]
+    box = box[2:] if len(box) == 4 and None not in box else [None, None]
+    w, h = _svg_length(root.get("width")), _svg_length(root.get("height"))
+    w, h = (w if w is not None else box[0]), (h if h is not None else box[1])
+    return w, h
+
+
+def _rasterize_svg(path, width, limits):
+    data = read_bytes(path, "drawing file", limit=limits.file_bytes)
+    w, h = _svg_size(path, data)
+    if w is not None and h is not None:
+        if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
+            raise InputError(f"{path}: the SVG's size {w}x{h} is not a positive size")
+        if width is not None:
+            w, h = width, h * width / w
+        limits.check_pixels((min(np.ceil(w), 1e12), min(np.ceil(h), 1e12)), str(path))
     try:
         import cairosvg
     except (ImportError, OSError) as e:  # OSError: the cairo library is missing
         raise InputError(f"{path}: SVG input needs cairosvg and the cairo library ({e})") from None
     try:
-        png = cairosvg.svg2png(url=str(path), output_width=width, background_color="white")
+        # Not ``unsafe``: no external files or entities are fetched.
+        png = cairosvg.svg2png(bytestring=data, output_width=width, background_color="white")
     except Exception as e:  # cairosvg raises many types on malformed SVG
         raise InputError(f"{path}: cannot rasterize SVG ({type(e).__name__}: {e})") from None
-    return Image.open(io.BytesIO(png))
+    image = Image.open(io.BytesIO(png))
+    limits.check_pixels(image.size, str(path))
+    return image
 
 
 def _to_rgb_on_white(image):
-    if image.mode in ("I;16", "I;16B", "I;16L", "I"):
+    if image.mode in ("I;16", "I;16B", "I;16L", "I", "F"):
         a = np.asarray(image, np.float64)
-        a = a / (65535.0 if a.max() > 255 else 255.0)
+        a = np.where(np.isfinite(a), a, 0.0)
+        top = float(a.max(initial=0.0))
+        # Float images are usually in [0, 1]; integer ones in 8 or 16 bits.
+        scale = 1.0 if image.mode == "F" and top <= 1.0 else 255.0 if top <= 255 else 65535.0
+        a = a / scale
         return np.clip(np.round(a * 255), 0, 255).astype(np.uint8)
     if image.mode == "P" or image.mode == "LA" or "A" in image.getbands() or "transparency" in image.info:
         image = image.convert("RGBA")

@@ -7,15 +7,16 @@ from pathlib import Path
 import numpy as np
 
 from inkray.input.annotations import load_annotations, rescale_annotations
-from inkray.input.drawing import load_drawing
 from inkray.errors import InputError
+from inkray.input.drawing import load_drawing
+from inkray.input.limits import DEFAULT_LIMITS
 from inkray.input.scribbles import load_scribble_layer
 
 __all__ = ["load_input"]
 
 
 def load_input(annotation, *, drawing=None, rescale=False, scribble_layer=None, legend=None,
-               normalize=True):
+               normalize=True, limits=DEFAULT_LIMITS):
     """Load an annotation file and the drawing it refers to.
 
     Parameters
@@ -34,6 +35,9 @@ def load_input(annotation, *, drawing=None, rescale=False, scribble_layer=None, 
         Colour-to-name legend for ``scribble_layer``.
     normalize : bool, default True
         Flatten uneven paper shading of the drawing.
+    limits : inkray.input.limits.Limits, optional
+        Bounds on pixels, points, entries and file sizes, checked before any
+        heavy work.
 
     Returns
     -------
@@ -45,11 +49,11 @@ def load_input(annotation, *, drawing=None, rescale=False, scribble_layer=None, 
     InputError
         Anything wrong with the files or their agreement.
     """
-    ann = load_annotations(annotation)
+    ann = load_annotations(annotation, limits=limits)
     path = Path(drawing) if drawing is not None else ann.drawing
     if path is None:
         raise InputError(f"{annotation}: drawing: no drawing given (add a \"drawing\" key or pass --drawing)")
-    image = load_drawing(path, normalize=normalize)
+    image = load_drawing(path, normalize=normalize, limits=limits)
     if image.size != ann.size:
         if not rescale:
             raise InputError(

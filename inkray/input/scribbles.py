@@ -8,19 +8,19 @@ drawing's size, transparent except for strokes, one flat colour per region.
 
 import json
 import re
-from pathlib import Path
-
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
-from inkray.input.annotations import Region
 from inkray.errors import InputError
+from inkray.input.annotations import Region
+from inkray.input.files import read_bytes, regular_file
 
 __all__ = ["UNSEEDED", "BACKGROUND", "polyline_pixels", "seed_image", "load_scribble_layer"]
 
 UNSEEDED = -2
 BACKGROUND = -1
-_HEX = re.compile(r"^#[0-9a-fA-F]{6}$")
+_HEX = re.compile(r"#[0-9a-fA-F]{6}")
+_LEGEND_BYTES = 1 << 20
 
 
 def polyline_pixels(points, shape, *, radius=0):
@@ -149,19 +149,21 @@ def load_scribble_layer(path, size, *, legend=None):
     InputError
         Wrong size, unreadable file, bad legend, or a colour missing from the legend.
     """
-    path = Path(path)
+    path, _ = regular_file(path, "scribble layer")
+    legend = _read_legend(legend)
     try:
         image = Image.open(path)
+        # The header's size is checked before decoding: the drawing bounds it.
+        if image.size != tuple(size):
+            raise InputError(f"{path}: scribble layer is {image.size[0]}x{image.size[1]} "
+                             f"but the drawing is {size[0]}x{size[1]}")
         image.load()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such scribble layer") from None
-    except (UnidentifiedImageError, OSError) as e:
-        raise InputError(f"{path}: not a readable image ({e})") from None
-    if image.size != tuple(size):
-        raise InputError(f"{path}: scribble layer is {image.size[0]}x{image.size[1]} "
-                         f"but the drawing is {size[0]}x{size[1]}")
+    except InputError:
+        raise
+    except Exception as e:  # Pillow raises many types on corrupt files
+        raise InputError(f"{path}: not a readable image ({type(e).__name__}: "
+                         f"{str(e) or 'corrupt data'})") from None
     rgba = np.asarray(image.convert("RGBA"))
-    legend = _read_legend(legend)
     ys, xs = np.nonzero(rgba[:, :, 3] >= 128)
     if len(ys) == 0:
         raise InputError(f"{path}: the scribble layer has no opaque stroke pixels")
@@ -192,11 +194,10 @@ def _read_legend(legend):
         data, where = legend, "legend"
     else:
         where = str(legend)
+        raw = read_bytes(legend, "legend file", limit=_LEGEND_BYTES)
         try:
-            data = json.loads(Path(legend).read_text("utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{where}: no such legend file") from None
-        except (OSError, ValueError) as e:
+            data = json.loads(raw.decode("utf-8"))
+        except (ValueError, RecursionError) as e:
             raise InputError(f"{where}: not a JSON legend ({e})") from None
     if data is None:
         return None
@@ -204,9 +205,9 @@ def _read_legend(legend):
         raise InputError(f"{where}: expected an object {{\"#rrggbb\": \"name\"}}")
     out = {}
     for k, v in data.items():
-        if not (isinstance(k, str) and _HEX.match(k)):
+        if not (isinstance(k, str) and _HEX.fullmatch(k)):
             raise InputError(f"{where}.{k}: expected a colour key like \"#ff0000\"")
-        if not (isinstance(v, str) and re.match(r"^[A-Za-z0-9_-]+$", v)):
+        if not (isinstance(v, str) and re.fullmatch(r"[A-Za-z0-9_-]+", v)):
             raise InputError(f"{where}.{k}: expected a region name (letters, digits, '_', '-')")
         out[k.lower()] = v
     return out
