@@ -7,7 +7,10 @@ its whole input before it writes anything, and writes through
 """
 
 import argparse
+import contextlib
+import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -62,12 +65,29 @@ def _load(args):
                       scribble_layer=args.scribbles, legend=args.legend, limits=_limits(args))
 
 
-def _chain(args, progress, **options):
-    """The chain of the command's input: every command is a view of one."""
+def _chain(args, progress, targets=(), **options):
+    """The chain of the command's input: every command is a view of one.
+
+    ``targets`` (every file the command will write) are checked against the
+    inputs and for writability once the input is loaded, before any work.
+    """
     from inkray.chain import ChainOptions, ReliefChain
+    from inkray.formats.atomic import check_targets
 
     ann, drawing = _load(args)
+    check_targets(targets, inputs=_inputs(args, ann))
     return ReliefChain(ann, drawing, options=ChainOptions(**options), progress=progress)
+
+
+def _inputs(args, ann):
+    return [args.annotation, ann.drawing, args.scribbles,
+            args.legend if isinstance(args.legend, str) else None]
+
+
+def _group(args, chain):
+    from inkray.formats.atomic import atomic_outputs
+
+    return atomic_outputs(inputs=_inputs(args, chain.annotations))
 
 
 def _warn(warnings):
@@ -94,14 +114,16 @@ def _cmd_validate(args, progress):
 
 
 def _cmd_segment(args, progress):
-    from inkray.formats.labels import write_labels
+    from inkray.formats.labels import label_files, write_labels
 
     _check_output(args.output, (".png",))
     if args.npy is not None and Path(args.npy).suffix.lower() != ".npy":
         raise InputError(f"--npy {args.npy}: expected a .npy file")
-    seg = _chain(args, progress).segmentation
+    chain = _chain(args, progress, targets=[*label_files(args.output), args.npy])
+    seg = chain.segmentation
     _warn(seg.warnings)
-    written = write_labels(seg, args.output, npy=args.npy)
+    with _group(args, chain) as group:
+        written = write_labels(seg, args.output, npy=args.npy, outputs=group)
     progress.summary()
     extra = f" and {args.npy}" if args.npy is not None else ""
     print(f"{written[0]}: {len(seg.names)} regions and background (legend {written[1]}{extra}), "
@@ -120,10 +142,13 @@ def _cmd_regions(args, progress):
     from inkray.formats.regions_report import write_regions_report
 
     _check_output(args.output, (".json",))
-    chain = _chain(args, progress, predict=not args.no_predict)
+    masks = None if args.masks is None else Path(args.masks) / "region.png"
+    chain = _chain(args, progress, targets=[args.output, masks], predict=not args.no_predict)
     report = _regions_report(chain, masks=args.masks)
     _warn(report["warnings"])
-    write_regions_report(report, args.output, completion=chain.completion, masks=args.masks)
+    with _group(args, chain) as group:
+        write_regions_report(report, args.output, completion=chain.completion, masks=args.masks,
+                             outputs=group)
     progress.summary()
     predicted = sum(r["source"] == "predicted" for r in report["relations"])
     print(f"{args.output}: {len(report['regions'])} regions, {len(report['relations'])} order "
@@ -133,17 +158,20 @@ def _cmd_regions(args, progress):
 
 
 def _cmd_depth(args, progress):
-    from inkray.formats.depth_png import write_depth_outputs
+    from inkray.formats.depth_png import depth_files, write_depth_outputs
 
     _check_output(args.output, (".png",))
     for flag, path, allowed in (("--npy", args.npy, (".npy",)), ("--normals", args.normals, (".png",)),
                                 ("--shading", args.shading, (".png",))):
         if path is not None and Path(path).suffix.lower() not in allowed:
             raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
-    chain = _chain(args, progress, depth_method=args.method, depth_epsilon=args.epsilon)
+    targets = [*depth_files(args.output), args.npy, args.normals, args.shading]
+    chain = _chain(args, progress, targets=targets, depth_method=args.method,
+                   depth_epsilon=args.epsilon)
     result = chain.depth_map
-    written = write_depth_outputs(result, args.output, npy=args.npy, normals=args.normals,
-                                  shading=args.shading, drawing=chain.drawing)
+    with _group(args, chain) as group:
+        written = write_depth_outputs(result, args.output, npy=args.npy, normals=args.normals,
+                                      shading=args.shading, drawing=chain.drawing, outputs=group)
     progress.summary()
     d = result.depth
     ann = chain.annotations
@@ -154,9 +182,8 @@ def _cmd_depth(args, progress):
 
 
 def _cmd_relief(args, progress):
-    from inkray.formats.atomic import atomic_outputs
     from inkray.formats.images import write_renderings
-    from inkray.formats.meshes import export_relief
+    from inkray.formats.meshes import export_files, export_relief
     from inkray.view.rendering import render
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
@@ -174,14 +201,15 @@ def _cmd_relief(args, progress):
             target = Path(value) if isinstance(value, str) else out.with_name(f"{out.stem}-{mode}.png")
             _check_output(target, (".png",))
             images[mode] = target
-    chain = _chain(args, progress, predict=not args.no_predict, max_area=args.max_area,
+    chain = _chain(args, progress, targets=[*export_files(out), *images.values()],
+                   predict=not args.no_predict, max_area=args.max_area,
                    epsilon=args.epsilon, closed=args.closed, union=args.union)
     if not chain.annotations.regions:
         raise InputError("regions: a relief needs at least one region")
     relief = chain.relief
     _warn(chain.warnings)
     with progress.stage("export"):
-        with atomic_outputs() as group:
+        with _group(args, chain) as group:
             written = export_relief(relief, out, units_per_pixel=args.units_per_pixel,
                                     anchor=args.anchor, outputs=group)
             for mode, target in images.items():
@@ -195,6 +223,7 @@ def _cmd_relief(args, progress):
 
 
 def _cmd_render(args, progress):
+    from inkray.formats.atomic import atomic_outputs, check_targets
     from inkray.formats.images import write_renderings
     from inkray.formats.meshes import read_relief
     from inkray.view.rendering import GI_MAX_SIDE, output_size, render, render_turntable
@@ -212,6 +241,7 @@ def _cmd_render(args, progress):
                              f"(e.g. 800x600)")
     if args.turntable is not None and args.turntable < 1:
         raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
+    check_targets([args.output], inputs=[args.mesh])
     with progress.stage("read"):
         relief = read_relief(args.mesh)
     size = output_size(relief.size, size=size, width=args.width, height=args.height,
@@ -227,8 +257,8 @@ def _cmd_render(args, progress):
                                       **options)
         else:
             frames = render(relief, **options)
-    with progress.stage("write"):
-        written = write_renderings(frames, args.output)
+    with progress.stage("write"), atomic_outputs(inputs=[args.mesh]) as group:
+        written = write_renderings(frames, args.output, outputs=group)
     progress.summary()
     print(f"{args.mesh}: {args.mode} -> {', '.join(str(p) for p in written)}")
     return 0
@@ -236,17 +266,19 @@ def _cmd_render(args, progress):
 
 def _cmd_check(args, progress):
     from inkray.formats.mesh_report import check_file, failed_requirements, format_report, parse_requirements
-    from inkray.formats.atomic import write_text
+    from inkray.formats.atomic import atomic_outputs, check_targets
 
     if args.output:
         _check_output(args.output, (".json",))
+        check_targets([args.output], inputs=[args.mesh])
     required = parse_requirements(args.require or "")
     with progress.stage("check"):
         report = check_file(args.mesh)
     if args.output:
         import json
 
-        write_text(args.output, json.dumps(report, indent=2) + "\n")
+        with atomic_outputs(inputs=[args.mesh]) as group:
+            group.write_text(args.output, json.dumps(report, indent=2) + "\n")
     print(format_report(report))
     failed = failed_requirements(report, required)
     for req, parts in failed:
@@ -476,7 +508,8 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     try:
-        return _run(argv)
+        with _terminate_as_interrupt():
+            return _run(argv)
     except SystemExit as e:  # --help and --version
         return e.code if isinstance(e.code, int) else 0
     except _UsageError as e:
@@ -487,6 +520,9 @@ def main(argv=None):
             traceback.print_exc()
         print(f"inkray: error: {_one_line(e)}", file=sys.stderr)
         return e.exit_code
+    except _Terminated as e:
+        print(f"inkray: terminated; nothing was written", file=sys.stderr)
+        return 128 + e.signum
     except KeyboardInterrupt:
         print("inkray: interrupted; nothing was written", file=sys.stderr)
         return 130
@@ -499,6 +535,32 @@ def main(argv=None):
         print(f"inkray: internal error: {type(e).__name__}: {_one_line(e)} "
               f"(run with --debug for the traceback)", file=sys.stderr)
         return 1
+
+
+class _Terminated(BaseException):
+    """SIGTERM or SIGHUP, raised where the process is, so every output group unwinds."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _Terminated(signum)
+
+    signums = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = {n: signal.signal(n, handler) for n in signums}
+    try:
+        yield
+    finally:
+        for n, h in previous.items():
+            signal.signal(n, h)
 
 
 def _one_line(e):

@@ -23,7 +23,7 @@ LAYERS = [
     ("inkray.view", 4),
     ("inkray.formats", 5),
     ("inkray.chain", 6),
-    ("inkray.cli", 7), ("inkray.editor", 7), ("inkray.batch", 7),
+    ("inkray.cli", 7), ("inkray.__main__", 7), ("inkray.editor", 7), ("inkray.batch", 7),
 ]
 APART = [("inkray.relief", "inkray.depthmap"), ("inkray.depthmap", "inkray.relief")]
 

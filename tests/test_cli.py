@@ -12,7 +12,6 @@ from PIL import Image
 
 from inkray import cli
 from inkray.errors import InputError
-from inkray.formats.atomic import atomic_outputs, write_text
 
 
 @pytest.fixture
@@ -130,43 +129,6 @@ def test_console_script_exit_code(annotated):
     assert r.returncode == 2 and r.stderr.strip().endswith("no such annotation file")
 
 
-# -- atomic writes -----------------------------------------------------------
-
-def test_atomic_outputs_all_or_nothing(tmp_path):
-    with atomic_outputs() as out:
-        out.write_text(tmp_path / "a.txt", "A")
-        out.write_bytes(tmp_path / "sub" / "b.bin", b"B")
-    assert (tmp_path / "a.txt").read_text() == "A" and (tmp_path / "sub" / "b.bin").read_bytes() == b"B"
-
-    with pytest.raises(RuntimeError):
-        with atomic_outputs() as out:
-            out.write_text(tmp_path / "c.txt", "C")
-            np.save(out.path(tmp_path / "d.npy"), np.zeros(3))
-            raise RuntimeError("stage failed half way")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "sub"]  # no c, no d, no temps
-
-
-def test_atomic_replace_keeps_old_file_until_done(tmp_path):
-    target = tmp_path / "r.json"
-    write_text(target, "old")
-    with pytest.raises(KeyError):
-        with atomic_outputs() as out:
-            out.write_text(target, "new")
-            assert target.read_text() == "old"  # not visible before commit
-            raise KeyError
-    assert target.read_text() == "old"
-    write_text(target, "new")
-    assert target.read_text() == "new"
-
-
-def test_temp_path_keeps_suffix(tmp_path):
-    with atomic_outputs() as out:
-        p = out.path(tmp_path / "img.png")
-        assert p.suffix == ".png" and p.parent == tmp_path
-        Image.fromarray(np.zeros((2, 2), np.uint8)).save(p)
-    assert Image.open(tmp_path / "img.png").size == (2, 2)
-
-
 # -- property-based: malformed JSON never gives a traceback -------------------
 
 _json = st.recursive(
@@ -204,10 +166,41 @@ def test_validate_never_crashes_on_malformed_json(tmp_path, minimal_doc, data, c
     assert "Traceback" not in err and "internal error" not in err
 
 
-def test_outputs_get_normal_permissions(tmp_path):
-    old = os.umask(0o022)
-    try:
-        write_text(tmp_path / "a.txt", "x")
-    finally:
-        os.umask(old)
-    assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
+def test_an_output_never_overwrites_an_input(annotated, tmp_path, capsys):
+    before = annotated.read_bytes()
+    drawing = (tmp_path / "d.png").read_bytes()
+    cases = [
+        (["segment", str(annotated), "-o", str(tmp_path / "a.inkray.png")], "is an input"),
+        (["segment", str(annotated), "-o", str(tmp_path / "d.png")], "is an input"),
+        (["depth", str(annotated), "-o", str(tmp_path / "x.png"), "--normals",
+          str(tmp_path / "x.png")], "written twice"),
+        (["segment", str(annotated), "-o", str(tmp_path / "dir.png")], "is a directory"),
+        (["relief", str(annotated), "-o", "/proc/x.glb"], "cannot write in /proc"),
+    ]
+    (tmp_path / "dir.png").mkdir()
+    for argv, message in cases:
+        if argv[-1].startswith("/proc") and not os.path.isdir("/proc/self"):
+            continue
+        code, _, err = _run(capsys, *argv)
+        assert code == 2 and message in err and err.count("\n") == 1, (argv, err)
+    assert annotated.read_bytes() == before and (tmp_path / "d.png").read_bytes() == drawing
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.inkray.json", "d.png", "dir.png"]
+
+
+def test_sigterm_during_work_leaves_nothing_behind(tmp_path):
+    import signal
+    import time
+
+    from inkray.examples import example_path
+
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "inkray", "relief", str(example_path("donkey")),
+                             "-o", str(out / "r.obj"), "--max-area", "5"],
+                            stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode in (128 + signal.SIGTERM, 0), err
+    if proc.returncode:
+        assert "terminated; nothing was written" in err and list(out.iterdir()) == []

@@ -1,60 +1,151 @@
-"""Atomic output files: everything is written to a temporary file beside its
-target and renamed into place only when all outputs of a command are
-complete, so a failed or interrupted run never leaves a partial file."""
+"""Atomic output files: all outputs of a command appear together or not at all.
+
+Outputs are collected in memory while a command runs; on success each is
+written to a hidden temporary beside its target and the temporaries are
+renamed into place one after the other, so a failed, interrupted or killed
+run leaves no partial file (the only window is the final write, milliseconds
+long, and any exception or handled signal in it removes the temporaries).
+Targets are checked before any work: a target that is one of the command's
+inputs, repeats another target, is a directory or cannot be created is a
+one-line :class:`~inkray.errors.InputError`.
+"""
 
 import contextlib
+import io
 import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_outputs", "write_bytes", "write_text"]
+from inkray.errors import InputError
+
+__all__ = ["atomic_outputs", "check_targets", "write_bytes", "write_text"]
+
+
+def _same(a, b):
+    a, b = Path(a), Path(b)
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def _existing_ancestor(path):
+    for parent in Path(path).absolute().parents:
+        if parent.exists():
+            return parent
+    return Path("/")
+
+
+def check_targets(targets, *, inputs=()):
+    """Check output paths before a command does its work.
+
+    Parameters
+    ----------
+    targets : iterable of path
+        Every file the command will write (``None`` entries are skipped).
+    inputs : iterable of path
+        Files the command reads; none of them may be overwritten.
+
+    Raises
+    ------
+    InputError
+        A target is an input, repeats another target, is a directory, or its
+        folder cannot be created or written (probed with a temporary file that
+        is removed at once).
+
+    Examples
+    --------
+    >>> check_targets(["depth.png", "maps/../depth.png"])
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: depth.png: written twice by this command (also as maps/../depth.png)
+    """
+    seen = []
+    probed = set()
+    for target in targets:
+        if target is None:
+            continue
+        target = Path(target)
+        for source in inputs:
+            if source is not None and _same(target, source):
+                raise InputError(f"{target}: is an input of this command ({source}); "
+                                 f"choose another output name")
+        for other in seen:
+            if _same(target, other):
+                raise InputError(f"{other}: written twice by this command (also as {target})")
+        seen.append(target)
+        if target.is_dir():
+            raise InputError(f"{target}: is a directory; expected a file name")
+        folder = target.parent if target.parent.exists() else _existing_ancestor(target)
+        if folder in probed:
+            continue
+        if not folder.is_dir():
+            raise InputError(f"{target}: cannot be created ({folder} is not a directory)")
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".inkray-probe.", dir=folder)
+            os.close(fd)
+            os.unlink(tmp)
+        except OSError as e:
+            raise InputError(f"{target}: cannot write in {folder} ({e.strerror})") from None
+        probed.add(folder)
 
 
 class _Outputs:
-    def __init__(self):
-        self._pending = []  # (temp path, final path)
-
-    def path(self, target):
-        """Return a temporary path to write ``target`` to; it is renamed on commit.
-
-        The temporary keeps ``target``'s suffix so writers that pick a format
-        by extension (Pillow, numpy, trimesh) behave as for the target.
-        """
-        target = Path(target)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}",
-                                   dir=target.parent)
-        os.close(fd)
-        self._pending.append((Path(tmp), target))
-        return Path(tmp)
+    def __init__(self, inputs):
+        self._inputs = tuple(inputs)
+        self._pending = {}  # target -> bytes, in the order written
 
     def write_bytes(self, target, data):
-        tmp = self.path(target)
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
+        """Add ``target`` with contents ``data`` to the group."""
+        target = Path(target)
+        check_targets([*self._pending, target], inputs=self._inputs)
+        self._pending[target] = bytes(data)
 
     def write_text(self, target, text):
+        """Add ``target`` with UTF-8 ``text`` to the group."""
         self.write_bytes(target, text.encode("utf-8"))
+
+    def write_with(self, target, writer):
+        """Add ``target`` written by ``writer(file)``, a writer that takes a binary file.
+
+        For libraries that write to file objects (Pillow's ``save``,
+        ``numpy.save``).
+        """
+        buffer = io.BytesIO()
+        writer(buffer)
+        self.write_bytes(target, buffer.getvalue())
 
     def _commit(self):
         mode = _default_mode()
-        for tmp, target in self._pending:
-            # mkstemp makes 0600 files; outputs get the usual permissions
-            # (an existing target's, else 0666 minus the umask).
-            try:
-                os.chmod(tmp, os.stat(target).st_mode & 0o7777)
-            except FileNotFoundError:
-                os.chmod(tmp, mode)
-            os.replace(tmp, target)
-        self._pending = []
-
-    def _abort(self):
-        for tmp, _ in self._pending:
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-        self._pending = []
+        temps = []
+        try:
+            for target, data in self._pending.items():
+                target.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(prefix=f".{target.stem[:100]}.",
+                                           suffix=f".tmp{target.suffix[:16]}", dir=target.parent)
+                temps.append((Path(tmp), target))
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(data)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+                # mkstemp makes 0600 files; outputs get the usual permissions
+                # (an existing target's, else 0666 minus the umask).
+                try:
+                    os.chmod(tmp, os.stat(target).st_mode & 0o7777)
+                except FileNotFoundError:
+                    os.chmod(tmp, mode)
+            while temps:
+                tmp, target = temps[0]
+                os.replace(tmp, target)
+                temps.pop(0)
+        except OSError as e:
+            raise InputError(f"{temps[0][1] if temps else 'output'}: cannot be written "
+                             f"({e.strerror})") from None
+        finally:
+            for tmp, _ in temps:
+                with contextlib.suppress(OSError):
+                    tmp.unlink()
+            self._pending = {}
 
 
 def _default_mode():
@@ -64,13 +155,19 @@ def _default_mode():
 
 
 @contextlib.contextmanager
-def atomic_outputs():
+def atomic_outputs(*, inputs=()):
     """Group output files so that either all of them appear or none.
 
-    Yields an object with ``path(target)`` (a temporary path to write to),
-    ``write_bytes(target, data)`` and ``write_text(target, text)``. On normal
-    exit every temporary is renamed onto its target (``os.replace``, atomic on
-    one file system); on an exception all temporaries are deleted.
+    Yields an object with ``write_bytes(target, data)``, ``write_text(target,
+    text)`` and ``write_with(target, writer)``. Contents stay in memory until
+    the block ends without an exception; then every file is written to a
+    temporary beside its target and renamed onto it (``os.replace``, atomic
+    on one file system). On an exception nothing is written.
+
+    Parameters
+    ----------
+    inputs : iterable of path, optional
+        Files that must not be overwritten (the command's inputs).
 
     Examples
     --------
@@ -81,12 +178,8 @@ def atomic_outputs():
     >>> (d / "a.txt").read_text()
     'hello'
     """
-    out = _Outputs()
-    try:
-        yield out
-    except BaseException:
-        out._abort()
-        raise
+    out = _Outputs(inputs)
+    yield out
     out._commit()
 
 

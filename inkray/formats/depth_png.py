@@ -24,7 +24,7 @@ from inkray.formats.atomic import atomic_outputs
 from inkray.numerics.quantization import dequantize16, quantize16
 from inkray.view.shading import encode_normals, height_normals, lambert
 
-__all__ = ["depth_png", "codes_png", "read_depth_png", "write_depth_outputs", "depth_normals",
+__all__ = ["depth_png", "codes_png", "read_depth_png", "write_depth_outputs", "depth_files", "depth_normals",
            "shaded_preview"]
 
 _TOP = 65535
@@ -186,6 +186,18 @@ def shaded_preview(depth_map, drawing=None, *, light=(-1.0, 1.0, 1.5), ambient=0
     return np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)
 
 
+def depth_files(output):
+    """The depth PNG and its sidecar that :func:`write_depth_outputs` writes for ``output``.
+
+    Examples
+    --------
+    >>> [p.name for p in depth_files("depth.png")]
+    ['depth.png', 'depth.json']
+    """
+    output = Path(output)
+    return [output, output.with_suffix(".json")]
+
+
 def write_depth_outputs(result, output, *, npy=None, normals=None, shading=None, drawing=None,
                         outputs=None):
     """Write a depth map result: all files together or none.
@@ -214,9 +226,8 @@ def write_depth_outputs(result, output, *, npy=None, normals=None, shading=None,
         with atomic_outputs() as group:
             return write_depth_outputs(result, output, npy=npy, normals=normals, shading=shading,
                                        drawing=drawing, outputs=group)
-    output = Path(output)
+    output, sidecar = depth_files(output)
     png, meta = depth_png(result.depth)
-    sidecar = output.with_suffix(".json")
     doc = {"depth_min": meta["depth_min"], "depth_max": meta["depth_max"],
            "scale": meta["scale"],
            "encoding": "16-bit: depth = depth_min + (value - 1) * scale; 0 = no surface",
@@ -229,12 +240,14 @@ def write_depth_outputs(result, output, *, npy=None, normals=None, shading=None,
     outputs.write_bytes(output, png)
     outputs.write_text(sidecar, json.dumps(doc, indent=2) + "\n")
     if npy is not None:
-        np.save(outputs.path(npy), result.depth)
+        outputs.write_with(npy, lambda f: np.save(f, result.depth))
         written.append(Path(npy))
     if normals is not None:
-        Image.fromarray(encode_normals(depth_normals(result.depth))).save(outputs.path(normals))
+        image = Image.fromarray(encode_normals(depth_normals(result.depth)))
+        outputs.write_with(normals, lambda f: image.save(f, format="PNG"))
         written.append(Path(normals))
     if shading is not None:
-        Image.fromarray(shaded_preview(result.depth, drawing)).save(outputs.path(shading))
+        preview = Image.fromarray(shaded_preview(result.depth, drawing))
+        outputs.write_with(shading, lambda f: preview.save(f, format="PNG"))
         written.append(Path(shading))
     return written

@@ -74,14 +74,15 @@ def write_renderings(renderings, path, *, fps=12, outputs=None):
         with atomic_outputs() as group:
             return write_renderings(items, path, fps=fps, outputs=group)
     for target, item in files.items():
-        tmp = outputs.path(target)
         if isinstance(item, list):
-            item[0].save(tmp, format="GIF", save_all=True, append_images=item[1:],
-                         duration=round(1000 / fps), loop=0, optimize=False)
+            outputs.write_with(target, lambda f, item=item: item[0].save(
+                f, format="GIF", save_all=True, append_images=item[1:],
+                duration=round(1000 / fps), loop=0, optimize=False))
         elif isinstance(item, np.ndarray):
-            Image.fromarray(item).save(tmp, format="PNG")
+            outputs.write_with(target, lambda f, item=item: Image.fromarray(item).save(
+                f, format="PNG"))
         else:
-            _save_png(item, tmp)
+            outputs.write_bytes(target, _png_bytes(item))
     return list(files)
 
 
@@ -95,10 +96,13 @@ def _gif_frame(r):
     return Image.fromarray(np.rint(over_white(r.image) * 255).astype(np.uint8))
 
 
-def _save_png(r, target):
+def _png_bytes(r):
+    import io
+
     from PIL import Image
 
     if r.depth_range is not None:
-        Path(target).write_bytes(codes_png(r.image, r.depth_range, units="drawing pixels"))
-    else:
-        Image.fromarray(r.image).save(target, format="PNG")
+        return codes_png(r.image, r.depth_range, units="drawing pixels")
+    buffer = io.BytesIO()
+    Image.fromarray(r.image).save(buffer, format="PNG")
+    return buffer.getvalue()

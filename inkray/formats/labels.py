@@ -23,7 +23,7 @@ import numpy as np
 from inkray.errors import InputError
 from inkray.formats.atomic import atomic_outputs
 
-__all__ = ["label_palette", "label_image", "labels_png", "labels_legend", "write_labels",
+__all__ = ["label_palette", "label_image", "labels_png", "labels_legend", "write_labels", "label_files",
            "read_labels"]
 
 
@@ -140,6 +140,18 @@ def labels_legend(segmentation, image_name):
     }
 
 
+def label_files(path):
+    """The label PNG and its legend that :func:`write_labels` writes for ``path``.
+
+    Examples
+    --------
+    >>> [p.name for p in label_files("labels.png")]
+    ['labels.png', 'labels.json']
+    """
+    png = Path(path)
+    return [png, png.with_suffix(".json")]
+
+
 def write_labels(segmentation, path, *, npy=None, outputs=None):
     """Write ``path`` (the label PNG), its legend ``path.with_suffix('.json')`` and an optional ``.npy``.
 
@@ -159,14 +171,13 @@ def write_labels(segmentation, path, *, npy=None, outputs=None):
     if outputs is None:
         with atomic_outputs() as group:
             return write_labels(segmentation, path, npy=npy, outputs=group)
-    png = Path(path)
-    legend = png.with_suffix(".json")
+    png, legend = label_files(path)
     outputs.write_bytes(png, labels_png(segmentation))
     outputs.write_text(legend, json.dumps(labels_legend(segmentation, png.name), indent=2,
                                           ensure_ascii=False) + "\n")
     written = [png, legend]
     if npy is not None:
-        np.save(outputs.path(npy), segmentation.labels.astype(np.int32))
+        outputs.write_with(npy, lambda f: np.save(f, segmentation.labels.astype(np.int32)))
         written.append(Path(npy))
     return written
 

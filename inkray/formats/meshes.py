@@ -30,7 +30,7 @@ from inkray.formats.atomic import atomic_outputs
 from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
-__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "glb_bytes", "pixel_coordinates",
+__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes", "pixel_coordinates",
            "read_meshes", "read_relief", "scene_coordinates"]
 
 ANCHORS = ("center", "top-left")
@@ -463,11 +463,24 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor):
 
 # -- OBJ ---------------------------------------------------------------------
 
+def export_files(path):
+    """The files :func:`export_relief` writes for ``path``, the mesh file first.
+
+    Examples
+    --------
+    >>> [p.name for p in export_files("out/r.obj")]
+    ['r.obj', 'r.mtl', 'r_drawing.png']
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".obj":
+        return [path, path.with_suffix(".mtl"), path.with_name(f"{path.stem}_drawing.png")]
+    return [path]
+
+
 def _obj_files(relief, meshes, path):
     # trimesh's OBJ writer names objects only from metadata and rewrites the
     # material; a direct writer gives groups per part and stable file names.
-    mtl_path = path.with_suffix(".mtl")
-    png_path = path.with_name(f"{path.stem}_drawing.png")
+    _, mtl_path, png_path = export_files(path)
     chunks = ["# inkray relief: X right, Y up, Z toward the viewer\n",
               f"mtllib {mtl_path.name}\n"]
     base = 1
@@ -483,6 +496,7 @@ def _obj_files(relief, meshes, path):
            "newmtl drawing",
            "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
            "Pr 1", "Pm 0",  # PBR extension (Blender, three.js): roughness 1, metallic 0
+           # No "-clamp on": trimesh reads the whole rest of the line as the file name.
            f"map_Kd {png_path.name}"]
     return {path: "".join(chunks).encode(),
             mtl_path: ("\n".join(mtl) + "\n").encode(),

@@ -106,7 +106,8 @@ def write_regions_report(report, path, *, completion=None, masks=None, outputs=N
         for i, region in enumerate(report["regions"]):
             target = Path(masks) / f"{region['name']}.png"
             mask = np.where(completion.completed(i), 255, 0).astype(np.uint8)
-            Image.fromarray(mask).save(outputs.path(target), format="PNG")
+            outputs.write_with(target, lambda f, mask=mask: Image.fromarray(mask).save(
+                f, format="PNG"))
             written.append(target)
     outputs.write_text(path, json.dumps(report, indent=2, ensure_ascii=False) + "\n")
     return [Path(path)] + written
