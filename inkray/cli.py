@@ -105,7 +105,38 @@ def _check_output(path, allowed):
 # -- commands ----------------------------------------------------------------
 
 def _cmd_validate(args, progress):
-    ann, drawing = _load(args)
+    import json
+
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.validation import Problem, validate
+
+    try:
+        ann, drawing = _load(args)
+    except InputError as e:
+        if not args.json:
+            raise
+        message = _one_line(e)
+        problems = [Problem("error", message.split(":", 1)[0], message)]
+        ann = None
+    else:
+        problems = validate(ReliefChain(ann, drawing, options=ChainOptions(), progress=progress))
+    errors = [p for p in problems if p.severity == "error"]
+    if args.json:
+        doc = {"file": str(args.annotation), "ok": not errors,
+               "problems": [p.as_dict() for p in problems]}
+        if ann is not None:
+            doc.update(drawing=str(drawing.path), size=list(ann.size),
+                       counts={"regions": len(ann.regions), "background": len(ann.background),
+                               "order": len(ann.order), "equal": len(ann.equal),
+                               "boundaries": len(ann.boundaries)})
+        print(json.dumps(doc, indent=2, ensure_ascii=False))
+        return 2 if errors else 0
+    for p in problems:
+        print(f"inkray: {p.severity}: {_one_line(p.message)}", file=sys.stderr)
+    if errors:
+        if len(errors) > 1:
+            print(f"inkray: error: {args.annotation}: {len(errors)} problems", file=sys.stderr)
+        return 2
     w, h = ann.size
     print(f"{args.annotation}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
           f"{len(ann.background)} background scribbles, {len(ann.order)} order, "
@@ -393,6 +424,8 @@ def _parser():
         common.add_argument("--debug", action="store_true", default=default, help="show tracebacks")
         common.add_argument("--quiet", action="store_true", default=default,
                             help="no progress output")
+        common.add_argument("--timings", action="store_true", default=default,
+                            help="print the time of every stage at the end")
         return common
 
     # Subcommands must not reset a flag given before the command name.
@@ -407,6 +440,9 @@ def _parser():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
     for name in ("validate", "segment", "regions", "depth", "relief"):
         _add_input(p[name])
+    p["validate"].add_argument("--json", action="store_true",
+                               help="print the result as JSON on stdout (problems with "
+                                    "severity, key and message)")
     for name in ("segment", "regions", "depth", "relief"):
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
     rl = p["relief"]
@@ -488,7 +524,7 @@ def _parser():
 def _run(argv, progress=None):
     args = _parser().parse_args(argv)
     if progress is None:
-        progress = Progress(quiet=args.quiet)
+        progress = Progress(quiet=args.quiet, timings=args.timings)
     return _COMMANDS[args.command][0](args, progress)
 
 

@@ -36,7 +36,7 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.input.scribbles import BACKGROUND, UNSEEDED, polyline_pixels, seed_image
 
-__all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "INK_THRESHOLD"]
+__all__ = ["Segmentation", "lazybrush", "segment", "ink_cost", "INK_THRESHOLD", "scribbles_on_ink"]
 
 #: Grey level below which a pixel counts as ink for validation and warnings.
 INK_THRESHOLD = 0.5
@@ -293,7 +293,9 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
     if int((gray >= INK_THRESHOLD).sum()) < floor:
         raise InputError(f"drawing: all ink (fewer than {floor} pixels lighter than "
                          f"{INK_THRESHOLD}): no paper to segment")
-    _check_scribbles_off_ink(annotations, gray)
+    on_ink = scribbles_on_ink(annotations, gray)
+    if on_ink:
+        raise InputError(on_ink[0])
     gray = _with_boundary_cuts(gray, annotations.boundaries)
     seeds = seed_image(annotations)
     warnings = []
@@ -308,12 +310,16 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
                                             and len(annotations.background_pixels)))
     labels = lazybrush(gray, seeds, frame_background=frame, seed_strength=seed_strength,
                        coarse_to_fine=coarse_to_fine, progress=progress)
-    kept = np.zeros(len(names) + 1, bool)
-    kept[np.unique(labels[labels >= 0])] = True
+    area = np.bincount(labels[labels >= 0].ravel(), minlength=len(names))
+    seeded = np.bincount(seeds[seeds >= 0].ravel(), minlength=len(names))
     for i, name in enumerate(names):
-        if present[i] and not kept[i]:
+        if present[i] and not area[i]:
             warnings.append(f"regions[{i}] ({name}): lost every pixel to its neighbours "
                             f"(do its scribbles only overshoot ink lines?)")
+        elif present[i] and area[i] <= 2 * seeded[i] and area[i] < min_area:
+            # The region kept little more than its own scribble.
+            warnings.append(f"regions[{i}] ({name}): only {area[i]} pixels (does its scribble lie "
+                            f"on the background or on ink?)")
     warnings += _unscribbled_areas(gray, seeds, labels, names, frame, min_area)
     return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
 
@@ -334,22 +340,47 @@ def _with_boundary_cuts(gray, boundaries):
     return gray
 
 
-def _check_scribbles_off_ink(ann, gray):
-    """A scribble entirely on ink marks no area: reject it by its key path."""
+def scribbles_on_ink(annotations, gray):
+    """Every scribble lying entirely on ink: it marks no area.
+
+    Parameters
+    ----------
+    annotations : inkray.input.annotations.Annotations
+    gray : (H, W) float array
+        The drawing's grey levels (ink below :data:`INK_THRESHOLD`).
+
+    Returns
+    -------
+    list of str
+        One message per such scribble, starting with its key path.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import parse_annotations
+    >>> gray = np.ones((10, 10)); gray[5] = 0
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [10, 10],
+    ...     "regions": [{"name": "a", "scribbles": [[[1, 5], [8, 5]], [[1, 2], [8, 2]]]}]})
+    >>> scribbles_on_ink(ann, gray)
+    ['regions[0].scribbles[0]: the scribble lies entirely on ink (from pixel (1, 5)); draw it inside the area it marks']
+    """
     from inkray.input.scribbles import polyline_pixels
+
+    out = []
 
     def check(rows, cols, where):
         if len(rows) and (gray[rows, cols] < INK_THRESHOLD).all():
-            raise InputError(f"{where}: the scribble lies entirely on ink (from pixel "
-                             f"({cols[0]}, {rows[0]})); draw it inside the area it marks")
+            out.append(f"{where}: the scribble lies entirely on ink (from pixel "
+                       f"({cols[0]}, {rows[0]})); draw it inside the area it marks")
 
-    for i, region in enumerate(ann.regions):
+    for i, region in enumerate(annotations.regions):
         for j, line in enumerate(region.scribbles):
             check(*polyline_pixels(line, gray.shape), f"regions[{i}].scribbles[{j}]")
         if region.pixels is not None and len(region.pixels):
             check(region.pixels[:, 1], region.pixels[:, 0], f"regions[{i}] ({region.name}) layer")
-    for j, line in enumerate(ann.background):
+    for j, line in enumerate(annotations.background):
         check(*polyline_pixels(line, gray.shape), f"background[{j}]")
+    return out
 
 
 def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):

@@ -16,7 +16,9 @@ from inkray.errors import InputError
 
 @pytest.fixture
 def annotated(tmp_path, minimal_doc):
-    Image.fromarray(np.full((8, 10), 255, np.uint8)).save(tmp_path / "d.png")
+    drawing = np.full((8, 10), 255, np.uint8)
+    drawing[1:, 5] = 0  # a line between the regions
+    Image.fromarray(drawing).save(tmp_path / "d.png")
     path = tmp_path / "a.inkray.json"
     path.write_text(json.dumps(minimal_doc))
     return path
@@ -29,8 +31,9 @@ def _run(capsys, *argv):
 
 
 def test_validate_ok(annotated, capsys):
-    code, out, err = _run(capsys, "validate", str(annotated))
-    assert code == 0 and err == ""
+    code, out, err = _run(capsys, "validate", str(annotated), "--quiet")
+    assert code == 0 and err == ("inkray: warning: equal[0]: both points lie in region 'a'; a "
+                                 "region is not ordered against itself here\n")
     assert "ok: 10x8 drawing" in out and "2 regions" in out and "1 order" in out
 
 
@@ -204,3 +207,71 @@ def test_sigterm_during_work_leaves_nothing_behind(tmp_path):
     assert proc.returncode in (128 + signal.SIGTERM, 0), err
     if proc.returncode:
         assert "terminated; nothing was written" in err and list(out.iterdir()) == []
+
+
+def test_validate_reports_every_problem_at_once(annotated, minimal_doc, capsys):
+    minimal_doc["regions"][0]["scribbles"].append([[5, 2], [5, 6]])  # on the ink line
+    minimal_doc["background"].append([[5, 3], [5, 5]])               # on the ink line too
+    annotated.write_text(json.dumps(minimal_doc))
+    code, out, err = _run(capsys, "validate", str(annotated))
+    assert code == 2 and out == ""
+    lines = err.splitlines()
+    assert lines[0].startswith("inkray: error: regions[0].scribbles[1]: the scribble lies "
+                               "entirely on ink (from pixel (5, 2))")
+    assert lines[1].startswith("inkray: error: background[1]: the scribble lies entirely on ink")
+    assert lines[-1].endswith(": 2 problems")
+    code, out, _ = _run(capsys, "validate", str(annotated), "--json", "--quiet")
+    doc = json.loads(out)
+    assert code == 2 and doc["ok"] is False
+    assert [p["key"] for p in doc["problems"]] == ["regions[0].scribbles[1]", "background[1]"]
+
+
+def test_validate_finds_what_relief_would_reject(annotated, minimal_doc, capsys):
+    blank = annotated.parent / "blank.png"
+    Image.fromarray(np.full((8, 10), 255, np.uint8)).save(blank)
+    code, _, err = _run(capsys, "validate", str(annotated), "--drawing", str(blank))
+    assert code == 2 and "inkray: error: drawing: blank" in err
+    minimal_doc["equal"] = []
+    minimal_doc["order"] = [{"front": [2, 2], "back": [7, 6]}, {"front": [7, 5], "back": [2, 3]}]
+    annotated.write_text(json.dumps(minimal_doc))
+    code, out, _ = _run(capsys, "validate", str(annotated), "--json", "--quiet")
+    problems = [p for p in json.loads(out)["problems"] if p["severity"] == "error"]
+    assert code == 2 and len(problems) == 1 and "order[0]" in problems[0]["message"]
+    assert "order[1]" in problems[0]["message"]
+
+
+def test_validate_json_on_a_file_that_does_not_parse(tmp_path, capsys):
+    bad = tmp_path / "bad.inkray.json"
+    bad.write_text('{"format": "inkray-annotations", "version": 1, "size": [10, 8], "size": [1, 1]}')
+    code, out, err = _run(capsys, "validate", str(bad), "--json")
+    doc = json.loads(out)
+    assert code == 2 and doc["ok"] is False and err == ""
+    assert doc["problems"][0]["key"] == str(bad) and "duplicate key" in doc["problems"][0]["message"]
+
+
+def test_progress_draws_only_on_a_terminal_and_timings_only_when_asked():
+    import io
+
+    from inkray.progress import Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    piped, terminal = io.StringIO(), Terminal()
+    for stream in (piped, terminal):
+        p = Progress(stream=stream)
+        p._TICK = 0.01
+        with p.stage("inflate"):
+            p.update(1, 4)
+            import time
+            time.sleep(0.1)
+        p.summary()
+    assert piped.getvalue() == ""
+    assert "inflate [######" in terminal.getvalue() and "25%" in terminal.getvalue()
+    assert "timings" not in terminal.getvalue()
+    p = Progress(stream=piped, timings=True)
+    with p.stage("segment"):
+        pass
+    p.summary()
+    assert piped.getvalue().startswith("timings:\n  segment")
