@@ -395,7 +395,7 @@ def test_read_meshes_refuses_unreadable_files(tmp_path):
     (tmp_path / "junk.glb").write_bytes(b"not a mesh at all")
     (tmp_path / "empty.obj").write_text("# nothing\n")
     (tmp_path / "a.stl").write_text("solid a\nendsolid a\n")
-    for name, message in [("junk.glb", "cannot read GLB"), ("empty.obj", "no triangles"),
-                          ("a.stl", "unsupported mesh type"), ("missing.ply", "no such file")]:
+    for name, message in [("junk.glb", "not a GLB file"), ("empty.obj", "no triangles"),
+                          ("a.stl", "unsupported mesh type"), ("missing.ply", "no such mesh file")]:
         with pytest.raises(InputError, match=message):
             read_meshes(tmp_path / name)

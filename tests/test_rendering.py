@@ -318,7 +318,7 @@ def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, capsys, argv, messag
 
 def test_cli_missing_mesh_exits_2(tmp_path, capsys):
     assert main(["render", str(tmp_path / "none.glb"), "-o", str(tmp_path / "a.png")]) == 2
-    assert "no such file" in capsys.readouterr().err
+    assert "no such mesh file" in capsys.readouterr().err
 
 
 def test_output_size_keeps_the_aspect_and_refuses_conflicts():

@@ -27,6 +27,8 @@ import numpy as np
 
 from inkray.errors import InputError
 from inkray.formats.atomic import atomic_outputs
+from inkray.formats.mesh_inspection import inspect_mesh_file
+from inkray.input.limits import DEFAULT_LIMITS
 from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
@@ -273,8 +275,7 @@ def _load(path, *, materials):
     if suffix not in (".glb", ".gltf", ".obj", ".ply"):
         raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
                          f"(expected .glb, .gltf, .obj, .ply)")
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
+    inspect_mesh_file(path)
     scene = None
     try:
         if suffix == ".ply":
@@ -295,6 +296,15 @@ def _load(path, *, materials):
     meshes = [m for m in meshes if len(m.faces)]
     if not meshes:
         raise InputError(f"{path}: holds no triangles")
+    for m in meshes:
+        bad = np.flatnonzero(~np.isfinite(m.vertices).all(axis=1))
+        if len(bad):
+            raise InputError(f"{path}: part {m.name!r}: vertex {bad[0]} is not finite "
+                             f"({', '.join(f'{x:g}' for x in m.vertices[bad[0]])})")
+        out = np.flatnonzero(((m.faces < 0) | (m.faces >= len(m.vertices))).any(axis=1))
+        if len(out):
+            raise InputError(f"{path}: part {m.name!r}: face {out[0]} {m.faces[out[0]].tolist()} uses a "
+                             f"vertex outside 0..{len(m.vertices) - 1}")
     return scene, meshes
 
 
@@ -652,7 +662,12 @@ def read_relief(path):
         if path.suffix.lower() == ".ply" or uv is None or image is None:
             continue
         if texture is None:
-            texture = np.asarray(image.convert("RGB"))
+            try:
+                texture = np.asarray(image.convert("RGB"))
+            except Exception as e:  # Pillow decodes lazily: a corrupt texture fails here
+                raise InputError(f"{path}: node {node}: the texture cannot be decoded "
+                                 f"({type(e).__name__}: {str(e) or 'corrupt data'})") from None
+            DEFAULT_LIMITS.check_pixels((texture.shape[1], texture.shape[0]), f"{path}: texture")
         v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
         pairs.append((v, np.asarray(uv, float)))
     frame = _frame(scene, path)
@@ -701,9 +716,10 @@ def _frame(scene, path):
         anchor = info.get("anchor", "center")
     except (KeyError, TypeError, ValueError) as e:
         raise InputError(f"{path}: extras.inkray: malformed ({e})") from e
-    if w <= 0 or h <= 0 or not s > 0 or anchor not in ("center", "top-left"):
+    if w <= 0 or h <= 0 or not 0 < s < np.inf or anchor not in ("center", "top-left"):
         raise InputError(f"{path}: extras.inkray: drawing_size {info.get('drawing_size')}, "
                          f"units_per_pixel {s}, anchor {anchor!r} out of range")
+    DEFAULT_LIMITS.check_pixels((w, h), f"{path}: extras.inkray.drawing_size")
     return (w, h), s, anchor
 
 

@@ -9,7 +9,8 @@ with the key path (or file) that exceeds it and the option that raises it
 | bound | default | what it protects |
 | --- | --- | --- |
 | ``pixels`` | 16,777,216 (4096 x 4096) | decoding and every per-pixel stage (a relief near the bound takes minutes and several GB) |
-| ``file_bytes`` | 64 MiB | reading an annotation file, legend or mesh |
+| ``file_bytes`` | 64 MiB | reading an annotation file or a legend |
+| ``mesh_bytes`` | 256 MiB | reading a mesh file (and the files it refers to) |
 | ``points`` | 20,000 per polyline | outlines snapped to boundary paths, scribble rasterization |
 | ``total_points`` | 1,000,000 per file | the same, summed |
 | ``entries`` | 10,000 per list | regions, ``order``, ``equal``, ``boundaries``, ``background`` |
@@ -37,13 +38,15 @@ class Limits:
 
     pixels: int = 4096 * 4096
     file_bytes: int = 64 << 20
+    mesh_bytes: int = 256 << 20
     points: int = 20_000
     total_points: int = 1_000_000
     entries: int = 10_000
     depth: int = 64
 
     def __post_init__(self):
-        for key in ("pixels", "file_bytes", "points", "total_points", "entries", "depth"):
+        for key in ("pixels", "file_bytes", "mesh_bytes", "points", "total_points", "entries",
+                    "depth"):
             value = getattr(self, key)
             if not (isinstance(value, int) and not isinstance(value, bool) and value > 0):
                 raise InputError(f"limits.{key}: expected a positive integer, got {value!r}")
