@@ -102,6 +102,12 @@ def _check_output(path, allowed):
                          f"(expected {', '.join(allowed)})")
 
 
+def _in_range(flag, value, low, high, what):
+    """Finite numbers within a documented range: larger ones make non-finite geometry."""
+    if not low <= value <= high:  # also false for NaN
+        raise InputError(f"{flag} {value:g}: expected a {what} within {low:g}..{high:g}")
+
+
 # -- commands ----------------------------------------------------------------
 
 def _cmd_validate(args, progress):
@@ -175,6 +181,11 @@ def _cmd_regions(args, progress):
     _check_output(args.output, (".json",))
     masks = None if args.masks is None else Path(args.masks) / "region.png"
     chain = _chain(args, progress, targets=[args.output, masks], predict=not args.no_predict)
+    if masks is not None:
+        for i, region in enumerate(chain.annotations.regions):
+            if len(f"{region.name}.png".encode()) > 255:
+                raise InputError(f"regions[{i}].name: {len(region.name)} characters are too many "
+                                 f"for a file name in --masks (at most 251)")
     report = _regions_report(chain, masks=args.masks)
     _warn(report["warnings"])
     with _group(args, chain) as group:
@@ -197,6 +208,7 @@ def _cmd_depth(args, progress):
         if path is not None and Path(path).suffix.lower() not in allowed:
             raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
     targets = [*depth_files(args.output), args.npy, args.normals, args.shading]
+    _in_range("--epsilon", args.epsilon, 1e-9, 1e9, "depth step")
     chain = _chain(args, progress, targets=targets, depth_method=args.method,
                    depth_epsilon=args.epsilon)
     result = chain.depth_map
@@ -218,12 +230,10 @@ def _cmd_relief(args, progress):
     from inkray.view.rendering import render
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
-    if args.units_per_pixel <= 0:
-        raise InputError(f"--units-per-pixel {args.units_per_pixel}: expected a positive number")
-    if args.max_area <= 0:
-        raise InputError(f"--max-area {args.max_area}: expected a positive area in px^2")
-    if args.epsilon is not None and args.epsilon <= 0:
-        raise InputError(f"--epsilon {args.epsilon}: expected a positive depth step in px")
+    _in_range("--units-per-pixel", args.units_per_pixel, 1e-9, 1e6, "scene units per pixel")
+    _in_range("--max-area", args.max_area, 1e-3, 1e8, "triangle area in px^2")
+    if args.epsilon is not None:
+        _in_range("--epsilon", args.epsilon, 1e-6, 1e5, "depth step in px")
     out = Path(args.output)
     images = {}
     for flag, mode in (("depth_png", "depth"), ("normals_png", "normals")):
@@ -455,8 +465,8 @@ def _parser():
     rl.add_argument("--max-area", type=float, default=50.0, metavar="PX2",
                     help="largest triangle area in px^2, the mesh resolution (default: 50)")
     rl.add_argument("--epsilon", type=float, metavar="PX",
-                    help="depth step between a part and the part behind (default: 0.4%% of the "
-                         "drawing's longer side)")
+                    help="depth step between a part and the part behind, in drawing pixels "
+                         "(default: 0.4%% of the drawing's longer side)")
     rl.add_argument("--units-per-pixel", type=float, default=0.001, metavar="S",
                     help="scene units per drawing pixel (default: 0.001)")
     rl.add_argument("--anchor", choices=("center", "top-left"), default="center",
@@ -474,7 +484,8 @@ def _parser():
     p["depth"].add_argument("--method", choices=("exact", "fast"), default="exact",
                             help="exact QP or the interactive approximation (default: exact)")
     p["depth"].add_argument("--epsilon", type=float, default=1.0, metavar="E",
-                            help="depth step of an order entry (default: 1)")
+                            help="depth step of an order entry, in the depth map's own unit "
+                                 "(default: 1)")
     p["depth"].add_argument("--npy", metavar="NPY", help="also write the float depth (.npy)")
     p["depth"].add_argument("--normals", metavar="PNG", help="also write a normal map")
     p["depth"].add_argument("--shading", metavar="PNG",

@@ -275,3 +275,22 @@ def test_progress_draws_only_on_a_terminal_and_timings_only_when_asked():
         pass
     p.summary()
     assert piped.getvalue().startswith("timings:\n  segment")
+
+
+def test_numbers_that_would_make_non_finite_geometry_are_refused(annotated, tmp_path, capsys):
+    for flag, value in (("--units-per-pixel", "1e300"), ("--epsilon", "1e300"),
+                        ("--epsilon", "nan"), ("--max-area", "inf")):
+        code, _, err = _run(capsys, "relief", str(annotated), "-o", str(tmp_path / "r.glb"),
+                            flag, value)
+        assert code == 2 and err.startswith(f"inkray: error: {flag} ") and "within" in err, err
+    assert not (tmp_path / "r.glb").exists()
+
+
+def test_masks_of_a_region_with_a_long_name(annotated, minimal_doc, tmp_path, capsys):
+    minimal_doc["regions"][0]["name"] = "a" * 300
+    minimal_doc["order"] = minimal_doc["equal"] = []
+    annotated.write_text(json.dumps(minimal_doc))
+    code, _, err = _run(capsys, "regions", str(annotated), "-o", str(tmp_path / "r.json"),
+                        "--masks", str(tmp_path / "masks"))
+    assert code == 2 and "regions[0].name: 300 characters are too many" in err, err
+    assert not (tmp_path / "masks").exists() and not (tmp_path / "r.json").exists()

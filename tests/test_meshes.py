@@ -399,3 +399,15 @@ def test_read_meshes_refuses_unreadable_files(tmp_path):
                           ("a.stl", "unsupported mesh type"), ("missing.ply", "no such mesh file")]:
         with pytest.raises(InputError, match=message):
             read_meshes(tmp_path / name)
+
+
+def test_export_never_writes_non_finite_geometry(tmp_path):
+    tri = Part("a", np.array([[0., 0, 0], [0, 9, 1], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    relief = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(InputError, match="beyond finite 32-bit scene coordinates"):
+        export_relief(relief, tmp_path / "r.glb", units_per_pixel=1e300)
+    bad = Relief([Part("a", tri.vertices * np.array([1, 1, np.inf]), tri.faces)], (10, 10),
+                 np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(InputError):
+        export_relief(bad, tmp_path / "r.glb")
+    assert list(tmp_path.iterdir()) == []

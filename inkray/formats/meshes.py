@@ -393,6 +393,9 @@ def _scene_meshes(relief, units_per_pixel, anchor):
         px = np.asarray(part.vertices, float)
         faces = np.asarray(part.faces, np.int64)
         v = scene_coordinates(px, relief.size, units_per_pixel=units_per_pixel, anchor=anchor)
+        if not np.isfinite(v).all() or np.abs(v).max(initial=0.0) > 1e30:
+            raise InputError(f"units_per_pixel: {units_per_pixel:g} puts part {part.name!r} "
+                             f"beyond finite 32-bit scene coordinates")
         # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
         # down) into counter-clockwise seen from +Z, so faces are kept as they are.
         uv = np.clip(relief.uv(px), 0.0, 1.0)

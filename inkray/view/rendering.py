@@ -283,7 +283,9 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
         raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
     light = np.asarray(light, float)
     if light.shape != (3,) or not np.all(np.isfinite(light)) or not np.linalg.norm(light) > 0:
-        raise InputError(f"render: light must be a non-zero direction (x, y, z), got {light!r}")
+        shown = " ".join(f"{v:g}" for v in light.ravel()[:6])
+        raise InputError(f"render: light {shown}: expected a non-zero, finite direction x y z "
+                         f"toward the light (e.g. -1 1 1.5)")
     if not (np.isfinite(ambient) and 0 <= ambient <= 1):
         raise InputError(f"render: ambient must be within 0..1, got {ambient!r}")
     if disparity is not None and not (np.isfinite(disparity) and abs(disparity) <= size[0]):
