@@ -12,6 +12,7 @@ import signal
 import sys
 import threading
 import traceback
+import warnings
 from pathlib import Path
 
 from inkray._version import __version__
@@ -555,7 +556,9 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     try:
-        with _terminate_as_interrupt():
+        with _terminate_as_interrupt(), warnings.catch_warnings():
+            if not debug:  # library warnings are not one line; inkray's own are printed
+                warnings.simplefilter("ignore")
             return _run(argv)
     except SystemExit as e:  # --help and --version
         return e.code if isinstance(e.code, int) else 0
