@@ -1,0 +1,160 @@
+"""Benchmark: depth-order prediction on drawings it was not tuned on, and the fast re-solve.
+
+Usage::
+
+    python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
+
+Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
+for each drawing, the predictor's parameters are chosen on all the *other*
+drawings (the grid value that agrees with most of their annotated ``order``
+entries; the first one on ties), then the held-out drawing's order entries
+are removed and predicted (with the global consistency step of
+:func:`inkray.relief.ordering.depth_order`). A prediction is right when the
+entry's front region is the predicted front region at the entry's place;
+entries between regions that never touch have no place and are not counted.
+
+Prints one row per drawing (entries, right, accuracy, the parameters chosen
+without it), the overall accuracy, and the accuracy per confidence bin of
+the held-out predictions. Then, unless ``--no-resolve``, the fast depth
+method's re-solve time at 512x512 (the bundled turtle with its scribbles)
+after one entry is added between two regions, and after one whose points
+lie in one region (the region is cut into two parts), against the 0.2 s
+target.
+"""
+
+import argparse
+import itertools
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from inkray.chain import ChainOptions, ReliefChain
+from inkray.depthmap.estimation import DepthSession
+from inkray.input.constraints import constraints
+from inkray.input.loading import load_input
+from inkray.input.scribbles import seed_image
+from inkray.relief.ordering import depth_order
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+GRID = {"junction_radius": (25.0, 40.0, 80.0), "area_weight": (0.0, 0.5, 1.0)}
+BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
+TARGET = 0.2  # seconds for one fast re-solve after adding an entry
+
+
+class _Drawing:
+    """One drawing's candidates, annotated relations and cached predictions."""
+
+    def __init__(self, folder):
+        self.name = folder.name
+        ann, drawing = load_input(folder / "drawing.inkray.json")
+        chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
+        self.annotations = ann
+        self.labels = chain.segmentation.labels
+        self.completion = chain.candidates
+        orders = [r for r in chain.relations if r.kind == "order"]
+        self.truth = [r for r in orders if r.place is not None]
+        self.apart = len(orders) - len(self.truth)
+        self._cache = {}
+
+    def predictions(self, params):
+        """``{place: (front, confidence)}`` with the order entries removed."""
+        key = tuple(sorted(params.items()))
+        if key not in self._cache:
+            ann = replace(self.annotations, order=[])
+            rel, _ = depth_order(constraints(ann), self.labels, self.completion,
+                                 seams=ann.boundaries, **params)
+            self._cache[key] = {r.place: (r.front, r.confidence)
+                                for r in rel if r.source == "predicted"}
+        return self._cache[key]
+
+    def score(self, params):
+        """``[(right, confidence)]`` per counted entry (a missing prediction is wrong, 0)."""
+        pred = self.predictions(params)
+        out = []
+        for r in self.truth:
+            front, conf = pred.get(r.place, (None, 0.0))
+            out.append((front == r.front, conf))
+        return out
+
+
+def leave_one_out(drawings):
+    """Per drawing: (chosen params, [(right, confidence)]) scored without its own entries."""
+    grid = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
+    results = {}
+    for held in drawings:
+        others = [d for d in drawings if d is not held]
+        best = max(grid, key=lambda p: sum(ok for d in others for ok, _ in d.score(p)))
+        results[held.name] = (best, held.score(best))
+    return results
+
+
+def report(drawings, results):
+    print(f"{'drawing':<12} {'entries':>7} {'apart':>5} {'right':>5} {'accuracy':>8}  chosen on the others")
+    total = right = 0
+    scored = []
+    for d in drawings:
+        params, s = results[d.name]
+        ok = sum(r for r, _ in s)
+        total += len(s)
+        right += ok
+        scored += s
+        acc = f"{ok / len(s):.1%}" if s else "-"
+        chosen = ", ".join(f"{k}={v:g}" for k, v in params.items())
+        print(f"{d.name:<12} {len(s):>7} {d.apart:>5} {ok:>5} {acc:>8}  {chosen}")
+    print(f"{'all':<12} {total:>7} {sum(d.apart for d in drawings):>5} {right:>5} "
+          f"{right / max(total, 1):>8.1%}")
+    print()
+    print(f"{'confidence':<12} {'entries':>7} {'right':>5} {'accuracy':>8}")
+    for lo, hi in zip(BINS[:-1], BINS[1:]):
+        inbin = [ok for ok, c in scored if lo <= c < hi or (hi == 1.0 and c == 1.0)]
+        acc = f"{sum(inbin) / len(inbin):.1%}" if inbin else "-"
+        print(f"{f'{lo:.2f}-{hi:.2f}':<12} {len(inbin):>7} {sum(inbin):>5} {acc:>8}")
+    sure = [ok for ok, c in scored if c >= 0.5]
+    if sure:
+        print(f"{'>= 0.50':<12} {len(sure):>7} {sum(sure):>5} {sum(sure) / len(sure):>8.1%}")
+
+
+def bench_resolve():
+    """Fast re-solve after one added entry, at 512x512 (the turtle with its scribbles)."""
+    ann, drawing = load_input(EXAMPLES / "turtle" / "drawing.inkray.json")
+    gray = drawing.gray.astype(np.float64)
+    edits = (("between regions (head over shell)", (60.0, 250.0), (200.0, 250.0)),
+             ("inside one region (shell split)", (330.0, 190.0), (250.0, 330.0)))
+    print()
+    head = f"{'added entry (turtle 512x512)':<36} {'first solve':>11} {'re-solve':>9} " \
+           f"{'target':>7} {'re-solve / target':>18}"
+    print(head)
+    print("-" * len(head))
+    for what, front, back in edits:
+        s = DepthSession(gray, seeds=seed_image(ann))
+        for o in ann.order:
+            s.add(o.front, o.back)
+        t = time.perf_counter()
+        s.solve()
+        first = time.perf_counter() - t
+        s.add(front, back)
+        t = time.perf_counter()
+        s.solve()
+        again = time.perf_counter() - t
+        print(f"{what:<36} {first:>10.3f}s {again:>8.3f}s {TARGET:>6.1f}s {again / TARGET:>18.2f}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--drawings", help="comma-separated folder names under examples/ (default all)")
+    ap.add_argument("--no-resolve", action="store_true", help="skip the fast re-solve timing")
+    args = ap.parse_args(argv)
+    folders = sorted(p.parent for p in EXAMPLES.glob("*/drawing.inkray.json"))
+    if args.drawings:
+        wanted = args.drawings.split(",")
+        folders = [f for f in folders if f.name in wanted]
+    drawings = [_Drawing(f) for f in folders]
+    report(drawings, leave_one_out(drawings))
+    if not args.no_resolve:
+        bench_resolve()
+
+
+if __name__ == "__main__":
+    main()
