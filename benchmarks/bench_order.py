@@ -5,17 +5,21 @@ Usage::
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
 
 Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
-for each drawing, the predictor's parameters are chosen on all the *other*
-drawings (the grid value that agrees with most of their annotated ``order``
-entries; the first one on ties), then the held-out drawing's order entries
-are removed and predicted (with the global consistency step of
-:func:`inkray.relief.ordering.depth_order`). A prediction is right when the
-entry's front region is the predicted front region at the entry's place;
-entries between regions that never touch have no place and are not counted.
+for each drawing, the predictor is fitted on all the *other* drawings only:
+the cue weights of :func:`inkray.relief.ordering.predict_place` by
+L2-regularized logistic regression on their annotated ``order`` entries,
+the junction radius and the regularization chosen from a small grid by an
+inner leave-one-out over those drawings (the first grid value on ties).
+Then the held-out drawing's order entries are removed and predicted (with
+the global consistency step of :func:`inkray.relief.ordering.depth_order`).
+A prediction is right when the entry's front region is the predicted front
+region at the entry's place; entries between regions that never touch have
+no place and are not counted.
 
-Prints one row per drawing (entries, right, accuracy, the parameters chosen
-without it), the overall accuracy, and the accuracy per confidence bin of
-the held-out predictions. Then, unless ``--no-resolve``, the fast depth
+Prints one row per drawing (entries, right, accuracy, what was chosen
+without it), the overall accuracy, the accuracy per confidence bin of the
+held-out predictions, and the model fitted on all drawings (the values of
+:data:`inkray.relief.ordering.WEIGHTS` and ``JUNCTION_RADIUS``). Then, unless ``--no-resolve``, the fast depth
 method's re-solve time at 512x512 (the bundled turtle with its scribbles)
 after one entry is added between two regions, and after one whose points
 lie in one region (the region is cut into two parts), against the 0.2 s
@@ -29,22 +33,24 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import minimize
 
 from inkray.chain import ChainOptions, ReliefChain
 from inkray.depthmap.estimation import DepthSession
 from inkray.input.constraints import constraints
 from inkray.input.loading import load_input
 from inkray.input.scribbles import seed_image
+from inkray.relief.order_cues import CUES, order_cues, outline_lengths
 from inkray.relief.ordering import depth_order
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-GRID = {"junction_radius": (25.0, 40.0, 80.0), "area_weight": (0.0, 0.5, 1.0)}
+GRID = {"junction_radius": (25.0, 40.0, 80.0), "regularization": (0.1, 1.0)}
 BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
 TARGET = 0.2  # seconds for one fast re-solve after adding an entry
 
 
 class _Drawing:
-    """One drawing's candidates, annotated relations and cached predictions."""
+    """One drawing's candidates, its annotated relations and their cues."""
 
     def __init__(self, folder):
         self.name = folder.name
@@ -56,37 +62,84 @@ class _Drawing:
         orders = [r for r in chain.relations if r.kind == "order"]
         self.truth = [r for r in orders if r.place is not None]
         self.apart = len(orders) - len(self.truth)
-        self._cache = {}
+        self._seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
+        self._outlines = outline_lengths(self.labels)
+        self._cues = {}
 
-    def predictions(self, params):
-        """``{place: (front, confidence)}`` with the order entries removed."""
-        key = tuple(sorted(params.items()))
-        if key not in self._cache:
-            ann = replace(self.annotations, order=[])
-            rel, _ = depth_order(constraints(ann), self.labels, self.completion,
-                                 seams=ann.boundaries, **params)
-            self._cache[key] = {r.place: (r.front, r.confidence)
-                                for r in rel if r.source == "predicted"}
-        return self._cache[key]
+    def cues(self, radius):
+        """``(X, y)``: the cues of the entries' places (rows; None where the place has
+        no cue) and +1 where the entry's front is the place's region ``a``, else -1."""
+        if radius not in self._cues:
+            rows = []
+            for r in self.truth:
+                place = self.completion.places[r.place]
+                c = order_cues(self.completion, place, outlines=self._outlines,
+                               seams=self._seams, junction_radius=radius)
+                rows.append(None if c is None else [c[k] for k in CUES])
+            y = np.array([1.0 if r.front == self.completion.places[r.place].a else -1.0
+                          for r in self.truth])
+            self._cues[radius] = rows, y
+        return self._cues[radius]
 
-    def score(self, params):
-        """``[(right, confidence)]`` per counted entry (a missing prediction is wrong, 0)."""
-        pred = self.predictions(params)
-        out = []
-        for r in self.truth:
-            front, conf = pred.get(r.place, (None, 0.0))
-            out.append((front == r.front, conf))
-        return out
+    def score(self, weights, radius):
+        """``[(right, confidence)]`` per counted entry, predicted with its order entries
+        removed (a missing prediction is wrong with confidence 0)."""
+        ann = replace(self.annotations, order=[])
+        rel, _ = depth_order(constraints(ann), self.labels, self.completion,
+                             seams=ann.boundaries, weights=weights, junction_radius=radius)
+        pred = {r.place: (r.front, r.confidence) for r in rel if r.source == "predicted"}
+        return [(pred.get(r.place, (None, 0.0))[0] == r.front, pred.get(r.place, (None, 0.0))[1])
+                for r in self.truth]
+
+
+def _fit(drawings, radius, lam):
+    """Cue weights by L2-regularized logistic regression on the drawings' entries."""
+    X, y = [], []
+    for d in drawings:
+        rows, labels = d.cues(radius)
+        for row, label in zip(rows, labels):
+            if row is not None:
+                X.append(row)
+                y.append(label)
+    X, y = np.asarray(X), np.asarray(y)
+
+    def loss(w):
+        m = y * (X @ w)
+        return (np.logaddexp(0.0, -m).sum() + lam * w @ w,
+                X.T @ (-y * np.exp(-np.logaddexp(0.0, m))) + 2.0 * lam * w)
+
+    w = minimize(loss, np.zeros(len(CUES)), jac=True, method="L-BFGS-B").x
+    return {k: round(float(v), 3) for k, v in zip(CUES, w)}
+
+
+def _cue_accuracy(drawings, weights, radius):
+    """Entries of the drawings whose place's cues predict them right (no consistency step)."""
+    w = np.array([weights[k] for k in CUES])
+    right = 0
+    for d in drawings:
+        rows, labels = d.cues(radius)
+        right += sum(1 for row, label in zip(rows, labels)
+                     if row is not None and np.sign(np.dot(row, w)) == label)
+    return right
+
+
+def _choose(drawings):
+    """(radius, lambda) of the grid with the best inner leave-one-out over ``drawings``."""
+    def inner(params):
+        return sum(_cue_accuracy([d], _fit([o for o in drawings if o is not d], *params), params[0])
+                   for d in drawings)
+    return max(itertools.product(GRID["junction_radius"], GRID["regularization"]), key=inner)
 
 
 def leave_one_out(drawings):
-    """Per drawing: (chosen params, [(right, confidence)]) scored without its own entries."""
-    grid = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
+    """Per drawing: (what was chosen, [(right, confidence)]) scored without its own entries."""
     results = {}
     for held in drawings:
         others = [d for d in drawings if d is not held]
-        best = max(grid, key=lambda p: sum(ok for d in others for ok, _ in d.score(p)))
-        results[held.name] = (best, held.score(best))
+        radius, lam = _choose(others)
+        weights = _fit(others, radius, lam)
+        results[held.name] = ({"junction_radius": radius, "regularization": lam, **weights},
+                              held.score(weights, radius))
     return results
 
 
@@ -101,7 +154,7 @@ def report(drawings, results):
         right += ok
         scored += s
         acc = f"{ok / len(s):.1%}" if s else "-"
-        chosen = ", ".join(f"{k}={v:g}" for k, v in params.items())
+        chosen = " ".join(f"{k}={v:g}" for k, v in params.items())
         print(f"{d.name:<12} {len(s):>7} {d.apart:>5} {ok:>5} {acc:>8}  {chosen}")
     print(f"{'all':<12} {total:>7} {sum(d.apart for d in drawings):>5} {right:>5} "
           f"{right / max(total, 1):>8.1%}")
@@ -152,6 +205,9 @@ def main(argv=None):
         folders = [f for f in folders if f.name in wanted]
     drawings = [_Drawing(f) for f in folders]
     report(drawings, leave_one_out(drawings))
+    radius, lam = _choose(drawings)
+    print(f"\nfitted on all drawings: JUNCTION_RADIUS = {radius:g}, regularization {lam:g}, "
+          f"WEIGHTS = {_fit(drawings, radius, lam)}")
     if not args.no_resolve:
         bench_resolve()
 
