@@ -9,7 +9,7 @@ for each drawing, the predictor is fitted on all the *other* drawings only:
 the cue weights of :func:`inkray.relief.ordering.predict_place` by
 L2-regularized logistic regression on their annotated ``order`` entries,
 the junction radius and the regularization chosen from a small grid by an
-inner leave-one-out over those drawings (the first grid value on ties).
+inner leave-one-out over those drawings (least log-loss).
 Then the held-out drawing's order entries are removed and predicted (with
 the global consistency step of :func:`inkray.relief.ordering.depth_order`).
 A prediction is right when the entry's front region is the predicted front
@@ -112,23 +112,25 @@ def _fit(drawings, radius, lam):
     return {k: round(float(v), 3) for k, v in zip(CUES, w)}
 
 
-def _cue_accuracy(drawings, weights, radius):
-    """Entries of the drawings whose place's cues predict them right (no consistency step)."""
+def _log_loss(drawings, weights, radius):
+    """Logistic loss of the drawings' entries under ``weights`` (a place without cues
+    counts as a coin toss)."""
     w = np.array([weights[k] for k in CUES])
-    right = 0
+    loss = 0.0
     for d in drawings:
         rows, labels = d.cues(radius)
-        right += sum(1 for row, label in zip(rows, labels)
-                     if row is not None and np.sign(np.dot(row, w)) == label)
-    return right
+        for row, label in zip(rows, labels):
+            loss += np.logaddexp(0.0, -label * np.dot(row, w)) if row is not None else np.log(2.0)
+    return loss
 
 
 def _choose(drawings):
-    """(radius, lambda) of the grid with the best inner leave-one-out over ``drawings``."""
+    """(radius, lambda) of the grid with the least inner leave-one-out log-loss over
+    ``drawings`` (smoother than the count of right entries, so less swayed by one entry)."""
     def inner(params):
-        return sum(_cue_accuracy([d], _fit([o for o in drawings if o is not d], *params), params[0])
+        return sum(_log_loss([d], _fit([o for o in drawings if o is not d], *params), params[0])
                    for d in drawings)
-    return max(itertools.product(GRID["junction_radius"], GRID["regularization"]), key=inner)
+    return min(itertools.product(GRID["junction_radius"], GRID["regularization"]), key=inner)
 
 
 def leave_one_out(drawings):
