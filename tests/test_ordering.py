@@ -315,8 +315,10 @@ def test_cli_regions_writes_nothing_on_contradiction(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
-    """With the order entries removed, the prediction agrees with them on >= 80 %
-    of the entries whose two regions touch (the figure per drawing is printed)."""
+    """With the order entries removed, the prediction agrees with them on >= 85 %
+    of the entries whose two regions touch (the figure per drawing is printed).
+    In-sample: the weights were fitted on these drawings; the leave-one-out
+    figure is benchmarks/bench_order.py's."""
     from inkray.input.loading import load_input
     from inkray.segmentation import segment
 
@@ -342,4 +344,4 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
     with capsys.disabled():
         print("\n" + "\n".join(lines) + f"\nall: {agree}/{counted} = {agree / counted:.1%} "
               f"({total} entries, {total - counted} between regions that do not touch)")
-    assert agree / counted >= 0.8
+    assert agree / counted >= 0.85
