@@ -389,3 +389,21 @@ def test_bad_method_and_epsilon():
         depth(ann, np.ones((5, 5)), method="slow")
     with pytest.raises(InputError, match="epsilon"):
         depth(ann, np.ones((5, 5)), epsilon=0)
+
+
+def test_fast_chain_of_entries_inside_one_region():
+    # A 30x200 strip of paper inside one ink frame and one scribble: six points along
+    # it, each in front of the next, cut the region into six parts with rising levels.
+    gray = np.ones((40, 220))
+    gray[4, 5:215] = gray[35, 5:215] = 0.0
+    gray[4:36, 5] = gray[4:36, 214] = 0.0
+    seeds = np.full(gray.shape, -2, np.int32)
+    seeds[20, 20:200] = 0
+    xs = [20, 50, 80, 110, 140, 170]
+    s = DepthSession(gray, seeds=seeds)
+    for a, b in zip(xs, xs[1:]):
+        s.add((a, 20), (b, 20))
+    d = s.solve()
+    assert all(d[20, a] - d[20, b] >= 1 - 1e-9 for a, b in zip(xs, xs[1:]))
+    assert sorted(s.region_levels.values()) == [0, 1, 2, 3, 4, 5]
+    assert len(np.unique(s.parts[10:30, 10:205])) == 6

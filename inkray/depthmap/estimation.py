@@ -631,18 +631,52 @@ def _local_levels(p, q, ineq, labels):
     for v in sorted({e[0] for e in edges} | {e[1] for e in edges}):
         by_segment.setdefault(int(labels.flat[v]), []).append(v)
     groups = {}
+    adjacent = {}  # node -> [(next node, strict)]: orders front to back, equalities both ways
+    for front, back, strict in edges:
+        _link(adjacent, front, back, strict)
     for seg in sorted(by_segment):
-        parts = []
-        for v in by_segment[seg]:
-            for part in parts:
-                if _acyclic(edges + [(part[0], v, False)]):
-                    edges.append((part[0], v, False))
+        ends = by_segment[seg]
+        together = [(ends[0], v, False) for v in ends[1:]]
+        if _acyclic(edges + together):  # the usual case: one check per segment
+            parts = [ends]
+            for _, v, _ in together:
+                _link(adjacent, ends[0], v, False)
+        else:
+            parts = []
+            for v in ends:
+                part = next((g for g in parts if not _ordered_between(adjacent, g[0], v)), None)
+                if part is None:
+                    parts.append([v])
+                else:
                     part.append(v)
-                    break
-            else:
-                parts.append([v])
+                    _link(adjacent, part[0], v, False)
+        edges += [(part[0], v, False) for part in parts for v in part[1:]]
         groups[seg] = parts
     return groups, _graph(edges).levels()
+
+
+def _link(adjacent, front, back, strict):
+    adjacent.setdefault(front, []).append((back, strict))
+    if not strict:
+        adjacent.setdefault(back, []).append((front, False))
+
+
+def _ordered_between(adjacent, u, v):
+    """Whether a chain of relations with an order on it leads from ``u`` to ``v`` or
+    back: then the two cannot share a level."""
+    for start, goal in ((u, v), (v, u)):
+        seen = {(start, False)}
+        todo = [(start, False)]
+        while todo:
+            node, strict = todo.pop()
+            for nxt, s in adjacent.get(node, ()):
+                state = (nxt, strict or s)
+                if state == (goal, True):
+                    return True
+                if state not in seen:
+                    seen.add(state)
+                    todo.append(state)
+    return False
 
 
 def _graph(edges):
