@@ -407,3 +407,13 @@ def test_fast_chain_of_entries_inside_one_region():
     assert all(d[20, a] - d[20, b] >= 1 - 1e-9 for a, b in zip(xs, xs[1:]))
     assert sorted(s.region_levels.values()) == [0, 1, 2, 3, 4, 5]
     assert len(np.unique(s.parts[10:30, 10:205])) == 6
+
+
+def test_cli_fast_depth_of_interlocking_rings(tmp_path):
+    ann = EXAMPLES / "rings" / "drawing.inkray.json"
+    code = main(["--quiet", "depth", str(ann), "-o", str(tmp_path / "d.png"), "--method", "fast",
+                 "--npy", str(tmp_path / "d.npy")])
+    assert code == 0
+    d = np.load(tmp_path / "d.npy")
+    assert d[54, 160] - d[71, 145] >= 1 - 1e-6       # ring_a over ring_b at the top crossing
+    assert d[146, 160] - d[129, 175] >= 1 - 1e-6     # ring_b over ring_a at the bottom one
