@@ -417,3 +417,17 @@ def test_cli_fast_depth_of_interlocking_rings(tmp_path):
     d = np.load(tmp_path / "d.npy")
     assert d[54, 160] - d[71, 145] >= 1 - 1e-6       # ring_a over ring_b at the top crossing
     assert d[146, 160] - d[129, 175] >= 1 - 1e-6     # ring_b over ring_a at the bottom one
+
+
+def test_interactive_chain_splits_a_region_when_an_entry_is_added():
+    from inkray.chain import ChainOptions, ReliefChain
+
+    ann, drawing = _rings()
+    chain = ReliefChain(ann, drawing, options=ChainOptions(depth_method="fast", interactive=True))
+    before = chain.depth_map
+    inside = Order(index=2, front=(67.0, 100.0), back=(125.0, 158.0))   # both in ring_a
+    after = chain.edit(replace(ann, order=ann.order + [inside])).depth_map
+    d = after.depth
+    assert d[100, 67] - d[158, 125] >= 1 - 1e-6
+    assert d[54, 160] - d[71, 145] >= 1 - 1e-6 and d[146, 160] - d[129, 175] >= 1 - 1e-6
+    assert len(after.info["levels"]) == len(before.info["levels"]) + 1    # one more part
