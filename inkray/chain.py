@@ -416,7 +416,7 @@ class ReliefChain:
             cache.session = None  # a rejected edit must not stay in the kept session
             raise
         return DepthResult(depth=d, method="fast", epsilon=o.depth_epsilon,
-                           info={"levels": dict(session.region_levels), "labels": session.labels,
+                           info={"levels": dict(session.region_levels), "labels": session.parts,
                                  "timings": dict(session.timings)})
 
 

@@ -148,7 +148,20 @@ def _cmd_validate(args, progress):
     print(f"{args.annotation}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
           f"{len(ann.background)} background scribbles, {len(ann.order)} order, "
           f"{len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
+    if args.predict:
+        _print_predictions(_chain(args, progress).relations)
     return 0
+
+
+def _print_predictions(relations):
+    """The predicted order relations, least sure first: where an arrow helps most."""
+    from inkray.formats.regions_report import predicted_relations
+
+    lines = predicted_relations(relations)
+    print(f"{len(lines)} predicted order relations, least sure first (draw an order arrow "
+          f"where a prediction is wrong):")
+    for line in lines:
+        print(f"  {line}")
 
 
 def _cmd_segment(args, progress):
@@ -197,6 +210,7 @@ def _cmd_regions(args, progress):
     print(f"{args.output}: {len(report['regions'])} regions, {len(report['relations'])} order "
           f"relations ({predicted} predicted), {len(report['warnings'])} warnings"
           + (f"; masks in {args.masks}/" if args.masks is not None else ""))
+    _print_predictions(chain.relations)
     return 0
 
 
@@ -476,6 +490,9 @@ def _parser():
                     help="also write a 16-bit front depth image (default name: OUT-depth.png)")
     rl.add_argument("--normals-png", nargs="?", const=True, metavar="PNG",
                     help="also write a front normal map (default name: OUT-normals.png)")
+    p["validate"].add_argument("--predict", action="store_true",
+                               help="also segment, complete and list the predicted order "
+                                    "relations with their confidence")
     p["regions"].add_argument("--masks", metavar="DIR",
                               help="also write each completed region as DIR/NAME.png")
     p["regions"].add_argument("--no-predict", action="store_true",

@@ -1,13 +1,14 @@
 """Depth from sparse (in)equalities: exact QP, fast approximation, outputs, CLI."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from PIL import Image
 
-from inkray.input.annotations import parse_annotations, rescale_annotations
+from inkray.input.annotations import Order, parse_annotations, rescale_annotations
 from inkray.cli import main
 from inkray.depthmap.estimation import DepthSession, depth, depth_constraints
 from inkray.input.drawing import drawing_from_array
@@ -16,7 +17,7 @@ from inkray.input.loading import load_input
 from inkray.depthmap.quadratic_program import GroundedLaplacian, constraint_cycle, solve_depth_qp
 from inkray.numerics.grid import edge_weights, grid_laplacian
 
-from conftest import shared_drawing_names
+from conftest import EXAMPLES, shared_drawing_names
 
 
 def _ann(size, order=(), equal=(), **extra):
@@ -239,9 +240,46 @@ def test_session_with_scribbles_keeps_regions():
     s.add((10, 5), (50, 25))
     d = s.solve()
     assert d[:, :29].min() - d[:, 32:].max() > 0.98
-    s.add((50, 25), (12, 10))                  # contradicts at the region level
-    with pytest.raises(InputError, match=r"order\[0\] -> order\[1\] -> order\[0\].*region"):
+    s.add((50, 25), (12, 10))                  # left > right > left, at different points
+    d = s.solve()                              # the left region is split in two parts
+    assert d[5, 10] - d[25, 50] >= 1 - 1e-9 and d[25, 50] - d[10, 12] >= 1 - 1e-9
+    assert len(np.unique(s.parts[:, :29])) == 2 and (s.labels[:, :29] == 0).all()
+    s.add((12, 10), (10, 5), label="order[7]")  # closes a cycle of the points themselves
+    with pytest.raises(InputError, match=r"^order\[0\] -> order\[1\] -> order\[7\] -> order\[0\]"):
         s.solve()
+
+
+def _rings():
+    """Two interlocking rings (bundled as examples/rings): a over b at the top crossing,
+    b over a at the bottom."""
+    return load_input(EXAMPLES / "rings" / "drawing.inkray.json")
+
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_interlocking_rings_have_two_local_orders(method):
+    ann, drawing = _rings()
+    d = depth(ann, drawing, method=method).depth
+    p, q, _, _ = depth_constraints(ann)
+    assert len(p) == 2 and (d.flat[p] - d.flat[q] >= 1 - 1e-6).all()
+
+
+def test_fast_entry_inside_one_region_splits_it():
+    ann, drawing = _rings()
+    # Both points in ring_a, far apart along the ring, where no line is drawn.
+    ann = replace(ann, order=ann.order + [Order(index=2, front=(67.0, 100.0), back=(125.0, 158.0))])
+    r = depth(ann, drawing, method="fast")
+    p, q, _, _ = depth_constraints(ann)
+    assert (r.depth.flat[p] - r.depth.flat[q] >= 1 - 1e-6).all()
+    ring_a = r.info["labels"].flat[p[2]], r.info["labels"].flat[q[2]]
+    assert ring_a[0] != ring_a[1]                  # one part per point
+    assert set(r.info["levels"]) >= set(ring_a)
+
+
+def test_fast_still_names_a_real_cycle():
+    ann, drawing = _rings()
+    back = Order(index=2, front=ann.order[0].back, back=ann.order[0].front)
+    with pytest.raises(InputError, match=r"^order\[0\] -> order\[2\] -> order\[0\]: contradictory"):
+        depth(replace(ann, order=ann.order + [back]), drawing, method="fast")
 
 
 def test_session_updates_its_factorization_and_matches_a_fresh_solve():
@@ -351,3 +389,45 @@ def test_bad_method_and_epsilon():
         depth(ann, np.ones((5, 5)), method="slow")
     with pytest.raises(InputError, match="epsilon"):
         depth(ann, np.ones((5, 5)), epsilon=0)
+
+
+def test_fast_chain_of_entries_inside_one_region():
+    # A 30x200 strip of paper inside one ink frame and one scribble: six points along
+    # it, each in front of the next, cut the region into six parts with rising levels.
+    gray = np.ones((40, 220))
+    gray[4, 5:215] = gray[35, 5:215] = 0.0
+    gray[4:36, 5] = gray[4:36, 214] = 0.0
+    seeds = np.full(gray.shape, -2, np.int32)
+    seeds[20, 20:200] = 0
+    xs = [20, 50, 80, 110, 140, 170]
+    s = DepthSession(gray, seeds=seeds)
+    for a, b in zip(xs, xs[1:]):
+        s.add((a, 20), (b, 20))
+    d = s.solve()
+    assert all(d[20, a] - d[20, b] >= 1 - 1e-9 for a, b in zip(xs, xs[1:]))
+    assert sorted(s.region_levels.values()) == [0, 1, 2, 3, 4, 5]
+    assert len(np.unique(s.parts[10:30, 10:205])) == 6
+
+
+def test_cli_fast_depth_of_interlocking_rings(tmp_path):
+    ann = EXAMPLES / "rings" / "drawing.inkray.json"
+    code = main(["--quiet", "depth", str(ann), "-o", str(tmp_path / "d.png"), "--method", "fast",
+                 "--npy", str(tmp_path / "d.npy")])
+    assert code == 0
+    d = np.load(tmp_path / "d.npy")
+    assert d[54, 160] - d[71, 145] >= 1 - 1e-6       # ring_a over ring_b at the top crossing
+    assert d[146, 160] - d[129, 175] >= 1 - 1e-6     # ring_b over ring_a at the bottom one
+
+
+def test_interactive_chain_splits_a_region_when_an_entry_is_added():
+    from inkray.chain import ChainOptions, ReliefChain
+
+    ann, drawing = _rings()
+    chain = ReliefChain(ann, drawing, options=ChainOptions(depth_method="fast", interactive=True))
+    before = chain.depth_map
+    inside = Order(index=2, front=(67.0, 100.0), back=(125.0, 158.0))   # both in ring_a
+    after = chain.edit(replace(ann, order=ann.order + [inside])).depth_map
+    d = after.depth
+    assert d[100, 67] - d[158, 125] >= 1 - 1e-6
+    assert d[54, 160] - d[71, 145] >= 1 - 1e-6 and d[146, 160] - d[129, 175] >= 1 - 1e-6
+    assert len(after.info["levels"]) == len(before.info["levels"]) + 1    # one more part

@@ -34,6 +34,12 @@ def P(x, y):
     return (float(x * SCALE), float(y * SCALE))
 
 
+def ellipse(cx, cy, rx, ry, angle=0.0):
+    c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+    u, v = (XX - cx) * c + (YY - cy) * s, (YY - cy) * c - (XX - cx) * s
+    return (u / rx) ** 2 + (v / ry) ** 2 <= 1
+
+
 def ring(cx, cy, r_out, r_in):
     return disk(cx, cy, r_out) & ~disk(cx, cy, r_in)
 
@@ -64,6 +70,11 @@ SCENES = {
                                            rect(120, 10, 170, 150)),
     "stack of 3 disks": lambda: paint(disk(70, 80, 50), disk(120, 80, 45), disk(165, 80, 40)),
     "eye in head": lambda: paint(disk(110, 80, 70), disk(130, 60, 15)),
+    # The cases the prediction most often misses on real drawings: parts over a body, parts behind.
+    "arm drawn across a body": lambda: paint(ellipse(110, 80, 45, 65), ellipse(90, 85, 14, 50, 35)),
+    "ears behind a head": lambda: paint(disk(75, 45, 18), disk(145, 45, 18), disk(110, 85, 50)),
+    "legs behind a body": lambda: paint(ellipse(85, 130, 15, 35), ellipse(135, 130, 15, 35),
+                                        ellipse(110, 75, 55, 65)),
 }
 
 
@@ -304,8 +315,10 @@ def test_cli_regions_writes_nothing_on_contradiction(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
-    """With the order entries removed, the prediction agrees with them on >= 80 %
-    of the entries whose two regions touch (the figure per drawing is printed)."""
+    """With the order entries removed, the prediction agrees with them on >= 85 %
+    of the entries whose two regions touch (the figure per drawing is printed).
+    In-sample: the weights were fitted on these drawings; the leave-one-out
+    figure is benchmarks/bench_order.py's."""
     from inkray.input.loading import load_input
     from inkray.segmentation import segment
 
@@ -331,4 +344,4 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
     with capsys.disabled():
         print("\n" + "\n".join(lines) + f"\nall: {agree}/{counted} = {agree / counted:.1%} "
               f"({total} entries, {total - counted} between regions that do not touch)")
-    assert agree / counted >= 0.8
+    assert agree / counted >= 0.85

@@ -304,7 +304,7 @@ def test_shared_drawing_scribbles_and_closed_areas(shared_drawings, name):
         frac = (seg.labels[area] == label).mean()
         assert frac >= 0.98, f"area {k} ({area.sum()} px) of {seg.names[label]}: {frac:.3f}"
         checked += 1
-    assert checked >= 3
+    assert checked >= min(3, len(ann.regions))  # rings: two regions, one area each
     assert seg.labels.min() >= -1 and seg.labels.max() < len(ann.regions)
 
 

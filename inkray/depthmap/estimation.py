@@ -8,12 +8,16 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
 - ``method="fast"``: the paper's interactive approximation. (1) LazyBrush
   (Sýkora, Dingliana, Collins, CGF 2009) segments the drawing from seeds at
   the constraint endpoints (and the region and background scribbles when
-  given); (2) equalities merge endpoints into nodes, inequalities are directed
-  edges, Kahn's topological sort gives each node a level (longest chain of
-  inequalities below it); (3) every endpoint pixel, and every pixel of an
-  endpoint's segment that touches another segment across ink, is fixed at its
-  node's level times epsilon; (4) the Laplace equation fills in the rest, so
-  steps stay at ink lines and the depth is smooth across cuts through paper
+  given); (2) the endpoints of one segment share a level as long as that
+  contradicts no entry, otherwise the segment is cut into parts, one per
+  group of its endpoints that can (order is local: two rings that cross
+  twice, an entry with both points in one region); equalities merge nodes,
+  inequalities are directed edges, Kahn's topological sort gives each node a
+  level (longest chain of inequalities below it); (3) every endpoint pixel,
+  and every pixel of an endpoint's segment (or part) that touches another
+  segment across ink, is fixed at its node's level times epsilon; (4) the
+  Laplace equation fills in the rest, so steps stay at ink lines and the
+  depth is smooth across cuts through paper
   and over unconstrained areas. :class:`DepthSession` keeps the segmentation
   and the factorization of step (4) and reuses them when a constraint is
   added or removed.
@@ -61,8 +65,8 @@ class DepthResult:
     info : dict
         ``exact``: ``kkt`` (measured KKT residuals), ``objective``,
         ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
-        (``{segment label: level}`` for the segments holding endpoints),
-        ``labels`` (the segmentation), ``timings``.
+        (``{label: level}`` for the segments, or parts of segments, holding
+        endpoints), ``labels`` (the segmentation with those parts), ``timings``.
     """
 
     depth: np.ndarray
@@ -147,8 +151,10 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
     Raises
     ------
     InputError
-        Unknown method, bad epsilon, or contradictory constraints (the message
-        lists the entries, e.g. ``order[3] -> order[7] -> order[3]: ...``).
+        Unknown method, bad epsilon, or contradictory constraints: with
+        either method only when no depth map can satisfy them (the exact
+        problem is infeasible); the message lists the entries, e.g.
+        ``order[3] -> order[7] -> order[3]: ...``.
 
     Examples
     --------
@@ -189,7 +195,7 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
     else:
         d = session.solve()
     return DepthResult(depth=d, method="fast", epsilon=float(epsilon),
-                       info={"levels": session.region_levels, "labels": session.labels,
+                       info={"levels": session.region_levels, "labels": session.parts,
                              "timings": dict(session.timings)})
 
 
@@ -298,7 +304,9 @@ class DepthSession:
         self._weights = None    # the image's edge weights (wx, wy) and pixel degrees
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
-        self.region_levels = {}  # segment label -> level, after solve()
+        self.parts = None       # the segmentation with split segments, after solve()
+        self._split_cache = {}  # (segment, endpoint groups) -> labels of its parts
+        self.region_levels = {}  # label in ``parts`` -> level, after solve()
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
 
@@ -382,8 +390,9 @@ class DepthSession:
         Raises
         ------
         InputError
-            Contradictory constraints, between points or between the regions
-            they lie in (the entries of a cycle are listed).
+            Contradictory constraints: a cycle of the entries themselves (the
+            entries are listed). Entries that only disagree about whole
+            regions cut those regions into parts instead.
         """
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
@@ -391,17 +400,20 @@ class DepthSession:
         if not len(p):
             self._dirty = set()
             self.region_levels = {}
+            self.parts = self.labels
             return np.zeros((h, w))
         t = time.perf_counter()
         self._segment()
         self.timings["segment"] = time.perf_counter() - t
         t = time.perf_counter()
-        lab = self.labels
-        level = _levels(lab.flat[p], lab.flat[q], ineq, labels, what="region")
-        self.region_levels = level
+        groups, level = _local_levels(p, q, ineq, self.labels)
+        lab = self._split(groups)
+        self.parts = lab
+        self.region_levels = {int(lab.flat[g[0]]): level[g[0]]
+                              for parts in groups.values() for g in parts}
         lo = int(lab.min())
         value = np.full(int(lab.max()) - lo + 1, np.nan)
-        for k, v in level.items():
+        for k, v in self.region_levels.items():
             value[k - lo] = self.epsilon * v
         lvl = value[lab - lo]  # NaN on segments without endpoints: they are free
         fixed = np.zeros((h, w), bool)
@@ -424,6 +436,7 @@ class DepthSession:
 
         if self.labels is not None and not self._dirty:
             return
+        self._split_cache = {}
         if self._scribbles is not None:
             if self.labels is None:
                 self.labels = lazybrush(self.gray, self._scribbles, frame_background=False)
@@ -456,6 +469,52 @@ class DepthSession:
         parts, n = ndimage.label(area)
         for c in range(1, n + 1):
             self._resegment(parts == c)
+
+    def _split(self, groups):
+        """The segmentation with every segment whose endpoints need several levels
+        cut into one part per group (LazyBrush seeded at the groups' endpoints)."""
+        lab = self.labels
+        split = {seg: parts for seg, parts in groups.items() if len(parts) > 1}
+        if not split:
+            return lab
+        from inkray.segmentation import lazybrush
+
+        h, w = self.shape
+        lab = lab.copy()
+        nxt = int(lab.max()) + 1
+        for seg in sorted(split):
+            parts = split[seg]
+            key = (seg, tuple(tuple(g) for g in parts))
+            if key not in self._split_cache:
+                area = self.labels == seg
+                rows = np.flatnonzero(area.any(axis=1))
+                cols = np.flatnonzero(area.any(axis=0))
+                r0, r1 = max(rows[0] - 2, 0), min(rows[-1] + 3, h)
+                c0, c1 = max(cols[0] - 2, 0), min(cols[-1] + 3, w)
+                inside = area[r0:r1, c0:c1]
+                # Outside the segment counts as ink: cutting there is free, so
+                # the cut between the parts runs inside the segment.
+                gray = np.where(inside, self.gray[r0:r1, c0:c1], 0.0)
+                seeds = np.full(inside.shape, -2, np.int32)
+                for k, group in enumerate(parts):
+                    for v in group:
+                        yy, xx = self._disk(v)
+                        yy, xx = yy - r0, xx - c0
+                        keep = inside[yy, xx]
+                        seeds[yy[keep], xx[keep]] = k
+                cut = lazybrush(gray, seeds, frame_background=False, seed_strength=_SEED_STRENGTH)
+                for k, group in enumerate(parts):
+                    for v in group:  # an endpoint always lies in its own part
+                        y, x = divmod(v, w)
+                        cut[y - r0, x - c0] = k
+                self._split_cache[key] = ((r0, r1, c0, c1), np.where(inside, cut, -1))
+            (r0, r1, c0, c1), cut = self._split_cache[key]
+            window = lab[r0:r1, c0:c1]
+            # The first part keeps the segment's label, the others get new ones.
+            ids = np.array([seg] + list(range(nxt, nxt + len(parts) - 1)), np.int32)
+            nxt += len(parts) - 1
+            lab[r0:r1, c0:c1] = np.where(cut >= 0, ids[np.maximum(cut, 0)], window)
+        return lab
 
     def _disk(self, v):
         """Seed pixels of endpoint ``v``: the paper within a small disk that connects to it."""
@@ -550,15 +609,86 @@ class DepthSession:
         return np.where(fixed, vals, d)
 
 
-def _levels(p, q, ineq, labels, *, what="point"):
-    """Level of every node: ``level(front) >= level(back) + 1`` for every inequality.
+def _local_levels(p, q, ineq, labels):
+    """Levels of the endpoints, and how each segment's endpoints group.
 
-    Returns ``{node: level}`` (the longest chain of inequalities below a
-    node, equal nodes sharing one); raises InputError listing the entries of
-    a cycle.
+    The endpoints of one segment share a level (the segment is one node of
+    the region graph) as long as that contradicts no entry; otherwise they
+    form as few groups as needed (greedily, in pixel order), each a part of
+    the segment with its own level. Two rings that cross twice, or an entry
+    with both points in one segment, so give a segment two parts. Only a
+    cycle of the entries themselves (checked before) is a contradiction.
+
+    Returns
+    -------
+    groups : dict
+        ``{segment label: [[endpoint pixel, ...], ...]}``, one list per part.
+    level : dict
+        ``{endpoint pixel: level}``.
     """
-    check_constraints(p, q, ineq, labels, what=what)
+    edges = [(int(p[i]), int(q[i]), bool(ineq[i])) for i in range(len(p))]
+    by_segment = {}
+    for v in sorted({e[0] for e in edges} | {e[1] for e in edges}):
+        by_segment.setdefault(int(labels.flat[v]), []).append(v)
+    groups = {}
+    adjacent = {}  # node -> [(next node, strict)]: orders front to back, equalities both ways
+    for front, back, strict in edges:
+        _link(adjacent, front, back, strict)
+    for seg in sorted(by_segment):
+        ends = by_segment[seg]
+        together = [(ends[0], v, False) for v in ends[1:]]
+        if _acyclic(edges + together):  # the usual case: one check per segment
+            parts = [ends]
+            for _, v, _ in together:
+                _link(adjacent, ends[0], v, False)
+        else:
+            parts = []
+            for v in ends:
+                part = next((g for g in parts if not _ordered_between(adjacent, g[0], v)), None)
+                if part is None:
+                    parts.append([v])
+                else:
+                    part.append(v)
+                    _link(adjacent, part[0], v, False)
+        edges += [(part[0], v, False) for part in parts for v in part[1:]]
+        groups[seg] = parts
+    return groups, _graph(edges).levels()
+
+
+def _link(adjacent, front, back, strict):
+    adjacent.setdefault(front, []).append((back, strict))
+    if not strict:
+        adjacent.setdefault(back, []).append((front, False))
+
+
+def _ordered_between(adjacent, u, v):
+    """Whether a chain of relations with an order on it leads from ``u`` to ``v`` or
+    back: then the two cannot share a level."""
+    for start, goal in ((u, v), (v, u)):
+        seen = {(start, False)}
+        todo = [(start, False)]
+        while todo:
+            node, strict = todo.pop()
+            for nxt, s in adjacent.get(node, ()):
+                state = (nxt, strict or s)
+                if state == (goal, True):
+                    return True
+                if state not in seen:
+                    seen.add(state)
+                    todo.append(state)
+    return False
+
+
+def _graph(edges):
     graph = OrderGraph()
-    for i in range(len(p)):
-        graph.add(int(p[i]), int(q[i]), strict=bool(ineq[i]))
-    return graph.levels()
+    for front, back, strict in edges:
+        graph.add(front, back, strict=strict)
+    return graph
+
+
+def _acyclic(edges):
+    try:
+        _graph(edges).levels()
+    except ValueError:
+        return False
+    return True

@@ -23,7 +23,7 @@ import numpy as np
 
 from inkray.formats.atomic import atomic_outputs
 
-__all__ = ["regions_report", "write_regions_report", "read_regions_report"]
+__all__ = ["predicted_relations", "regions_report", "write_regions_report", "read_regions_report"]
 
 
 def regions_report(segmentation, candidates, completion, relations, *, predict=True,
@@ -75,6 +75,39 @@ def regions_report(segmentation, candidates, completion, relations, *, predict=T
                     "site": p.site} for p in candidates.places],
         "warnings": list(warnings),
     }
+
+
+def predicted_relations(relations, *, below=1.0):
+    """The predicted order relations as lines of text, the least sure first.
+
+    Where a prediction is unsure is where an ``order`` arrow helps most; a
+    confidence of 0.5 or more was right 97 % of the time on the bundled
+    drawings (``benchmarks/bench_order.py``, leave-one-out).
+
+    Parameters
+    ----------
+    relations : list of inkray.relief.ordering.Relation
+    below : float, default 1.0
+        Only predictions with a confidence below this.
+
+    Returns
+    -------
+    list of str
+        ``"head over body at (168, 273): confidence 0.42"``.
+
+    Examples
+    --------
+    >>> from inkray.relief.ordering import Relation
+    >>> r = Relation(front=1, back=0, front_name="head", back_name="body", where=(168.0, 273.0),
+    ...              source="predicted", confidence=0.4213, place=0)
+    >>> predicted_relations([r])
+    ['head over body at (168, 273): confidence 0.42']
+    """
+    guesses = sorted((r for r in relations if r.source == "predicted" and r.kind == "order"
+                      and r.confidence < below),
+                     key=lambda r: (r.confidence, r.place))
+    return [f"{r.front_name} over {r.back_name} at ({r.where[0]:.0f}, {r.where[1]:.0f}): "
+            f"confidence {r.confidence:.2f}" for r in guesses]
 
 
 def write_regions_report(report, path, *, completion=None, masks=None, outputs=None):

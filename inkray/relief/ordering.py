@@ -12,33 +12,17 @@ over B at one crossing, B over A at the other) are two consistent local
 relations. Places that touch form a *site*; within a site the relations must
 be acyclic.
 
-Prediction, per place of a pair ``a``/``b``, from the candidate completions:
-
-- Junction cue. At every junction where their common outline ends at a
-  third label (a T- or Y-junction), and that does not lie on a ``graft`` or
-  ``stitch`` boundary of the annotation, the outlines are measured in a disk
-  around the junction: ``X`` covers the angle ``t`` of the disk, ``X``
-  completed under the other ``t'``; completing ``X`` *straightens* its
-  outline by ``|t - 180| - |t' - 180|`` degrees. The occluded region is the
-  one whose outline its completion straightens more: at an ideal T the stem
-  region gains 90 degrees and the bar region loses 45 (the diffusion splits
-  the bar's half disk along the bisector), a difference of 135; at a Y both
-  gain alike. The disk's radius is three half-widths of the thinner region
-  there, at most ``junction_radius`` (40 px): wide enough to see past the
-  ink strokes of a drawing, narrow enough not to measure a thin band's
-  surroundings instead of the band.
-- Area cue (the paper's "B' larger than B under A"): ``(|B' in A| - |A' in
-  B|) / (|B' in A| + |A' in B|)``, in [-1, 1].
-- The score is ``3 * mean difference / 135 + area_weight * area cue`` (an
-  ideal T counts 3); its sign says who is in front and ``|score| / (3 +
-  area_weight)``, clipped to 1, is the confidence.
-- A place without junctions is a closed contact: one region encloses a part
-  of the other. The enclosing region's completion fills the enclosed part
-  completely (``A'`` covers ``B``), so the enclosed part is in front (an eye
-  on a head, a button on a coat) with the covered fraction as confidence.
-
-The junction radius and the area weight were chosen on the shared drawings
-(see ``docs/regions.md`` for the measured agreement).
+Prediction, per place of a pair ``a``/``b``: the cues of
+:mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
+of each part's outline the contact is) are combined as a logistic model,
+``score = sum(weights[cue] * cue)``; its sign says who is in front and
+``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss, towards 1 when
+sure). :data:`WEIGHTS` and :data:`JUNCTION_RADIUS` were fitted on the
+bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
+leave-one-out (weights fitted without the drawing scored) and how accuracy
+grows with confidence. A global consistency step follows: predictions are
+added strongest first, and one that would close a cycle within its site
+(with the user's entries or stronger predictions) is dropped.
 
 ``equal`` entries say that two regions meet at the same depth where the entry
 is drawn: that place gets a relation of kind ``"equal"``, no prediction, and
@@ -50,15 +34,18 @@ contradiction like ``A > B > A``.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
-from inkray.numerics.polyline import point_polyline_distance
+from inkray.relief.order_cues import CUES, order_cues, outline_lengths
 
-__all__ = ["Relation", "depth_order", "predict_place"]
+__all__ = ["JUNCTION_RADIUS", "Relation", "WEIGHTS", "depth_order", "predict_place"]
 
-_T_SCORE = 135.0  # straightening difference at an ideal T-junction (degrees)
+#: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
+#: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
+WEIGHTS = {"junction": 4.782, "area": 1.223, "surround": 4.143}
+#: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
+JUNCTION_RADIUS = 40.0
 
 
 @dataclass
@@ -113,8 +100,8 @@ class Relation:
         return f"predicted {self.front_name} over {self.back_name}"
 
 
-def depth_order(constraints, labels, completion, *, seams=(), predict=True, junction_radius=40.0,
-                area_weight=0.5, min_confidence=0.0):
+def depth_order(constraints, labels, completion, *, seams=(), predict=True, weights=None,
+                junction_radius=None, min_confidence=0.0):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -130,11 +117,11 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, junc
         ``stitch`` seams.
     predict : bool, default True
         Predict the order of the places the user's entries leave open.
-    junction_radius : float, default 40.0
-        Largest radius in pixels of the disk measured around a junction (see
-        :func:`predict_place`).
-    area_weight : float, default 0.5
-        Weight of the area cue (see :func:`predict_place`).
+    weights : dict, optional
+        Weight of each cue (default :data:`WEIGHTS`), see :func:`predict_place`.
+    junction_radius : float, optional
+        Largest radius in pixels of the disk measured around a junction
+        (default :data:`JUNCTION_RADIUS`).
     min_confidence : float, default 0.0
         Predictions below this confidence are not made (the pair is left
         unordered there, e.g. at a symmetric Y-junction).
@@ -186,12 +173,13 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, junc
     if predict:
         paths = [b.path for b in seams if b.type in ("graft", "stitch")]
         spoken = {r.place for r in user if r.place is not None}
+        outlines = outline_lengths(labels)
         predicted = []
         for place in completion.places:
             if place.index in spoken:
                 continue
-            r = predict_place(completion, place, junction_radius=junction_radius,
-                              area_weight=area_weight, seams=paths)
+            r = predict_place(completion, place, weights=weights, junction_radius=junction_radius,
+                              seams=paths, outlines=outlines)
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
         # Strongest first, so that in a cycle the weakest prediction is the one left out.
@@ -209,31 +197,36 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, junc
     return relations, warnings
 
 
-def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, seams=(),
-                  seam_distance=6.0):
+def predict_place(completion, place, *, weights=None, junction_radius=None, seams=(),
+                  seam_distance=6.0, outlines=None):
     """Predict which region of a place is in front.
 
     Parameters
     ----------
     completion : inkray.relief.completion.Completion
     place : inkray.relief.completion.Place
-    junction_radius : float, default 40.0
-        Largest radius of the disk measured around each junction; it shrinks
-        to three times the half-width of the thinner region there.
-    area_weight : float, default 0.5
-        Weight of the area cue against the junction cue (which counts 3 at an
-        ideal T-junction).
+    weights : dict, optional
+        ``{cue: weight}`` for the cues of
+        :func:`inkray.relief.order_cues.order_cues` (default :data:`WEIGHTS`).
+        The score is the weighted sum; its sign says who is in front and
+        ``2 * sigmoid(|score|) - 1`` is the confidence.
+    junction_radius : float, optional
+        Largest radius of the disk measured around each junction (default
+        :data:`JUNCTION_RADIUS`).
     seams : list of (k, 2) arrays
         Polylines ``[x, y]`` of the annotation's ``graft`` and ``stitch``
         boundaries: there one region grows out of the other or joins it, so a
         junction within ``seam_distance`` pixels of them is no occlusion cue.
     seam_distance : float, default 6.0
+    outlines : (R,) array, optional
+        :func:`inkray.relief.order_cues.outline_lengths` of the labels, when
+        already known.
 
     Returns
     -------
     Relation or None
-        A ``"predicted"`` relation, or None when the place gives no cue
-        (a closed contact where neither side is enclosed, or a tie).
+        A ``"predicted"`` relation, or None when the place gives no cue (all
+        its junctions on seams, or a score of exactly 0).
 
     Examples
     --------
@@ -247,108 +240,27 @@ def predict_place(completion, place, *, junction_radius=40.0, area_weight=0.5, s
     >>> (r.front_name, r.back_name)
     ('eye', 'head')
     """
-    a, b = place.a, place.b
-    junctions = [j for j in place.junctions
-                 if all(point_polyline_distance(j, s) > seam_distance for s in seams)]
-    if junctions:
-        turn = 0.0
-        for j in junctions:
-            radius = _junction_scale(completion.labels, a, b, j, junction_radius)
-            turn += (_straightening(completion, b, a, j, radius)
-                     - _straightening(completion, a, b, j, radius))
-        turn /= len(junctions)
-        score = turn / _T_SCORE * 3.0 + area_weight * _extension(completion, place)
-        if score == 0:
-            return None
-        front, back = (a, b) if score > 0 else (b, a)
-        confidence = min(1.0, abs(score) / (3.0 + area_weight))
-    elif place.junctions:
+    weights = WEIGHTS if weights is None else weights
+    unknown = sorted(set(weights) - set(CUES))
+    if unknown:
+        raise InputError(f"weights: unknown cue {unknown[0]!r} (expected {', '.join(CUES)})")
+    radius = JUNCTION_RADIUS if junction_radius is None else float(junction_radius)
+    if not radius > 0:
+        raise InputError(f"junction_radius: expected a positive radius, got {junction_radius!r}")
+    cues = order_cues(completion, place, outlines=outlines, seams=seams, junction_radius=radius,
+                      seam_distance=seam_distance)
+    if cues is None:
         return None
-    else:
-        enclosed = [x for x in (a, b) if _enclosed(completion.labels, place, x, b if x == a else a)]
-        if len(enclosed) != 1:
-            return None
-        front = enclosed[0]
-        back = b if front == a else a
-        confidence = _covered(completion, place, front, back)
-        if confidence == 0:
-            return None
+    score = sum(float(w) * cues[k] for k, w in weights.items())
+    if score == 0:
+        return None
+    a, b = place.a, place.b
+    front, back = (a, b) if score > 0 else (b, a)
+    confidence = float(np.tanh(abs(score) / 2.0))  # 2 * sigmoid(|score|) - 1
     names = completion.names
     return Relation(front=front, back=back, front_name=names[front], back_name=names[back],
                     where=tuple(float(v) for v in place.where), source="predicted",
-                    confidence=float(confidence), place=place.index)
-
-
-def _junction_scale(labels, a, b, point, limit):
-    """Disk radius for a junction: three half-widths of the thinner of ``a`` and ``b`` nearby.
-
-    A disk much wider than a thin part measures its surroundings, not the
-    junction (a thin band in front covers only a small angle of a big disk).
-    """
-    h, w = labels.shape
-    r = int(np.ceil(limit))
-    y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 2, h)
-    x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 2, w)
-    crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=-2)
-    widths = [ndimage.distance_transform_edt(crop == x).max() for x in (a, b)]
-    return float(np.clip(3.0 * min(widths), 4.0, limit))
-
-
-def _extension(completion, place):
-    """Area cue in [-1, 1]: how much more ``b`` extends under ``a`` than ``a`` under ``b``."""
-    y0, y1, x0, x1 = place.box
-    win = (slice(y0, y1), slice(x0, x1))
-    lab, own = completion.labels[win], completion.owner[win]
-    b_under_a = int((place.mask & (lab == place.a) & (own == place.b)).sum())
-    a_under_b = int((place.mask & (lab == place.b) & (own == place.a)).sum())
-    return (b_under_a - a_under_b) / max(b_under_a + a_under_b, 1)
-
-
-def _straightening(completion, x, other, point, radius):
-    """Degrees by which completing ``x`` under ``other`` straightens its outline at ``point``."""
-    labels, owner = completion.labels, completion.owner
-    h, w = labels.shape
-    px, py = point
-    r = int(np.ceil(radius))
-    y0, y1 = max(int(np.floor(py)) - r, 0), min(int(np.ceil(py)) + r + 1, h)
-    x0, x1 = max(int(np.floor(px)) - r, 0), min(int(np.ceil(px)) + r + 1, w)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    disk = (yy - py) ** 2 + (xx - px) ** 2 <= radius * radius
-    lab, own = labels[y0:y1, x0:x1][disk], owner[y0:y1, x0:x1][disk]
-    visible = lab == x
-    completed = visible | ((lab == other) & (own == x))
-    t = 360.0 * visible.mean()
-    tc = 360.0 * completed.mean()
-    return abs(t - 180.0) - abs(tc - 180.0)
-
-
-def _enclosed(labels, place, x, y):
-    """Whether the parts of ``x`` at this place are surrounded by ``y`` alone."""
-    h, w = labels.shape
-    y0, y1, x0, x1 = place.box
-    crop = np.pad(labels[max(y0 - 1, 0):y1 + 1, max(x0 - 1, 0):x1 + 1], 1, constant_values=-2)
-    oy, ox = y0 - max(y0 - 1, 0) + 1, x0 - max(x0 - 1, 0) + 1
-    mine = crop == x
-    comp, n = ndimage.label(mine)
-    touch = np.zeros(crop.shape, bool)
-    touch[oy:oy + place.mask.shape[0], ox:ox + place.mask.shape[1]] = place.contact
-    ids = np.unique(comp[touch & mine])
-    ids = ids[ids > 0]
-    if ids.size == 0:
-        return False
-    part = np.isin(comp, ids)
-    ring = ndimage.binary_dilation(part) & ~part
-    return bool((crop[ring] == y).all())
-
-
-def _covered(completion, place, front, back):
-    """Fraction of ``front``'s pixels in the place that ``back``'s completion covers."""
-    y0, y1, x0, x1 = place.box
-    win = (slice(y0, y1), slice(x0, x1))
-    mine = place.mask & (completion.labels[win] == front)
-    if not mine.any():
-        return 0.0
-    return float((completion.owner[win][mine] == back).mean())
+                    confidence=confidence, place=place.index)
 
 
 def _user_relation(kind, index, p, q, labels, completion, warnings):

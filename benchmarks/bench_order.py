@@ -1,0 +1,234 @@
+"""Benchmark: depth-order prediction on drawings it was not tuned on, and the fast re-solve.
+
+Usage::
+
+    python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
+
+Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
+for each drawing, the predictor is fitted on all the *other* drawings only:
+the cue weights of :func:`inkray.relief.ordering.predict_place` by
+L2-regularized logistic regression on their annotated ``order`` entries,
+the junction radius and the regularization chosen from a small grid by an
+inner leave-one-out over those drawings (least log-loss).
+Then the held-out drawing's order entries are removed and predicted (with
+the global consistency step of :func:`inkray.relief.ordering.depth_order`).
+A prediction is right when the entry's front region is the predicted front
+region at the entry's place; entries between regions that never touch have
+no place and are not counted.
+
+Prints one row per drawing (entries, right, accuracy, what was chosen
+without it), the overall accuracy, the accuracy per confidence bin of the
+held-out predictions, and the model fitted on all drawings (the values of
+:data:`inkray.relief.ordering.WEIGHTS` and ``JUNCTION_RADIUS``); last, each
+measurement against its target (90 % leave-one-out, 95 % at confidence 0.5
+or more, 0.2 s per re-solve) as a ratio. Then, unless ``--no-resolve``, the fast depth
+method's re-solve time at 512x512 (the bundled turtle with its scribbles)
+after one entry is added between two regions, and after one whose points
+lie in one region (the region is cut into two parts), against the 0.2 s
+target.
+"""
+
+import argparse
+import itertools
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import minimize
+
+from inkray.chain import ChainOptions, ReliefChain
+from inkray.depthmap.estimation import DepthSession
+from inkray.input.constraints import constraints
+from inkray.input.loading import load_input
+from inkray.input.scribbles import seed_image
+from inkray.relief.order_cues import CUES, order_cues, outline_lengths
+from inkray.relief.ordering import depth_order
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+GRID = {"junction_radius": (25.0, 40.0, 80.0), "regularization": (0.1, 1.0)}
+BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
+TARGET = 0.2  # seconds for one fast re-solve after adding an entry
+TARGET_ACCURACY = 0.90  # leave-one-out, all counted entries
+TARGET_SURE = 0.95  # accuracy of the predictions with confidence >= 0.5
+
+
+class _Drawing:
+    """One drawing's candidates, its annotated relations and their cues."""
+
+    def __init__(self, folder):
+        self.name = folder.name
+        ann, drawing = load_input(folder / "drawing.inkray.json")
+        chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
+        self.annotations = ann
+        self.labels = chain.segmentation.labels
+        self.completion = chain.candidates
+        orders = [r for r in chain.relations if r.kind == "order"]
+        self.truth = [r for r in orders if r.place is not None]
+        self.apart = len(orders) - len(self.truth)
+        self._seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
+        self._outlines = outline_lengths(self.labels)
+        self._cues = {}
+
+    def cues(self, radius):
+        """``(X, y)``: the cues of the entries' places (rows; None where the place has
+        no cue) and +1 where the entry's front is the place's region ``a``, else -1."""
+        if radius not in self._cues:
+            rows = []
+            for r in self.truth:
+                place = self.completion.places[r.place]
+                c = order_cues(self.completion, place, outlines=self._outlines,
+                               seams=self._seams, junction_radius=radius)
+                rows.append(None if c is None else [c[k] for k in CUES])
+            y = np.array([1.0 if r.front == self.completion.places[r.place].a else -1.0
+                          for r in self.truth])
+            self._cues[radius] = rows, y
+        return self._cues[radius]
+
+    def score(self, weights, radius):
+        """``[(right, confidence)]`` per counted entry, predicted with its order entries
+        removed (a missing prediction is wrong with confidence 0)."""
+        ann = replace(self.annotations, order=[])
+        rel, _ = depth_order(constraints(ann), self.labels, self.completion,
+                             seams=ann.boundaries, weights=weights, junction_radius=radius)
+        pred = {r.place: (r.front, r.confidence) for r in rel if r.source == "predicted"}
+        return [(pred.get(r.place, (None, 0.0))[0] == r.front, pred.get(r.place, (None, 0.0))[1])
+                for r in self.truth]
+
+
+def _fit(drawings, radius, lam):
+    """Cue weights by L2-regularized logistic regression on the drawings' entries."""
+    X, y = [], []
+    for d in drawings:
+        rows, labels = d.cues(radius)
+        for row, label in zip(rows, labels):
+            if row is not None:
+                X.append(row)
+                y.append(label)
+    X, y = np.asarray(X), np.asarray(y)
+
+    def loss(w):
+        m = y * (X @ w)
+        return (np.logaddexp(0.0, -m).sum() + lam * w @ w,
+                X.T @ (-y * np.exp(-np.logaddexp(0.0, m))) + 2.0 * lam * w)
+
+    w = minimize(loss, np.zeros(len(CUES)), jac=True, method="L-BFGS-B").x
+    return {k: round(float(v), 3) for k, v in zip(CUES, w)}
+
+
+def _log_loss(drawings, weights, radius):
+    """Logistic loss of the drawings' entries under ``weights`` (a place without cues
+    counts as a coin toss)."""
+    w = np.array([weights[k] for k in CUES])
+    loss = 0.0
+    for d in drawings:
+        rows, labels = d.cues(radius)
+        for row, label in zip(rows, labels):
+            loss += np.logaddexp(0.0, -label * np.dot(row, w)) if row is not None else np.log(2.0)
+    return loss
+
+
+def _choose(drawings):
+    """(radius, lambda) of the grid with the least inner leave-one-out log-loss over
+    ``drawings`` (smoother than the count of right entries, so less swayed by one entry)."""
+    def inner(params):
+        return sum(_log_loss([d], _fit([o for o in drawings if o is not d], *params), params[0])
+                   for d in drawings)
+    return min(itertools.product(GRID["junction_radius"], GRID["regularization"]), key=inner)
+
+
+def leave_one_out(drawings):
+    """Per drawing: (what was chosen, [(right, confidence)]) scored without its own entries."""
+    results = {}
+    for held in drawings:
+        others = [d for d in drawings if d is not held]
+        radius, lam = _choose(others)
+        weights = _fit(others, radius, lam)
+        results[held.name] = ({"junction_radius": radius, "regularization": lam, **weights},
+                              held.score(weights, radius))
+    return results
+
+
+def report(drawings, results):
+    print(f"{'drawing':<12} {'entries':>7} {'apart':>5} {'right':>5} {'accuracy':>8}  chosen on the others")
+    total = right = 0
+    scored = []
+    for d in drawings:
+        params, s = results[d.name]
+        ok = sum(r for r, _ in s)
+        total += len(s)
+        right += ok
+        scored += s
+        acc = f"{ok / len(s):.1%}" if s else "-"
+        chosen = " ".join(f"{k}={v:g}" for k, v in params.items())
+        print(f"{d.name:<12} {len(s):>7} {d.apart:>5} {ok:>5} {acc:>8}  {chosen}")
+    print(f"{'all':<12} {total:>7} {sum(d.apart for d in drawings):>5} {right:>5} "
+          f"{right / max(total, 1):>8.1%}")
+    print()
+    print(f"{'confidence':<12} {'entries':>7} {'right':>5} {'accuracy':>8}")
+    for lo, hi in zip(BINS[:-1], BINS[1:]):
+        inbin = [ok for ok, c in scored if lo <= c < hi or (hi == 1.0 and c == 1.0)]
+        acc = f"{sum(inbin) / len(inbin):.1%}" if inbin else "-"
+        print(f"{f'{lo:.2f}-{hi:.2f}':<12} {len(inbin):>7} {sum(inbin):>5} {acc:>8}")
+    sure = [ok for ok, c in scored if c >= 0.5]
+    if sure:
+        print(f"{'>= 0.50':<12} {len(sure):>7} {sum(sure):>5} {sum(sure) / len(sure):>8.1%}")
+    return right / max(total, 1), sum(sure) / max(len(sure), 1)
+
+
+def bench_resolve():
+    """Fast re-solve after one added entry, at 512x512 (the turtle with its scribbles)."""
+    ann, drawing = load_input(EXAMPLES / "turtle" / "drawing.inkray.json")
+    gray = drawing.gray.astype(np.float64)
+    edits = (("between regions (head over shell)", (60.0, 250.0), (200.0, 250.0)),
+             ("inside one region (shell split)", (330.0, 190.0), (250.0, 330.0)))
+    print()
+    head = f"{'added entry (turtle 512x512)':<36} {'first solve':>11} {'re-solve':>9} " \
+           f"{'target':>7} {'re-solve / target':>18}"
+    print(head)
+    print("-" * len(head))
+    worst = 0.0
+    for what, front, back in edits:
+        s = DepthSession(gray, seeds=seed_image(ann))
+        for o in ann.order:
+            s.add(o.front, o.back)
+        t = time.perf_counter()
+        s.solve()
+        first = time.perf_counter() - t
+        s.add(front, back)
+        t = time.perf_counter()
+        s.solve()
+        again = time.perf_counter() - t
+        print(f"{what:<36} {first:>10.3f}s {again:>8.3f}s {TARGET:>6.1f}s {again / TARGET:>18.2f}")
+        worst = max(worst, again)
+    return worst
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--drawings", help="comma-separated folder names under examples/ (default all)")
+    ap.add_argument("--no-resolve", action="store_true", help="skip the fast re-solve timing")
+    args = ap.parse_args(argv)
+    folders = sorted(p.parent for p in EXAMPLES.glob("*/drawing.inkray.json"))
+    if args.drawings:
+        wanted = args.drawings.split(",")
+        folders = [f for f in folders if f.name in wanted]
+    drawings = [_Drawing(f) for f in folders]
+    accuracy, sure = report(drawings, leave_one_out(drawings))
+    radius, lam = _choose(drawings)
+    print(f"\nfitted on all drawings: JUNCTION_RADIUS = {radius:g}, regularization {lam:g}, "
+          f"WEIGHTS = {_fit(drawings, radius, lam)}")
+    rows = [("leave-one-out accuracy", f"{accuracy:.1%}", f"{TARGET_ACCURACY:.0%}",
+             accuracy / TARGET_ACCURACY),
+            ("accuracy, confidence >= 0.5", f"{sure:.1%}", f"{TARGET_SURE:.0%}", sure / TARGET_SURE)]
+    if not args.no_resolve:
+        worst = bench_resolve()
+        rows.append(("fast re-solve, worst", f"{worst:.3f} s", f"{TARGET:g} s", worst / TARGET))
+    print()
+    print(f"{'target':<30} {'measured':>9} {'target':>7} {'measured / target':>18}")
+    for name, measured, target, ratio in rows:
+        print(f"{name:<30} {measured:>9} {target:>7} {ratio:>18.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,83 @@
+"""Cues of depth order at one place (inkray.relief.order_cues)."""
+
+import numpy as np
+import pytest
+
+from inkray.errors import InputError
+from inkray.relief.completion import complete_regions
+from inkray.relief.order_cues import CUES, order_cues, outline_lengths
+from inkray.relief.ordering import WEIGHTS, predict_place
+
+H, W = 200, 260
+YY, XX = np.mgrid[:H, :W]
+
+
+def _disk(cx, cy, r):
+    return (XX - cx) ** 2 + (YY - cy) ** 2 <= r * r
+
+
+def _paint(*shapes):
+    """Later shapes in front; returns labels."""
+    labels = np.full((H, W), -1, np.int32)
+    for i, s in enumerate(shapes):
+        labels[s] = i
+    return labels
+
+
+def _place(c, a, b):
+    (place,) = [p for p in c.places if (p.a, p.b) == (min(a, b), max(a, b))]
+    return place
+
+
+def test_outline_lengths_count_edge_pixels_and_holes():
+    labels = np.full((12, 12), -1, np.int32)
+    labels[2:10, 2:10] = 0
+    labels[5:7, 5:7] = 1                        # a 2x2 hole of another region
+    assert outline_lengths(labels).tolist() == [28 + 4 * 2, 4]
+    labels[:, :] = 0                            # the whole image: its frame is its outline
+    assert outline_lengths(labels).tolist() == [44]
+    assert outline_lengths(np.full((3, 3), -1)).size == 0
+
+
+def test_an_enclosed_part_has_its_whole_outline_on_the_contact():
+    labels = _paint(_disk(130, 100, 80), _disk(150, 80, 15))     # an eye on a head
+    c = complete_regions(labels)
+    cues = order_cues(c, c.places[0])
+    assert set(cues) == set(CUES)
+    assert cues["junction"] == 0.0                              # a closed contact: no junction
+    assert cues["surround"] < -0.9                              # the eye (b) is bounded by the head
+
+
+def test_ears_behind_a_head_read_from_the_junctions():
+    labels = _paint(_disk(85, 50, 22), _disk(175, 50, 22), _disk(130, 110, 65))
+    c = complete_regions(labels)
+    for ear in (0, 1):
+        cues = order_cues(c, _place(c, ear, 2))
+        assert cues["junction"] < 0                             # the head (b) is the bar: in front
+        assert abs(cues["surround"]) < 0.2                      # an ear meets the head only briefly
+
+
+def test_junctions_on_a_seam_give_no_cue():
+    labels = _paint(_disk(85, 50, 22), _disk(130, 110, 65))
+    c = complete_regions(labels)
+    place = c.places[0]
+    seam = np.array([[x, y] for x, y in place.junctions], float)
+    assert order_cues(c, place, seams=[seam]) is None
+    assert predict_place(c, place, seams=[seam]) is None
+
+
+def test_confidence_is_the_logistic_margin_of_the_weighted_cues():
+    labels = _paint(_disk(85, 50, 22), _disk(130, 110, 65))
+    c = complete_regions(labels)
+    place = c.places[0]
+    cues = order_cues(c, place)
+    score = sum(WEIGHTS[k] * cues[k] for k in CUES)
+    r = predict_place(c, place)
+    assert r.front == (place.a if score > 0 else place.b)
+    assert r.confidence == pytest.approx(2.0 / (1.0 + np.exp(-abs(score))) - 1.0)
+    doubled = predict_place(c, place, weights={k: 2 * v for k, v in WEIGHTS.items()})
+    assert doubled.front == r.front and doubled.confidence > r.confidence
+    with pytest.raises(InputError, match="^weights: unknown cue 'size'"):
+        predict_place(c, place, weights={"size": 1.0})
+    with pytest.raises(InputError, match="^junction_radius:"):
+        predict_place(c, place, junction_radius=0)
