@@ -117,6 +117,7 @@ def _cmd_validate(args, progress):
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.validation import Problem, validate
 
+    chain = None
     try:
         ann, drawing = _load(args)
     except InputError as e:
@@ -126,7 +127,8 @@ def _cmd_validate(args, progress):
         problems = [Problem("error", message.split(":", 1)[0], message)]
         ann = None
     else:
-        problems = validate(ReliefChain(ann, drawing, options=ChainOptions(), progress=progress))
+        chain = ReliefChain(ann, drawing, options=ChainOptions(), progress=progress)
+        problems = validate(chain)
     errors = [p for p in problems if p.severity == "error"]
     if args.json:
         doc = {"file": str(args.annotation), "ok": not errors,
@@ -136,6 +138,12 @@ def _cmd_validate(args, progress):
                        counts={"regions": len(ann.regions), "background": len(ann.background),
                                "order": len(ann.order), "equal": len(ann.equal),
                                "boundaries": len(ann.boundaries)})
+        if not errors and chain is not None:
+            doc["predicted"] = [
+                {"front": r.front_name, "back": r.back_name, "where": list(r.where),
+                 "confidence": round(float(r.confidence), 4)}
+                for r in sorted(chain.relations, key=lambda r: (r.confidence, r.place or 0))
+                if r.source == "predicted" and r.kind == "order"]
         print(json.dumps(doc, indent=2, ensure_ascii=False))
         return 2 if errors else 0
     for p in problems:
@@ -149,7 +157,7 @@ def _cmd_validate(args, progress):
           f"{len(ann.background)} background scribbles, {len(ann.order)} order, "
           f"{len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
     if args.predict:
-        _print_predictions(_chain(args, progress).relations)
+        _print_predictions(chain.relations)
     return 0
 
 
@@ -491,7 +499,7 @@ def _parser():
     rl.add_argument("--normals-png", nargs="?", const=True, metavar="PNG",
                     help="also write a front normal map (default name: OUT-normals.png)")
     p["validate"].add_argument("--predict", action="store_true",
-                               help="also segment, complete and list the predicted order "
+                               help="also list the predicted order "
                                     "relations with their confidence")
     p["regions"].add_argument("--masks", metavar="DIR",
                               help="also write each completed region as DIR/NAME.png")
