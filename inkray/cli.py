@@ -250,6 +250,7 @@ def _cmd_depth(args, progress):
 def _cmd_relief(args, progress):
     from inkray.formats.images import write_renderings
     from inkray.formats.meshes import export_files, export_relief
+    from inkray.relief.backing import depth_scaled
     from inkray.view.rendering import render
 
     _check_output(args.output, (".glb", ".obj", ".ply"))
@@ -257,6 +258,10 @@ def _cmd_relief(args, progress):
     _in_range("--max-area", args.max_area, 1e-3, 1e8, "triangle area in px^2")
     if args.epsilon is not None:
         _in_range("--epsilon", args.epsilon, 1e-6, 1e5, "depth step in px")
+    _in_range("--depth-scale", args.depth_scale, 1e-3, 10, "factor on every height")
+    up = args.up or "y"
+    if up != "y" and Path(args.output).suffix.lower() == ".glb":
+        raise InputError(f"--up {up}: a GLB file is always Y up (glTF); --up is for OBJ and PLY")
     out = Path(args.output)
     images = {}
     for flag, mode in (("depth_png", "depth"), ("normals_png", "normals")):
@@ -271,11 +276,13 @@ def _cmd_relief(args, progress):
     if not chain.annotations.regions:
         raise InputError("regions: a relief needs at least one region")
     relief = chain.relief
+    if args.depth_scale != 1.0:
+        relief = depth_scaled(relief, args.depth_scale)
     _warn(chain.warnings)
     with progress.stage("export"):
         with _group(args, chain) as group:
             written = export_relief(relief, out, units_per_pixel=args.units_per_pixel,
-                                    anchor=args.anchor, outputs=group)
+                                    anchor=args.anchor, back=args.back, up=up, outputs=group)
             for mode, target in images.items():
                 write_renderings(render(relief, mode=mode), target, outputs=group)
                 written.append(target)
@@ -494,6 +501,15 @@ def _parser():
                     help="scene units per drawing pixel (default: 0.001)")
     rl.add_argument("--anchor", choices=("center", "top-left"), default="center",
                     help="drawing point at the scene origin (default: center)")
+    rl.add_argument("--back", choices=("double-sided", "plate", "none"), default="double-sided",
+                    help="what open parts show from behind: double-sided materials (GLB), a "
+                         "flat plate closing every part, or nothing (default: double-sided)")
+    rl.add_argument("--up", choices=("y", "z"),
+                    help="up axis of OBJ and PLY files: z for importers that assume Z up, "
+                         "such as Blender's PLY importer (default: y; GLB is always y)")
+    rl.add_argument("--depth-scale", type=float, default=1.0, metavar="S",
+                    help="multiply every height by S: below 1 a shallower relief, every depth "
+                         "order kept (default: 1)")
     rl.add_argument("--depth-png", nargs="?", const=True, metavar="PNG",
                     help="also write a 16-bit front depth image (default name: OUT-depth.png)")
     rl.add_argument("--normals-png", nargs="?", const=True, metavar="PNG",

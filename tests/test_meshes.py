@@ -9,7 +9,7 @@ import trimesh
 
 from _reliefs import SIZE, disk_mask, disk_relief, drawing, grid_part
 from inkray.errors import InputError
-from inkray.formats.meshes import (FORMATS, export_relief, pixel_coordinates, read_meshes,
+from inkray.formats.meshes import (FORMATS, export_relief, pixel_coordinates, read_meshes, read_relief,
                            scene_coordinates)
 from inkray.formats.atomic import atomic_outputs
 from inkray.view.rasterization import rasterize
@@ -26,8 +26,13 @@ def _load(path):
     if path.suffix == ".ply":
         return {"ply": trimesh.load_mesh(path, process=False)}
     scene = trimesh.load_scene(path, process=False, **options)
-    return {node: scene.geometry[geom] for geom in scene.geometry
-            for node in scene.graph.geometry_nodes[geom]}
+    out = {}
+    for geom in scene.geometry:
+        for node in scene.graph.geometry_nodes[geom]:
+            mesh = scene.geometry[geom].copy()
+            mesh.apply_transform(scene.graph[node][0])  # placed as a viewer places it
+            out[node] = mesh
+    return out
 
 
 def _glb_json(path):
@@ -411,3 +416,43 @@ def test_export_never_writes_non_finite_geometry(tmp_path):
     with pytest.raises(InputError):
         export_relief(bad, tmp_path / "r.glb")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_glb_names_nodes_at_part_centres_and_double_sided_materials(tmp_path):
+    relief = disk_relief(closed=False)
+    path = export_relief(relief, tmp_path / "turtle.glb", units_per_pixel=S)[0]
+    tree = _glb_json(path)
+    assert [m["name"] for m in tree["materials"]] == ["turtle"]
+    assert [i["name"] for i in tree["images"]] == ["turtle"]
+    assert all(m.get("doubleSided") for m in tree["materials"])
+    for node in tree["nodes"]:
+        part = next((p for p in relief.parts if p.name == node.get("name")), None)
+        if part is None:
+            continue
+        v = scene_coordinates(part.vertices, SIZE, units_per_pixel=S)
+        np.testing.assert_allclose(node["translation"], (v.min(0) + v.max(0)) / 2, atol=1e-6)
+    tree = _glb_json(export_relief(relief, tmp_path / "one.glb", back="none")[0])
+    assert not any(m.get("doubleSided") for m in tree["materials"])
+
+
+def test_back_plate_makes_watertight_parts_seen_from_every_side(tmp_path):
+    relief = disk_relief(closed=False)
+    path = export_relief(relief, tmp_path / "r.glb", back="plate")[0]
+    for name, mesh in _load(path).items():
+        assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0, name
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply"])
+def test_z_up_files_stand_up_and_read_back_in_place(tmp_path, suffix):
+    relief = disk_relief(closed=False)
+    y_up = read_relief(export_relief(relief, tmp_path / f"y{suffix}")[0])
+    path = export_relief(relief, tmp_path / f"z{suffix}", up="z")[0]
+    raw = np.concatenate([m.vertices for m in _load(path).values()])
+    flat = np.concatenate([m.vertices for m in _load(tmp_path / f"y{suffix}").values()])
+    # standing: the drawing's up along +Z, the side toward the viewer along -Y
+    np.testing.assert_allclose(raw, flat[:, [0, 2, 1]] * [1, -1, 1], atol=1e-6)
+    z_up = read_relief(path)
+    for a, b in zip(y_up.parts, z_up.parts):
+        np.testing.assert_allclose(a.vertices, b.vertices, atol=1e-4)
+    with pytest.raises(InputError, match="GLB is always y"):
+        export_relief(relief, tmp_path / "r.glb", up="z")

@@ -179,7 +179,7 @@ def test_stereo_disparity_is_zero_at_depth_zero_and_grows_with_depth():
 def test_turntable_starts_frontal_and_swings_both_ways():
     relief = _figure()
     frames = render_turntable(relief, frames=4, angle=20, mode="depth")
-    front = render(relief, mode="depth")
+    front = render(relief, mode="depth", frame_yaw=20)  # framed to hold every frame
     assert np.array_equal(frames[0].image, front.image)
     # frames 1 and 3 look from +20 and -20 degrees: mirror-like shifts of the raised head
     c1 = np.nonzero(frames[1].image[34] > 0)[0].mean()
@@ -338,3 +338,18 @@ def test_output_size_keeps_the_aspect_and_refuses_conflicts():
 def test_render_refuses_bad_arguments(kwargs, match):
     with pytest.raises(InputError, match=match):
         render(_figure(), **kwargs)
+
+
+def test_turntable_frames_never_repeat_and_never_crop():
+    relief = _figure()
+    for n in (3, 5, 6, 7):
+        frames = render_turntable(relief, frames=n, angle=60, mode="depth")
+        for a, b in zip(frames, frames[1:] + frames[:1]):
+            assert not np.array_equal(a.image, b.image), n
+    # a wide, deep slab: turned 60 degrees it reaches far past the drawing's frame
+    v = np.array([[1, 5, 0], [78, 5, 40], [78, 55, 40], [1, 55, 0]], float)
+    slab = Relief([Part("slab", v, np.array([[0, 3, 2], [0, 2, 1]]))], size=(80, 60))
+    cropped = render(slab, mode="depth", yaw=-60, frame_yaw=0).mask
+    assert cropped[:, 0].any() or cropped[:, -1].any()  # without the wider frame
+    for f in render_turntable(slab, frames=6, angle=60, mode="depth"):
+        assert not (f.mask[:, 0].any() or f.mask[:, -1].any())

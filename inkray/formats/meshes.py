@@ -32,11 +32,17 @@ from inkray.input.limits import DEFAULT_LIMITS
 from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
-__all__ = ["ANCHORS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes", "pixel_coordinates",
+__all__ = ["ANCHORS", "BACKS", "UPS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes", "pixel_coordinates",
            "read_meshes", "read_relief", "scene_coordinates"]
 
 ANCHORS = ("center", "top-left")
 FORMATS = (".glb", ".obj", ".ply")
+#: What an open relief shows from behind: see :func:`export_relief`.
+BACKS = ("double-sided", "plate", "none")
+#: Up axes of OBJ and PLY files (GLB is Y up by the glTF specification).
+UPS = ("y", "z")
+# Z up: scene (x, y, z) -> file (x, -z, y), a rotation (the winding is kept).
+_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
 
 # PLY header comments carrying what GLB keeps in its scene extras.
 _PLY_PART = re.compile(r"^comment inkray part (\d+) (\S+)$")
@@ -122,12 +128,15 @@ def pixel_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
     return np.stack([p[:, 0] / s + x0, y0 - p[:, 1] / s, p[:, 2] / s], axis=1)
 
 
-def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outputs=None):
+def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=None,
+                  back="double-sided", up="y", outputs=None):
     """Write a relief as GLB, OBJ (+ MTL + PNG) or PLY, chosen by ``path``'s suffix.
 
-    - ``.glb``: one node and one mesh per part, named after it; positions,
-      vertex normals, planar UVs (``TEXCOORD_0``); one material (roughness 1,
-      metallic 0) with the drawing embedded as PNG base-colour texture; scene
+    - ``.glb``: one node and one mesh per part, named after it, the node at
+      the part's centre (its vertices relative to it, so a part turns about
+      itself in an editor); positions, vertex normals, planar UVs
+      (``TEXCOORD_0``); one material (roughness 1, metallic 0) with the
+      drawing embedded as PNG base-colour texture, both named ``name``; scene
       ``extras = {"inkray": {"drawing_size": [W, H], "units_per_pixel": s,
       "anchor": anchor}}``. Indices are unsigned 32-bit; the texture sampler
       filters linearly (mipmapped) and clamps to the edge.
@@ -152,6 +161,20 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
         Scene units per drawing pixel (all axes).
     anchor : {"center", "top-left"}, optional
         Drawing point put at the scene origin.
+    name : str, optional
+        Name of the material and the texture image (default: the file's stem),
+        so that several imported reliefs keep their own.
+    back : {"double-sided", "plate", "none"}, default "double-sided"
+        What an open part shows from behind. ``"double-sided"``: GLB materials
+        are marked double-sided (three.js and Blender then draw the back
+        faces; OBJ and PLY have no such flag and viewers choose).
+        ``"plate"``: every open part is closed down to one flat plane behind
+        the relief (:func:`inkray.relief.backing.back_plate`): watertight, seen
+        from any side. ``"none"``: single-sided, as the surface is.
+    up : {"y", "z"}, default "y"
+        Up axis of OBJ and PLY files: ``"z"`` for importers that assume Z up
+        (Blender's PLY importer), turning the scene so that the relief stands
+        with its front toward -Y. GLB is always Y up.
     outputs : object from :func:`inkray.formats.atomic.atomic_outputs`, optional
         Write into this group (to commit the mesh with other files of one
         command); by default the export is its own group.
@@ -184,14 +207,24 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", outpu
         raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
                          f"(expected {', '.join(FORMATS)})")
     _check_frame(units_per_pixel, anchor)
+    if back not in BACKS:
+        raise InputError(f"back: {back!r} is not one of {', '.join(BACKS)}")
+    if up not in UPS or (suffix == ".glb" and up != "y"):
+        raise InputError(f"up: {up!r}: expected {' or '.join(UPS)} (GLB is always y)")
+    name = path.stem if name is None else str(name)
     _check_relief(relief)
+    if back == "plate":
+        from inkray.relief.backing import back_plate
+
+        relief = back_plate(relief)
     meshes = _scene_meshes(relief, units_per_pixel, anchor)
     if suffix == ".glb":
-        files = {path: _glb_bytes(relief, meshes, units_per_pixel, anchor)}
+        files = {path: _glb_bytes(relief, meshes, units_per_pixel, anchor, name,
+                                  double_sided=back == "double-sided")}
     elif suffix == ".obj":
-        files = _obj_files(relief, meshes, path)
+        files = _obj_files(relief, _turned(meshes, up), path, name, up)
     else:
-        files = {path: _ply_bytes(relief, meshes, units_per_pixel, anchor)}
+        files = {path: _ply_bytes(relief, _turned(meshes, up), units_per_pixel, anchor, up)}
     if outputs is None:
         with atomic_outputs() as out:
             for target, data in files.items():
@@ -296,6 +329,8 @@ def _load(path, *, materials):
     meshes = [m for m in meshes if len(m.faces)]
     if not meshes:
         raise InputError(f"{path}: holds no triangles")
+    if _z_up(path):
+        meshes = [m._replace(vertices=m.vertices @ _Z_UP) for m in meshes]
     for m in meshes:
         bad = np.flatnonzero(~np.isfinite(m.vertices).all(axis=1))
         if len(bad):
@@ -309,6 +344,15 @@ def _load(path, *, materials):
 
 
 # -- validation --------------------------------------------------------------
+
+def _z_up(path):
+    """True for inkray's OBJ and PLY files written with ``up="z"`` (their header says so)."""
+    if path.suffix.lower() not in (".obj", ".ply"):
+        return False
+    with open(path, "rb") as fh:
+        head = fh.read(4096)
+    return b"inkray relief: X right, Z up" in head or b"inkray frame X right, Z up" in head
+
 
 def _check_frame(units_per_pixel, anchor):
     if anchor not in ANCHORS:
@@ -403,6 +447,13 @@ def _scene_meshes(relief, units_per_pixel, anchor):
     return meshes
 
 
+def _turned(meshes, up):
+    if up == "y":
+        return meshes
+    return [m._replace(vertices=m.vertices @ _Z_UP.T, normals=m.normals @ _Z_UP.T)
+            for m in meshes]
+
+
 def _scene_normals(pixel_vertices, faces):
     """Unit vertex normals in the scene frame (y up); +Z where a vertex has no
     area around it, since glTF requires unit normals."""
@@ -437,20 +488,25 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _SAMPLER = {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}
 
 
-def _glb_bytes(relief, meshes, units_per_pixel, anchor):
+def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing", *, double_sided=False):
     import trimesh
     from PIL import Image
 
     from inkray._version import __version__
 
     material = trimesh.visual.material.PBRMaterial(
-        name="drawing", baseColorTexture=Image.fromarray(_texture(relief)),
-        baseColorFactor=[255, 255, 255, 255], metallicFactor=0.0, roughnessFactor=1.0)
+        name=name, baseColorTexture=Image.fromarray(_texture(relief)),
+        baseColorFactor=[255, 255, 255, 255], metallicFactor=0.0, roughnessFactor=1.0,
+        doubleSided=double_sided)
     scene = trimesh.Scene()
     for m in meshes:
-        mesh = trimesh.Trimesh(m.vertices, m.faces, vertex_normals=m.normals, process=False,
+        centre = (m.vertices.min(axis=0) + m.vertices.max(axis=0)) / 2 if len(m.vertices) else 0
+        mesh = trimesh.Trimesh(m.vertices - centre, m.faces, vertex_normals=m.normals,
+                               process=False,
                                visual=trimesh.visual.TextureVisuals(uv=m.uv, material=material))
-        scene.add_geometry(mesh, geom_name=m.name, node_name=m.name)
+        transform = np.eye(4)
+        transform[:3, 3] = centre
+        scene.add_geometry(mesh, geom_name=m.name, node_name=m.name, transform=transform)
     w, h = relief.size
     scene.metadata["inkray"] = {"drawing_size": [int(w), int(h)],
                                 "units_per_pixel": float(units_per_pixel), "anchor": anchor}
@@ -469,6 +525,12 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor):
         tree["samplers"] = [dict(_SAMPLER)]
         for texture in tree["textures"]:
             texture["sampler"] = 0
+        for image in tree.get("images", []):
+            image["name"] = name
+        for node in tree.get("nodes", []):  # a translation, not a matrix: editors show it
+            matrix = node.pop("matrix", None)
+            if matrix is not None:
+                node["translation"] = [float(x) for x in np.asarray(matrix).reshape(4, 4)[3, :3]]
 
     return trimesh.exchange.gltf.export_glb(scene, include_normals=True, unitize_normals=True,
                                             tree_postprocessor=finish)
@@ -490,15 +552,17 @@ def export_files(path):
     return [path]
 
 
-def _obj_files(relief, meshes, path):
+def _obj_files(relief, meshes, path, name="drawing", up="y"):
     # trimesh's OBJ writer names objects only from metadata and rewrites the
     # material; a direct writer gives groups per part and stable file names.
     _, mtl_path, png_path = export_files(path)
-    chunks = ["# inkray relief: X right, Y up, Z toward the viewer\n",
+    frame = "X right, Y up, Z toward the viewer" if up == "y" else \
+        "X right, Z up, -Y toward the viewer"
+    chunks = [f"# inkray relief: {frame}\n",
               f"mtllib {mtl_path.name}\n"]
     base = 1
     for m in meshes:
-        chunks += [f"o {m.name}\ng {m.name}\nusemtl drawing\n",
+        chunks += [f"o {m.name}\ng {m.name}\nusemtl {name}\n",
                    _format_rows("v %.9g %.9g %.9g\n", m.vertices),
                    _format_rows("vt %.9g %.9g\n", m.uv),
                    _format_rows("vn %.6f %.6f %.6f\n", m.normals),
@@ -506,7 +570,7 @@ def _obj_files(relief, meshes, path):
                                 np.repeat(m.faces + base, 3, axis=1))]
         base += len(m.vertices)
     mtl = ["# inkray relief material: the drawing, matte",
-           "newmtl drawing",
+           f"newmtl {name}",
            "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
            "Pr 1", "Pm 0",  # PBR extension (Blender, three.js): roughness 1, metallic 0
            # No "-clamp on": trimesh reads the whole rest of the line as the file name.
@@ -523,7 +587,7 @@ def _format_rows(line, array):
 
 # -- PLY ---------------------------------------------------------------------
 
-def _ply_bytes(relief, meshes, units_per_pixel, anchor):
+def _ply_bytes(relief, meshes, units_per_pixel, anchor, up="y"):
     import trimesh
 
     offsets = np.cumsum([0] + [len(m.vertices) for m in meshes])
@@ -542,7 +606,8 @@ def _ply_bytes(relief, meshes, units_per_pixel, anchor):
     w, h = relief.size
     comments = [f"comment inkray drawing_size {int(w)} {int(h)} units_per_pixel "
                 f"{float(units_per_pixel)!r} anchor {anchor}",
-                "comment inkray frame X right, Y up, Z toward the viewer"]
+                "comment inkray frame X right, Y up, Z toward the viewer" if up == "y" else
+                "comment inkray frame X right, Z up, -Y toward the viewer"]
     comments += [f"comment inkray part {i} {m.name}" for i, m in enumerate(meshes)]
     head, sep, body = data.partition(b"end_header\n")
     lines = [ln for ln in head.decode("ascii").splitlines() if not ln.startswith("comment ")]
@@ -650,11 +715,12 @@ def read_relief(path):
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
     >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
     >>> back = read_relief(p)
-    >>> back.size, np.round(back.parts[0].vertices, 3).tolist()
+    >>> back.size, (np.round(back.parts[0].vertices, 3) + 0.0).tolist()
     ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
     """
     path = Path(path)
     scene, meshes = _load(path, materials=True)
+    z_up = _z_up(path)
     texture, pairs = None, []
     for node in scene.graph.nodes_geometry:
         transform, geom_name = scene.graph[node]
@@ -672,7 +738,7 @@ def read_relief(path):
                                  f"({type(e).__name__}: {str(e) or 'corrupt data'})") from None
             DEFAULT_LIMITS.check_pixels((texture.shape[1], texture.shape[0]), f"{path}: texture")
         v = np.asarray(geom.vertices, float) @ transform[:3, :3].T + transform[:3, 3]
-        pairs.append((v, np.asarray(uv, float)))
+        pairs.append((v @ _Z_UP if z_up else v, np.asarray(uv, float)))
     frame = _frame(scene, path)
     allv = np.concatenate([m.vertices for m in meshes])
     if frame is not None:

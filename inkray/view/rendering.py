@@ -148,7 +148,7 @@ def output_size(drawing_size, *, size=None, width=None, height=None, max_side=No
 
 def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
            flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
-           progress=None):
+           progress=None, frame_yaw=None):
     """Render a relief seen from the front (or from ``yaw`` degrees to the side).
 
     Parameters
@@ -179,6 +179,10 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         centre; positive moves the camera to the viewer's right.
     seed : int, optional
         ``gi``: sampler seed (renders are deterministic for a seed).
+    frame_yaw : float, optional
+        Turned views (not ``gi``): the image holds the relief as seen from any
+        yaw up to this one, so nothing is cropped (default: ``yaw``; a
+        turntable passes its largest angle so every frame has one scale).
     progress : inkray.progress.Progress, optional
         ``gi`` reports its passes on it.
 
@@ -204,13 +208,14 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
     ((20, 20, 4), 144)
     """
     relief, size, light, yaw = _check(relief, mode, size, light, ambient, disparity, spp, yaw)
+    frame = _frame_width(relief, abs(yaw) if frame_yaw is None else abs(float(frame_yaw)))
     if mode == "normals":
-        return _normals(relief, size, yaw)
+        return _normals(relief, size, yaw, frame)
     if mode == "depth":
-        return _depth(relief, size, yaw)
+        return _depth(relief, size, yaw, frame)
     layers = _Layers(relief, flat_colors)
     if mode == "shade":
-        rgba = _shade(relief, layers, size, yaw, light, ambient)
+        rgba = _shade(relief, layers, size, yaw, light, ambient, frame=frame)
         return Rendering("shade", rgba, rgba[..., 3] > 0)
     if mode == "stereo":
         return _stereo(relief, layers, size, yaw, light, ambient, disparity)
@@ -220,8 +225,11 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
 def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=None, **options):
     """Frames of a camera swinging around the vertical axis (small angles).
 
-    The yaw of frame ``k`` is ``angle * sin(2 pi k / frames)``: the sequence
-    starts frontal and loops smoothly.
+    The yaw starts frontal, swings to ``angle``, over to ``-angle`` and back,
+    piecewise linearly through frames that land exactly on both extremes, so
+    no two consecutive frames show one view and the sequence loops; every
+    frame has the scale that holds the relief at the largest angle, so
+    nothing is cropped.
 
     Parameters
     ----------
@@ -257,11 +265,14 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
     if "yaw" in options:
         raise InputError("turntable: 'yaw' is set per frame; pass 'angle' instead")
     out = []
-    for k in range(frames):
-        yaw = float(angle) * np.sin(2 * np.pi * k / frames)
+    first = max(1, round(frames / 4))
+    knots = [0, first, max(first + 1, round(3 * frames / 4)), frames]
+    yaws = np.interp(np.arange(frames), knots, [0.0, angle, -angle, 0.0])
+    for k, yaw in enumerate(yaws.tolist()):
         # one frame: the render's own passes; several: one tick per frame
         inner = progress if frames == 1 else None
-        out.append(render(relief, mode=mode, yaw=yaw, progress=inner, **options))
+        out.append(render(relief, mode=mode, yaw=yaw, progress=inner, frame_yaw=angle,
+                          **options))
         if progress is not None:
             progress.update(k + 1, frames)
     return out
@@ -308,10 +319,34 @@ def _yaw_view(relief, yaw):
     return np.array([[c, 0, -s, cx - c * cx], [0, 1, 0, 0], [s, 0, c, -s * cx]])
 
 
-def _raster(relief, size, yaw, factor=1, shear=0.0):
-    """Rasterize at ``factor`` times ``size``, fitted and centred like the final image."""
+def _frame_width(relief, yaw):
+    """Width in drawing pixels that holds the relief seen from every yaw up to ``yaw``.
+
+    At least the drawing's width; symmetric about its centre (the turning axis).
+    """
+    w = relief.size[0]
+    if yaw == 0:
+        return float(w)
+    cx = (w - 1) / 2.0
+    v = np.concatenate([np.asarray(p.vertices, float) for p in relief.parts])
+    reach = 0.0
+    for a in np.radians(np.linspace(-yaw, yaw, 9)):
+        x = np.cos(a) * (v[:, 0] - cx) - np.sin(a) * v[:, 2]
+        reach = max(reach, float(np.abs(x).max()) + 0.5)
+    return max(float(w), 2 * reach * 1.02)
+
+
+def _raster(relief, size, yaw, factor=1, shear=0.0, frame=None):
+    """Rasterize at ``factor`` times ``size``, fitted and centred like the final image.
+
+    ``frame`` is the width (drawing pixels) the image must hold: wider than
+    the drawing for turned views (see :func:`_frame_width`).
+    """
     w, h = size
-    scale, offset = fit_view(relief.size, size)
+    dw, dh = relief.size
+    frame = float(dw) if frame is None else frame
+    scale, offset = fit_view((frame, dh), size)
+    offset = (offset[0] + (frame - dw) / 2 * scale, offset[1])
     view = _yaw_view(relief, yaw)
     view[0] += shear * view[2]  # x += shear * depth: an off-axis stereo camera
     return rasterize(relief, size=(w * factor, h * factor), scale=scale * factor,
@@ -454,8 +489,8 @@ def _sample(image, uv, outside=None):
 
 # -- raster modes ------------------------------------------------------------------
 
-def _normals(relief, size, yaw):
-    r = _raster(relief, size, yaw)
+def _normals(relief, size, yaw, frame=None):
+    r = _raster(relief, size, yaw, frame=frame)
     n = r.normal * [1, -1, 1]  # relief frame (y down) -> OpenGL (y up)
     rgba = np.zeros(r.mask.shape + (4,), np.uint8)
     rgba[..., :3] = np.where(r.mask[..., None], np.rint((n + 1) * 127.5), 0).astype(np.uint8)
@@ -463,15 +498,15 @@ def _normals(relief, size, yaw):
     return Rendering("normals", rgba, r.mask)
 
 
-def _depth(relief, size, yaw):
-    r = _raster(relief, size, yaw)
+def _depth(relief, size, yaw, frame=None):
+    r = _raster(relief, size, yaw, frame=frame)
     img, depth_range = quantize16(r.depth, r.mask)
     return Rendering("depth", img, r.mask, depth_range=depth_range)
 
 
-def _shade(relief, layers, size, yaw, light, ambient, shear=0.0):
+def _shade(relief, layers, size, yaw, light, ambient, shear=0.0, frame=None):
     ss = _supersample(size)
-    r = _raster(relief, size, yaw, ss, shear)
+    r = _raster(relief, size, yaw, ss, shear, frame)
     albedo, ink = layers.sample(r)
     l_dir = light * [1, -1, 1]  # user frame (y up) -> relief frame (y down)
     n = r.normal
