@@ -456,3 +456,17 @@ def test_z_up_files_stand_up_and_read_back_in_place(tmp_path, suffix):
         np.testing.assert_allclose(a.vertices, b.vertices, atol=1e-4)
     with pytest.raises(InputError, match="GLB is always y"):
         export_relief(relief, tmp_path / "r.glb", up="z")
+
+
+def test_ply_vertex_colours_come_back_as_the_drawing():
+    import tempfile
+
+    relief = disk_relief(closed=False)
+    path = export_relief(relief, Path(tempfile.mkdtemp()) / "r.ply")[0]
+    back = read_relief(path)
+    assert back.texture is not None and back.texture.shape == relief.texture.shape
+    mask = disk_mask()
+    got = back.texture[mask].astype(float).ravel()
+    same = np.corrcoef(got, relief.texture[mask].astype(float).ravel())[0, 1]
+    flipped = np.corrcoef(got, relief.texture[::-1][mask].astype(float).ravel())[0, 1]
+    assert same > 0.6 and same > flipped + 0.3, (same, flipped)  # blurred by the mesh only

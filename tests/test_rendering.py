@@ -294,7 +294,7 @@ def test_read_relief_places_inkray_files_in_drawing_pixels(tmp_path, suffix):
         assert np.abs(by_name[p.name].vertices - p.vertices).max() < 1e-3
         assert np.array_equal(by_name[p.name].faces, p.faces)
     if suffix == ".ply":
-        assert back.texture is None  # PLY carries per-vertex colours only
+        assert back.texture.shape == relief.texture.shape  # baked from its vertex colours
     else:
         assert np.array_equal(back.texture, relief.texture)
 

@@ -156,7 +156,8 @@ def quality_report(meshes, *, self_intersections=True):
     (2, 2, False)
     """
     parts = []
-    for name, vertices, faces in meshes:
+    for mesh in meshes:
+        name, vertices, faces = mesh[:3]  # NamedMesh or (name, vertices, faces)
         parts.append({"name": str(name),
                       **mesh_quality(vertices, faces, self_intersections=self_intersections)})
     return {"parts": parts, "overall": _overall(parts)}

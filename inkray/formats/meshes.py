@@ -59,11 +59,14 @@ class NamedMesh(NamedTuple):
         Positions in the file's frame (for inkray's files: the scene frame).
     faces : (m, 3) int array
         Vertex indices, in the file's winding.
+    colors : (n, 3) uint8 array or None
+        Vertex colours, where the file has them (PLY).
     """
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
+    colors: np.ndarray = None
 
 
 def scene_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
@@ -668,17 +671,27 @@ def _read_ply(path):
         return []
     v = np.asarray(mesh.vertices, float)
     f = np.asarray(mesh.faces, np.int64)
+    columns = mesh.metadata.get("_ply_raw", {}).get("vertex", {}).get("data")
+    # binary PLY: a structured array; ASCII: a dict of columns
+    fields = set(getattr(getattr(columns, "dtype", None), "names", None) or
+                 (columns.keys() if isinstance(columns, dict) else ()))
+    rgb = None
+    if {"red", "green", "blue"} <= fields:
+        rgb = np.stack([np.asarray(columns[c]).reshape(-1) for c in ("red", "green", "blue")],
+                       axis=1).astype(np.uint8)
+        rgb = rgb if len(rgb) == len(v) else None
     raw = mesh.metadata.get("_ply_raw", {}).get("face", {}).get("data")
     part = None
     if names and raw is not None and raw.dtype.names and "part" in raw.dtype.names:
         part = np.asarray(raw["part"]).reshape(-1)
     if part is None or len(part) != len(f):
-        return [NamedMesh(path.stem, v, f)]
+        return [NamedMesh(path.stem, v, f, rgb)]
     meshes = []
     for i in sorted(set(part.tolist())):
         sub = f[part == i]
         used, inverse = np.unique(sub, return_inverse=True)
-        meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3)))
+        meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3),
+                                None if rgb is None else rgb[used]))
     return meshes
 
 
@@ -759,7 +772,31 @@ def read_relief(path):
             return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
                              v[:, 2] / s], axis=1)
     parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
-    return Relief(parts, size=(int(size[0]), int(size[1])), texture=texture)
+    size = (int(size[0]), int(size[1]))
+    if texture is None and path.suffix.lower() == ".ply":
+        texture = _ply_colour_texture(parts, [m.colors for m in meshes], size)
+    return Relief(parts, size=size, texture=texture)
+
+
+def _ply_colour_texture(parts, colours, size):
+    """The drawing baked back from a PLY's vertex colours (its only picture), or None.
+
+    Each pixel takes the colours of the front-most triangle over it,
+    interpolated barycentrically; pixels no triangle covers are white.
+    """
+    from inkray.view.rasterization import rasterize
+
+    if any(c is None for c in colours):
+        return None
+    raster = rasterize(Relief(parts, size))
+    texture = np.full((size[1], size[0], 3), 255.0)
+    hit = raster.mask
+    for i, part in enumerate(parts):
+        sel = hit & (raster.part == i)
+        corners = colours[i][np.asarray(part.faces)[raster.face[sel]]]
+        texture[sel] = np.einsum("nk,nkc->nc", raster.bary[sel], corners)
+    return np.clip(np.rint(texture), 0, 255).astype(np.uint8)
+
 
 
 def _frame(scene, path):
