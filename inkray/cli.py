@@ -287,6 +287,30 @@ def _cmd_demo(args, progress):
     return 0
 
 
+def _cmd_maps(args, progress):
+    from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
+
+    if args.ao_radius is not None and not args.ao_radius >= 1:
+        raise InputError(f"--ao-radius {args.ao_radius}: expected at least 1 pixel")
+    out = Path(args.output)
+    if out.suffix:
+        raise InputError(f"-o {out}: expected a folder (no suffix)")
+    chain = _chain(args, progress)
+    if not chain.annotations.regions:
+        raise InputError("regions: sprite maps need at least one region")
+    relief = chain.relief
+    _warn(chain.warnings)
+    seg = chain.segmentation
+    with progress.stage("maps"):
+        maps = sprite_maps(relief, seg.labels, seg.names, convention=args.convention,
+                           ao_radius=args.ao_radius)
+        written = write_sprite_maps(maps, out)
+    progress.summary()
+    print(f"{out}/: {args.convention} normals, height, ambient occlusion and part IDs of "
+          f"{len(seg.names)} regions ({', '.join(p.name for p in written)})")
+    return 0
+
+
 def _beside(compute):
     """Start ``compute()`` in a forked process when there is a core to spare.
 
@@ -334,6 +358,7 @@ _COMMANDS = {
     "relief": (_cmd_relief, "bas-relief mesh (GLB, OBJ or PLY)"),
     "render": (_cmd_render, "render a relief mesh"),
     "check": (_cmd_check, "mesh-quality report"),
+    "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
 }
 
@@ -356,7 +381,7 @@ def _parser():
     p = {}
     for name, (_, help_) in _COMMANDS.items():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
-    for name in ("validate", "segment", "regions", "depth", "relief"):
+    for name in ("validate", "segment", "regions", "depth", "relief", "maps"):
         _add_input(p[name])
     for name in ("segment", "regions", "depth", "relief"):
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
@@ -428,6 +453,12 @@ def _parser():
                             help="exit 1 unless every part meets these, comma-separated: "
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
                                  "no-self-intersections, no-degenerate, no-duplicates")
+    p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    p["maps"].add_argument("--convention", choices=("opengl", "directx"), default="opengl",
+                           help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
+                                "or directx y down (Unreal) (default: opengl)")
+    p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
+                           help="ambient occlusion radius (default: 3%% of the longer side)")
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
