@@ -287,6 +287,30 @@ def _cmd_demo(args, progress):
     return 0
 
 
+def _cmd_layers(args, progress):
+    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
+    from inkray.relief.cutout import cut_out
+
+    _check_output(args.output, LAYER_SUFFIXES)
+    if args.pad < 0:
+        raise InputError(f"--pad {args.pad}: expected a whole number of pixels >= 0")
+    chain = _chain(args, progress, predict=not args.no_predict)
+    if not chain.annotations.regions:
+        raise InputError("regions: a layer stack needs at least one region")
+    completion, relations = chain.completion, chain.relations
+    with progress.stage("layers"):
+        stack = cut_out(completion, relations, chain.drawing, pad=args.pad,
+                        split_local=args.split_local, background=args.background)
+    _warn(chain.warnings + stack.warnings)
+    with progress.stage("write"):
+        write_layers(stack, args.output)
+    progress.summary()
+    split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
+    print(f"{args.output}: {len(stack.layers)} layers back to front: "
+          f"{', '.join(layer.name for layer in stack.layers)}{split}")
+    return 0
+
+
 def _cmd_maps(args, progress):
     from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
 
@@ -358,6 +382,7 @@ _COMMANDS = {
     "relief": (_cmd_relief, "bas-relief mesh (GLB, OBJ or PLY)"),
     "render": (_cmd_render, "render a relief mesh"),
     "check": (_cmd_check, "mesh-quality report"),
+    "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
 }
@@ -381,7 +406,7 @@ def _parser():
     p = {}
     for name, (_, help_) in _COMMANDS.items():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
-    for name in ("validate", "segment", "regions", "depth", "relief", "maps"):
+    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps"):
         _add_input(p[name])
     for name in ("segment", "regions", "depth", "relief"):
         p[name].add_argument("-o", "--output", required=True, metavar="PATH", help="output file")
@@ -453,6 +478,18 @@ def _parser():
                             help="exit 1 unless every part meets these, comma-separated: "
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
                                  "no-self-intersections, no-degenerate, no-duplicates")
+    ly = p["layers"]
+    ly.add_argument("-o", "--output", required=True, metavar="PATH", help="output file (.psd or .ora)")
+    ly.add_argument("--pad", type=int, default=0, metavar="PX",
+                    help="continue each part PX pixels further under the parts in front of it "
+                         "(default: 0)")
+    ly.add_argument("--split-local", action="store_true",
+                    help="split a part that is over another at one place and under it at "
+                         "another (interlocking) into two layers at the crossing")
+    ly.add_argument("--background", action="store_true",
+                    help="add a bottom layer: the drawing around the character, paper under it")
+    ly.add_argument("--no-predict", action="store_true",
+                    help="use only the annotation's order entries, predict nothing")
     p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     p["maps"].add_argument("--convention", choices=("opengl", "directx"), default="opengl",
                            help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
