@@ -311,6 +311,22 @@ def _cmd_layers(args, progress):
     return 0
 
 
+def _cmd_batch(args, progress):
+    from inkray.batch import run_batch
+
+    try:
+        report = run_batch(args.pattern, args.output, jobs=args.jobs, scheduler=args.scheduler,
+                           workers=args.workers, progress=progress)
+    except KeyboardInterrupt:
+        print(f"inkray: interrupted; finished frames are kept in {args.output}/ and skipped "
+              f"when the batch runs again", file=sys.stderr)
+        return 130
+    counts = report["counts"]
+    print(f"{args.output}/: {counts['done']} done, {counts['skipped']} skipped, "
+          f"{counts['failed']} failed (report {Path(args.output) / 'batch-report.json'})")
+    return 1 if counts["failed"] else 0
+
+
 def _cmd_maps(args, progress):
     from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
 
@@ -384,6 +400,7 @@ _COMMANDS = {
     "check": (_cmd_check, "mesh-quality report"),
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
 }
 
@@ -496,6 +513,17 @@ def _parser():
                                 "or directx y down (Unreal) (default: opengl)")
     p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
                            help="ambient occlusion radius (default: 3%% of the longer side)")
+    b = p["batch"]
+    b.add_argument("pattern", metavar="PATTERN",
+                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
+    b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
+                   help="comma-separated jobs per frame: relief, render, layers, maps "
+                        "(default: all)")
+    b.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
+    b.add_argument("--workers", type=int, metavar="N",
+                   help="worker processes of the local cluster (default: one per core)")
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
