@@ -41,3 +41,12 @@ def test_bad_input_is_rejected():
         ambient_occlusion(np.zeros((4, 4)), mask=np.ones((3, 3), bool))
     with pytest.raises(InputError, match="height"):
         ambient_occlusion(np.full((4, 4), np.nan))
+
+
+def test_a_tilted_plane_occludes_nothing_but_a_step_on_it_does():
+    y, x = np.mgrid[0:40, 0:60].astype(float)
+    plane = 0.8 * x + 0.3 * y
+    ao = ambient_occlusion(plane, radius=8)
+    assert np.allclose(ao[8:-8, 8:-8], 1.0)
+    stepped = plane + np.where(x >= 30, 10.0, 0.0)
+    assert ambient_occlusion(stepped, radius=8)[20, 29] < 0.8

@@ -3,8 +3,9 @@
 Horizon-based ambient occlusion (Bavoil, Sainz and Dimitrov, "Image-space
 horizon-based ambient occlusion", SIGGRAPH 2008 talks) measures, in a number
 of directions around each pixel, how high the surrounding surface rises above
-it: the sine of the horizon's elevation angle is the fraction of that
-direction's half-plane hidden from the sky. Averaged over the directions and
+the pixel's tangent plane: the sine of the horizon's elevation minus the
+sine of the tangent's is the fraction of that direction's slice of the
+hemisphere hidden from the sky. Averaged over the directions and
 attenuated with distance, it is the ambient light a pixel does *not* get.
 
 Here the height field is the front view of an Ink-and-Ray relief (Sýkora et
@@ -73,6 +74,7 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
     pad = int(np.ceil(radius)) + 1
     padded = np.pad(field, pad, mode="constant", constant_values=ground)
     rows, cols = h.shape
+    gx, gy = _slope(field, axis=1), _slope(field, axis=0)
     occlusion = np.zeros(h.shape)
     for k in range(int(directions)):
         angle = 2 * np.pi * k / int(directions)
@@ -89,8 +91,24 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
             if dist > radius:
                 continue
             rise = padded[pad + oy:pad + oy + rows, pad + ox:pad + ox + cols] - field
-            # sin(atan(rise / dist)), faded with distance; only rises occlude.
-            sine = np.maximum(rise, 0.0) / np.sqrt(rise * rise + dist * dist)
-            np.maximum(best, sine * (1.0 - (dist / radius) ** 2), out=best)
+            # The surface's own tangent plane occludes nothing: the sine of the
+            # sample's elevation counts above the tangent's, faded with distance.
+            tangent = gx * ox + gy * oy
+            base = tangent / np.sqrt(tangent * tangent + dist * dist)
+            sine = rise / np.sqrt(rise * rise + dist * dist)
+            np.maximum(best, (sine - base) * (1.0 - (dist / radius) ** 2), out=best)
         occlusion += best
-    return np.where(mask, 1.0 - occlusion / int(directions), 1.0)
+    return np.where(mask, np.clip(1.0 - occlusion / int(directions), 0.0, 1.0), 1.0)
+
+
+def _slope(field, *, axis):
+    """Height change per pixel along ``axis``: the smaller of the one-sided differences.
+
+    Across a step (a part in front of another) one side is the step and the
+    other the surface itself; the smaller one keeps the surface's slope, so
+    the foot of the step stays a crease (minmod limiter).
+    """
+    d = np.diff(field, axis=axis)
+    zero = np.zeros_like(np.take(d, [0], axis=axis))
+    back, ahead = np.concatenate([zero, d], axis=axis), np.concatenate([d, zero], axis=axis)
+    return np.where(back * ahead > 0, np.sign(back) * np.minimum(abs(back), abs(ahead)), 0.0)

@@ -1,0 +1,94 @@
+"""Benchmark of ``inkray batch``: frames per minute with 1 and 2 Dask workers.
+
+The frames are the bundled drawings (``examples/*/drawing.inkray.json``, at
+their own sizes), repeated ``--repeat`` times as copies so that a run has
+enough frames to keep every worker busy. Each row starts a local cluster of
+that many worker processes (one thread each), then times ``run_batch`` on a
+fresh output folder (nothing skipped); the cluster's start is reported
+apart. The baseline is one worker; a second row without Dask runs
+``run_frame`` on every frame in this process, the cost of the work alone.
+
+Usage::
+
+    python benchmarks/bench_batch.py [--jobs relief,render,layers,maps] [--repeat 2] [--workers 1,2]
+"""
+
+import argparse
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+def _frames(folder, repeat):
+    """Copies of every bundled drawing's folder, ``repeat`` times; the glob pattern."""
+    for k in range(repeat):
+        for src in sorted(EXAMPLES.iterdir()):
+            if (src / "drawing.inkray.json").is_file():
+                shutil.copytree(src, folder / f"{src.name}-{k}")
+    return str(folder / "*" / "drawing.inkray.json")
+
+
+def _in_process(pattern, jobs):
+    from inkray.batch import find_frames, run_frame
+
+    frames = find_frames(pattern)
+    start = time.perf_counter()
+    for f in frames:
+        result = run_frame(f.annotation, jobs)
+        if result["status"] != "done":
+            raise SystemExit(f"{f.annotation}: {result['error']}")
+    return len(frames), time.perf_counter() - start
+
+
+def _on_dask(pattern, jobs, workers, out):
+    from distributed import LocalCluster
+
+    from inkray.batch import run_batch
+
+    start = time.perf_counter()
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                      dashboard_address=":0") as cluster:
+        started = time.perf_counter() - start
+        start = time.perf_counter()
+        report = run_batch(pattern, out, jobs=jobs, scheduler=cluster.scheduler_address)
+        wall = time.perf_counter() - start
+    if report["counts"]["failed"]:
+        raise SystemExit(f"{report['counts']['failed']} frames failed")
+    return report["counts"]["done"], wall, started
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", default="relief,render,layers,maps")
+    parser.add_argument("--repeat", type=int, default=2, help="copies of every drawing")
+    parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
+    args = parser.parse_args()
+    jobs = tuple(args.jobs.split(","))
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        pattern = _frames(tmp / "shots", args.repeat)
+        rows = []
+        n, wall = _in_process(pattern, jobs)
+        rows.append(("in process, no Dask", n, wall, None))
+        for workers in (int(w) for w in args.workers.split(",")):
+            n, wall, started = _on_dask(pattern, jobs, workers, tmp / f"out-{workers}")
+            rows.append((f"{workers} worker{'s' if workers > 1 else ''}", n, wall, started))
+    base = next(r for r in rows if r[0].startswith("1 worker"))
+    print(f"jobs {','.join(jobs)}; {os.cpu_count()} cores; frames: the bundled drawings x "
+          f"{args.repeat}")
+    print(f"| run | frames | wall s | frames/min | vs 1 worker | cluster start s |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, n, wall, started in rows:
+        fpm = 60.0 * n / wall
+        ratio = fpm / (60.0 * base[1] / base[2])
+        start = "-" if started is None else f"{started:.1f}"
+        print(f"| {name} | {n} | {wall:.1f} | {fpm:.1f} | {ratio:.2f}x | {start} |")
+
+
+if __name__ == "__main__":
+    main()
