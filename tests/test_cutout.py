@@ -90,6 +90,12 @@ def test_background_layer_makes_the_whole_drawing(drawn):
         chain.drawing.rgb.shape[:2]
     flat = full.flatten()
     assert np.all(flat[..., 3] == 255) and psnr(flat[..., :3], chain.drawing.rgb) >= 35.0
+    under = full.layers[0]
+    character = chain.segmentation.labels >= 0
+    assert np.all(under.rgba[..., 3] == 255) and np.array_equal(under.hidden, character)
+    # Paper continued under the character: as light as the paper around it.
+    paper = np.median(chain.drawing.rgb[~character].astype(float))
+    assert np.abs(under.rgba[..., :3][character].astype(float) - paper).mean() < 20
 
 
 def test_harmonic_fill_blends_the_visible_colours_across_the_hidden_part():

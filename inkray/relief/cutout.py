@@ -294,17 +294,14 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     ink_colour, width = stroke_style(rgb, gray)
     layers = []
     if background:
-        visible = labels < 0
-        layers.append(_layer("background", -1, visible, ~visible, visible, rgb, gray,
-                             ink_colour, 0.0))
+        everywhere = np.ones(labels.shape, bool)
+        layers.append(_layer("background", -1, labels < 0, everywhere, everywhere, rgb, gray,
+                             ink_colour, width, outline=False))
     above = np.zeros(labels.shape, bool)  # visible pixels of the regions above, front first
     covers = {}
     for region in reversed(order):
         covers[region] = above.copy()
         above |= labels == region
-    pieces = {s.region: [] for s in splits} if split_local else {}
-    for s in splits if split_local else ():
-        pieces[s.region].append(s)
     shapes = {}
     for region in order:
         shape = completion.completed(region)
@@ -315,29 +312,24 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
             grown = shape | (ndimage.binary_dilation(shape, iterations=int(pad)) & covers[region])
         shapes[region] = _layer(names[region], region, labels == region, shape, grown, rgb,
                                 gray, ink_colour, width)
-    cut = {}
-    for region, parts in pieces.items():
-        if region in shapes:
-            cut[region] = [(s, _piece(completion, shapes[region], s)) for s in parts]
-    for region in order:
-        if region not in shapes:
-            continue
-        layer = shapes[region]
-        taken = [mask for _, mask in cut.get(region, [])]
-        if taken:
-            layer = _without(layer, np.any(taken, axis=0))
+    cuts = [(s, _piece(completion, shapes[s.region], s)) for s in splits
+            if split_local and s.region in shapes]
+    for region in (r for r in order if r in shapes):
+        taken = [piece for s, piece in cuts if s.region == region]
+        layer = _without(shapes[region], np.any(taken, axis=0)) if taken else shapes[region]
         if layer is not None:
             layers.append(layer)
-        for s, piece in ((s, piece) for r, lst in cut.items() for s, piece in lst if s.under == region):
-            part = _without(shapes[s.region], ~piece, name=f"{s.name} over {s.under_name}")
-            if part is not None:
-                layers.append(part)
+        for s, piece in cuts:  # a split piece goes just above the part it must cover
+            if s.under == region:
+                part = _without(shapes[s.region], ~piece, name=f"{s.name} over {s.under_name}")
+                if part is not None:
+                    layers.append(part)
     return Cutout(layers=layers, size=(labels.shape[1], labels.shape[0]), splits=splits,
                   split=bool(split_local))
 
 
-def _layer(name, region, visible, shape, grown, rgb, gray, ink_colour, width):
-    """One layer: drawing pixels where visible, fill and outline elsewhere in ``grown``."""
+def _layer(name, region, visible, shape, grown, rgb, gray, ink_colour, width, *, outline=True):
+    """One layer: drawing pixels where visible, fill (and outline) elsewhere in ``grown``."""
     rows, cols = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))
     y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
     win = (slice(y0, y1), slice(x0, x1))
@@ -358,7 +350,7 @@ def _layer(name, region, visible, shape, grown, rgb, gray, ink_colour, width):
         mean = colours[vis & ~ink].mean(axis=0) if (vis & ~ink).any() else (
             colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
         fill = _harmonic_fill(colours, known, unknown, mean)
-        if width > 0:
+        if outline:
             # The outline continues along the completed silhouette, over the fill.
             depth = ndimage.distance_transform_edt(shp)
             cover = np.clip(width - (depth - 1.0), 0.0, 1.0)[..., None]

@@ -70,16 +70,17 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
     if not mask.any():
         return np.ones(h.shape)
     ground = float(h[mask].min())
-    field = np.where(mask, h, ground)
+    # Single precision: half the memory traffic of the 128 passes; angles need no more.
+    field = np.where(mask, h, ground).astype(np.float32)
     pad = int(np.ceil(radius)) + 1
     padded = np.pad(field, pad, mode="constant", constant_values=ground)
     rows, cols = h.shape
     gx, gy = _slope(field, axis=1), _slope(field, axis=0)
-    occlusion = np.zeros(h.shape)
+    occlusion = np.zeros(h.shape, np.float32)
     for k in range(int(directions)):
         angle = 2 * np.pi * k / int(directions)
         dx, dy = np.cos(angle), np.sin(angle)
-        best = np.zeros(h.shape)
+        best = np.zeros(h.shape, np.float32)
         seen = set()
         for s in range(1, int(steps) + 1):
             r = radius * s / int(steps)
@@ -90,15 +91,17 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
             dist = float(np.hypot(ox, oy))
             if dist > radius:
                 continue
+            d2, fade = np.float32(dist * dist), np.float32(1.0 - (dist / radius) ** 2)
             rise = padded[pad + oy:pad + oy + rows, pad + ox:pad + ox + cols] - field
             # The surface's own tangent plane occludes nothing: the sine of the
             # sample's elevation counts above the tangent's, faded with distance.
-            tangent = gx * ox + gy * oy
-            base = tangent / np.sqrt(tangent * tangent + dist * dist)
-            sine = rise / np.sqrt(rise * rise + dist * dist)
-            np.maximum(best, (sine - base) * (1.0 - (dist / radius) ** 2), out=best)
+            tangent = gx * np.float32(ox) + gy * np.float32(oy)
+            base = tangent / np.sqrt(tangent * tangent + d2)
+            sine = rise / np.sqrt(rise * rise + d2)
+            np.maximum(best, (sine - base) * fade, out=best)
         occlusion += best
-    return np.where(mask, np.clip(1.0 - occlusion / int(directions), 0.0, 1.0), 1.0)
+    ao = np.clip(1.0 - occlusion.astype(np.float64) / int(directions), 0.0, 1.0)
+    return np.where(mask, ao, 1.0)
 
 
 def _slope(field, *, axis):
