@@ -496,7 +496,8 @@ def _parser():
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
                                  "no-self-intersections, no-degenerate, no-duplicates")
     ly = p["layers"]
-    ly.add_argument("-o", "--output", required=True, metavar="PATH", help="output file (.psd or .ora)")
+    ly.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="output file (.psd or .ora)")
     ly.add_argument("--pad", type=int, default=0, metavar="PX",
                     help="continue each part PX pixels further under the parts in front of it "
                          "(default: 0)")

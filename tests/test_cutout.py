@@ -57,7 +57,8 @@ def test_hidden_parts_are_filled_with_the_parts_colour_and_outlined(drawn):
         shape = completion.completed(layer.region)[y0:y1, x0:x1]
         alpha = layer.rgba[..., 3]
         assert np.all(alpha[shape] == 255) and np.all(alpha[~shape] == 0)
-        assert np.array_equal(layer.hidden, shape & (completion.labels[y0:y1, x0:x1] != layer.region))
+        hidden = shape & (completion.labels[y0:y1, x0:x1] != layer.region)
+        assert np.array_equal(layer.hidden, hidden)
         depth = ndimage.distance_transform_edt(shape)
         inner = layer.hidden & (depth > width + 2)
         rim = layer.hidden & (depth <= 1)

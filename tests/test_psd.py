@@ -71,5 +71,6 @@ def test_cli_layers_psd(tmp_path, capsys):
     assert names.index("ball_mid") < names.index("ball_big")
     assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "x.tiff")]) == 2
     assert "unsupported output type" in capsys.readouterr().err
-    assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "y.psd"), "--pad", "-2"]) == 2
+    bad_pad = ["--quiet", "layers", str(ann), "-o", str(tmp_path / "y.psd"), "--pad", "-2"]
+    assert cli.main(bad_pad) == 2
     assert not (tmp_path / "y.psd").exists() and not (tmp_path / "x.tiff").exists()

@@ -71,7 +71,7 @@ def test_ambient_occlusion_is_dark_in_the_creases(turtle):
         front = np.where(maps.parts == r.front, height, -np.inf)
         crease = (maps.parts == r.back) & (ndimage.maximum_filter(front, size=5) - height > 5.0)
         if crease.sum() >= 100:
-            assert maps.ao[crease].mean() < maps.ao[open_].mean() - 0.25, (r.front_name, r.back_name)
+            assert maps.ao[crease].mean() < maps.ao[open_].mean() - 0.25, r.label
         creases |= crease
     assert creases.sum() > 500 and maps.ao[creases].mean() < 0.5
 

@@ -111,7 +111,8 @@ def sprite_maps(relief, labels, names, *, convention="opengl", ao_radius=None, a
     ([0.0, 0.0, 1.0], 2.0, 1.0)
     """
     if convention not in CONVENTIONS:
-        raise InputError(f"convention: expected one of {', '.join(CONVENTIONS)}, got {convention!r}")
+        raise InputError(f"convention: expected one of {', '.join(CONVENTIONS)}, "
+                         f"got {convention!r}")
     labels = np.asarray(labels)
     w, h = (int(s) for s in relief.size)
     if labels.shape != (h, w):
@@ -199,7 +200,8 @@ def write_sprite_maps(maps, directory, *, outputs=None):
                          "pixels": int((maps.parts == i).sum())}
                   for i, name in enumerate(maps.names)},
     }
-    outputs.write_text(directory / "maps.json", json.dumps(legend, indent=2, ensure_ascii=False) + "\n")
+    outputs.write_text(directory / "maps.json",
+                       json.dumps(legend, indent=2, ensure_ascii=False) + "\n")
     written.append(directory / "maps.json")
     return written
 

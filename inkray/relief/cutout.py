@@ -367,7 +367,7 @@ def _ink(gray, *, size):
 
 
 def _harmonic_fill(colours, known, unknown, mean):
-    """Colours on ``unknown`` minimizing the squared differences of 4-neighbours, ``known`` fixed."""
+    """Colours on ``unknown`` minimizing squared 4-neighbour differences, ``known`` fixed."""
     nodes = known | unknown
     h, w = nodes.shape
     wx = (nodes[:, 1:] & nodes[:, :-1]).astype(np.float64)
@@ -410,7 +410,7 @@ def _piece(completion, layer, split):
 
 
 def _without(layer, drop, *, name=None):
-    """``layer`` with the pixels of ``drop`` (its own box) transparent and cropped; None if empty."""
+    """``layer`` without the pixels of ``drop`` (in its box), cropped; None if empty."""
     keep = (layer.rgba[..., 3] > 0) & ~drop
     if not keep.any():
         return None
