@@ -170,3 +170,18 @@ def test_bad_pad_is_rejected(drawn):
     chain, _ = drawn
     with pytest.raises(InputError, match="pad"):
         cut_out(chain.completion, chain.relations, chain.drawing, pad=-1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.iterdir()
+                                        if (p / "drawing.inkray.json").is_file()))
+def test_every_bundled_drawing_stacks_back_into_itself(name):
+    ann, drawing = load_input(EXAMPLES / name / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    stack = cut_out(chain.completion, chain.relations, drawing, background=True, pad=4)
+    assert psnr(stack.flatten()[..., :3], drawing.rgb) >= 35.0
+    rank = {layer.region: k for k, layer in enumerate(stack.layers)}
+    broken = {(s.region, s.under) for s in stack.splits}
+    for r in chain.relations:
+        if r.kind == "order" and (r.front, r.back) not in broken:
+            assert rank[r.front] > rank[r.back], r.label

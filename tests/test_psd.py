@@ -8,7 +8,7 @@ from inkray.errors import InputError
 from inkray.formats.psd import psd_bytes, read_psd
 from inkray.formats.layer_files import write_layers
 from inkray.input.loading import load_input
-from inkray.relief.cutout import cut_out
+from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 
 from conftest import EXAMPLES
 
@@ -53,6 +53,18 @@ def test_layer_order_follows_the_relations(turtle):
 def test_same_stack_same_bytes(turtle):
     _, stack, path = turtle
     assert psd_bytes(stack) == path.read_bytes()
+
+
+def test_any_name_survives_and_a_too_long_one_is_an_input_error(tmp_path):
+    px = np.full((2, 2, 4), 255, np.uint8)
+    name = "hlava_čelo 頭 over shell"
+    stack = Cutout([CutoutLayer(name, 0, 1, 1, px, np.zeros((2, 2), bool))], (4, 3))
+    path = tmp_path / "u.psd"
+    path.write_bytes(psd_bytes(stack))
+    assert [layer.name for layer in read_psd(path).layers] == [name]
+    stack.layers[0].name = "x" * 256
+    with pytest.raises(InputError, match="longer than PSD's 255"):
+        psd_bytes(stack)
 
 
 def test_unreadable_psd_is_an_input_error(tmp_path):

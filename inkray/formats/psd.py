@@ -18,6 +18,8 @@ from inkray.relief.cutout import Cutout, CutoutLayer
 
 __all__ = ["psd_bytes", "read_psd"]
 
+_NAME_MAX = 255  # characters of a layer name
+
 
 def psd_bytes(cutout):
     """The PSD file of a cut-out stack, as bytes (RGB with transparency, 8 bits, RLE layers).
@@ -45,8 +47,14 @@ def psd_bytes(cutout):
     # transparency (in an "RGB" one psd-tools would turn it into layer masks).
     document = PSDImage.new("RGBA", tuple(int(s) for s in cutout.size))
     for layer in cutout.layers:  # appended bottom first
-        PixelLayer.frompil(Image.fromarray(layer.rgba, "RGBA"), document, layer.name,
-                           top=int(layer.top), left=int(layer.left))
+        if len(layer.name) > _NAME_MAX:
+            raise InputError(f"layer {layer.name[:40]!r}...: name longer than PSD's "
+                             f"{_NAME_MAX} characters (write .ora instead)")
+        added = PixelLayer.frompil(Image.fromarray(layer.rgba, "RGBA"), document,
+                                   top=int(layer.top), left=int(layer.left))
+        # The name property keeps any name in the Unicode name block (and a
+        # legacy Mac Roman name beside it), which frompil's argument does not.
+        added.name = layer.name
     buf = io.BytesIO()
     document.save(buf)
     return buf.getvalue()
