@@ -207,7 +207,6 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
             outcomes[f.name] = _Outcome("skipped", outputs=sorted(manifest[f.name]["outputs"]))
         else:
             todo.append(f)
-    report = None
     with progress.stage(f"batch: {len(todo)} of {len(frames)} frames"):
         progress.update(len(frames) - len(todo), len(frames))
         try:
@@ -360,7 +359,7 @@ def _dask_results(frames, jobs, scheduler, workers):
         client = Client(cluster)
     else:
         try:
-            client = Client(scheduler, timeout=30)
+            client = Client(scheduler, timeout=10)
         except (OSError, ValueError) as e:
             raise InputError(f"--scheduler {scheduler}: cannot connect ({_one_line(e)})") from None
     futures = {}

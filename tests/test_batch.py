@@ -159,6 +159,9 @@ def test_bad_arguments_exit_2(shots, capsys):
     assert "unknown job gi" in capsys.readouterr().err
     assert _run(["batch", shots / "none/*.json", "-o", out]) == 2
     assert _run(["batch", shots / "shots/**/*.inkray.json", "-o", out, "--workers", "0"]) == 2
+    assert _run(["batch", shots / "shots/**/*.inkray.json", "-o", out, "--jobs", "relief",
+                 "--scheduler", "foo://nowhere"]) == 2
+    assert "--scheduler foo://nowhere: cannot connect" in capsys.readouterr().err
     assert not out.exists()
     assert set(JOBS) == {"relief", "render", "layers", "maps"}
 
