@@ -6,7 +6,8 @@ enough frames to keep every worker busy. Each row starts a local cluster of
 that many worker processes (one thread each, as ``inkray batch`` does) and
 times ``run_batch`` on a fresh output folder (nothing skipped), the cluster's
 start included; "frame s" sums the frames' own times as the workers measured
-them. The baseline is one worker; a row without Dask runs ``run_frame`` on
+them, "CPU s" the CPU time they used (when frame s grows and CPU s does not,
+the workers waited for a core). The baseline is one worker; a row without Dask runs ``run_frame`` on
 every frame in this process, the cost of the work alone.
 
 Usage::
@@ -38,12 +39,14 @@ def _in_process(pattern, jobs):
     from inkray.batch import find_frames, run_frame
 
     frames = find_frames(pattern)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), 0.0
     for f in frames:
         result = run_frame(f.annotation, jobs)
         if result["status"] != "done":
             raise SystemExit(f"{f.annotation}: {result['error']}")
-    return len(frames), time.perf_counter() - start
+        cpu += result["cpu_time"]
+    wall = time.perf_counter() - start
+    return len(frames), wall, wall, cpu
 
 
 def _on_dask(pattern, jobs, workers, out):
@@ -54,8 +57,9 @@ def _on_dask(pattern, jobs, workers, out):
     wall = time.perf_counter() - start
     if report["counts"]["failed"]:
         raise SystemExit(f"{report['counts']['failed']} frames failed")
-    busy = sum(r["time"] for r in report["frames"].values())
-    return report["counts"]["done"], wall, busy
+    frames = report["frames"].values()
+    busy, cpu = sum(r["time"] for r in frames), sum(r["cpu_time"] for r in frames)
+    return report["counts"]["done"], wall, busy, cpu
 
 
 def main():
@@ -69,20 +73,19 @@ def main():
         tmp = Path(tmp)
         pattern = _frames(tmp / "shots", args.repeat)
         rows = []
-        n, wall = _in_process(pattern, jobs)
-        rows.append(("in process, no Dask", n, wall, wall))
+        rows.append(("in process, no Dask",) + _in_process(pattern, jobs))
         for workers in (int(w) for w in args.workers.split(",")):
-            n, wall, busy = _on_dask(pattern, jobs, workers, tmp / f"out-{workers}")
-            rows.append((f"{workers} worker{'s' if workers > 1 else ''}", n, wall, busy))
+            rows.append((f"{workers} worker{'s' if workers > 1 else ''}",)
+                         + _on_dask(pattern, jobs, workers, tmp / f"out-{workers}"))
     base = next(r for r in rows if r[0].startswith("1 worker"))
     print(f"jobs {','.join(jobs)}; {os.cpu_count()} cores; frames: the bundled drawings x "
           f"{args.repeat}")
-    print("| run | frames | wall s | frames/min | vs 1 worker | frame s (sum) |")
-    print("| --- | --- | --- | --- | --- | --- |")
-    for name, n, wall, busy in rows:
+    print("| run | frames | wall s | frames/min | vs 1 worker | frame s (sum) | CPU s (sum) |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for name, n, wall, busy, cpu in rows:
         fpm = 60.0 * n / wall
         ratio = fpm / (60.0 * base[1] / base[2])
-        print(f"| {name} | {n} | {wall:.1f} | {fpm:.1f} | {ratio:.2f}x | {busy:.1f} |")
+        print(f"| {name} | {n} | {wall:.1f} | {fpm:.1f} | {ratio:.2f}x | {busy:.1f} | {cpu:.1f} |")
 
 
 if __name__ == "__main__":

@@ -28,9 +28,9 @@ its inputs (annotation and drawing bytes), the jobs and inkray's version, and
 a hash of every output; a frame whose record matches and whose outputs are
 intact is skipped, so an interrupted batch resumes where it stopped.
 ``OUT/batch-report.json`` holds per frame its status (``done``, ``skipped``,
-``failed``, ``interrupted``), ``time`` (seconds), ``peak_memory`` (bytes of
-resident memory of its worker process while it ran) and ``error`` (one
-line). A failed frame does not stop the others; the batch then exits 1.
+``failed``, ``interrupted``), ``time`` (seconds), ``cpu_time`` (seconds of
+CPU its worker process used), ``peak_memory`` (bytes of resident memory of
+its worker process while it ran) and ``error`` (one line). A failed frame does not stop the others; the batch then exits 1.
 """
 
 import glob
@@ -79,13 +79,15 @@ class Frame:
 class _Outcome:
     status: str
     time: float = 0.0
+    cpu_time: float = 0.0
     peak_memory: int = None
     error: str = None
     outputs: list = field(default_factory=list)
 
     def record(self, frame):
         return {"annotation": frame.annotation, "status": self.status,
-                "time": round(self.time, 3), "peak_memory": self.peak_memory,
+                "time": round(self.time, 3), "cpu_time": round(self.cpu_time, 3),
+                "peak_memory": self.peak_memory,
                 "error": self.error, "outputs": self.outputs}
 
 
@@ -144,10 +146,11 @@ def run_frame(annotation, jobs):
     -------
     dict
         ``{"status": "done" | "failed", "files": {relative path: bytes},
-        "time": seconds, "peak_memory": bytes, "error": one line or None}``.
+        "time": seconds, "cpu_time": seconds of CPU, "peak_memory": bytes,
+        "error": one line or None}``.
     """
     _reset_peak_memory()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     try:
         files = _frame_files(annotation, jobs)
         status, error = "done", None
@@ -158,7 +161,7 @@ def run_frame(annotation, jobs):
     except Exception as e:  # a bug on one frame must not stop the batch
         files, status, error = {}, "failed", f"internal error: {type(e).__name__}: {_one_line(e)}"
     return {"status": status, "files": files, "time": time.perf_counter() - start,
-            "peak_memory": _peak_memory(), "error": error}
+            "cpu_time": time.process_time() - cpu, "peak_memory": _peak_memory(), "error": error}
 
 
 def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progress=None):
@@ -373,7 +376,8 @@ def _dask_results(frames, jobs, scheduler, workers):
             try:
                 result = future.result()
             except Exception as e:  # the worker process died (killed, out of memory)
-                result = {"status": "failed", "files": {}, "time": 0.0, "peak_memory": None,
+                result = {"status": "failed", "files": {}, "time": 0.0, "cpu_time": 0.0,
+                          "peak_memory": None,
                           "error": f"worker lost: {type(e).__name__}: {_one_line(e)}"}
             future.release()
             yield futures[future], result
@@ -386,8 +390,8 @@ def _dask_results(frames, jobs, scheduler, workers):
 
 def _finish(out, frame, result, inputs, manifest, keys):
     """Write a finished frame's files and its manifest record; its outcome."""
-    outcome = _Outcome(result["status"], time=result["time"], peak_memory=result["peak_memory"],
-                       error=result["error"])
+    outcome = _Outcome(result["status"], time=result["time"], cpu_time=result["cpu_time"],
+                       peak_memory=result["peak_memory"], error=result["error"])
     if outcome.status != "done":
         return outcome
     folder = out / frame.name

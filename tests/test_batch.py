@@ -87,6 +87,7 @@ def test_batch_outputs_equal_the_single_commands(shots, cluster):
     for record in report["frames"].values():
         assert record["status"] == "done" and record["error"] is None
         assert record["time"] > 0 and record["peak_memory"] > 10 * 2 ** 20
+        assert 0 < record["cpu_time"]
 
 
 def test_unchanged_frames_are_skipped_and_edited_ones_redone(shots, cluster):
