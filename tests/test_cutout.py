@@ -7,7 +7,7 @@ from inkray.errors import InputError
 from inkray.input.drawing import drawing_from_array
 from inkray.input.loading import load_input
 from inkray.relief.completion import complete_regions
-from inkray.relief.cutout import cut_out, stack_order, stroke_style
+from inkray.relief.cutout import Cutout, CutoutLayer, cut_out, stack_order, stroke_style
 from inkray.relief.ordering import Relation
 
 from conftest import EXAMPLES
@@ -158,6 +158,14 @@ def test_split_local_puts_the_crossing_on_its_own_layer():
     assert [layer.name for layer in stack.layers][-1] == f"{split.name} over {split.under_name}"
     character = labels >= 0
     assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf
+
+
+def test_flatten_shows_only_the_canvas_part_of_a_layer_past_its_edge():
+    px = np.zeros((3, 3, 4), np.uint8)
+    px[..., 0] = px[..., 3] = 255
+    stack = Cutout([CutoutLayer("a", None, -1, 2, px, None)], (4, 2))
+    flat = stack.flatten()
+    assert flat[..., 3].tolist() == [[0, 0, 255, 255], [0, 0, 255, 255]]
 
 
 def test_stack_order_keeps_the_users_relation_over_a_prediction():

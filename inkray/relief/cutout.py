@@ -141,8 +141,12 @@ class Cutout:
         out = np.zeros((h, w, 4))
         for layer in self.layers:
             y0, y1, x0, x1 = layer.box
-            src = layer.rgba / 255.0
-            dst = out[y0:y1, x0:x1]
+            # A layer read from a file may reach past the canvas: only the overlap shows.
+            cy0, cy1, cx0, cx1 = max(y0, 0), min(y1, h), max(x0, 0), min(x1, w)
+            if cy0 >= cy1 or cx0 >= cx1:
+                continue
+            src = layer.rgba[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] / 255.0
+            dst = out[cy0:cy1, cx0:cx1]
             a = src[..., 3:4]
             alpha = a + dst[..., 3:4] * (1 - a)
             rgb = src[..., :3] * a + dst[..., :3] * dst[..., 3:4] * (1 - a)
