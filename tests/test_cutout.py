@@ -1,9 +1,14 @@
+import json
+
 import numpy as np
 import pytest
+from PIL import Image
 from scipy import ndimage
 
+from inkray import cli
 from inkray.chain import ReliefChain
 from inkray.errors import InputError
+from inkray.formats.layer_files import read_layers
 from inkray.input.drawing import drawing_from_array
 from inkray.input.loading import load_input
 from inkray.relief.completion import complete_regions
@@ -193,3 +198,48 @@ def test_every_bundled_drawing_stacks_back_into_itself(name):
     for r in chain.relations:
         if r.kind == "order" and (r.front, r.back) not in broken:
             assert rank[r.front] > rank[r.back], r.label
+
+
+def _drawn_rings(folder):
+    """A drawing of two interlocking rings (a over b at the top crossing, b over a at the
+    bottom one) with a scribble in each ring and no order entry: the chain predicts both."""
+    w, h = 160, 110
+    y, x = np.mgrid[0:h, 0:w].astype(float)
+    (ax, bx), cy, radius, half = (55, 95), 55, 30, 7
+    da, db = np.hypot(x - ax, y - cy), np.hypot(x - bx, y - cy)
+    band_a, band_b = np.abs(da - radius) < half, np.abs(db - radius) < half
+    edge_a = np.abs(np.abs(da - radius) - half) < 1.2
+    edge_b = np.abs(np.abs(db - radius) - half) < 1.2
+    top = y < cy
+    ink = (edge_a & ~(band_b & ~top)) | (edge_b & ~(band_a & top))
+    Image.fromarray(np.where(ink, 0, 255).astype(np.uint8)).save(folder / "rings.png")
+
+    def arc(cx, t0, t1):
+        t = np.linspace(t0, t1, 12)
+        return np.round(np.stack([cx + radius * np.cos(t), cy + radius * np.sin(t)], 1), 1).tolist()
+
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "rings.png", "size": [w, h],
+           "regions": [{"name": "a", "scribbles": [arc(ax, 0.9, 5.3)]},
+                       {"name": "b", "scribbles": [arc(bx, -2.2, 2.2)]}],
+           "background": [[[3, 3], [156, 3], [156, 106], [3, 106]], [[ax, cy]], [[bx + 5, cy]],
+                          [[75, cy]]]}
+    path = folder / "rings.inkray.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
+    ann = _drawn_rings(tmp_path)
+    a, drawing = load_input(ann)
+    character = ReliefChain(a, drawing).segmentation.labels >= 0
+    assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "one.ora")]) == 0
+    assert "region 'b' must be split" in capsys.readouterr().err
+    stuck = read_layers(tmp_path / "one.ora")
+    assert [layer.name for layer in stuck.layers] == ["b", "a"]
+    assert psnr(stuck.flatten()[..., :3][character], drawing.rgb[character]) < 35.0
+    assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "split.psd"),
+                     "--split-local"]) == 0
+    assert "must be split" not in capsys.readouterr().err
+    split = read_layers(tmp_path / "split.psd")
+    assert [layer.name for layer in split.layers] == ["b", "a", "b over a"]
+    assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0
