@@ -163,6 +163,8 @@ def test_split_local_puts_the_crossing_on_its_own_layer():
     assert [layer.name for layer in stack.layers][-1] == f"{split.name} over {split.under_name}"
     character = labels >= 0
     assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf
+    padded = cut_out(completion, rels, drawing_from_array(rgb), split_local=True, pad=3)
+    assert np.array_equal(padded.flatten(), stack.flatten())
 
 
 def test_flatten_shows_only_the_canvas_part_of_a_layer_past_its_edge():

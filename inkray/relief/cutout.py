@@ -392,7 +392,8 @@ def _harmonic_fill(colours, known, unknown, mean):
 def _piece(completion, layer, split):
     """The pixels of ``layer`` around the place where its region must come forward."""
     y0, y1, x0, x1 = layer.box
-    mask = layer.rgba[..., 3] > 0
+    # Not the padding: it lies under the parts in front, the other part among them.
+    mask = completion.completed(split.region)[y0:y1, x0:x1]
     if split.place is None:
         return np.zeros(mask.shape, bool)
     places = [p for p in completion.places
