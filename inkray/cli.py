@@ -407,6 +407,71 @@ def _cmd_demo(args, progress):
     return 0
 
 
+def _cmd_layers(args, progress):
+    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
+    from inkray.relief.cutout import cut_out
+
+    _check_output(args.output, LAYER_SUFFIXES)
+    if args.pad < 0:
+        raise InputError(f"--pad {args.pad}: expected a whole number of pixels >= 0")
+    chain = _chain(args, progress, targets=[args.output], predict=not args.no_predict)
+    if not chain.annotations.regions:
+        raise InputError("regions: a layer stack needs at least one region")
+    completion, relations = chain.completion, chain.relations
+    with progress.stage("layers"):
+        stack = cut_out(completion, relations, chain.drawing, pad=args.pad,
+                        split_local=args.split_local, background=args.background)
+    _warn(chain.warnings + stack.warnings)
+    with progress.stage("write"), _group(args, chain) as group:
+        write_layers(stack, args.output, outputs=group)
+    progress.summary()
+    split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
+    print(f"{args.output}: {len(stack.layers)} layers back to front: "
+          f"{', '.join(layer.name for layer in stack.layers)}{split}")
+    return 0
+
+
+def _cmd_batch(args, progress):
+    from inkray.batch import run_batch
+
+    try:
+        report = run_batch(args.pattern, args.output, jobs=args.jobs, scheduler=args.scheduler,
+                           workers=args.workers, progress=progress)
+    except KeyboardInterrupt:
+        print(f"inkray: interrupted; finished frames are kept in {args.output}/ and skipped "
+              f"when the batch runs again", file=sys.stderr)
+        return 130
+    counts = report["counts"]
+    print(f"{args.output}/: {counts['done']} done, {counts['skipped']} skipped, "
+          f"{counts['failed']} failed (report {Path(args.output) / 'batch-report.json'})")
+    return 1 if counts["failed"] else 0
+
+
+def _cmd_maps(args, progress):
+    from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
+
+    if args.ao_radius is not None and not args.ao_radius >= 1:
+        raise InputError(f"--ao-radius {args.ao_radius}: expected at least 1 pixel")
+    out = Path(args.output)
+    if out.suffix:
+        raise InputError(f"-o {out}: expected a folder (no suffix)")
+    chain = _chain(args, progress, targets=[out / "maps.json"])
+    if not chain.annotations.regions:
+        raise InputError("regions: sprite maps need at least one region")
+    relief = chain.relief
+    _warn(chain.warnings)
+    seg = chain.segmentation
+    with progress.stage("maps"):
+        maps = sprite_maps(relief, seg.labels, seg.names, convention=args.convention,
+                           ao_radius=args.ao_radius)
+        with _group(args, chain) as group:
+            written = write_sprite_maps(maps, out, outputs=group)
+    progress.summary()
+    print(f"{out}/: {args.convention} normals, height, ambient occlusion and part IDs of "
+          f"{len(seg.names)} regions ({', '.join(p.name for p in written)})")
+    return 0
+
+
 def _beside(compute):
     """Start ``compute()`` in a forked process when there is a core to spare.
 
@@ -454,6 +519,9 @@ _COMMANDS = {
     "relief": (_cmd_relief, "bas-relief mesh (GLB, OBJ or PLY)"),
     "render": (_cmd_render, "render a relief mesh"),
     "check": (_cmd_check, "mesh-quality report"),
+    "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
+    "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
 }
 
@@ -478,7 +546,7 @@ def _parser():
     p = {}
     for name, (_, help_) in _COMMANDS.items():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
-    for name in ("validate", "segment", "regions", "depth", "relief"):
+    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps"):
         _add_input(p[name])
     p["validate"].add_argument("--json", action="store_true",
                                help="print the result as JSON on stdout (problems with "
@@ -566,6 +634,36 @@ def _parser():
                             help="exit 1 unless every part meets these, comma-separated: "
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
                                  "no-self-intersections, no-degenerate, no-duplicates")
+    ly = p["layers"]
+    ly.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="output file (.psd or .ora)")
+    ly.add_argument("--pad", type=int, default=0, metavar="PX",
+                    help="continue each part PX pixels further under the parts in front of it "
+                         "(default: 0)")
+    ly.add_argument("--split-local", action="store_true",
+                    help="split a part that is over another at one place and under it at "
+                         "another (interlocking) into two layers at the crossing")
+    ly.add_argument("--background", action="store_true",
+                    help="add a bottom layer: the drawing around the character, paper under it")
+    ly.add_argument("--no-predict", action="store_true",
+                    help="use only the annotation's order entries, predict nothing")
+    p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    p["maps"].add_argument("--convention", choices=("opengl", "directx"), default="opengl",
+                           help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
+                                "or directx y down (Unreal) (default: opengl)")
+    p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
+                           help="ambient occlusion radius (default: 3%% of the longer side)")
+    b = p["batch"]
+    b.add_argument("pattern", metavar="PATTERN",
+                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
+    b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
+                   help="comma-separated jobs per frame: relief, render, layers, maps "
+                        "(default: all)")
+    b.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
+    b.add_argument("--workers", type=int, metavar="N",
+                   help="worker processes of the local cluster (default: one per core)")
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")

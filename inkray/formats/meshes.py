@@ -210,24 +210,17 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
         raise InputError(f"{path}: unsupported mesh type {suffix or '(none)'} "
                          f"(expected {', '.join(FORMATS)})")
     _check_frame(units_per_pixel, anchor)
-    if back not in BACKS:
-        raise InputError(f"back: {back!r} is not one of {', '.join(BACKS)}")
     if up not in UPS or (suffix == ".glb" and up != "y"):
         raise InputError(f"up: {up!r}: expected {' or '.join(UPS)} (GLB is always y)")
     name = path.stem if name is None else str(name)
-    _check_relief(relief)
-    if back == "plate":
-        from inkray.relief.backing import back_plate
-
-        relief = back_plate(relief)
-    meshes = _scene_meshes(relief, units_per_pixel, anchor)
     if suffix == ".glb":
-        files = {path: _glb_bytes(relief, meshes, units_per_pixel, anchor, name,
-                                  double_sided=back == "double-sided")}
-    elif suffix == ".obj":
-        files = _obj_files(relief, _turned(meshes, up), path, name, up)
+        files = {path: glb_bytes(relief, units_per_pixel=units_per_pixel, anchor=anchor,
+                                 name=name, back=back)}
     else:
-        files = {path: _ply_bytes(relief, _turned(meshes, up), units_per_pixel, anchor, up)}
+        relief = _backed(relief, back)
+        meshes = _turned(_scene_meshes(relief, units_per_pixel, anchor), up)
+        files = (_obj_files(relief, meshes, path, name, up) if suffix == ".obj" else
+                 {path: _ply_bytes(relief, meshes, units_per_pixel, anchor, up)})
     if outputs is None:
         with atomic_outputs() as out:
             for target, data in files.items():
@@ -238,14 +231,17 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
     return list(files)
 
 
-def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center"):
+def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center", name="relief",
+              back="double-sided"):
     """The GLB file of a relief, as bytes (what :func:`export_relief` writes to ``.glb``).
 
     Parameters
     ----------
     relief : inkray.relief.model.Relief
-    units_per_pixel, anchor
+    units_per_pixel, anchor, back
         As in :func:`export_relief`.
+    name : str, default "relief"
+        Material and texture name (``export_relief`` uses the file's stem).
 
     Returns
     -------
@@ -259,9 +255,21 @@ def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center"):
     b'glTF'
     """
     _check_frame(units_per_pixel, anchor)
-    _check_relief(relief)
+    relief = _backed(relief, back)
     return _glb_bytes(relief, _scene_meshes(relief, units_per_pixel, anchor), units_per_pixel,
-                      anchor)
+                      anchor, name, double_sided=back == "double-sided")
+
+
+def _backed(relief, back):
+    """The relief checked, with its back plate when ``back`` asks for one."""
+    if back not in BACKS:
+        raise InputError(f"back: {back!r} is not one of {', '.join(BACKS)}")
+    _check_relief(relief)
+    if back == "plate":
+        from inkray.relief.backing import back_plate
+
+        relief = back_plate(relief)
+    return relief
 
 
 def read_meshes(path):

@@ -1,0 +1,491 @@
+"""Batches of frames on Dask: one chain per frame, skip what is unchanged, isolate failures.
+
+A scene is many frames, each an annotation file with its drawing. ``inkray
+batch 'shots/**/*.inkray.json' -o OUT/`` runs the chosen jobs on every frame
+as one task of a Dask cluster (Rocklin, "Dask: parallel computation with
+blocked algorithms and task scheduling", SciPy 2015): a local cluster of
+worker processes by default, an existing cluster when a scheduler address is
+given. Each task builds one :class:`inkray.chain.ReliefChain` and asks it for
+what the jobs need, so the jobs of a frame share its segmentation,
+completion and meshes; it returns the files' bytes, and this process writes
+them, a frame's files all together or none
+(:func:`inkray.formats.atomic.atomic_outputs`).
+
+The frame whose annotation is ``ROOT/a/b.inkray.json`` (``ROOT`` the
+pattern's folder before its first wildcard) writes into ``OUT/a/b/``:
+
+========  =====================================================================
+job       files (the bytes of the single command with its defaults)
+========  =====================================================================
+relief    ``relief.glb`` (``inkray relief ANN -o relief.glb``)
+render    ``shaded.png`` (``inkray render relief.glb -o shaded.png``)
+layers    ``parts.psd``, ``parts.ora`` (``inkray layers ANN -o parts.psd``, ``.ora``)
+maps      ``maps/`` (``inkray maps ANN -o maps``)
+========  =====================================================================
+
+``OUT/batch-manifest.json`` records, per finished frame, a content hash of
+its inputs (annotation and drawing bytes), the jobs and inkray's version, and
+a hash of every output; a frame whose record matches and whose outputs are
+intact is skipped, so an interrupted batch resumes where it stopped.
+``OUT/batch-report.json`` holds per frame its status (``done``, ``skipped``,
+``failed``, ``interrupted``), ``time`` (seconds), ``cpu_time`` (seconds of
+CPU its worker process used), ``peak_memory`` (bytes of resident memory of
+its worker process while it ran) and ``error`` (one line). A failed frame does not stop the others; the batch then exits 1.
+"""
+
+import glob
+import hashlib
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from inkray._version import __version__
+from inkray.errors import InkrayError, InputError
+from inkray.formats.atomic import atomic_outputs, write_text
+from inkray.progress import Progress
+
+__all__ = ["JOBS", "Frame", "find_frames", "run_batch", "run_frame"]
+
+#: The jobs a batch can run per frame, in the order they are done.
+JOBS = ("relief", "render", "layers", "maps")
+MANIFEST = "batch-manifest.json"
+REPORT = "batch-report.json"
+_SUFFIXES = (".inkray.json", ".json")
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame of a batch.
+
+    Attributes
+    ----------
+    annotation : str
+        The annotation file.
+    name : str
+        Its path under the pattern's root, without ``.inkray.json``; its
+        outputs go to ``OUT/<name>/``.
+    """
+
+    annotation: str
+    name: str
+
+
+@dataclass
+class _Outcome:
+    status: str
+    time: float = 0.0
+    cpu_time: float = 0.0
+    peak_memory: int = None
+    error: str = None
+    outputs: list = field(default_factory=list)
+
+    def record(self, frame):
+        return {"annotation": frame.annotation, "status": self.status,
+                "time": round(self.time, 3), "cpu_time": round(self.cpu_time, 3),
+                "peak_memory": self.peak_memory,
+                "error": self.error, "outputs": self.outputs}
+
+
+def find_frames(pattern):
+    """The frames of a glob pattern (``**`` spans folders), sorted by name.
+
+    Parameters
+    ----------
+    pattern : str
+        E.g. ``"shots/**/*.inkray.json"``; a plain file name is one frame.
+
+    Returns
+    -------
+    list of Frame
+
+    Raises
+    ------
+    InputError
+        Nothing matches, or two files would write into one folder.
+
+    Examples
+    --------
+    >>> [f.name for f in find_frames("examples/t*/drawing.inkray.json")]  # doctest: +SKIP
+    ['turtle/drawing']
+    """
+    matches = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
+    if not matches:
+        raise InputError(f"{pattern}: no annotation file matches")
+    parts = Path(pattern).parts
+    fixed = [p for p in parts[:next((i for i, p in enumerate(parts) if glob.has_magic(p)),
+                                    len(parts) - 1)]]
+    root = Path(*fixed) if fixed else Path(".")
+    frames, seen = [], {}
+    for match in matches:
+        rel = Path(match).relative_to(root).as_posix()
+        name = next((rel[:-len(s)] for s in _SUFFIXES if rel.endswith(s)), rel)
+        if name in seen:
+            raise InputError(f"{match}: writes into the same folder as {seen[name]} ({name}/)")
+        seen[name] = match
+        frames.append(Frame(annotation=str(match), name=name))
+    return sorted(frames, key=lambda f: f.name)
+
+
+def run_frame(annotation, jobs):
+    """Run ``jobs`` on one annotation file; the files' bytes by path under the frame's folder.
+
+    This is one batch task; it never raises for the frame's own problems.
+
+    Parameters
+    ----------
+    annotation : str
+    jobs : sequence of str
+        Among :data:`JOBS`.
+
+    Returns
+    -------
+    dict
+        ``{"status": "done" | "failed", "files": {relative path: bytes},
+        "time": seconds, "cpu_time": seconds of CPU, "peak_memory": bytes,
+        "error": one line or None}``.
+    """
+    _reset_peak_memory()
+    start, cpu = time.perf_counter(), time.process_time()
+    try:
+        files = _frame_files(annotation, jobs)
+        status, error = "done", None
+    except MemoryError:
+        files, status, error = {}, "failed", "out of memory"
+    except InkrayError as e:
+        files, status, error = {}, "failed", _one_line(e)
+    except Exception as e:  # a bug on one frame must not stop the batch
+        files, status, error = {}, "failed", f"internal error: {type(e).__name__}: {_one_line(e)}"
+    return {"status": status, "files": files, "time": time.perf_counter() - start,
+            "cpu_time": time.process_time() - cpu, "peak_memory": _peak_memory(), "error": error}
+
+
+def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progress=None):
+    """Run the jobs on every frame of ``pattern`` on Dask and write ``output``.
+
+    Parameters
+    ----------
+    pattern : str
+        Glob of annotation files (``**`` spans folders).
+    output : str or Path
+        The output folder.
+    jobs : sequence of str, default all of :data:`JOBS`
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``); default a
+        local cluster of worker processes.
+    workers : int, optional
+        Worker processes of the local cluster; default one per core.
+    progress : inkray.progress.Progress, optional
+
+    Returns
+    -------
+    dict
+        The report (also written as ``output/batch-report.json``).
+
+    Raises
+    ------
+    InputError
+        A bad pattern, job list or worker count.
+    KeyboardInterrupt
+        After writing the report and the manifest of the frames finished.
+    """
+    jobs = _check_jobs(jobs)
+    if workers is not None and (int(workers) != workers or workers < 1):
+        raise InputError(f"--workers {workers}: expected a whole number >= 1")
+    progress = progress if progress is not None else Progress(quiet=True)
+    frames = find_frames(pattern)
+    out = Path(output)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"-o {out}: exists and is not a folder")
+    inputs = {str(Path(f.annotation).resolve()) for f in frames}
+    manifest = _read_manifest(out)
+    keys = {f.name: _frame_key(f.annotation, jobs) for f in frames}
+    outcomes, todo = {}, []
+    for f in frames:
+        if _unchanged(out / f.name, manifest.get(f.name), keys[f.name]):
+            outcomes[f.name] = _Outcome("skipped", outputs=sorted(manifest[f.name]["outputs"]))
+        else:
+            todo.append(f)
+    with progress.stage(f"batch: {len(todo)} of {len(frames)} frames"):
+        progress.update(len(frames) - len(todo), len(frames))
+        try:
+            for frame, result in _dask_results(todo, jobs, scheduler, workers):
+                outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
+                if outcomes[frame.name].status == "failed" and not progress.quiet:
+                    print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
+                          file=progress.stream)
+                progress.update(len(outcomes), len(frames))
+        except KeyboardInterrupt:
+            for f in frames:
+                outcomes.setdefault(f.name, _Outcome("interrupted"))
+            report = _report(frames, outcomes, jobs, scheduler, workers)
+            _write_report(out, report)
+            raise
+    report = _report(frames, outcomes, jobs, scheduler, workers)
+    _write_report(out, report)
+    return report
+
+
+# -- one frame -------------------------------------------------------------------
+
+def _frame_files(annotation, jobs):
+    """The bytes of every output of ``jobs``, each made as its single command makes it."""
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.input.loading import load_input
+
+    ann, drawing = load_input(annotation)
+    if not ann.regions:
+        raise InputError(f"{annotation}: regions: a relief needs at least one region")
+    chain = ReliefChain(ann, drawing, options=ChainOptions())
+    files = {}
+    collect = _Collect()
+    try:
+        if "relief" in jobs or "render" in jobs:
+            from inkray.formats.meshes import glb_bytes
+
+            glb = glb_bytes(chain.relief)
+            if "relief" in jobs:
+                files["relief.glb"] = glb
+            if "render" in jobs:
+                files["shaded.png"] = _shaded(glb, collect)
+        if "layers" in jobs:
+            from inkray.formats.openraster import ora_bytes
+            from inkray.formats.psd import psd_bytes
+            from inkray.relief.cutout import cut_out
+
+            stack = cut_out(chain.completion, chain.relations, drawing)
+            files["parts.psd"] = psd_bytes(stack)
+            files["parts.ora"] = ora_bytes(stack)
+        if "maps" in jobs:
+            from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
+
+            seg = chain.segmentation
+            write_sprite_maps(sprite_maps(chain.relief, seg.labels, seg.names), "maps",
+                              outputs=collect)
+            files.update(collect.files())
+    finally:
+        collect.close()
+    return files
+
+
+def _shaded(glb, collect):
+    """``inkray render relief.glb -o shaded.png``: the relief as read back from its GLB."""
+    from inkray.formats.images import write_renderings
+    from inkray.formats.meshes import read_relief
+    from inkray.view.rendering import output_size, render
+
+    path = collect.scratch("relief.glb")
+    path.write_bytes(glb)
+    relief = read_relief(path)
+    image = render(relief, mode="shade", size=output_size(relief.size), ambient=0.3)
+    write_renderings(image, "shaded.png", outputs=collect)
+    return collect.files().pop("shaded.png")
+
+
+class _Collect:
+    """An outputs group (as :func:`atomic_outputs` yields) that keeps the bytes in memory."""
+
+    def __init__(self):
+        self._dir = None
+        self._paths = {}
+
+    def scratch(self, name):
+        if self._dir is None:
+            self._dir = tempfile.TemporaryDirectory(prefix="inkray-batch-")
+        return Path(self._dir.name) / f"{len(self._paths)}-{Path(name).name}"
+
+    def path(self, target):
+        tmp = self.scratch(target)
+        self._paths[Path(target).as_posix()] = tmp
+        return tmp
+
+    def write_bytes(self, target, data):
+        self.path(target).write_bytes(data)
+
+    def write_text(self, target, text):
+        self.write_bytes(target, text.encode("utf-8"))
+
+    def files(self):
+        out = {name: tmp.read_bytes() for name, tmp in self._paths.items()}
+        self._paths = {}
+        return out
+
+    def close(self):
+        if self._dir is not None:
+            self._dir.cleanup()
+
+
+def _reset_peak_memory():
+    # Linux: writing 5 to clear_refs resets the peak resident set size (VmHWM).
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
+def _peak_memory():
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux, bytes on macOS
+    return int(peak if sys.platform == "darwin" else peak * 1024)
+
+
+# -- the batch -------------------------------------------------------------------
+
+def _dask_results(frames, jobs, scheduler, workers):
+    """(frame, result) of every frame as it finishes, on the given or a local cluster."""
+    if not frames:
+        return
+    import dask
+    from distributed import Client, LocalCluster, as_completed
+
+    cluster = None
+    if scheduler is None:
+        n = workers or os.cpu_count() or 1
+        # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers so that they hand freed
+        # memory back at once; glibc then maps every large numpy array afresh,
+        # which made a frame about 30 % slower here. None unsets it.
+        unset = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+        with dask.config.set(unset):
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0")
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(scheduler, timeout=10)
+        except (OSError, ValueError) as e:
+            raise InputError(f"--scheduler {scheduler}: cannot connect ({_one_line(e)})") from None
+    futures = {}
+    try:
+        for f in frames:
+            future = client.submit(run_frame, f.annotation, tuple(jobs), pure=False,
+                                   key=f"inkray-frame-{_digest(f.annotation.encode())}-"
+                                       f"{time.monotonic_ns()}")
+            futures[future] = f
+        for future in as_completed(futures):
+            try:
+                result = future.result()
+            except Exception as e:  # the worker process died (killed, out of memory)
+                result = {"status": "failed", "files": {}, "time": 0.0, "cpu_time": 0.0,
+                          "peak_memory": None,
+                          "error": f"worker lost: {type(e).__name__}: {_one_line(e)}"}
+            future.release()
+            yield futures[future], result
+    finally:
+        client.cancel(list(futures))
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _finish(out, frame, result, inputs, manifest, keys):
+    """Write a finished frame's files and its manifest record; its outcome."""
+    outcome = _Outcome(result["status"], time=result["time"], cpu_time=result["cpu_time"],
+                       peak_memory=result["peak_memory"], error=result["error"])
+    if outcome.status != "done":
+        return outcome
+    folder = out / frame.name
+    targets = {folder / rel: data for rel, data in sorted(result["files"].items())}
+    clash = next((t for t in targets if str(t.resolve()) in inputs), None)
+    if clash is not None:
+        outcome.status, outcome.error = "failed", f"{clash}: would overwrite an input"
+        return outcome
+    with atomic_outputs() as group:
+        for target, data in targets.items():
+            group.write_bytes(target, data)
+    outcome.outputs = sorted(result["files"])
+    manifest[frame.name] = {"key": keys[frame.name],
+                            "outputs": {rel: _digest(data) for rel, data in
+                                        sorted(result["files"].items())}}
+    write_text(out / MANIFEST, json.dumps({"format": "inkray-batch-manifest", "version": 1,
+                                           "frames": dict(sorted(manifest.items()))},
+                                          indent=1) + "\n")
+    return outcome
+
+
+def _unchanged(folder, record, key):
+    if not record or record.get("key") != key:
+        return False
+    for rel, digest in record.get("outputs", {}).items():
+        try:
+            if _digest((folder / rel).read_bytes()) != digest:
+                return False
+        except OSError:
+            return False
+    return True
+
+
+def _frame_key(annotation, jobs):
+    """Hash of what a frame's outputs depend on: inkray, the jobs, the input files' bytes."""
+    from inkray.input.annotations import load_annotations
+
+    try:
+        drawing = load_annotations(annotation).drawing
+    except InkrayError:
+        drawing = None  # the task reports the problem
+    h = hashlib.blake2b(digest_size=16)
+    h.update(json.dumps({"inkray": __version__, "jobs": list(jobs)}).encode())
+    for path in [annotation] + ([drawing] if drawing is not None else []):
+        try:
+            data = Path(path).read_bytes()
+        except OSError:
+            data = b""  # the task reports the missing file
+        h.update(len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
+
+
+def _read_manifest(out):
+    path = out / MANIFEST
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        frames = data["frames"]
+        if data.get("format") != "inkray-batch-manifest" or not isinstance(frames, dict):
+            raise ValueError("not a batch manifest")
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{path}: unreadable manifest ({_one_line(e)}); delete it to start "
+                         f"over") from None
+    return frames
+
+
+def _report(frames, outcomes, jobs, scheduler, workers):
+    records = {f.name: outcomes[f.name].record(f) for f in frames}
+    counts = {s: sum(r["status"] == s for r in records.values())
+              for s in ("done", "skipped", "failed", "interrupted")}
+    return {"format": "inkray-batch-report", "version": 1, "jobs": list(jobs),
+            "scheduler": scheduler or "local",
+            "workers": workers if scheduler is None else None,
+            "counts": counts, "frames": records}
+
+
+def _write_report(out, report):
+    write_text(out / REPORT, json.dumps(report, indent=1, ensure_ascii=False) + "\n")
+
+
+def _check_jobs(jobs):
+    jobs = [j.strip() for j in (jobs.split(",") if isinstance(jobs, str) else jobs)]
+    unknown = [j for j in jobs if j not in JOBS]
+    if unknown or not jobs:
+        bad = unknown[0] if unknown else "(none)"
+        raise InputError(f"--jobs {','.join(jobs)}: unknown job {bad} "
+                         f"(expected some of {','.join(JOBS)})")
+    return tuple(j for j in JOBS if j in jobs)
+
+
+def _digest(data):
+    return hashlib.blake2b(data, digest_size=16).hexdigest()
+
+
+def _one_line(e):
+    return " ".join(str(e).split())

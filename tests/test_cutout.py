@@ -1,0 +1,247 @@
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+from scipy import ndimage
+
+from inkray import cli
+from inkray.chain import ReliefChain
+from inkray.errors import InputError
+from inkray.formats.layer_files import read_layers
+from inkray.input.drawing import drawing_from_array
+from inkray.input.loading import load_input
+from inkray.relief.completion import complete_regions
+from inkray.relief.cutout import Cutout, CutoutLayer, cut_out, stack_order, stroke_style
+from inkray.relief.ordering import Relation
+
+from conftest import EXAMPLES
+
+
+def psnr(a, b):
+    mse = np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)
+    return np.inf if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
+
+
+@pytest.fixture(scope="module", params=["turtle", "man"])
+def drawn(request):
+    ann, drawing = load_input(EXAMPLES / request.param / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    return chain, cut_out(chain.completion, chain.relations, drawing)
+
+
+def _rank(stack):
+    return {layer.region: k for k, layer in enumerate(stack.layers)}
+
+
+def test_flattened_stack_is_the_drawing_where_the_character_is(drawn):
+    chain, stack = drawn
+    character = chain.segmentation.labels >= 0
+    flat = stack.flatten()
+    assert np.all(flat[..., 3][character] == 255)
+    assert psnr(flat[..., :3][character], chain.drawing.rgb[character]) >= 35.0
+    assert np.all(flat[..., 3][~character] == 0)
+
+
+def test_layers_follow_the_depth_order(drawn):
+    chain, stack = drawn
+    rank = _rank(stack)
+    assert stack.splits == []
+    for r in chain.relations:
+        if r.kind == "order":
+            assert rank[r.front] > rank[r.back], r.label
+
+
+def test_hidden_parts_are_filled_with_the_parts_colour_and_outlined(drawn):
+    chain, stack = drawn
+    completion, gray = chain.completion, chain.drawing.gray
+    _, width = stroke_style(chain.drawing.rgb, gray)
+    checked = 0
+    for layer in stack.layers:
+        y0, y1, x0, x1 = layer.box
+        shape = completion.completed(layer.region)[y0:y1, x0:x1]
+        alpha = layer.rgba[..., 3]
+        assert np.all(alpha[shape] == 255) and np.all(alpha[~shape] == 0)
+        hidden = shape & (completion.labels[y0:y1, x0:x1] != layer.region)
+        assert np.array_equal(layer.hidden, hidden)
+        depth = ndimage.distance_transform_edt(shape)
+        inner = layer.hidden & (depth > width + 2)
+        rim = layer.hidden & (depth <= 1)
+        if inner.sum() < 30:
+            continue
+        visible = completion.labels == layer.region
+        paper = visible & (gray > 0.85 * np.median(gray[visible]))
+        tone = np.median(chain.drawing.rgb[paper].astype(float), axis=0)
+        fill = layer.rgba[..., :3][inner].astype(float)
+        assert np.abs(fill - tone).mean() < 40, layer.name
+        assert np.mean(layer.rgba[..., :3][rim].mean(axis=1) < 128) > 0.9, layer.name
+        checked += 1
+    assert checked >= 1
+
+
+def test_pad_grows_parts_only_under_the_parts_in_front(drawn):
+    chain, stack = drawn
+    padded = cut_out(chain.completion, chain.relations, chain.drawing, pad=4)
+    assert np.array_equal(padded.flatten(), stack.flatten())
+    grown = [int((p.rgba[..., 3] > 0).sum() - (s.rgba[..., 3] > 0).sum())
+             for p, s in zip(padded.layers, stack.layers)]
+    assert min(grown) >= 0 and sum(grown) > 0
+    assert grown[-1] == 0  # nothing is in front of the front part
+
+
+def test_background_layer_makes_the_whole_drawing(drawn):
+    chain, stack = drawn
+    full = cut_out(chain.completion, chain.relations, chain.drawing, background=True)
+    assert full.layers[0].name == "background" and full.layers[0].rgba.shape[:2] == \
+        chain.drawing.rgb.shape[:2]
+    flat = full.flatten()
+    assert np.all(flat[..., 3] == 255) and psnr(flat[..., :3], chain.drawing.rgb) >= 35.0
+    under = full.layers[0]
+    character = chain.segmentation.labels >= 0
+    assert np.all(under.rgba[..., 3] == 255) and np.array_equal(under.hidden, character)
+    # Paper continued under the character: as light as the paper around it.
+    paper = np.median(chain.drawing.rgb[~character].astype(float))
+    assert np.abs(under.rgba[..., :3][character].astype(float) - paper).mean() < 20
+
+
+def test_harmonic_fill_blends_the_visible_colours_across_the_hidden_part():
+    labels = np.full((40, 60), -1, np.int32)
+    labels[10:30, 5:55] = 0
+    labels[4:36, 25:35] = 1                      # a bar in front of a band
+    rgb = np.full((40, 60, 3), 255, np.uint8)
+    rgb[labels == 0] = (200, 40, 40)
+    rgb[(labels == 0) & (np.arange(60) >= 30)] = (40, 40, 200)
+    rgb[labels == 1] = (40, 200, 40)
+    c = complete_regions(labels, names=["band", "bar"])
+    rel = [Relation(1, 0, "bar", "band", (30, 20), "user", 1.0, place=c.places[0].index)]
+    stack = cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+    band = stack.layers[0]
+    assert band.name == "band" and band.hidden.sum() == 20 * 10
+    row = band.rgba[20 - band.top, 25 - band.left:35 - band.left, :3].astype(int)
+    assert np.all(np.diff(row[:, 0]) < 0) and np.all(np.diff(row[:, 2]) > 0)  # red -> blue
+    assert 60 < row[:, 0].mean() < 180 and np.all(row[:, 1] == 40)
+
+
+def _rings():
+    """Two interlocking rings: a over b at the top crossing, b over a at the bottom."""
+    y, x = np.mgrid[0:80, 0:120].astype(float)
+    ring_a = np.abs(np.hypot(x - 40, y - 40) - 22) < 4
+    ring_b = np.abs(np.hypot(x - 71, y - 40) - 22) < 4  # crossing at right angles
+    labels = np.full(x.shape, -1, np.int32)
+    labels[ring_a] = 0
+    labels[ring_b & ~(ring_a & (y < 40))] = 1
+    rgb = np.full(x.shape + (3,), 255, np.uint8)
+    rgb[labels == 0] = (220, 60, 60)
+    rgb[labels == 1] = (60, 60, 220)
+    c = complete_regions(labels, names=["a", "b"])
+    rels = []
+    for p in c.places:
+        top = p.box[0] + p.box[1] < 80
+        front, back = (0, 1) if top else (1, 0)
+        rels.append(Relation(front, back, "ab"[front], "ab"[back], p.where, "user", 1.0,
+                             place=p.index))
+    return labels, rgb, c.ordered(rels), rels
+
+
+def test_interlocking_rings_are_reported_with_the_part_to_split():
+    labels, rgb, completion, rels = _rings()
+    assert len(completion.places) == 2
+    stack = cut_out(completion, rels, drawing_from_array(rgb))
+    assert len(stack.layers) == 2 and len(stack.splits) == 1
+    (message,) = stack.warnings
+    assert "must be split" in message and "--split-local" in message
+    flat = stack.flatten()
+    wrong = np.any(flat[..., :3] != rgb, axis=-1) & (labels >= 0)
+    assert wrong.sum() > 20  # one crossing shows the wrong ring
+
+
+def test_split_local_puts_the_crossing_on_its_own_layer():
+    labels, rgb, completion, rels = _rings()
+    stack = cut_out(completion, rels, drawing_from_array(rgb), split_local=True)
+    assert len(stack.layers) == 3 and stack.warnings == []
+    split = stack.splits[0]
+    assert [layer.name for layer in stack.layers][-1] == f"{split.name} over {split.under_name}"
+    character = labels >= 0
+    assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf
+    padded = cut_out(completion, rels, drawing_from_array(rgb), split_local=True, pad=3)
+    assert np.array_equal(padded.flatten(), stack.flatten())
+
+
+def test_flatten_shows_only_the_canvas_part_of_a_layer_past_its_edge():
+    px = np.zeros((3, 3, 4), np.uint8)
+    px[..., 0] = px[..., 3] = 255
+    stack = Cutout([CutoutLayer("a", None, -1, 2, px, None)], (4, 2))
+    flat = stack.flatten()
+    assert flat[..., 3].tolist() == [[0, 0, 255, 255], [0, 0, 255, 255]]
+
+
+def test_stack_order_keeps_the_users_relation_over_a_prediction():
+    user = Relation(0, 1, "a", "b", (0, 0), "user", 1.0)
+    guess = Relation(1, 0, "b", "a", (0, 0), "predicted", 0.9)
+    assert stack_order(2, [guess, user]) == ([1, 0], [guess])
+
+
+def test_bad_pad_is_rejected(drawn):
+    chain, _ = drawn
+    with pytest.raises(InputError, match="pad"):
+        cut_out(chain.completion, chain.relations, chain.drawing, pad=-1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.iterdir()
+                                        if (p / "drawing.inkray.json").is_file()))
+def test_every_bundled_drawing_stacks_back_into_itself(name):
+    ann, drawing = load_input(EXAMPLES / name / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    stack = cut_out(chain.completion, chain.relations, drawing, background=True, pad=4)
+    assert psnr(stack.flatten()[..., :3], drawing.rgb) >= 35.0
+    rank = {layer.region: k for k, layer in enumerate(stack.layers)}
+    broken = {(s.region, s.under) for s in stack.splits}
+    for r in chain.relations:
+        if r.kind == "order" and (r.front, r.back) not in broken:
+            assert rank[r.front] > rank[r.back], r.label
+
+
+def _drawn_rings(folder):
+    """A drawing of two interlocking rings (a over b at the top crossing, b over a at the
+    bottom one) with a scribble in each ring and no order entry: the chain predicts both."""
+    w, h = 160, 110
+    y, x = np.mgrid[0:h, 0:w].astype(float)
+    (ax, bx), cy, radius, half = (55, 95), 55, 30, 7
+    da, db = np.hypot(x - ax, y - cy), np.hypot(x - bx, y - cy)
+    band_a, band_b = np.abs(da - radius) < half, np.abs(db - radius) < half
+    edge_a = np.abs(np.abs(da - radius) - half) < 1.2
+    edge_b = np.abs(np.abs(db - radius) - half) < 1.2
+    top = y < cy
+    ink = (edge_a & ~(band_b & ~top)) | (edge_b & ~(band_a & top))
+    Image.fromarray(np.where(ink, 0, 255).astype(np.uint8)).save(folder / "rings.png")
+
+    def arc(cx, t0, t1):
+        t = np.linspace(t0, t1, 12)
+        return np.round(np.stack([cx + radius * np.cos(t), cy + radius * np.sin(t)], 1), 1).tolist()
+
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "rings.png", "size": [w, h],
+           "regions": [{"name": "a", "scribbles": [arc(ax, 0.9, 5.3)]},
+                       {"name": "b", "scribbles": [arc(bx, -2.2, 2.2)]}],
+           "background": [[[3, 3], [156, 3], [156, 106], [3, 106]], [[ax, cy]], [[bx + 5, cy]],
+                          [[75, cy]]]}
+    path = folder / "rings.inkray.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
+    ann = _drawn_rings(tmp_path)
+    a, drawing = load_input(ann)
+    character = ReliefChain(a, drawing).segmentation.labels >= 0
+    assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "one.ora")]) == 0
+    assert "region 'b' must be split" in capsys.readouterr().err
+    stuck = read_layers(tmp_path / "one.ora")
+    assert [layer.name for layer in stuck.layers] == ["b", "a"]
+    assert psnr(stuck.flatten()[..., :3][character], drawing.rgb[character]) < 35.0
+    assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "split.psd"),
+                     "--split-local"]) == 0
+    assert "must be split" not in capsys.readouterr().err
+    split = read_layers(tmp_path / "split.psd")
+    assert [layer.name for layer in split.layers] == ["b", "a", "b over a"]
+    assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0
