@@ -37,6 +37,7 @@ from inkray.relief.inflation import inflate_region
 from inkray.relief.model import Relief
 from inkray.relief.ordering import depth_order
 from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
+from inkray.relief.silhouette import grow_over_ink, ink_pixels
 from inkray.relief.stitching import Layers, stitch
 from inkray.segmentation import Segmentation, segment
 
@@ -261,14 +262,16 @@ class ReliefChain:
         if "meshes" in self._memo:
             return self._memo["meshes"]
         completion = self.completion
-        labels = completion.labels
+        # The parts reach the outer edge of their contour strokes (the outline on the mesh).
+        labels = self._stage("silhouettes", ("silhouettes", self._segment_key()), lambda: grow_over_ink(
+            completion.labels, ink_pixels(self.drawing.gray)), timed=False)
         regions = self.annotations.regions
         seams = self.annotations.boundaries
         out, keys = [], []
         with self.progress.stage("inflate"):
             for i, region in enumerate(regions):
                 self.progress.update(i, len(regions))
-                mask = completion.completed(i)
+                mask = completion.completed(i) | (labels == i)
                 if not mask.any():
                     out.append(None)
                     keys.append(None)
@@ -278,7 +281,7 @@ class ReliefChain:
                            (b.type, b.path) for b in seams)))
                 keys.append(key)
                 out.append(self._stage(f"mesh:{region.name}", key, lambda i=i, mask=mask, r=region:
-                                       inflate_region(mask, visible=completion.visible(i),
+                                       inflate_region(mask, visible=labels == i,
                                                       labels=labels, region=i, name=r.name,
                                                       boundaries=seams, inflation=r.inflation,
                                                       profile=r.profile,

@@ -1,4 +1,13 @@
-"""The bundled examples' reliefs match the reference meshes in meshes/."""
+"""The bundled examples' reliefs match the reference meshes in meshes/.
+
+The references were regenerated (``python meshes/regenerate.py``) when the
+relief surfaces were cleaned up on purpose:
+
+- every part's silhouette reaches the outer edge of its contour stroke where
+  it borders the paper (parts grown over their background ink), so the
+  outlines are larger by about a stroke's width and the whole outline ink
+  is on the meshes;
+"""
 
 from pathlib import Path
 
