@@ -11,7 +11,8 @@ what a viewer sees, not on the solver's own variables:
   reported is the 90th percentile.
 - **order held**: along the segment between an ``order`` entry's two points,
   and over its place's overlap, the front part's surface is above the back
-  part's by the depth step (wherever both meshes are there).
+  part's by the depth step (wherever both meshes are there, outside the band
+  of a graft between the two parts where the relation gives way, warned).
 - **silhouette turning ratio**: total absolute turning of every part's
   outline divided by that of the same outline smoothed over 3 px; pixel
   stair-steps turn by 90 degrees at every step, a smooth outline ~1.0-1.2.
@@ -31,6 +32,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from inkray.formats.mesh_report import mesh_quality
+from inkray.numerics.polyline import point_polyline_distance
 from inkray.view.rasterization import rasterize
 
 INK = 0.5  # grey level below which a drawing pixel is ink
@@ -83,11 +85,15 @@ def height_on(part, points):
     return (v[tri, 2] * w).sum(axis=1), np.sqrt(np.maximum(d2, 0.0))
 
 
-def order_margins(relief, relations, epsilon, *, completion=None, step=0.5, max_place=4000):
+def order_margins(relief, relations, epsilon, *, completion=None, bands=(), step=0.5,
+                  max_place=4000):
     """Per ``order`` entry: ``z_front - z_back - epsilon`` along its segment (and its place).
 
     Returns a dict ``label -> {"segment": array, "place": array}`` of margins
-    at the samples where both parts' meshes are (a margin >= 0 holds).
+    at the samples where both parts' meshes are (a margin >= 0 holds). Samples
+    inside a graft band between the entry's two regions (``bands`` of
+    :class:`~inkray.relief.stitching.Layers`, where the relation gives way to
+    the seam with a warning) are left out.
     """
     parts = {p.name: p for p in relief.parts}
     names = None if completion is None else completion.names
@@ -101,14 +107,23 @@ def order_margins(relief, relations, epsilon, *, completion=None, step=0.5, max_
         p, q = (np.asarray(x, float) for x in rel.points)
         n = max(2, int(math.ceil(np.linalg.norm(q - p) / step)) + 1)
         seg = p + np.linspace(0.0, 1.0, n)[:, None] * (q - p)
-        res = {"segment": _margins(parts[front], parts[back], seg, epsilon)}
+        res = {"segment": _margins(parts[front], parts[back], _outside(seg, rel, bands), epsilon)}
         if completion is not None and rel.place is not None:
-            res["place"] = _margins(parts[front], parts[back],
-                                    _place_points(completion, rel, max_place), epsilon)
+            res["place"] = _margins(parts[front], parts[back], _outside(
+                _place_points(completion, rel, max_place), rel, bands), epsilon)
         out.setdefault(rel.label, {"segment": np.zeros(0), "place": np.zeros(0)})
         for k, v in res.items():
             out[rel.label][k] = np.concatenate([out[rel.label][k], v])
     return out
+
+
+def _outside(pts, rel, bands):
+    """The points outside the graft bands between the relation's two regions."""
+    keep = np.ones(len(pts), bool)
+    for f, b, seam, width in bands:
+        if {f, b} == {rel.front, rel.back}:
+            keep &= point_polyline_distance(pts, seam) >= width
+    return pts[keep]
 
 
 def _part_names(rel, names, relief):
@@ -247,7 +262,7 @@ def relief_figures(result, gray):
     raster = rasterize(relief)
     jumps = normal_jumps(relief, gray, raster=raster)
     margins = order_margins(relief, result.relations, result.layers.epsilon,
-                            completion=result.completion)
+                            completion=result.completion, bands=result.layers.bands)
     seg = np.concatenate([m["segment"] for m in margins.values()] or [np.zeros(0)])
     place = np.concatenate([m["place"] for m in margins.values()] or [np.zeros(0)])
     tol = -1e-3 * result.layers.epsilon

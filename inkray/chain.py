@@ -44,6 +44,7 @@ from inkray.segmentation import Segmentation, segment
 __all__ = ["ChainOptions", "ReliefChain", "ReliefResult", "build_relief"]
 
 _LABEL_MARGIN = 6  # px around a region's box that its outline's provenance reads
+_STROKE_EDGE = 0.75  # grey level up to which a stroke's soft edge is part of its silhouette
 
 
 @dataclass(frozen=True)
@@ -264,7 +265,7 @@ class ReliefChain:
         completion = self.completion
         # The parts reach the outer edge of their contour strokes (the outline on the mesh).
         labels = self._stage("silhouettes", ("silhouettes", self._segment_key()), lambda: grow_over_ink(
-            completion.labels, ink_pixels(self.drawing.gray)), timed=False)
+            completion.labels, ink_pixels(self.drawing.gray, level=_STROKE_EDGE)), timed=False)
         regions = self.annotations.regions
         seams = self.annotations.boundaries
         out, keys = [], []
@@ -333,6 +334,8 @@ class ReliefChain:
             out += self._memo["segment"].warnings
         if "order" in self._memo:
             out += self._memo["order"][2]
+        if "stitch" in self._memo:
+            out += self._memo["stitch"].warnings
         if "meshes" in self._memo:
             out += [f"region {r.name!r}: no pixels after segmentation; left out"
                     for r, m in zip(self.annotations.regions, self._memo["meshes"]) if m is None]

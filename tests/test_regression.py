@@ -7,6 +7,12 @@ relief surfaces were cleaned up on purpose:
   it borders the paper (parts grown over their background ink), so the
   outlines are larger by about a stroke's width and the whole outline ink
   is on the meshes;
+- outlines are contours of the smoothed mask, relaxed within 0.6 px of it
+  (no pixel stair-steps), and a marked seam runs along its entry's path, so
+  outline vertices moved by up to a pixel and the meshes differ throughout;
+- a grafted part rises from its base's surface over a band (equal height and
+  slope at the seam, no z-fighting) and an order entry holds along its whole
+  segment, so the heights changed near grafts and entries.
 """
 
 from pathlib import Path

@@ -25,13 +25,16 @@ __all__ = ["INK_LEVEL", "ink_pixels", "stroke_width", "grow_over_ink"]
 INK_LEVEL = 0.5
 
 
-def ink_pixels(gray):
+def ink_pixels(gray, *, level=INK_LEVEL):
     """Ink pixels of a normalized grey drawing.
 
     Parameters
     ----------
     gray : (H, W) float array
         Paper 1, ink near 0.
+    level : float, default 0.5
+        Grey level below which a pixel is ink (higher takes in more of the
+        strokes' soft edges).
 
     Returns
     -------
@@ -42,7 +45,7 @@ def ink_pixels(gray):
     >>> ink_pixels(np.array([[1.0, 0.2, 0.6]])).tolist()
     [[False, True, False]]
     """
-    return np.asarray(gray) < INK_LEVEL
+    return np.asarray(gray) < level
 
 
 def stroke_width(ink):
