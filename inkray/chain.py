@@ -336,6 +336,8 @@ class ReliefChain:
             out += self._memo["order"][2]
         if "stitch" in self._memo:
             out += self._memo["stitch"].warnings
+        if "assemble" in self._memo:
+            out += self._memo["assemble"].warnings
         if "meshes" in self._memo:
             out += [f"region {r.name!r}: no pixels after segmentation; left out"
                     for r, m in zip(self.annotations.regions, self._memo["meshes"]) if m is None]

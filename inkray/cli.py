@@ -427,7 +427,8 @@ def _parser():
     p["check"].add_argument("--require", metavar="LIST",
                             help="exit 1 unless every part meets these, comma-separated: "
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
-                                 "no-self-intersections, no-degenerate, no-duplicates")
+                                 "no-self-intersections, no-degenerate, no-duplicates; bounds "
+                                 "min-angle=DEG, max-aspect=N, shells=N")
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")

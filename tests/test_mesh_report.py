@@ -201,6 +201,25 @@ def test_requirement_names():
     assert set(parse_requirements(list(REQUIREMENTS))) == set(REQUIREMENTS)
     with pytest.raises(InputError, match="unknown requirement 'closed'"):
         parse_requirements("watertight,closed")
+    assert parse_requirements("min-angle = 10, shells=1") == ["min-angle=10", "shells=1"]
+    for bad in ("min-angle", "min-angle=x", "shells=-1"):
+        with pytest.raises(InputError, match="needs a bound"):
+            parse_requirements(bad)
+
+
+def test_shells_and_bounds():
+    v, f = _sphere()
+    two = (np.vstack([v, v + [10.0, 0, 0]]), np.vstack([f, f + len(v)]))
+    report = quality_report([("one", v, f), ("two", *two)])
+    by_name = {p["name"]: p for p in report["parts"]}
+    assert by_name["one"]["shells"] == 1 and by_name["two"]["shells"] == 2
+    assert report["overall"]["shells"] == 3
+    assert failed_requirements(report, ["shells=1"]) == [("shells=1", ["two"])]
+    angle = by_name["one"]["min_angle_deg"]
+    assert failed_requirements(report, [f"min-angle={angle - 1:.3f}"]) == []
+    assert failed_requirements(report, [f"min-angle={angle + 1:.3f}"])[0][1] == ["one", "two"]
+    assert failed_requirements(report, ["max-aspect=1"])[0][1] == ["one", "two"]
+    assert "2 shells" in format_report(report)
 
 
 # -- files: inkray's and others' ------------------------------------------------------
