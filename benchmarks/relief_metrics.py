@@ -135,7 +135,7 @@ def _part_names(rel, names, relief):
 def _margins(front, back, pts, epsilon):
     zf, df = height_on(front, pts)
     zb, db = height_on(back, pts)
-    both = (df <= 0.25) & (db <= 0.25)
+    both = (df <= 1e-6) & (db <= 1e-6)  # inside both meshes
     return (zf - zb - epsilon)[both]
 
 

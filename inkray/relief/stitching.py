@@ -53,6 +53,7 @@ __all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
 DEFAULT_EPSILON_FRACTION = 0.004
 _SCREEN = 1e-4  # lambda_i * area_i: rigid shifts cost 1e-4 of a unit bend
 _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
+_PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _SLOPE_STEP = 0.5  # outline edges from a graft seam to where its slope is matched
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
@@ -367,6 +368,13 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
         pts = blk.v[sel]
         front_at = sel if src == a else pts
         _terms_rows(rows, blocks, [(a, front_at, 1.0), (b, pts, -1.0)], epsilon, True, label)
+    # Between the vertices the two meshes interpolate differently: the pixel centres of
+    # the overlap (every other one) keep the order there too.
+    ys, xs = np.nonzero(pm & both)
+    grid = (ys % _PLACE_STEP == 0) & (xs % _PLACE_STEP == 0)
+    pts = np.column_stack([xs[grid] + win[1].start, ys[grid] + win[0].start]).astype(float)
+    pts = pts[~keepout(a, b, pts)]
+    _terms_rows(rows, blocks, [(a, pts, 1.0), (b, pts, -1.0)], epsilon, True, label)
 
 
 def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
