@@ -16,7 +16,8 @@ measured) with their targets:
 
 Usage::
 
-    python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale] [--no-quality]
+    python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale | --upscale-only]
+                                      [--no-quality]
 """
 
 import argparse
@@ -79,6 +80,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--names", help="comma-separated shared drawings (default: all)")
     parser.add_argument("--no-upscale", action="store_true", help="only the drawings' own size")
+    parser.add_argument("--upscale-only", action="store_true", help="only the 1 Mpx cases")
     parser.add_argument("--no-quality", action="store_true",
                         help="times and memory only (no quality columns)")
     parser.add_argument("--one", nargs=3, metavar=("NAME", "MPX", "QUALITY"), help=argparse.SUPPRESS)
@@ -88,7 +90,8 @@ def main():
         return
     names = args.names.split(",") if args.names else sorted(
         p.name for p in SHARED.iterdir() if (p / "drawing.inkray.json").is_file())
-    cases = [(n, 0.0) for n in names] + ([] if args.no_upscale else [(n, 1.0) for n in names])
+    cases = (([] if args.upscale_only else [(n, 0.0) for n in names])
+             + ([] if args.no_upscale else [(n, 1.0) for n in names]))
     head = (f"{'drawing':<12} {'size':>10} {'reg':>3} " + " ".join(f"{s:>8}" for s in STAGES)
             + f" {'total s':>8} {'x 5 s':>6} {'RSS MB':>7} {'x 2 GB':>6} {'verts':>7}"
             + ("" if args.no_quality else f" {'jump90':>6} {'order':>6} {'turn':>5} {'ink%':>5}"
