@@ -296,6 +296,19 @@ def test_cli_fails_the_requirement_each_defect_breaks(name, build, fails, passes
     assert f"requirement '{fails}' failed" in capsys.readouterr().err
 
 
+def test_cli_bounds_on_angles_and_shells(tmp_path, capsys):
+    path = _write(tmp_path, "apart.ply", *_spheres(3.0))
+    angle = mesh_quality(*_sphere())["min_angle_deg"]
+    assert main(["--quiet", "check", str(path), "--require",
+                 f"watertight,min-angle={angle - 0.5:.2f},shells=2"]) == 0
+    assert "2 shells" in capsys.readouterr().out
+    assert main(["--quiet", "check", str(path), "--require", "shells=1"]) == 1
+    assert "requirement 'shells=1' failed for apart" in capsys.readouterr().err
+    assert main(["--quiet", "check", str(path), "--require", f"min-angle={angle + 0.5:.2f}"]) == 1
+    assert main(["--quiet", "check", str(path), "--require", "min-angle"]) == 2
+    assert "min-angle needs a bound" in capsys.readouterr().err
+
+
 def test_cli_writes_json_report(tmp_path, capsys):
     path = _write(tmp_path, "ball.glb", *_sphere())
     out = tmp_path / "report.json"
