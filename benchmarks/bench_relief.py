@@ -1,13 +1,23 @@
-"""Benchmark of the whole relief chain: per-stage times and peak memory.
+"""Benchmark of the whole relief chain: per-stage times, peak memory and surface quality.
 
 Runs ``inkray.chain.build_relief`` on the shared drawings at their own size
 and upscaled to about 1 Mpx, each case in a fresh process (so peak RSS is that
-case's own), and prints a table against the targets: 5 s and 2 GB for a 1 Mpx
-drawing on a 2-core machine.
+case's own, measured before the quality figures), and prints a table against
+the targets: 5 s and 2 GB for a 1 Mpx drawing on a 2-core machine. The
+quality columns (``relief_metrics.py`` beside this file says how each is
+measured) with their targets:
+
+- ``jump90``: normal jump at ink-free seams, 90th percentile (deg), <= 5;
+- ``order``: order held along the segments between entries' points (%), 100;
+- ``turn``: silhouette turning over that of the 3 px smoothed outline, <= 1.25;
+- ``ink%``: outline ink on the mesh (%), >= 97;
+- ``minang``, ``shells``: smallest angle (deg) and shell count of the
+  ``--closed --union`` solid, >= 10 and 1.
 
 Usage::
 
-    python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale]
+    python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale | --upscale-only]
+                                      [--no-quality]
 """
 
 import argparse
@@ -26,7 +36,7 @@ TARGET_S, TARGET_MB = 5.0, 2048.0
 STAGES = ("segment", "complete", "order", "inflate", "stitch", "assemble")
 
 
-def _one(name, megapixels):
+def _one(name, megapixels, quality):
     from PIL import Image
 
     from inkray.input.loading import load_input
@@ -48,29 +58,49 @@ def _one(name, megapixels):
     result = build_relief(ann, d, progress=progress)
     total = time.perf_counter() - start
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    figures = {}
+    if quality:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from relief_metrics import relief_figures, solid_figures
+
+        from inkray.chain import ReliefChain
+        figures = relief_figures(result, d.gray)
+        try:
+            union = ReliefChain(ann, d).edit(closed=True, union=True).relief
+            figures.update(solid_figures(union))
+        except Exception as e:  # reported in the table, not fatal to the other columns
+            figures["solid_error"] = str(e).splitlines()[0]
     print(json.dumps({"name": name, "size": list(ann.size), "regions": len(ann.regions),
                       "stages": dict(progress.timings), "total": total, "rss_mb": rss,
-                      "vertices": sum(len(p.vertices) for p in result.relief.parts)}))
+                      "vertices": sum(len(p.vertices) for p in result.relief.parts),
+                      "figures": figures}))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--names", help="comma-separated shared drawings (default: all)")
     parser.add_argument("--no-upscale", action="store_true", help="only the drawings' own size")
-    parser.add_argument("--one", nargs=2, metavar=("NAME", "MPX"), help=argparse.SUPPRESS)
+    parser.add_argument("--upscale-only", action="store_true", help="only the 1 Mpx cases")
+    parser.add_argument("--no-quality", action="store_true",
+                        help="times and memory only (no quality columns)")
+    parser.add_argument("--one", nargs=3, metavar=("NAME", "MPX", "QUALITY"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        _one(args.one[0], float(args.one[1]))
+        _one(args.one[0], float(args.one[1]), args.one[2] == "1")
         return
     names = args.names.split(",") if args.names else sorted(
         p.name for p in SHARED.iterdir() if (p / "drawing.inkray.json").is_file())
-    cases = [(n, 0.0) for n in names] + ([] if args.no_upscale else [(n, 1.0) for n in names])
+    cases = (([] if args.upscale_only else [(n, 0.0) for n in names])
+             + ([] if args.no_upscale else [(n, 1.0) for n in names]))
     head = (f"{'drawing':<12} {'size':>10} {'reg':>3} " + " ".join(f"{s:>8}" for s in STAGES)
-            + f" {'total s':>8} {'x 5 s':>6} {'RSS MB':>7} {'x 2 GB':>6} {'verts':>7}")
+            + f" {'total s':>8} {'x 5 s':>6} {'RSS MB':>7} {'x 2 GB':>6} {'verts':>7}"
+            + ("" if args.no_quality else f" {'jump90':>6} {'order':>6} {'turn':>5} {'ink%':>5}"
+                                          f" {'minang':>6} {'shells':>6}"))
     print(head)
     print("-" * len(head))
     for name, mpx in cases:
-        run = subprocess.run([sys.executable, __file__, "--one", name, str(mpx)],
+        run = subprocess.run([sys.executable, __file__, "--one", name, str(mpx),
+                              "0" if args.no_quality else "1"],
                              capture_output=True, text=True, env={**os.environ, "PYTHONHASHSEED": "0"})
         if run.returncode != 0:
             print(f"{name:<12} failed: {run.stderr.strip().splitlines()[-1]}")
@@ -80,7 +110,17 @@ def main():
         print(f"{name:<12} {size:>10} {r['regions']:>3} "
               + " ".join(f"{r['stages'].get(s, 0):8.2f}" for s in STAGES)
               + f" {r['total']:8.2f} {r['total'] / TARGET_S:6.2f} {r['rss_mb']:7.0f}"
-              f" {r['rss_mb'] / TARGET_MB:6.2f} {r['vertices']:>7}")
+              f" {r['rss_mb'] / TARGET_MB:6.2f} {r['vertices']:>7}" + _quality(r["figures"]))
+
+
+def _quality(f):
+    """The quality columns of one case (empty without figures)."""
+    if not f:
+        return ""
+    solid = (f" {f['min_angle']:6.1f} {f['shells']:>6}" if "min_angle" in f
+             else f" {'failed':>13}")
+    return (f" {f['jump_p90']:6.1f} {100 * f['order_held']:6.1f} {f['turning']:5.2f}"
+            f" {100 * f['ink_on_mesh']:5.1f}" + solid)
 
 
 if __name__ == "__main__":

@@ -37,12 +37,14 @@ from inkray.relief.inflation import inflate_region
 from inkray.relief.model import Relief
 from inkray.relief.ordering import depth_order
 from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
+from inkray.relief.silhouette import grow_over_ink, ink_pixels
 from inkray.relief.stitching import Layers, stitch
 from inkray.segmentation import Segmentation, segment
 
 __all__ = ["ChainOptions", "ReliefChain", "ReliefResult", "build_relief"]
 
 _LABEL_MARGIN = 6  # px around a region's box that its outline's provenance reads
+_STROKE_EDGE = 0.75  # grey level up to which a stroke's soft edge is part of its silhouette
 
 
 @dataclass(frozen=True)
@@ -261,14 +263,16 @@ class ReliefChain:
         if "meshes" in self._memo:
             return self._memo["meshes"]
         completion = self.completion
-        labels = completion.labels
+        # The parts reach the outer edge of their contour strokes (the outline on the mesh).
+        labels = self._stage("silhouettes", ("silhouettes", self._segment_key()), lambda: grow_over_ink(
+            completion.labels, ink_pixels(self.drawing.gray, level=_STROKE_EDGE)), timed=False)
         regions = self.annotations.regions
         seams = self.annotations.boundaries
         out, keys = [], []
         with self.progress.stage("inflate"):
             for i, region in enumerate(regions):
                 self.progress.update(i, len(regions))
-                mask = completion.completed(i)
+                mask = completion.completed(i) | (labels == i)
                 if not mask.any():
                     out.append(None)
                     keys.append(None)
@@ -278,7 +282,7 @@ class ReliefChain:
                            (b.type, b.path) for b in seams)))
                 keys.append(key)
                 out.append(self._stage(f"mesh:{region.name}", key, lambda i=i, mask=mask, r=region:
-                                       inflate_region(mask, visible=completion.visible(i),
+                                       inflate_region(mask, visible=labels == i,
                                                       labels=labels, region=i, name=r.name,
                                                       boundaries=seams, inflation=r.inflation,
                                                       profile=r.profile,
@@ -330,6 +334,10 @@ class ReliefChain:
             out += self._memo["segment"].warnings
         if "order" in self._memo:
             out += self._memo["order"][2]
+        if "stitch" in self._memo:
+            out += self._memo["stitch"].warnings
+        if "assemble" in self._memo:
+            out += self._memo["assemble"].warnings
         if "meshes" in self._memo:
             out += [f"region {r.name!r}: no pixels after segmentation; left out"
                     for r, m in zip(self.annotations.regions, self._memo["meshes"]) if m is None]

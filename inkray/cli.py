@@ -633,7 +633,8 @@ def _parser():
     p["check"].add_argument("--require", metavar="LIST",
                             help="exit 1 unless every part meets these, comma-separated: "
                                  "watertight, manifold, edge-manifold, vertex-manifold, oriented, "
-                                 "no-self-intersections, no-degenerate, no-duplicates")
+                                 "no-self-intersections, no-degenerate, no-duplicates; bounds "
+                                 "min-angle=DEG, max-aspect=N, shells=N")
     ly = p["layers"]
     ly.add_argument("-o", "--output", required=True, metavar="PATH",
                     help="output file (.psd or .ora)")

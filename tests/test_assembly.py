@@ -6,7 +6,9 @@ import pytest
 import trimesh
 
 from inkray.input.annotations import parse_annotations
-from inkray.relief.assembly import assemble, close_part
+from _reliefs import disk_part
+from inkray.relief.assembly import (MIN_ANGLE, _min_angles, assemble, close_part, remesh_solid,
+                                    shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
 from inkray.errors import StageError
 from inkray.relief.inflation import inflate_region
@@ -92,7 +94,25 @@ def test_union_is_one_watertight_solid(scene):
     assert len(np.unique(relief.parts[0].vertices, axis=0)) == len(relief.parts[0].vertices)
     parts = assemble(layers, size=(300, 200), closed=True).parts
     separate = sum(trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces).volume for p in parts)
-    assert mesh.volume <= separate + 1e-6  # overlaps count once
+    assert mesh.volume <= separate * (1 + 1e-3)  # overlaps count once (remeshing moves a little)
+    assert len(mesh.split(only_watertight=False)) == 1 and not relief.warnings
+    # remeshed: the slivers where the parts cut each other and on the steep rims are
+    # gone, but for a few where two sheets nearly touch (the graft's seam)
+    angles = _min_angles(relief.parts[0].vertices, relief.parts[0].faces)
+    raw = union_parts(parts, remesh=False)
+    before = _min_angles(raw.vertices, raw.faces)
+    assert (before < MIN_ANGLE).mean() > 0.05 and before.min() < 1.0
+    assert (angles < MIN_ANGLE).mean() < 1e-3
+
+
+def test_union_names_the_parts_that_stay_apart():
+    far = disk_part("far", 260.0, 40.0, 15.0, closed=True)
+    near = disk_part("near", 60.0, 40.0, 15.0, closed=True)
+    solid = union_parts([near, far])
+    assert shell_parts(solid, [near, far]) == [["near"], ["far"]] or \
+        shell_parts(solid, [near, far]) == [["far"], ["near"]]
+    v, f = remesh_solid(solid.vertices, solid.faces, target=2.0)
+    assert len(f) > 0
 
 
 def test_union_needs_closed_parts(scene):

@@ -201,6 +201,25 @@ def test_requirement_names():
     assert set(parse_requirements(list(REQUIREMENTS))) == set(REQUIREMENTS)
     with pytest.raises(InputError, match="unknown requirement 'closed'"):
         parse_requirements("watertight,closed")
+    assert parse_requirements("min-angle = 10, shells=1") == ["min-angle=10", "shells=1"]
+    for bad in ("min-angle", "min-angle=x", "shells=-1"):
+        with pytest.raises(InputError, match="needs a bound"):
+            parse_requirements(bad)
+
+
+def test_shells_and_bounds():
+    v, f = _sphere()
+    two = (np.vstack([v, v + [10.0, 0, 0]]), np.vstack([f, f + len(v)]))
+    report = quality_report([("one", v, f), ("two", *two)])
+    by_name = {p["name"]: p for p in report["parts"]}
+    assert by_name["one"]["shells"] == 1 and by_name["two"]["shells"] == 2
+    assert report["overall"]["shells"] == 3
+    assert failed_requirements(report, ["shells=1"]) == [("shells=1", ["two"])]
+    angle = by_name["one"]["min_angle_deg"]
+    assert failed_requirements(report, [f"min-angle={angle - 1:.3f}"]) == []
+    assert failed_requirements(report, [f"min-angle={angle + 1:.3f}"])[0][1] == ["one", "two"]
+    assert failed_requirements(report, ["max-aspect=1"])[0][1] == ["one", "two"]
+    assert "2 shells" in format_report(report)
 
 
 # -- files: inkray's and others' ------------------------------------------------------
@@ -275,6 +294,19 @@ def test_cli_fails_the_requirement_each_defect_breaks(name, build, fails, passes
     capsys.readouterr()
     assert main(["--quiet", "check", str(path), "--require", fails]) == 1
     assert f"requirement '{fails}' failed" in capsys.readouterr().err
+
+
+def test_cli_bounds_on_angles_and_shells(tmp_path, capsys):
+    path = _write(tmp_path, "apart.ply", *_spheres(3.0))
+    angle = mesh_quality(*_sphere())["min_angle_deg"]
+    assert main(["--quiet", "check", str(path), "--require",
+                 f"watertight,min-angle={angle - 0.5:.2f},shells=2"]) == 0
+    assert "2 shells" in capsys.readouterr().out
+    assert main(["--quiet", "check", str(path), "--require", "shells=1"]) == 1
+    assert "requirement 'shells=1' failed for apart" in capsys.readouterr().err
+    assert main(["--quiet", "check", str(path), "--require", f"min-angle={angle + 0.5:.2f}"]) == 1
+    assert main(["--quiet", "check", str(path), "--require", "min-angle"]) == 2
+    assert "min-angle needs a bound" in capsys.readouterr().err
 
 
 def test_cli_writes_json_report(tmp_path, capsys):

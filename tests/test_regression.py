@@ -1,4 +1,21 @@
-"""The bundled examples' reliefs match the reference meshes in meshes/."""
+"""The bundled examples' reliefs match the reference meshes in meshes/.
+
+The references were regenerated (``python meshes/regenerate.py``) when the
+relief surfaces were cleaned up on purpose:
+
+- every part's silhouette reaches the outer edge of its contour stroke where
+  it borders the paper (parts grown over their background ink), so the
+  outlines are larger by about a stroke's width and the whole outline ink
+  is on the meshes;
+- outlines are contours of the smoothed mask, relaxed within 0.6 px of it
+  (no pixel stair-steps), and a marked seam runs along its entry's path, so
+  outline vertices moved by up to a pixel and the meshes differ throughout;
+- a grafted part rises from its base's surface over a band (equal height and
+  slope at the seam, no z-fighting) and an order entry holds along its whole
+  segment, so the heights changed near grafts and entries;
+- the depth-order prediction was refitted (more cues, weights chosen by
+  leave-one-out), so predicted relations, and the heights they set, moved.
+"""
 
 from pathlib import Path
 

@@ -65,11 +65,13 @@ def test_quality_orientation_and_fidelity(name):
     assert ang.min() >= 20.0 - 1e-6
     assert np.all(area < 0)  # clockwise in (x, y): toward the viewer (inkray.relief)
     assert -area.max() > 1e-2 and -area.min() <= 50.0 + 1e-6  # none degenerate, none too big
-    # Boundary within 1 px of the mask outline, both ways (Hausdorff distance).
+    # Boundary within 1.5 px of the pixel mask's outline, both ways (Hausdorff
+    # distance): the outline is smoothed (up to ~0.7 px where the pixel contour
+    # has a flat run or a notch) and relaxed within 0.6 px of that.
     raw = [c[:, ::-1] - 1 for c in find_contours(np.pad(mask, 1).astype(float), 0.5)]
     ours, theirs = _dense(_boundary_curves(mesh)), _dense(raw)
-    assert cKDTree(theirs).query(ours)[0].max() < 1.0
-    assert cKDTree(ours).query(theirs)[0].max() < 1.0
+    assert cKDTree(theirs).query(ours)[0].max() < 1.5
+    assert cKDTree(ours).query(theirs)[0].max() < 1.5
     assert abs(-area.sum() - mask.sum()) < 0.01 * mask.sum()
     assert np.all(mesh.kind[np.unique(np.concatenate(_boundary_curves_idx(mesh)))] != INTERIOR)
 

@@ -22,8 +22,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["REQUIREMENTS", "check_file", "failed_requirements", "format_report", "mesh_quality",
-           "parse_requirements", "quality_report"]
+__all__ = ["REQUIREMENTS", "BOUNDS", "check_file", "failed_requirements", "format_report",
+           "mesh_quality", "parse_requirements", "quality_report"]
 
 # Requirement name -> (what a part must satisfy, as a predicate on its metrics).
 REQUIREMENTS = {
@@ -35,6 +35,13 @@ REQUIREMENTS = {
     "no-self-intersections": lambda q: q["self_intersecting_faces"] == 0,
     "no-degenerate": lambda q: q["degenerate_faces"] == 0,
     "no-duplicates": lambda q: q["duplicate_faces"] == 0,
+}
+
+#: Requirements with a bound, written ``name=value``: (metric, comparison).
+BOUNDS = {
+    "min-angle": ("min_angle_deg", ">="),
+    "max-aspect": ("max_aspect_ratio", "<="),
+    "shells": ("shells", "<="),
 }
 
 _DEGENERATE = 1e-6  # height / longest edge below which a face is degenerate
@@ -66,8 +73,9 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
         edge has exactly two faces), ``inconsistent_edges`` (two-face edges
         both faces traverse the same way), ``consistently_oriented``,
         ``self_intersecting_faces``, ``volume`` (signed, positive for outward
-        normals; ``None`` unless watertight and consistently oriented).
-        Statistics over no faces are ``None``.
+        normals; ``None`` unless watertight and consistently oriented),
+        ``shells`` (connected pieces: faces joined through shared edges or
+        vertices). Statistics over no faces are ``None``.
 
     Raises
     ------
@@ -125,6 +133,7 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
         "consistently_oriented": bool(oriented),
         "self_intersecting_faces": crossing,
         "volume": volume,
+        "shells": _shells(topo_faces, len(welded)),
     }
 
 
@@ -201,7 +210,9 @@ def failed_requirements(report, requirements):
     report : dict
         From :func:`quality_report` or :func:`check_file`.
     requirements : iterable of str
-        Names from :data:`REQUIREMENTS`.
+        Names from :data:`REQUIREMENTS`, or ``name=value`` with a name from
+        :data:`BOUNDS`: ``min-angle=10`` (smallest angle at least 10
+        degrees), ``max-aspect=20``, ``shells=1`` (at most one piece).
 
     Returns
     -------
@@ -222,10 +233,21 @@ def failed_requirements(report, requirements):
     """
     failed = []
     for req in parse_requirements(requirements):
-        bad = [p["name"] for p in report["parts"] if not REQUIREMENTS[req](p)]
+        bad = [p["name"] for p in report["parts"] if not _meets(p, req)]
         if bad:
             failed.append((req, bad))
     return failed
+
+
+def _meets(part, requirement):
+    if "=" not in requirement:
+        return REQUIREMENTS[requirement](part)
+    name, value = requirement.split("=")
+    key, comparison = BOUNDS[name]
+    x = part[key]
+    if x is None:
+        return False
+    return x >= float(value) if comparison == ">=" else x <= float(value)
 
 
 def parse_requirements(requirements):
@@ -234,7 +256,8 @@ def parse_requirements(requirements):
     Parameters
     ----------
     requirements : str or iterable of str
-        Comma-separated names (spaces and empty items ignored) or a list.
+        Comma-separated names (spaces and empty items ignored) or a list;
+        bounds as ``name=value`` (:data:`BOUNDS`).
 
     Returns
     -------
@@ -247,18 +270,28 @@ def parse_requirements(requirements):
 
     Examples
     --------
-    >>> parse_requirements("watertight, manifold")
-    ['watertight', 'manifold']
+    >>> parse_requirements("watertight, manifold, min-angle=10")
+    ['watertight', 'manifold', 'min-angle=10']
     """
     from inkray.errors import InputError
 
     if isinstance(requirements, str):
         requirements = requirements.split(",")
-    names = [r.strip() for r in requirements if r.strip()]
+    names = [r.replace(" ", "") for r in requirements if r.strip()]
     for name in names:
-        if name not in REQUIREMENTS:
+        key, _, value = name.partition("=")
+        if key in BOUNDS:
+            try:
+                bound = float(value)
+            except ValueError:
+                bound = float("nan")
+            if not np.isfinite(bound) or bound < 0:
+                raise InputError(f"--require: {key} needs a bound, e.g. {key}="
+                                 f"{'10' if key == 'min-angle' else '1'}; got {name!r}")
+        elif name not in REQUIREMENTS:
             raise InputError(f"--require: unknown requirement {name!r} "
-                             f"(expected {', '.join(REQUIREMENTS)})")
+                             f"(expected {', '.join(REQUIREMENTS)}, or "
+                             f"{', '.join(k + '=N' for k in BOUNDS)})")
     return names
 
 
@@ -316,6 +349,7 @@ def _describe(q):
         "self-intersections not checked" if crossing is None
         else f"{crossing} self-intersecting faces",
         f"volume {num(q['volume'], '.6g')}",
+        f"{q['shells']} shell{'' if q['shells'] == 1 else 's'}",
     ])
 
 
@@ -413,6 +447,17 @@ def _topology(faces, n_vertices):
             "inconsistent_edges": int(inconsistent.sum())}
 
 
+def _shells(faces, n_vertices):
+    """Connected pieces of the faces over welded vertices."""
+    if len(faces) == 0:
+        return 0
+    graph = coo_matrix((np.ones(2 * len(faces)), (np.r_[faces[:, 0], faces[:, 1]],
+                                                  np.r_[faces[:, 1], faces[:, 2]])),
+                       shape=(n_vertices, n_vertices))
+    _, label = connected_components(graph, directed=False)
+    return int(len(np.unique(label[faces[:, 0]])))
+
+
 def _distinct_rows(rows):
     """Lexicographic order of ``rows`` and, along it, where a new distinct row starts."""
     order = np.lexsort(rows.T[::-1])
@@ -457,7 +502,7 @@ def _overall(parts):
 
     counts = ("vertices", "faces", "unreferenced_vertices", "welded_vertices",
               "degenerate_faces", "duplicate_faces", "boundary_edges", "boundary_loops",
-              "non_manifold_edges", "non_manifold_vertices", "inconsistent_edges")
+              "non_manifold_edges", "non_manifold_vertices", "inconsistent_edges", "shells")
     flags = ("edge_manifold", "vertex_manifold", "watertight", "consistently_oriented")
     crossing = [p["self_intersecting_faces"] for p in parts]
     volumes = [p["volume"] for p in parts]

@@ -53,11 +53,15 @@ class Relief:
         ``(width, height)`` of the drawing in pixels.
     texture : (H, W, 3) uint8 array or None
         The drawing's colours.
+    warnings : list of str
+        What the assembly could not do as asked (e.g. parts of a union that
+        stay separate shells).
     """
 
     parts: list = field(default_factory=list)
     size: tuple = (0, 0)
     texture: np.ndarray = None
+    warnings: list = field(default_factory=list)
 
     def uv(self, vertices):
         """Planar texture coordinates: ``(x, y)`` -> ``((x + 0.5) / W, 1 - (y + 0.5) / H)``.

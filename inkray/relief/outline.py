@@ -7,9 +7,13 @@ condition: zero height on the silhouette (Dirichlet), zero normal derivative
 on stretches marked ``flat``/``graft`` and on outline without ink such as the
 image frame (Neumann). This module extracts that outline.
 
-The outline is the sub-pixel 0.5 iso-contour of the mask (marching squares),
-smoothed along its arc length, simplified to a tolerance and resampled so no
-edge is longer than a spacing derived from the mesh resolution. Holes are kept.
+The outline is the sub-pixel 0.5 iso-contour (marching squares) of the mask
+smoothed by a Gaussian of 1.5 px (which removes the mask's pixel stair-steps
+and one-pixel bumps; where two regions meet their fields sum to one, so both
+get the same contour), then smoothed along its arc length while staying
+within half a pixel of that contour (a taut curve: corners and thin features
+keep their place), simplified to a tolerance and resampled so no edge is
+longer than a spacing derived from the mesh resolution. Holes are kept.
 Every outline vertex records where it comes from (:data:`KIND_NAMES`), which
 ``boundaries`` entry marks it, and which region lies on its other side.
 
@@ -32,7 +36,8 @@ from bisect import bisect_left
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt, gaussian_filter1d, map_coordinates, minimum_filter1d
+from scipy.ndimage import (binary_dilation, distance_transform_edt, gaussian_filter,
+                           gaussian_filter1d, label, map_coordinates, minimum_filter1d)
 from scipy.spatial import cKDTree
 from skimage.measure import find_contours
 
@@ -57,8 +62,14 @@ DEFAULT_MAX_AREA = 50.0
 _SMOOTH_STEP = 0.5  # px between resampled contour points
 _MARGIN = 5  # px of context kept around a mask's bounding box (probes reach 3.5 px)
 _MIN_SPACING = 1.5  # px: the shortest edge the local-width rule asks for
-_CORNER_SPAN = 3.0  # px each side over which a corner's turning angle is measured
-_CORNER_ANGLE = 45.0  # degrees of turning that make a corner (a circle of r > ~4 px has none)
+_CORNER_SPAN = 4.0  # px each side over which a corner's turning is measured
+_NORMAL_SPAN = 3.0  # px each side over which an outline normal is measured
+_CORNER_ANGLE = 75.0  # degrees of turning that make a corner (a circle of r > ~6 px has none)
+_FIELD_SIGMA = 1.5  # px: the mask is smoothed this much before its 0.5 contour is taken
+_FINE_SIGMA = 0.5  # px: the smoothing of thin features
+_THIN_AREA = 6  # px^2: smaller pieces that the smoothing removes are bumps, not features
+_BAND = 0.6  # px a smoothed outline may stray from the pixel contour
+_RELAX = 150  # relaxation sweeps of the smoothed outline inside that band
 
 #: Default distance (px) within which a ``boundaries`` path snaps to an outline.
 DEFAULT_SNAP = 6.0
@@ -104,8 +115,10 @@ class MeshOptions:
     across : int, default 8
         Where a region is narrow, outline edges are at most its local width
         divided by this (not below 1.5 px); 0 turns it off.
-    smoothing : float, default 1
-        Gaussian smoothing of the contour along its arc length (px, sigma).
+    smoothing : float, default 2
+        Gaussian smoothing of the contour along its arc length (px, sigma)
+        before it is relaxed within half a pixel of the contour; 0 keeps
+        the contour as it is.
     tolerance : float, default 0.3
         Simplification tolerance (px, Douglas-Peucker).
     snap : float, default 6
@@ -131,7 +144,7 @@ class MeshOptions:
     min_triangles: int = 200
     min_angle: float = 20.0
     across: int = 8
-    smoothing: float = 1.0
+    smoothing: float = 2.0
     tolerance: float = 0.3
     snap: float = DEFAULT_SNAP
     spacing: float = None
@@ -282,7 +295,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     y0, y1 = max(rows[0] - _MARGIN, 0), min(rows[-1] + _MARGIN + 1, h)
     x0, x1 = max(cols[0] - _MARGIN, 0), min(cols[-1] + _MARGIN + 1, w)
     box = mask[y0:y1, x0:x1]
-    loops, holes = _contours(box, o.speckle)
+    loops, holes = _contours(box, o.speckle, _FIELD_SIGMA)
     loops = [p + (x0, y0) for p in loops]
     dense = [_smooth(p, w, h, smoothing) for p in loops]
     paths = [(b, resample_polyline(np.asarray(b.path, float), 0.5)) for b in boundaries]
@@ -313,7 +326,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
             if _arcs_overlap(lo, hi, other["lo"], other["hi"], length):
                 raise InputError(f"boundaries[{b.index}]: marks the same outline stretch of region "
                                  f"{name} as boundaries[{other['index']}]")
-        marks[li].append(dict(index=b.index, kind=_MARK_KIND[b.type], lo=lo, hi=hi,
+        marks[li].append(dict(index=b.index, kind=_MARK_KIND[b.type], lo=lo, hi=hi, path=q,
                               stations=start + total * np.arange(k + 1) / k))
         matched.append(b.index)
 
@@ -400,11 +413,12 @@ def _check_arrays(mask, visible, labels, region):
     return mask, visible, labels
 
 
-def _contours(mask, speckle):
-    """Closed 0.5 contours as (k, 2) [x, y] arrays without the repeated end point."""
+def _contours(mask, speckle, sigma=0.0):
+    """Closed 0.5 contours of the mask smoothed by ``sigma`` px, as (k, 2) [x, y] arrays
+    without the repeated end point."""
     # 'low' orientation: the mask is on the right in (row, col), so outer loops have
     # positive and holes negative shoelace area in (x, y); contours never cross.
-    raw = find_contours(np.pad(mask, 1).astype(float), 0.5, positive_orientation="low")
+    raw = find_contours(np.pad(_level_set(mask, sigma), 1), 0.5, positive_orientation="low")
     loops, areas = [], []
     for c in raw:
         p = c[:-1, ::-1] - 1.0
@@ -420,8 +434,74 @@ def _contours(mask, speckle):
     return [p for p, b in zip(loops, big) if b], [bool(a < 0) for a, b in zip(areas, big) if b]
 
 
+def _level_set(mask, sigma):
+    """The mask smoothed by ``sigma`` px, with its corners, thin features and frame kept.
+
+    Smoothing removes stair-steps and bumps, but would also round real
+    corners and remove features thinner than about ``2 sigma`` (a toe, a
+    tail's tip). Near a corner of the pixel contour (:func:`_corners`) the
+    mask keeps its pixel values; pixels of the mask that fall below 0.5 and
+    form a piece of at least ``_THIN_AREA`` px^2 get the finely smoothed mask
+    around them; a region that would vanish whole keeps its pixel mask. The
+    outermost rows and columns keep their pixel values, so an outline along
+    the image frame stays on it.
+    """
+    binary = mask.astype(float)
+    if sigma <= 0:
+        return binary
+    level = gaussian_filter(binary, sigma, mode="nearest")
+    lost = mask & (level < 0.5)
+    if lost.any():
+        pieces, _ = label(lost, structure=np.ones((3, 3), bool))
+        big = (np.bincount(pieces.ravel()) >= _THIN_AREA)[pieces] & lost
+        if big.any():
+            near = binary_dilation(big, iterations=2)
+            fine = gaussian_filter(binary, _FINE_SIGMA, mode="nearest")
+            level = np.where(near, np.maximum(level, fine), level)
+    corners = np.zeros(mask.shape, bool)
+    for c in find_contours(np.pad(binary, 1), 0.5):
+        q = resample_polyline(c - 1.0, _SMOOTH_STEP)[:-1]
+        rc = np.rint(q[_corners(q, max(1, round(_CORNER_SPAN / _SMOOTH_STEP)))]).astype(int)
+        corners[np.clip(rc[:, 0], 0, mask.shape[0] - 1), np.clip(rc[:, 1], 0, mask.shape[1] - 1)] = True
+    if corners.any():
+        keep = distance_transform_edt(~corners) <= 2.0 * sigma + 1.0
+        level[keep] = binary[keep]
+    for edge in (0, -1):
+        level[edge, :], level[:, edge] = binary[edge, :], binary[:, edge]
+    if not (level >= 0.5).any():
+        return binary
+    return level
+
+
+def _corners(q, k):
+    """Indices where the loop turns by more than _CORNER_ANGLE over +-k and +-2k samples.
+
+    A real corner turns at both scales; a bump of a pixel or two (noise along
+    a photographed stroke) turns sharply over short chords only.
+    """
+    turn, wide = _turn(q, k), _turn(q, 2 * k)
+    peak = turn >= np.max([np.roll(turn, j) for j in range(-k, k + 1)], axis=0)
+    # Ties on a plateau: keep the first index of each run.
+    angle = math.radians(_CORNER_ANGLE)
+    cand = np.flatnonzero(peak & (turn > angle) & (wide > angle))
+    keep = [c for i, c in enumerate(cand) if i == 0 or c - cand[i - 1] > k]
+    if len(keep) > 1 and keep[0] + len(q) - keep[-1] <= k:
+        keep.pop()
+    return np.array(keep, int)
+
+
 def _smooth(p, w, h, sigma):
-    """Gaussian smoothing along the arc length that keeps corners and the image frame."""
+    """A smooth loop within ``band`` px of the pixel contour ``p``; the image frame kept.
+
+    Pixel contours turn by 90 degrees at every stair step. The loop is
+    resampled evenly, smoothed along its arc length by ``sigma`` px, and then
+    relaxed (each point moves toward the midpoint of its neighbours) while no
+    point may leave the disk of radius ``_BAND`` around its contour point: a
+    taut, smooth curve inside the pixel contour's uncertainty. Corners
+    (:func:`_corners`) and the image frame are pinned, each stretch between
+    corners smoothed on its own; thin features stay, since no point moves
+    farther than ``_BAND``.
+    """
     if sigma == 0 or _on_frame(p, w, h).all():
         return p
     # Marching-squares points are unevenly spaced; smooth on a uniform resampling.
@@ -441,24 +521,31 @@ def _smooth(p, w, h, sigma):
             idx = np.arange(a, b + 1) % n
             piece = gaussian_filter1d(q[idx], sigma / step, axis=0, mode="nearest")
             sm[idx[1:-1]] = piece[1:-1]
-    on_frame = _on_frame(q, w, h)
-    sm[on_frame] = q[on_frame]
+    pinned = _on_frame(q, w, h)
+    pinned[corners] = True
+    sm = _clamp(sm, q, _BAND)
+    for _ in range(_RELAX):
+        sm = _clamp(0.5 * sm + 0.25 * (np.roll(sm, 1, axis=0) + np.roll(sm, -1, axis=0)), q, _BAND)
+        sm[pinned] = q[pinned]
     return sm
 
 
-def _corners(q, k):
-    """Indices where the loop turns by more than _CORNER_ANGLE over +-k samples."""
+def _clamp(x, q, band):
+    """``x`` moved back into the disks of radius ``band`` around ``q``."""
+    d = x - q
+    length = np.hypot(d[:, 0], d[:, 1])
+    far = length > band
+    x = x.copy()
+    x[far] = q[far] + d[far] * (band / length[far])[:, None]
+    return x
+
+
+def _turn(q, k):
+    """Turning angle (rad) of a closed loop at each sample over chords of +-k samples."""
     a = q - np.roll(q, k, axis=0)
     b = np.roll(q, -k, axis=0) - q
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    turn = np.abs(np.arctan2(cross, (a * b).sum(1)))
-    peak = turn >= np.max([np.roll(turn, j) for j in range(-k, k + 1)], axis=0)
-    # Ties on a plateau: keep the first index of each run.
-    cand = np.flatnonzero(peak & (turn > math.radians(_CORNER_ANGLE)))
-    keep = [c for i, c in enumerate(cand) if i == 0 or c - cand[i - 1] > k]
-    if len(keep) > 1 and keep[0] + len(q) - keep[-1] <= k:
-        keep.pop()
-    return np.array(keep, int)
+    return np.abs(np.arctan2(cross, (a * b).sum(1)))
 
 
 def _on_frame(p, w, h):
@@ -508,7 +595,7 @@ def _pixel(q, w, h):
 
 def _local_spacing(d, inside, spacing, across):
     """Longest outline edge at each dense point: spacing, or local width / across."""
-    nrm = _normals(d, span=max(1, round(_CORNER_SPAN / _SMOOTH_STEP)))  # raster bumps tilt short chords
+    nrm = _normals(d, span=max(1, round(_NORMAL_SPAN / _SMOOTH_STEP)))  # raster bumps tilt short chords
     reach = spacing * across / 2.0  # half-widths beyond this do not shorten edges
     t = np.arange(0.5, reach + 0.5, 0.5)
     probe = d[:, None, :] - nrm[:, None, :] * t[None, :, None]
@@ -562,10 +649,37 @@ def _loop_vertices(d, base_kind, base_neigh, marks, local, tolerance):
         kind[inside] = m["kind"]
         bidx[inside] = m["index"]
         st = np.asarray(m["stations"]) % length
+        hits = []
         for j, t in enumerate(st):
             hit = np.argmin(_cyclic(params - t, length))
             station[hit] = j
+            hits.append(hit)
+        # The seam is where the entry's path runs, not the segmentation's pixel edge: the
+        # stations move onto the path (when that keeps their order), so a stitch's two
+        # regions share their stations and a graft's seam is as smooth as the stroke.
+        on_path, where = _closest_on_path(pts[hits], m["path"])
+        if np.all(np.diff(where) > 0) or np.all(np.diff(where) < 0):
+            pts[hits] = on_path
     return pts, kind, bidx, station, neigh
+
+
+def _closest_on_path(points, path):
+    """Closest points on an open polyline and their arc parameters."""
+    s = arc_length(path)
+    _, near = cKDTree(path).query(points)
+    best = np.full(len(points), np.inf)
+    out, where = np.zeros_like(points), np.zeros(len(points))
+    for k in (np.maximum(near - 1, 0), np.minimum(near, len(path) - 2)):
+        a, b = path[k], path[k + 1]
+        ab = b - a
+        length = np.maximum((ab ** 2).sum(1), 1e-24)
+        u = np.clip(((points - a) * ab).sum(1) / length, 0.0, 1.0)
+        c = a + u[:, None] * ab
+        dist = np.linalg.norm(c - points, axis=1)
+        better = dist < best
+        best[better], out[better] = dist[better], c[better]
+        where[better] = (s[k] + u * np.sqrt(length))[better]
+    return out, where
 
 
 def _simplified(d, s, length, a, b, local, tolerance):

@@ -34,7 +34,7 @@ round, the most violated candidates at the current solution, until none is
 violated by more than ``tol``.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import igl
 import numpy as np
@@ -53,6 +53,10 @@ __all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
 DEFAULT_EPSILON_FRACTION = 0.004
 _SCREEN = 1e-4  # lambda_i * area_i: rigid shifts cost 1e-4 of a unit bend
 _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
+_PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
+_SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
+_SLOPE_STEP = 0.5  # outline edges from a graft seam to where its slope is matched
+_BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
 
 
 @dataclass
@@ -75,6 +79,13 @@ class Layers:
         Constraint-generation rounds.
     violation : float
         Largest violation of any candidate constraint at the solution (px).
+    bands : list of (int, int, (k, 2) array, float)
+        Per graft: the grafted region, its base, the seam (station points)
+        and the band's width (px). Within the band the grafted part rises
+        from its base's surface to ``epsilon`` above it: an order between the
+        two gives way to the seam there.
+    warnings : list of str
+        Order entries whose points lie in such a band.
     """
 
     regions: list
@@ -84,6 +95,8 @@ class Layers:
     active: int = 0
     rounds: int = 0
     violation: float = 0.0
+    bands: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
 
     def z(self, i):
         """Final heights ``h_i + g_i`` of region ``i`` (px)."""
@@ -240,8 +253,9 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     rows = _Rows()
     zones = []
     if seams:
-        zones = _boundary_rows(rows, blocks, regions, relations, seams, band)
+        zones = _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon)
     keepout = _keepout(zones)
+    warnings = _band_warnings(relations, zones)
     if completion is not None:
         # One set of overlap rows per (front, back, place), however many entries say it.
         said = {}
@@ -267,7 +281,7 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     # Pass 1: everything but the graft rows. Pass 2: the bases of grafts stay
     # where pass 1 put them and everything else is solved again with the
     # graft rows, so a grafted part follows its base without denting it.
-    bases = {base for _, base, _, _ in zones} - {front for front, _, _, _ in zones}
+    bases = {z[1] for z in zones} - {z[0] for z in zones}
     g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner, tol,
                                max_rounds, progress)
     if graft.any():
@@ -282,15 +296,17 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
     return Layers(regions=regions, epsilon=float(epsilon), constraints=len(rhs), active=active,
-                  rounds=rounds, violation=float(violation),
+                  rounds=rounds, violation=float(violation), warnings=warnings,
+                  bands=[z[:4] for z in zones],
                   offset=[None if b is None else g[b.start:b.start + len(b.h)] for b in blocks])
 
 
 # -- constraint rows ---------------------------------------------------------------------
 
 def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
-    """Rows ``sum_t coef_t z_{region_t}(points_t[k]) (>= | =) rhs``, one per k.
+    """Rows ``sum_t coef_t z_{region_t}(points_t[k]) (>= | =) rhs[k]``, one per k.
 
+    ``rhs`` is a number or one per point.
     ``terms`` is a list of ``(region, points (k, 2), coef)`` or
     ``(region, vertex indices (k,), coef)`` when the points are vertices of
     that region (exact, no interpolation). Rows with a point farther than
@@ -311,11 +327,12 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
         if len(located) == 1:
             xy = (blk.v[tri] * w[..., None]).sum(axis=1)
         ok = dist <= _INSIDE if ok is None else ok & (dist <= _INSIDE)
+    rhs = np.broadcast_to(np.asarray(rhs, float), ok.shape)
     for k in np.flatnonzero(ok):
         idx = np.concatenate([blk.start + tri[k] for blk, tri, _, _ in located])
         wts = np.concatenate([coef * w[k] for _, _, w, coef in located])
         # z = h + g: move the known heights to the right-hand side
-        const = rhs - sum(coef * float(blk.h[tri[k]] @ w[k]) for blk, tri, w, coef in located)
+        const = rhs[k] - sum(coef * float(blk.h[tri[k]] @ w[k]) for blk, tri, w, coef in located)
         rows.add(idx, wts, const, ineq, label, graft, tuple(xy[k]))
     return int(ok.sum())
 
@@ -351,13 +368,24 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
         pts = blk.v[sel]
         front_at = sel if src == a else pts
         _terms_rows(rows, blocks, [(a, front_at, 1.0), (b, pts, -1.0)], epsilon, True, label)
+    # Between the vertices the two meshes interpolate differently: the pixel centres of
+    # the overlap (every other one) keep the order there too.
+    ys, xs = np.nonzero(pm & both)
+    grid = (ys % _PLACE_STEP == 0) & (xs % _PLACE_STEP == 0)
+    pts = np.column_stack([xs[grid] + win[1].start, ys[grid] + win[0].start]).astype(float)
+    pts = pts[~keepout(a, b, pts)]
+    _terms_rows(rows, blocks, [(a, pts, 1.0), (b, pts, -1.0)], epsilon, True, label)
 
 
 def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
-    """The user's own two points: the front region above the back one at each."""
+    """The user's own two points and the segment between them: the front region
+    above the back one wherever both are there."""
     a, b = rel.front, rel.back
     if blocks[a] is None or blocks[b] is None:
         return
+    if len(points) == 2:
+        n = int(np.ceil(np.linalg.norm(points[1] - points[0]) / _SEGMENT_STEP)) + 1
+        points = points[0] + np.linspace(0.0, 1.0, max(n, 2))[:, None] * (points[1] - points[0])
     points = points[~keepout(a, b, points)]
     _terms_rows(rows, blocks, [(a, points, 1.0), (b, points, -1.0)], epsilon, True, rel.label)
 
@@ -373,7 +401,7 @@ def _equal_rows(rows, blocks, rel):
         raise InputError(f"{rel.label}: a point lies off its region's mesh")
 
 
-def _boundary_rows(rows, blocks, regions, relations, seams, band):
+def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
     """Rows of the ``stitch`` and ``graft`` entries; returns the graft zones.
 
     A zone ``(front, base, station points, band width)`` says where
@@ -407,12 +435,13 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band):
         if band is not None:
             width = band
         else:
+            # The grafted part rises epsilon above its base over the band: a band as
+            # wide as half the seam keeps that tilt (about 3 epsilon / length) unseen.
             seam = blocks[front].v[st]
             length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
-            width = min(max(2.0 * _mean_outline_edge(regions[front].mesh), 0.25 * length),
-                        2.0 * _mean_edge(regions[front].mesh))
-        _graft_rows(rows, blocks, regions, front, other, st, width, key)
-        zones.append((front, other, blocks[front].v[st], width))
+            width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
+        _graft_rows(rows, blocks, regions, front, other, st, width, epsilon, key)
+        zones.append((front, other, blocks[front].v[st], width, key))
     return zones
 
 
@@ -424,61 +453,93 @@ def _in_front(relations, a, b, blocks):
     return len(blocks[a].h) < len(blocks[b].h)
 
 
-def _graft_rows(rows, blocks, regions, front, base, stations, width, key):
-    """The front region grows out of ``base``: no crack, no rim.
+def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, key):
+    """The front region grows out of ``base``: no crack, no crease, no z-fighting.
 
-    At the stations ``z_front = z_base`` (C0). Where ``base`` continues under
-    ``front`` (it was completed there), every vertex of ``front`` within
-    ``width`` of the stations lies on ``base``'s surface; past that band, or
-    where ``base`` ends at the seam, the slopes across the seam match (C1,
-    :func:`_slope_rows`).
+    At the stations ``z_front = z_base`` (C0) and the slopes across the seam
+    match (C1, :func:`_slope_rows`). Where ``base`` continues under ``front``
+    (it was completed there), every vertex of ``front`` in the band between
+    two slope steps and ``width`` from the stations, at distance ``d``, lies
+    above ``base`` by the margin ``epsilon (d / width)^2``: zero with zero
+    slope at the seam (the two surfaces leave it together), ``epsilon`` (the
+    order step) at the end of the band. The base thus stays below the grafted
+    part all the way, and the seam is one clean curve instead of two
+    coincident surfaces fighting in the z-buffer.
     """
     blk = blocks[front]
-    _terms_rows(rows, blocks, [(front, stations, 1.0), (base, blk.v[stations], -1.0)], 0.0, False,
+    seam = blk.v[stations]
+    lift = _sagitta(blocks[base], seam)
+    _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    sel = np.flatnonzero(point_polyline_distance(blk.v, blk.v[stations]) <= width)
-    sel = np.setdiff1d(sel, stations)
-    _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)], 0.0, False, key,
-                graft=True)
-    _slope_rows(rows, blocks, regions, front, base, stations, key)
+    step = min(_SLOPE_STEP * _mean_outline_edge(regions[front].mesh), 0.5 * width)
+    touched = _slope_rows(rows, blocks, front, base, stations, step,
+                          float(_margin(step, width, epsilon)), key)
+    dist = point_polyline_distance(blk.v, seam)
+    # Vertices the slope rows speak of are left to them (two rows on one vertex could
+    # contradict each other through the interpolation).
+    sel = np.setdiff1d(np.flatnonzero(dist <= width), np.concatenate([stations, touched]))
+    near = np.argmin(np.linalg.norm(blk.v[sel, None, :] - seam[None], axis=2), axis=1)
+    floor = np.where(dist[sel] < step, lift[near], 0.0)
+    _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
+                np.maximum(_margin(dist[sel], width, epsilon), floor), True, key, graft=True)
 
 
-def _slope_rows(rows, blocks, regions, a, b, stations, label):
+def _sagitta(base, seam):
+    """Per station, how far the base bulges above the straight seam edges beside it.
+
+    The grafted part's seam runs straight from station to station while the
+    base's surface is curved along it; lifting each station by this much (a
+    fraction of a pixel) keeps the base from showing through between them.
+    """
+    if len(seam) < 2:
+        return np.zeros(len(seam))
+    frac = np.array([0.25, 0.5, 0.75])
+    pts = seam[:-1, None, :] + frac[None, :, None] * (seam[1:] - seam[:-1])[:, None, :]
+    tri, w, _ = base.locate(np.concatenate([seam, pts.reshape(-1, 2)]))
+    h = (base.h[tri] * w).sum(axis=1)
+    ends, mid = h[:len(seam)], h[len(seam):].reshape(-1, 3)
+    chord = (1 - frac) * ends[:-1, None] + frac * ends[1:, None]
+    edge = np.maximum(mid - chord, 0.0).max(axis=1)
+    return 1.25 * np.maximum(np.r_[edge, 0.0], np.r_[0.0, edge])
+
+
+def _margin(d, width, epsilon):
+    """Height of the grafted part above its base at distance ``d`` from the seam."""
+    return epsilon * np.minimum(np.asarray(d, float) / width, 1.0) ** 2
+
+
+def _slope_rows(rows, blocks, a, b, stations, step, lift, label):
     """C1 across a graft seam: equal slopes along the seam normal.
 
-    At every station ``s`` with unit normal ``n`` (pointing into ``a``),
-    ``z_a(s + t n) - z_a(s) = z_b(s) - z_b(s - t n)``: the front region
-    leaves the seam with the slope the region behind arrives with. ``t`` is
-    the first multiple (up to 3) of one outline edge past the part of ``a``
-    that ``b``'s mesh covers; where ``b`` reaches farther, the graft band
-    makes ``a`` follow ``b`` and no slope row is needed.
+    At every station ``s`` with unit normal ``n`` (pointing into ``a``):
+    where ``b`` continues under ``a``, ``z_a(s + t n) - z_a(s) = z_b(s + t n)
+    - z_b(s) + lift`` (``a`` leaves the seam along ``b``'s surface, lifted by
+    the band's margin at ``t``); where ``b`` ends at the seam, ``z_a(s + t n)
+    - z_a(s) = z_b(s) - z_b(s - t n)`` (``a`` leaves with the slope ``b``
+    arrives with). Returns the vertices of ``a`` these rows interpolate.
     """
     p = blocks[a].v[stations]
     if len(p) < 2:
-        return
+        return np.zeros(0, np.int64)
     tangent = np.gradient(p, axis=0)
     n = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    d = _mean_outline_edge(regions[a].mesh)
-    _, _, into_a = blocks[a].locate(p + d * n)
-    _, _, into_b = blocks[a].locate(p - d * n)
+    _, _, into_a = blocks[a].locate(p + step * n)
+    _, _, into_b = blocks[a].locate(p - step * n)
     if np.median(into_a) > np.median(into_b):
         n = -n
-    t = np.full(len(p), d)
-    inside = np.ones(len(p), bool)
-    for _ in range(3):
-        _, _, covered = blocks[b].locate(p + t[:, None] * n)
-        inside = covered <= _INSIDE
-        if not inside.any():
-            break
-        t[inside] += d
-    # Where b reaches farther under a, the band carries the join; a slope row
-    # there would fight the inequalities that keep a above b.
-    keep = ~inside
-    p, n, t, stations = p[keep], n[keep], t[keep], np.asarray(stations)[keep]
-    step = t[:, None] * n
-    _terms_rows(rows, blocks, [(a, p + step, 1.0), (a, stations, -1.0),
-                               (b, p, -1.0), (b, p - step, 1.0)], 0.0, False, label, graft=True)
+    ahead = p + step * n
+    _, _, covered = blocks[b].locate(ahead)
+    under = covered <= _INSIDE
+    st = np.asarray(stations)
+    for sel, terms, rhs in (
+            (under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, f, -1.0), (b, q, 1.0)], lift),
+            (~under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, q, -1.0),
+                                      (b, 2 * q - f, 1.0)], 0.0)):
+        if sel.any():
+            _terms_rows(rows, blocks, terms(p[sel], st[sel], ahead[sel]), float(rhs), False, label,
+                        graft=True)
+    return np.unique(blocks[a].locate(ahead)[0])
 
 
 def _behind(regions, blocks, front, stations, holders):
@@ -495,16 +556,32 @@ def _behind(regions, blocks, front, stations, holders):
     return None
 
 
-def _keepout(zones):
-    """Predicate: is a point of the pair (i, j) too close to a graft between them?
+def _band_warnings(relations, zones):
+    """One warning per order entry with a point in the band of a graft between its regions."""
+    out = []
+    for rel in relations:
+        if rel.kind != "order" or rel.points is None:
+            continue
+        pts = np.array(rel.points, float).reshape(-1, 2)
+        for front, base, line, width, key in zones:
+            if {front, base} == {rel.front, rel.back} and \
+                    (point_polyline_distance(pts, line) < width).any():
+                out.append(f"{rel.label}: gives way to the graft seam of {key} within "
+                           f"{width:.0f} px of it (the grafted part rises from its base there)")
+    return out
 
-    Inequalities there would fight the equalities that join the two regions.
+
+def _keepout(zones):
+    """Predicate: is a point of the pair (i, j) inside the band of a graft between them?
+
+    There the graft's margin (zero at the seam, ``epsilon`` at the band's
+    end) takes the place of the order step: the relation gives way to the seam.
     """
     def near(i, j, pts):
         out = np.zeros(len(pts), bool)
-        for front, base, line, width in zones:
+        for front, base, line, width, _ in zones:
             if {front, base} == {i, j} and len(pts):
-                out |= point_polyline_distance(pts, line) <= 2.0 * width
+                out |= point_polyline_distance(pts, line) < width
         return out
     return near
 
