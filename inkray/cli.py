@@ -250,6 +250,8 @@ def _cmd_depth(args, progress):
 def _cmd_relief(args, progress):
     from inkray.formats.images import write_renderings
     from inkray.formats.meshes import export_files, export_relief
+    from dataclasses import replace
+
     from inkray.relief.backing import depth_scaled
     from inkray.view.rendering import render
 
@@ -278,6 +280,8 @@ def _cmd_relief(args, progress):
     relief = chain.relief
     if args.depth_scale != 1.0:
         relief = depth_scaled(relief, args.depth_scale)
+    if args.union:  # one object: named after the file, so imports of several don't collide
+        relief = replace(relief, parts=[replace(p, name=out.stem) for p in relief.parts])
     _warn(chain.warnings)
     with progress.stage("export"):
         with _group(args, chain) as group:
@@ -557,7 +561,8 @@ def _parser():
     rl.add_argument("--closed", action="store_true",
                     help="closed solids: every part mirrored to the back")
     rl.add_argument("--union", action="store_true",
-                    help="with --closed: one watertight solid, the union of the parts")
+                    help="with --closed: one watertight solid, the union of the parts, named "
+                         "after the output file")
     rl.add_argument("--no-predict", action="store_true",
                     help="use only the annotation's order entries, predict nothing")
     rl.add_argument("--max-area", type=float, default=50.0, metavar="PX2",

@@ -97,6 +97,7 @@ def test_relief_command_writes_mesh_and_images(tmp_path, capsys):
     _, err = capsys.readouterr()
     assert code == 0 and err == ""
     assert cli.main(["check", str(tmp_path / "u.obj"), "--require", "watertight,manifold"]) == 0
+    assert "o u\n" in (tmp_path / "u.obj").read_text()  # the solid is named after the file
 
 
 def test_relief_command_rejects_bad_input_and_writes_nothing(tmp_path, capsys):
