@@ -9,9 +9,9 @@ Sýkora et al. (CGF 2010) and the stitching of Ink-and-Ray (TOG 2014).
 """
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from inkray.errors import StageError
+from inkray.numerics.threads import one_blas_thread
 
 __all__ = ["dual_active_set", "psd_lstsq"]
 
@@ -80,10 +80,7 @@ def dual_active_set(H, b, inequality, *, what="QP", start=None, return_iteration
     >>> dual_active_set(np.eye(2), np.array([1.0, -1.0]), np.array([True, True])).tolist()
     [1.0, 0.0]
     """
-    # One BLAS thread: these matrices are small (hundreds), and on a busy
-    # machine a multithreaded Cholesky of a 300x300 matrix was measured 400x
-    # slower than a single-threaded one (0.67 s vs 1.8 ms).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():  # small matrices: see inkray.numerics.threads
         x, iterations = _active_set(np.asarray(H, float), np.asarray(b, float),
                                     np.asarray(inequality, bool), what, start=start)
     return (x, iterations) if return_iterations else x

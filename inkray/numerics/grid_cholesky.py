@@ -30,9 +30,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import blas as _blas
 from scipy.linalg import lapack as _lapack
-from threadpoolctl import ThreadpoolController
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.threads import one_blas_thread
 
 __all__ = ["Forward", "GridCholesky"]
 
@@ -125,7 +125,7 @@ class GridCholesky:
         self._plan = _plan(h, w, int(leaf))
         self.fronts = sum(g.S.shape[0] for g in self._plan)  # nodes of the elimination tree
         self._values_now = values
-        with _one_blas_thread():
+        with one_blas_thread():
             self._factors, self._updates = _factorize(self._plan, values,
                                                       keep_updates=self.updatable,
                                                       progress=progress)
@@ -169,7 +169,7 @@ class GridCholesky:
             raise InputError(f"diagonal: shape {shape} differs from the factored {self.shape}")
         changed = values != self._values_now
         self._values_now = values
-        with _one_blas_thread():
+        with one_blas_thread():
             self._factors, self._updates, redone = _factorize(
                 self._plan, values, keep_updates=True, previous=(self._factors, self._updates),
                 changed=changed)
@@ -190,7 +190,7 @@ class GridCholesky:
         b = self._rhs(rhs)
         shape = np.shape(rhs)
         k = b.shape[1]
-        with _one_blas_thread():
+        with one_blas_thread():
             ys = []
             for g, (Li, W) in zip(self._plan, self._factors):
                 y = Li @ b[g.S]
@@ -245,7 +245,7 @@ class GridCholesky:
         b = B[rows].toarray()
         gram = np.zeros((k, k))
         ys = []
-        with _one_blas_thread():
+        with one_blas_thread():
             for g, (Li, W), sel in zip(self._plan, self._factors, sels):
                 if not len(sel):
                     ys.append(None)
@@ -305,7 +305,7 @@ class GridCholesky:
                 sel, yk = part
                 y[sel, :, 0] = yk @ coef
             ys.append(y)
-        with _one_blas_thread():
+        with one_blas_thread():
             return self._backward(ys, 1)[:, 0]
 
     def _backward(self, ys, k):
@@ -596,17 +596,6 @@ def _ring_scatter(g, n):
         g.ring = rows, sp.csc_matrix((np.ones(flat.size), at, np.arange(flat.size + 1)),
                                      shape=(len(rows), flat.size))
     return g.ring
-
-
-@lru_cache(maxsize=1)
-def _controller():
-    return ThreadpoolController()  # scanning the loaded libraries takes milliseconds: once
-
-
-def _one_blas_thread():
-    """A context with BLAS limited to one thread: most fronts are small, and two
-    BLAS threads on the large ones measured slower."""
-    return _controller().limit(limits=1, user_api="blas")
 
 
 def _as_slice(pos):
