@@ -87,7 +87,7 @@ def test_put_then_save_round_trip(turtle, tmp_path):
     original = turtle.read_bytes()
     with running(session) as url:
         status, answer = _json(call(url + "/api/annotations", "PUT", doc))
-        assert status == 200 and answer == {"generation": 1}
+        assert status == 200 and answer["generation"] == 1 and len(answer["palette"]) == 5
         assert json.loads(autosave_path(turtle).read_text()) == doc
         assert turtle.read_bytes() == original  # nothing saved yet
         assert _json(call(url + "/api/annotations"))[1] == doc

@@ -10,7 +10,8 @@ Endpoints (a public contract, see ``docs/editor.md``):
 - ``POST /api/save`` writes the file, ``{"path": ...}``;
 - ``GET /api/preview/labels.png``, ``depth.png``, ``relief.glb`` the previews,
   with ``X-Inkray-Compute-Ms`` and ``X-Inkray-Generation``; 422 ``{"error",
-  "paths"}`` when the document cannot be computed;
+  "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
+  the exact depth map;
 - ``GET /api/relations`` the user's and predicted relations and the warnings.
 """
 
@@ -78,7 +79,8 @@ def editor_app(session):
                 generation = await anyio.to_thread.run_sync(session.replace, raw)
             except InputError as e:
                 return _error(400, str(e))
-            return JSONResponse({"generation": generation}, headers=_NO_STORE)
+            return JSONResponse({"generation": generation, "palette": session.palette},
+                                headers=_NO_STORE)
         return JSONResponse(session.document, headers=dict(
             _NO_STORE, **{"X-Inkray-Generation": str(session.generation)}))
 
@@ -93,8 +95,11 @@ def editor_app(session):
         name = request.path_params["name"]
         if name not in PREVIEWS:
             return _error(404, f"no preview {name!r} (expected one of {', '.join(PREVIEWS)})")
+        method = request.query_params.get("method", "fast")
+        if method not in ("fast", "exact"):
+            return _error(400, f"method: unknown depth method {method!r} (expected fast, exact)")
         try:
-            p = await anyio.to_thread.run_sync(session.preview, name)
+            p = await anyio.to_thread.run_sync(lambda: session.preview(name, exact=method == "exact"))
         except InkrayError as e:
             return _error(422 if isinstance(e, InputError) else 500, str(e))
         return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **{

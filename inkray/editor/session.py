@@ -219,8 +219,14 @@ class EditSession:
 
     # -- previews ----------------------------------------------------------------
 
-    def preview(self, name):
+    def preview(self, name, *, exact=False):
         """The preview ``name`` (one of :data:`PREVIEWS`) of the newest document.
+
+        Parameters
+        ----------
+        name : str
+        exact : bool, default False
+            The depth map by the exact method instead of the fast one.
 
         Returns
         -------
@@ -234,6 +240,9 @@ class EditSession:
         """
         if name not in PREVIEWS:
             raise KeyError(name)
+        if exact and name == "depth.png":
+            return self._newest(lambda chain: _PREVIEW[name](chain.edit(
+                depth_method="exact", interactive=False)))
         return self._newest(lambda chain: _PREVIEW[name](chain))
 
     def relations(self):
