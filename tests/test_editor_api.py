@@ -260,7 +260,7 @@ def test_an_edit_during_a_preview_supersedes_it(turtle, monkeypatch):
     session = EditSession(turtle)
     doc = json.loads(turtle.read_text())
     edited = dict(doc, order=doc["order"][:-1])
-    real = session_module._PREVIEW["depth.png"]
+    stage, encode, media_type = session_module._PREVIEW["depth.png"]
     seen = []
 
     def depth_with_an_edit(chain):
@@ -269,9 +269,10 @@ def test_an_edit_during_a_preview_supersedes_it(turtle, monkeypatch):
             threading.Thread(target=session.replace, args=(json.dumps(edited),)).start()
             while session.generation == 0:
                 pass
-        return real(chain)
+        return stage(chain)
 
-    monkeypatch.setitem(session_module._PREVIEW, "depth.png", depth_with_an_edit)
+    monkeypatch.setitem(session_module._PREVIEW, "depth.png", (depth_with_an_edit, encode,
+                                                                media_type))
     preview = session.preview("depth.png")
     assert preview.generation == 1 == session.generation
     assert seen == [len(doc["order"]), len(doc["order"]) - 1]
@@ -304,3 +305,18 @@ def test_cli_serves_warns_off_loopback_and_stops_on_ctrl_c(turtle):
     assert proc.returncode == 0, err
     assert "warning: serving on 0.0.0.0, not loopback" in err
     assert "Traceback" not in err
+
+
+def test_exact_depth_on_request(turtle, tmp_path):
+    with running(EditSession(turtle)) as url:
+        fast = call(url + "/api/preview/depth.png")
+        exact = call(url + "/api/preview/depth.png?method=exact")
+        bad = _json(call(url + "/api/preview/depth.png?method=slow"))
+    assert fast[0] == exact[0] == 200 and fast[2] != exact[2]
+    (tmp_path / "fast.png").write_bytes(fast[2])
+    (tmp_path / "exact.png").write_bytes(exact[2])
+    d_fast, d_exact = (read_depth_png(tmp_path / n)[0] for n in ("fast.png", "exact.png"))
+    # the same ordering: both put the head (front) above the shell (back) at order[0]
+    for d in (d_fast, d_exact):
+        assert d[273, 168] > d[265, 180]
+    assert bad[0] == 400 and bad[1]["error"].startswith("method: unknown depth method 'slow'")

@@ -17,6 +17,7 @@ import json
 import re
 import threading
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +44,7 @@ PREVIEWS = ("labels.png", "depth.png", "relief.glb")
 _ENTRY = re.compile(r"\b(regions|background|order|equal|boundaries)\[(\d+)\]")
 _SUGGEST_RADIUS = 40  # px around a prediction's pixel searched for its arrow's ends
 _SUGGEST_DEPTH = 3.0  # px an accepted arrow's end lies inside its region, where it can
+_FILES_KEPT = 24  # encoded previews kept (8 undo steps of all three)
 
 
 @dataclass
@@ -152,9 +154,13 @@ class EditSession:
             doc = {"format": FORMAT, "version": VERSION, "drawing": rel, "size": [w, h],
                    "regions": [], "background": [], "order": [], "equal": [], "boundaries": []}
         self._drawing_key = doc.get("drawing")
-        self._lock = threading.Lock()  # around the chain's work
+        # The depth map (2010) shares no stage with the relief (2014): each has its own
+        # lock, so a slow depth factorization does not hold the relief back.
+        self._locks = {"depth": threading.Lock(), "relief": threading.Lock()}
         self._state = threading.Lock()  # around the document, its chain and generation
         self._autosave_lock = threading.Lock()
+        self._files = OrderedDict()  # (preview, id(result)) -> (result, bytes)
+        self._files_lock = threading.Lock()
         self.generation = 0
         self.saved = self.path.exists()
         self._chain = None
@@ -240,10 +246,12 @@ class EditSession:
         """
         if name not in PREVIEWS:
             raise KeyError(name)
+        stage, encode, media_type = _PREVIEW[name]
         if exact and name == "depth.png":
-            return self._newest(lambda chain: _PREVIEW[name](chain.edit(
-                depth_method="exact", interactive=False)))
-        return self._newest(lambda chain: _PREVIEW[name](chain))
+            return self._newest(lambda chain: (self._encoded(name, stage(chain.edit(
+                depth_method="exact", interactive=False)), encode), media_type), lock="depth")
+        return self._newest(lambda chain: (self._encoded(name, stage(chain), encode), media_type),
+                            lock="depth" if name == "depth.png" else "relief")
 
     def relations(self):
         """The user's and the predicted relations and the warnings of the newest document.
@@ -265,7 +273,7 @@ class EditSession:
             return {"relations": [_relation(r, labels) for r in relations],
                     "warnings": chain.warnings, "error": None, "paths": []}
 
-        return self._newest(compute, wrap=False)
+        return self._newest(compute, lock="relief", wrap=False)
 
     # -- internals ------------------------------------------------------------------
 
@@ -298,12 +306,27 @@ class EditSession:
                     write_text(self.autosave, text)
         return generation
 
-    def _newest(self, compute, *, wrap=True):
+    def _encoded(self, name, result, encode):
+        """The file bytes of a stage's result, kept while the result is: undo re-sends them."""
+        key = (name, id(result))  # the kept result holds its id
+        with self._files_lock:
+            kept = self._files.get(key)
+            if kept is not None and kept[0] is result:
+                self._files.move_to_end(key)
+                return kept[1]
+        body = encode(result)
+        with self._files_lock:
+            self._files[key] = (result, body)
+            while len(self._files) > _FILES_KEPT:
+                self._files.popitem(last=False)
+        return body
+
+    def _newest(self, compute, *, lock, wrap=True):
         """``compute(chain)`` for the newest generation; an edit during it starts it again."""
         while True:
             with self._state:
                 generation, chain = self.generation, self._chain
-            with self._lock:
+            with self._locks[lock]:
                 if self.generation != generation:
                     continue  # superseded while waiting: never compute stale work
                 start = time.perf_counter()
@@ -317,21 +340,18 @@ class EditSession:
         return Preview(body=body, media_type=media_type, generation=generation, compute_ms=ms)
 
 
-def _labels(chain):
-    return labels_png(chain.segmentation), "image/png"
-
-
-def _depth(chain):
-    return depth_png(chain.depth_map.depth)[0], "image/png"
-
-
 def _relief(chain):
     if not chain.annotations.regions:
         raise InputError("regions: a relief needs at least one region")
-    return glb_bytes(chain.relief), "model/gltf-binary"
+    return chain.relief
 
 
-_PREVIEW = {"labels.png": _labels, "depth.png": _depth, "relief.glb": _relief}
+# preview -> (its stage's result from a chain, the file bytes of that result, media type)
+_PREVIEW = {
+    "labels.png": (lambda chain: chain.segmentation, labels_png, "image/png"),
+    "depth.png": (lambda chain: chain.depth_map, lambda d: depth_png(d.depth)[0], "image/png"),
+    "relief.glb": (_relief, glb_bytes, "model/gltf-binary"),
+}
 
 
 def _relation(r, labels):

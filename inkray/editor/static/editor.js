@@ -169,19 +169,22 @@ function refresh() {
       }
     }
   };
-  get("labels", "/api/preview/labels.png", async (r) => setImage("labels", await r.blob()));
+  // The depth map (its own lock on the server) beside the rest, which goes cheapest first.
   get("depth", `/api/preview/depth.png?method=${method}`, async (r) => setImage("depth", await r.blob()));
-  get("relief", "/api/preview/relief.glb", async (r) => {
-    const meshes = await S.reliefView.show(await r.arrayBuffer());
-    $("relief").classList.remove("stale");
-    $("relief").dataset.meshes = String(meshes);
-  });
-  get("relations", "/api/relations", async (r) => {
-    const answer = await r.json();
-    S.relations = answer.relations;
-    S.warnings = answer.warnings;
-    S.errors.relations = answer.error ? { error: answer.error, paths: answer.paths } : null;
-  });
+  (async () => {
+    await get("labels", "/api/preview/labels.png", async (r) => setImage("labels", await r.blob()));
+    await get("relations", "/api/relations", async (r) => {
+      const answer = await r.json();
+      S.relations = answer.relations;
+      S.warnings = answer.warnings;
+      S.errors.relations = answer.error ? { error: answer.error, paths: answer.paths } : null;
+    });
+    await get("relief", "/api/preview/relief.glb", async (r) => {
+      const meshes = await S.reliefView.show(await r.arrayBuffer());
+      $("relief").classList.remove("stale");
+      $("relief").dataset.meshes = String(meshes);
+    });
+  })();
 }
 
 function setImage(kind, blob) {
