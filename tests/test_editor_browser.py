@@ -33,7 +33,7 @@ def page():
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page = browser.new_page(viewport={"width": 1440, "height": 1000})
         errors = []
         page.on("pageerror", lambda e: errors.append(str(e)))
         yield page
@@ -143,6 +143,7 @@ def test_draw_accept_undo_save(page, tmp_path):
         page.wait_for_function("document.body.dataset.saved !== undefined")
         shown = page.evaluate("window.inkray.doc")
         shot = tmp_path / "editor.png"
+        page.evaluate("document.getElementById('side').scrollTop = 0")
         page.screenshot(path=str(shot))
     print(f"editor screenshot: {shot}")
     if os.environ.get("INKRAY_EDITOR_SCREENSHOT"):

@@ -13,6 +13,7 @@ generation; a preview is computed under a lock for the newest generation and
 is never answered for an older one.
 """
 
+import hashlib
 import json
 import re
 import threading
@@ -44,7 +45,7 @@ PREVIEWS = ("labels.png", "depth.png", "relief.glb")
 _ENTRY = re.compile(r"\b(regions|background|order|equal|boundaries)\[(\d+)\]")
 _SUGGEST_RADIUS = 40  # px around a prediction's pixel searched for its arrow's ends
 _SUGGEST_DEPTH = 3.0  # px an accepted arrow's end lies inside its region, where it can
-_FILES_KEPT = 24  # encoded previews kept (8 undo steps of all three)
+_FILES_BYTES = 256 * 2**20  # encoded previews kept for undo (a 1 Mpx relief GLB is ~10 MB)
 
 
 @dataclass
@@ -159,8 +160,9 @@ class EditSession:
         self._locks = {"depth": threading.Lock(), "relief": threading.Lock()}
         self._state = threading.Lock()  # around the document, its chain and generation
         self._autosave_lock = threading.Lock()
-        self._files = OrderedDict()  # (preview, id(result)) -> (result, bytes)
+        self._files = OrderedDict()  # (preview, document digest) -> bytes
         self._files_lock = threading.Lock()
+        self._files_size = 0
         self.generation = 0
         self.saved = self.path.exists()
         self._chain = None
@@ -248,10 +250,12 @@ class EditSession:
             raise KeyError(name)
         stage, encode, media_type = _PREVIEW[name]
         if exact and name == "depth.png":
-            return self._newest(lambda chain: (self._encoded(name, stage(chain.edit(
-                depth_method="exact", interactive=False)), encode), media_type), lock="depth")
-        return self._newest(lambda chain: (self._encoded(name, stage(chain), encode), media_type),
-                            lock="depth" if name == "depth.png" else "relief")
+            return self._newest(lambda chain, digest: (self._encoded(
+                (name, "exact", digest), lambda: encode(stage(chain.edit(
+                    depth_method="exact", interactive=False)))), media_type), lock="depth")
+        return self._newest(lambda chain, digest: (self._encoded(
+            (name, digest), lambda: encode(stage(chain))), media_type),
+            lock="depth" if name == "depth.png" else "relief")
 
     def relations(self):
         """The user's and the predicted relations and the warnings of the newest document.
@@ -263,7 +267,7 @@ class EditSession:
             ``error`` is the message when the order cannot be computed and
             ``paths`` the entries it names.
         """
-        def compute(chain):
+        def compute(chain, digest):
             try:
                 relations = chain.relations
             except InputError as e:
@@ -293,9 +297,11 @@ class EditSession:
                 interactive=True, depth_method="fast"), progress=Progress(quiet=True))
         else:
             chain = self._chain.edit(annotations=ann, progress=Progress(quiet=True))
+        digest = hashlib.blake2b(json.dumps(doc, sort_keys=True).encode(), digest_size=16).digest()
         with self._state:
             self._doc = doc
             self._chain = chain
+            self._digest = digest
             self.generation += 1 if write_autosave else 0
             self.saved = self.saved and not write_autosave
             generation = self.generation
@@ -306,31 +312,35 @@ class EditSession:
                     write_text(self.autosave, text)
         return generation
 
-    def _encoded(self, name, result, encode):
-        """The file bytes of a stage's result, kept while the result is: undo re-sends them."""
-        key = (name, id(result))  # the kept result holds its id
+    def _encoded(self, key, make):
+        """The file bytes of a preview of a document, kept by the document's digest.
+
+        The same document always gives the same bytes, so undo answers without
+        asking the chain or encoding again.
+        """
         with self._files_lock:
-            kept = self._files.get(key)
-            if kept is not None and kept[0] is result:
+            if key in self._files:
                 self._files.move_to_end(key)
-                return kept[1]
-        body = encode(result)
+                return self._files[key]
+        body = make()
         with self._files_lock:
-            self._files[key] = (result, body)
-            while len(self._files) > _FILES_KEPT:
-                self._files.popitem(last=False)
+            if key not in self._files:
+                self._files[key] = body
+                self._files_size += len(body)
+            while self._files_size > _FILES_BYTES and len(self._files) > 1:
+                self._files_size -= len(self._files.popitem(last=False)[1])
         return body
 
     def _newest(self, compute, *, lock, wrap=True):
         """``compute(chain)`` for the newest generation; an edit during it starts it again."""
         while True:
             with self._state:
-                generation, chain = self.generation, self._chain
+                generation, chain, digest = self.generation, self._chain, self._digest
             with self._locks[lock]:
                 if self.generation != generation:
                     continue  # superseded while waiting: never compute stale work
                 start = time.perf_counter()
-                value = compute(chain)
+                value = compute(chain, digest)
                 ms = (time.perf_counter() - start) * 1000
             if self.generation == generation:
                 break

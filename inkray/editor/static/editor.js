@@ -561,7 +561,7 @@ async function start() {
   S.savedText = info.saved ? JSON.stringify(doc) : null;
   S.region = (doc.regions || []).length ? 0 : -1;
   document.body.dataset.generation = String(S.generation);
-  $("file").textContent = info.path;
+  $("file").textContent = info.path.split(/[\\/]/).pop();
   $("file").title = `${info.path}\nautosave: ${info.autosave}`;
   const [w, h] = S.size;
   for (const id of ["drawing", "labels"]) { $(id).width = w; $(id).height = h; }
