@@ -143,7 +143,8 @@ def _one(name, megapixels):
             def fetch(previews):
                 for preview in previews:
                     status, headers, body = _request(f"{url}/api/preview/{preview}")
-                    row[preview] = (time.perf_counter() - start if status == 200 else None,
+                    row[preview] = (time.perf_counter() - start if status == 200 else
+                                    json.loads(body).get("error", str(status)),
                                     float(headers.get("X-Inkray-Compute-Ms", "nan")))
 
             # as the page asks: the depth map beside the labels, then the relief
@@ -179,15 +180,18 @@ def main():
                 continue
             cold = r["rows"][0]
             size = f"{r['size'][0]}x{r['size'][1]}"
+            errors = []
             for row in r["rows"]:
                 cells, notes = [], []
                 for preview in PREVIEWS:
                     s, _ = row[preview]
                     c, _ = cold[preview]
-                    if s is None:
-                        cells.append("error")
+                    if isinstance(s, str):
+                        if s not in errors:
+                            errors.append(s)
+                        cells.append(f"error {errors.index(s) + 1}")
                         continue
-                    ratio = f" ({s / c:.0%})" if row is not cold and c else ""
+                    ratio = f" ({s / c:.0%})" if row is not cold and isinstance(c, float) else ""
                     cells.append(f"{s:.3f}{ratio}")
                     target = TARGETS.get((row["edit"], preview))
                     if target is not None and mpx:
@@ -195,6 +199,8 @@ def main():
                                      f"{'ok' if s <= target else 'MISSED'}")
                 print(f"| {name} | {size} | {row['edit']} | {' | '.join(cells)} | "
                       f"{', '.join(notes)} |", flush=True)
+            for k, error in enumerate(errors):
+                print(f"| {name} | {size} | error {k + 1}: {error} |", flush=True)
 
 
 if __name__ == "__main__":

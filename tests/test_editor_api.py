@@ -320,3 +320,15 @@ def test_exact_depth_on_request(turtle, tmp_path):
     for d in (d_fast, d_exact):
         assert d[273, 168] > d[265, 180]
     assert bad[0] == 400 and bad[1]["error"].startswith("method: unknown depth method 'slow'")
+
+
+def test_a_failing_stage_is_one_line(turtle, monkeypatch, capsys):
+    def broken(chain):
+        raise RuntimeError("boom\nsecond line")
+
+    stage, encode, media_type = session_module._PREVIEW["relief.glb"]
+    monkeypatch.setitem(session_module._PREVIEW, "relief.glb", (broken, encode, media_type))
+    with running(EditSession(turtle)) as url:
+        status, answer = _json(call(url + "/api/preview/relief.glb"))
+    assert status == 500 and answer["error"] == "internal error: RuntimeError: boom second line"
+    assert "inkray edit: error: internal error: RuntimeError" in capsys.readouterr().err

@@ -16,6 +16,7 @@ Endpoints (a public contract, see ``docs/editor.md``):
 """
 
 import io
+import sys
 from pathlib import Path
 
 import anyio
@@ -100,8 +101,8 @@ def editor_app(session):
             return _error(400, f"method: unknown depth method {method!r} (expected fast, exact)")
         try:
             p = await anyio.to_thread.run_sync(lambda: session.preview(name, exact=method == "exact"))
-        except InkrayError as e:
-            return _error(422 if isinstance(e, InputError) else 500, str(e))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
         return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **{
             "X-Inkray-Compute-Ms": f"{p.compute_ms:.1f}",
             "X-Inkray-Generation": str(p.generation)}))
@@ -109,8 +110,8 @@ def editor_app(session):
     async def relations(request):
         try:
             value = await anyio.to_thread.run_sync(session.relations)
-        except InkrayError as e:
-            return _error(500, str(e))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
         compute_ms = value.pop("compute_ms")
         return JSONResponse(value, headers=dict(_NO_STORE, **{
             "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
@@ -135,6 +136,20 @@ _NO_STORE = {"Cache-Control": "no-store"}
 def _error(status, message):
     return JSONResponse({"error": message, "paths": entry_paths(message)}, status_code=status,
                         headers=_NO_STORE)
+
+
+def _failure(e):
+    """422 for a document that cannot be computed, 500 for anything else; one line, as the CLI."""
+    if isinstance(e, InputError):
+        return _error(422, str(e))
+    if isinstance(e, InkrayError):
+        message = " ".join(str(e).split())
+    elif isinstance(e, MemoryError):
+        message = "out of memory (try a smaller drawing)"
+    else:
+        message = f"internal error: {type(e).__name__}: {' '.join(str(e).split())}"
+    print(f"inkray edit: error: {message}", file=sys.stderr)
+    return _error(500, message)
 
 
 def _png(rgb):
