@@ -170,3 +170,24 @@ def test_contradiction_highlights_the_cycle(page, tmp_path):
         assert "contradict" in page.text_content("#error")
         bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
     assert set(bad) == {"order[0]", f"order[{last}]"}
+
+
+def test_region_fields_and_a_refused_edit(page, tmp_path):
+    ann = copy_example("turtle", tmp_path)
+    session = EditSession(ann)
+    with running(session) as url:
+        page.goto(url + "/")
+        _wait_previews(page, 0)
+        page.fill("#regions .region[data-index='0'] .inflation", "5")
+        page.press("#regions .region[data-index='0'] .inflation", "Enter")
+        _wait_previews(page, 1)
+        assert session.document["regions"][0]["inflation"] == 5
+        # a name the format refuses: the server keeps its document, the page takes it back
+        page.fill("#regions .region[data-index='1'] .name", "leg front")
+        page.press("#regions .region[data-index='1'] .name", "Enter")
+        page.wait_for_selector("#error:not([hidden])")
+        assert page.text_content("#error").startswith("regions[1].name: 'leg front' may only")
+        assert page.input_value("#regions .region[data-index='1'] .name") == "leg_front"
+        assert "bad" in page.get_attribute("#regions .region[data-index='1']", "class")
+        assert session.generation == 1 and session.document["regions"][1]["name"] == "leg_front"
+        assert page.evaluate("window.inkray.doc") == session.document

@@ -97,13 +97,12 @@ async function commit(doc) {
     refresh();
     return;
   }
-  // Refused: the edit is taken back, and the message is shown where it points.
+  // Refused (the server kept its document): the edit is taken back, the message shown.
   S.history = S.history.filter((d) => d !== doc);
   S.index = Math.min(S.index, S.history.length - 1);
   S.doc = S.history[S.index];
   S.errors.document = { error: answer.error, paths: answer.paths };
   render();
-  await send(S.doc);
 }
 
 async function step(delta) {
@@ -291,6 +290,10 @@ function renderMarks() {
 function renderRegions() {
   const box = $("regions");
   const paths = badPaths();
+  // Rebuilt only when something shown changed: a name being typed keeps its field.
+  const shown = JSON.stringify([S.doc.regions, S.region, S.palette, paths]);
+  if (box.dataset.shown === shown) return;
+  box.dataset.shown = shown;
   box.innerHTML = "";
   (S.doc.regions || []).forEach((r, i) => {
     const row = document.createElement("div");
