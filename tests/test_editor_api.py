@@ -332,3 +332,20 @@ def test_a_failing_stage_is_one_line(turtle, monkeypatch, capsys):
         status, answer = _json(call(url + "/api/preview/relief.glb"))
     assert status == 500 and answer["error"] == "internal error: RuntimeError: boom second line"
     assert "inkray edit: error: internal error: RuntimeError" in capsys.readouterr().err
+
+
+def test_an_edit_stops_the_work_of_the_document_it_replaces(turtle):
+    """A relief under way stops at its next stage once a newer document arrives."""
+    doc = json.loads(turtle.read_text())
+    session = EditSession(turtle)
+    old = session._chain
+    answer = {}
+    worker = threading.Thread(target=lambda: answer.update(p=session.preview("relief.glb")))
+    worker.start()
+    while not old.recomputed:  # the segmentation is done: the rest takes a second or more
+        pass
+    session.replace(json.dumps(dict(doc, order=doc["order"][:-1])))
+    worker.join()
+    assert answer["p"].generation == 1
+    assert "assemble" not in old.recomputed and "assemble" in session._chain.recomputed
+    assert "segment" not in session._chain.recomputed  # the stopped chain's stage was kept

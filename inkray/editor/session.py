@@ -19,6 +19,7 @@ import re
 import threading
 import time
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -292,16 +293,18 @@ class EditSession:
                              f"{json.dumps(self._drawing_key)}; keep that value")
         ann.drawing = self.drawing.path
         ann.source = self.path
+        watch = _Watch(self)
         if self._chain is None:
             chain = ReliefChain(ann, self.drawing, options=ChainOptions(
-                interactive=True, depth_method="fast"), progress=Progress(quiet=True))
+                interactive=True, depth_method="fast"), progress=watch)
         else:
-            chain = self._chain.edit(annotations=ann, progress=Progress(quiet=True))
+            chain = self._chain.edit(annotations=ann, progress=watch)
         digest = hashlib.blake2b(json.dumps(doc, sort_keys=True).encode(), digest_size=16).digest()
         with self._state:
             self._doc = doc
             self._chain = chain
             self._digest = digest
+            self._watch = watch
             self.generation += 1 if write_autosave else 0
             self.saved = self.saved and not write_autosave
             generation = self.generation
@@ -340,7 +343,10 @@ class EditSession:
                 if self.generation != generation:
                     continue  # superseded while waiting: never compute stale work
                 start = time.perf_counter()
-                value = compute(chain, digest)
+                try:
+                    value = compute(chain, digest)
+                except _Superseded:
+                    continue  # stopped at a stage boundary; finished stages stay cached
                 ms = (time.perf_counter() - start) * 1000
             if self.generation == generation:
                 break
@@ -348,6 +354,35 @@ class EditSession:
             return dict(value, generation=generation, compute_ms=ms)
         body, media_type = value
         return Preview(body=body, media_type=media_type, generation=generation, compute_ms=ms)
+
+
+class _Superseded(BaseException):
+    """A newer document arrived while this one's preview was computing.
+
+    A BaseException, so that no stage's error handling mistakes it for a failure.
+    """
+
+
+class _Watch(Progress):
+    """The progress of one document's chain: it stops the chain's work once a newer
+    document replaced it (at the next stage or progress step)."""
+
+    def __init__(self, session):
+        super().__init__(quiet=True)
+        self._session = session
+
+    def _check(self):
+        if self._session._watch is not self:
+            raise _Superseded()
+
+    def update(self, done, total):
+        self._check()
+
+    @contextmanager
+    def stage(self, name):
+        self._check()
+        with super().stage(name):
+            yield self
 
 
 def _relief(chain):
