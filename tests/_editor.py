@@ -26,13 +26,13 @@ def running(session):
     """Serve ``session`` on 127.0.0.1 (a free port) while the block runs; yields the base URL."""
     import uvicorn
 
-    from inkray.editor.app import editor_app
+    from inkray.editor.app import LOOPBACK_HOSTS, editor_app
 
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
     sock.listen(64)
-    server = uvicorn.Server(uvicorn.Config(editor_app(session), log_level="warning",
-                                           lifespan="off"))
+    server = uvicorn.Server(uvicorn.Config(editor_app(session, allowed_hosts=LOOPBACK_HOSTS),
+                                           log_level="warning", lifespan="off"))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
     deadline = time.monotonic() + 20
@@ -47,13 +47,13 @@ def running(session):
         sock.close()
 
 
-def call(url, method="GET", body=None):
+def call(url, method="GET", body=None, headers=None):
     """``(status, headers, body bytes)`` of one request; ``body`` a dict is sent as JSON."""
     if isinstance(body, (dict, list)):
         body = json.dumps(body).encode()
     elif isinstance(body, str):
         body = body.encode()
-    request = urllib.request.Request(url, data=body, method=method)
+    request = urllib.request.Request(url, data=body, method=method, headers=headers or {})
     try:
         with urllib.request.urlopen(request, timeout=120) as r:
             return r.status, r.headers, r.read()

@@ -349,3 +349,15 @@ def test_an_edit_stops_the_work_of_the_document_it_replaces(turtle):
     assert answer["p"].generation == 1
     assert "assemble" not in old.recomputed and "assemble" in session._chain.recomputed
     assert "segment" not in session._chain.recomputed  # the stopped chain's stage was kept
+
+
+def test_only_requests_naming_this_machine(turtle):
+    session = EditSession(turtle)
+    doc = json.loads(turtle.read_text())
+    with running(session) as url:
+        port = url.rsplit(":", 1)[1]
+        rebound = call(url + "/api/annotations", "PUT", dict(doc, order=[]),
+                       headers={"Host": f"attacker.example:{port}"})
+        local = call(url + "/api/info", headers={"Host": f"localhost:{port}"})
+    assert rebound[0] == 400 and session.generation == 0
+    assert local[0] == 200

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import anyio
 from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
@@ -28,18 +30,25 @@ from starlette.staticfiles import StaticFiles
 from inkray.editor.session import PREVIEWS, entry_paths
 from inkray.errors import InkrayError, InputError
 
-__all__ = ["editor_app"]
+__all__ = ["editor_app", "LOOPBACK_HOSTS"]
+
+#: The names of this machine a browser uses for a server on loopback.
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 
 STATIC = Path(__file__).resolve().parent / "static"
 _MAX_BODY = 64 * 1024 * 1024  # the annotation file's own byte limit is checked when decoding
 
 
-def editor_app(session):
+def editor_app(session, *, allowed_hosts=None):
     """The ASGI application of an editing session.
 
     Parameters
     ----------
     session : inkray.editor.session.EditSession
+    allowed_hosts : sequence of str, optional
+        Host names the requests must name (their ``Host`` header), e.g.
+        :data:`LOOPBACK_HOSTS`: a web page whose name was made to resolve to
+        127.0.0.1 (DNS rebinding) then cannot reach the API. Default: any.
 
     Returns
     -------
@@ -127,7 +136,10 @@ def editor_app(session):
         Route("/api/relations", relations),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
-    return Starlette(routes=routes)
+    middleware = []
+    if allowed_hosts is not None:
+        middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=list(allowed_hosts)))
+    return Starlette(routes=routes, middleware=middleware)
 
 
 _NO_STORE = {"Cache-Control": "no-store"}

@@ -6,7 +6,7 @@ import sys
 import threading
 import webbrowser
 
-from inkray.editor.app import editor_app
+from inkray.editor.app import LOOPBACK_HOSTS, editor_app
 from inkray.errors import InputError
 
 __all__ = ["serve", "is_loopback"]
@@ -38,7 +38,8 @@ def serve(session, *, host="127.0.0.1", port=8765, open_browser=True, stream=Non
     session : inkray.editor.session.EditSession
     host : str, default "127.0.0.1"
         Any other address than loopback prints a warning: whoever reaches it
-        can read the drawing and rewrite the annotation file.
+        can read the drawing and rewrite the annotation file. On loopback,
+        requests must name this machine (``Host: 127.0.0.1``, ``localhost``).
     port : int, default 8765
         0 picks a free port.
     open_browser : bool, default True
@@ -65,7 +66,9 @@ def serve(session, *, host="127.0.0.1", port=8765, open_browser=True, stream=Non
     print(f"inkray edit: serving {url}", file=stream, flush=True)
     if open_browser:
         threading.Thread(target=webbrowser.open, args=(url,), daemon=True).start()
-    config = uvicorn.Config(editor_app(session), log_level="warning", lifespan="off",
+    hosts = LOOPBACK_HOSTS if is_loopback(host) else None
+    config = uvicorn.Config(editor_app(session, allowed_hosts=hosts), log_level="warning",
+                            lifespan="off",
                             timeout_graceful_shutdown=2)
     try:
         uvicorn.Server(config).run(sockets=[sock])
