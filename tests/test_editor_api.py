@@ -18,7 +18,7 @@ from _editor import call, copy_example, running  # noqa: E402
 
 from inkray.editor import session as session_module  # noqa: E402
 from inkray.editor.session import EditSession, autosave_path, entry_paths  # noqa: E402
-from inkray.errors import InputError  # noqa: E402
+from inkray.errors import InkrayError, InputError  # noqa: E402
 from inkray.formats.depth_png import read_depth_png  # noqa: E402
 from inkray.input.loading import load_input  # noqa: E402
 
@@ -361,3 +361,23 @@ def test_only_requests_naming_this_machine(turtle):
         local = call(url + "/api/info", headers={"Host": f"localhost:{port}"})
     assert rebound[0] == 400 and session.generation == 0
     assert local[0] == 200
+
+
+def test_closing_stops_the_work_under_way(turtle):
+    session = EditSession(turtle)
+    chain = session._chain
+    failed = []
+
+    def work():
+        try:
+            session.preview("relief.glb")
+        except InkrayError as e:
+            failed.append(str(e))
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    while not chain.recomputed:
+        pass
+    session.close()
+    worker.join()
+    assert failed == ["the editor is closing"] and "assemble" not in chain.recomputed

@@ -73,6 +73,7 @@ def serve(session, *, host="127.0.0.1", port=8765, open_browser=True, stream=Non
     try:
         uvicorn.Server(config).run(sockets=[sock])
     finally:
+        session.close()  # work still under way stops at its next stage
         sock.close()
 
 

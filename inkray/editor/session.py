@@ -27,7 +27,7 @@ import numpy as np
 from scipy import ndimage
 
 from inkray.chain import ChainOptions, ReliefChain
-from inkray.errors import InputError
+from inkray.errors import InkrayError, InputError
 from inkray.formats.atomic import write_text
 from inkray.formats.depth_png import depth_png
 from inkray.formats.labels import label_palette, labels_png
@@ -165,6 +165,7 @@ class EditSession:
         self._files_lock = threading.Lock()
         self._files_size = 0
         self.generation = 0
+        self._closed = False
         self.saved = self.path.exists()
         self._chain = None
         self._set(doc)
@@ -225,6 +226,12 @@ class EditSession:
                 self.saved = True
                 self.autosave.unlink(missing_ok=True)
         return self.path
+
+    def close(self):
+        """Stop the work under way (at its next stage) and refuse new previews."""
+        with self._state:
+            self._closed = True
+            self._watch = None
 
     # -- previews ----------------------------------------------------------------
 
@@ -338,6 +345,8 @@ class EditSession:
         """``compute(chain)`` for the newest generation; an edit during it starts it again."""
         while True:
             with self._state:
+                if self._closed:
+                    raise InkrayError("the editor is closing")
                 generation, chain, digest = self.generation, self._chain, self._digest
             with self._locks[lock]:
                 if self.generation != generation:
