@@ -116,7 +116,7 @@ def test_draw_accept_undo_save(page, tmp_path):
         _wait_previews(page, 3)
         k = len(doc["boundaries"])
         error = page.text_content("#error")
-        assert page.is_visible("#error") and error.startswith(f"boundaries[{k}]: no region outline")
+        assert page.is_visible("#error") and f"relief: boundaries[{k}]: no region outline" in error
         assert page.get_attribute(f"#marks [data-key='boundaries[{k}]']", "class").split()[-1] == "bad"
 
         # undo: the path goes, and with it the error

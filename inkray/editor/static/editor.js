@@ -366,10 +366,15 @@ function render() {
   renderMarks();
   renderRegions();
   renderRelations();
-  const shown = Object.entries(S.errors).find(([, e]) => e);
+  // Every distinct message once, with the preview (or the edit) it came from.
+  const lines = [];
+  for (const [kind, e] of Object.entries(S.errors)) {
+    if (!e || lines.some((l) => l.endsWith(e.error))) continue;
+    lines.push(kind === "document" ? e.error : `${kind}: ${e.error}`);
+  }
   const box = $("error");
-  box.hidden = !shown;
-  box.textContent = shown ? shown[1].error : "";
+  box.hidden = lines.length === 0;
+  box.textContent = lines.join("\n");
   $("undo").disabled = S.index <= 0;
   $("redo").disabled = S.index >= S.history.length - 1;
   $("delete").disabled = !S.selection;
