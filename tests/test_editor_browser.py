@@ -156,24 +156,9 @@ def test_draw_accept_undo_save(page, tmp_path):
     assert not (tmp_path / "drawing.inkray.json.autosave").exists()
 
 
-def test_contradiction_highlights_the_cycle(page, tmp_path):
+def test_region_fields_a_refused_edit_and_a_contradiction(page, tmp_path):
     ann = copy_example("turtle", tmp_path)
     doc = json.loads(ann.read_text())
-    first = doc["order"][0]
-    with running(EditSession(ann)) as url:
-        page.goto(url + "/")
-        _wait_previews(page, 0)
-        page.click("button[data-tool=order]")
-        _drag(page, [first["back"], first["front"]])  # the first arrow reversed
-        _wait_previews(page, 1)
-        last = len(doc["order"])
-        assert "contradict" in page.text_content("#error")
-        bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
-    assert set(bad) == {"order[0]", f"order[{last}]"}
-
-
-def test_region_fields_and_a_refused_edit(page, tmp_path):
-    ann = copy_example("turtle", tmp_path)
     session = EditSession(ann)
     with running(session) as url:
         page.goto(url + "/")
@@ -182,6 +167,7 @@ def test_region_fields_and_a_refused_edit(page, tmp_path):
         page.press("#regions .region[data-index='0'] .inflation", "Enter")
         _wait_previews(page, 1)
         assert session.document["regions"][0]["inflation"] == 5
+
         # a name the format refuses: the server keeps its document, the page takes it back
         page.fill("#regions .region[data-index='1'] .name", "leg front")
         page.press("#regions .region[data-index='1'] .name", "Enter")
@@ -191,3 +177,12 @@ def test_region_fields_and_a_refused_edit(page, tmp_path):
         assert "bad" in page.get_attribute("#regions .region[data-index='1']", "class")
         assert session.generation == 1 and session.document["regions"][1]["name"] == "leg_front"
         assert page.evaluate("window.inkray.doc") == session.document
+
+        # the first arrow reversed: both arrows of the cycle are highlighted
+        first = doc["order"][0]
+        page.click("button[data-tool=order]")
+        _drag(page, [first["back"], first["front"]])
+        _wait_previews(page, 2)
+        assert "contradict" in page.text_content("#error")
+        bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
+    assert set(bad) == {"order[0]", f"order[{len(doc['order'])}]"}
