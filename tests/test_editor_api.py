@@ -381,3 +381,24 @@ def test_closing_stops_the_work_under_way(turtle):
     session.close()
     worker.join()
     assert failed == ["the editor is closing"] and "assemble" not in chain.recomputed
+
+
+def test_the_page_needs_nothing_from_elsewhere(turtle):
+    """Every script, style and module the page loads is served by the editor itself."""
+    import re
+
+    with running(EditSession(turtle)) as url:
+        page = call(url + "/")[2].decode()
+        refs = re.findall(r'(?:src|href)="([^"]+)"', page)
+        imports = json.loads(re.search(r'<script type="importmap">(.*?)</script>', page,
+                                       re.S).group(1))["imports"]
+        modules = ["/static/editor.js", "/static/relief.js",
+                   imports["three"], imports["three/addons/"] + "controls/OrbitControls.js",
+                   imports["three/addons/"] + "loaders/GLTFLoader.js"]
+        served = {ref: call(url + ref)[0] for ref in refs + modules}
+        scripts = {ref: call(url + ref)[2].decode() for ref in modules}
+    assert refs and all(ref.startswith("/static/") for ref in refs)
+    assert all(status == 200 for status in served.values()), served
+    for ref, text in scripts.items():
+        for target in re.findall(r'^\s*(?:import|export)[^;]*?from\s+["\']([^"\']+)["\']', text, re.M):
+            assert target.startswith((".", "/", "three")), (ref, target)

@@ -85,7 +85,11 @@ function send(doc) {
 }
 
 // Make ``doc`` the current document: a new undo step, sent to the server, previews refreshed.
+// The exact depth map is asked for once; editing goes back to the fast method.
+function fastDepth() { document.querySelector("input[name=depth-method][value=fast]").checked = true; }
+
 async function commit(doc) {
+  fastDepth();
   S.history = S.history.slice(0, S.index + 1);
   S.history.push(doc);
   S.index = S.history.length - 1;
@@ -111,6 +115,7 @@ async function step(delta) {
   S.index = i;
   S.doc = S.history[i];
   S.selection = null;
+  fastDepth();
   if (S.region >= (S.doc.regions || []).length) S.region = (S.doc.regions || []).length - 1;
   render();
   const answer = await send(S.doc);
