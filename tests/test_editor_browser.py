@@ -156,7 +156,7 @@ def test_draw_accept_undo_save(page, tmp_path):
     assert not (tmp_path / "drawing.inkray.json.autosave").exists()
 
 
-def test_region_fields_a_refused_edit_and_a_contradiction(page, tmp_path):
+def test_fields_refused_edit_move_delete_and_a_contradiction(page, tmp_path):
     ann = copy_example("turtle", tmp_path)
     doc = json.loads(ann.read_text())
     session = EditSession(ann)
@@ -178,11 +178,24 @@ def test_region_fields_a_refused_edit_and_a_contradiction(page, tmp_path):
         assert session.generation == 1 and session.document["regions"][1]["name"] == "leg_front"
         assert page.evaluate("window.inkray.doc") == session.document
 
+        # select an arrow, move it, delete it
+        front, back = doc["order"][1]["front"], doc["order"][1]["back"]
+        middle = [(front[0] + back[0]) / 2, (front[1] + back[1]) / 2]
+        page.click("button[data-tool=select]")
+        _drag(page, [middle, [middle[0] + 10, middle[1] + 6]])
+        _wait_previews(page, 2)
+        moved = session.document["order"][1]
+        assert abs(moved["front"][0] - front[0] - 10) < 1 and abs(moved["back"][1] - back[1] - 6) < 1
+        assert page.get_attribute("#marks [data-key='order[1]']", "class").split()[-1] == "selected"
+        page.keyboard.press("Delete")
+        _wait_previews(page, 3)
+        assert session.document["order"] == doc["order"][:1] + doc["order"][2:]
+
         # the first arrow reversed: both arrows of the cycle are highlighted
         first = doc["order"][0]
         page.click("button[data-tool=order]")
         _drag(page, [first["back"], first["front"]])
-        _wait_previews(page, 2)
+        _wait_previews(page, 4)
         assert "contradict" in page.text_content("#error")
         bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
-    assert set(bad) == {"order[0]", f"order[{len(doc['order'])}]"}
+    assert set(bad) == {"order[0]", f"order[{len(doc['order']) - 1}]"}
