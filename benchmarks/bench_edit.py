@@ -14,7 +14,7 @@ to the end of that preview's answer. The edits, in order:
 - +boundary: that boundary added back (drawings without one skip it);
 - undo: the annotation before +boundary again.
 
-Targets at ~1 Mpx (from the issue): depth <= 0.15 s after an arrow, labels <=
+Targets at ~1 Mpx: depth <= 0.15 s after an arrow, labels <=
 0.3 s after a scribble, relief <= 1.0 s after an arrow, every preview <= 0.05 s
 after undo. ``/ cold`` is each time against the cold time of the same preview.
 
