@@ -12,7 +12,7 @@ to the end of that preview's answer. The edits, in order:
 - +arrow: that order entry added back;
 - +scribble: that scribble added back;
 - +boundary: that boundary added back (drawings without one skip it);
-- undo: the annotation before +boundary again.
+- undo: the annotation before the last of these edits again.
 
 Targets at ~1 Mpx: depth <= 0.15 s after an arrow, labels <=
 0.3 s after a scribble, relief <= 1.0 s after an arrow, every preview <= 0.05 s
