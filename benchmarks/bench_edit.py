@@ -20,7 +20,7 @@ after undo. ``/ cold`` is each time against the cold time of the same preview.
 
 Usage::
 
-    python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only]
+    python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
 """
 
 import argparse
@@ -165,9 +165,10 @@ def main():
     parser.add_argument("--names", help="comma-separated bundled drawings (default: all)")
     parser.add_argument("--mpx", type=float, default=1.0, help="upscale to this many Mpx (default 1)")
     parser.add_argument("--own-size-only", action="store_true", help="skip the upscaled run")
+    parser.add_argument("--upscaled-only", action="store_true", help="skip the own-size run")
     args = parser.parse_args()
     names = args.names.split(",") if args.names else _drawings()
-    sizes = [0.0] + ([] if args.own_size_only else [args.mpx])
+    sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
     print("| drawing | size | edit | labels s (/ cold) | depth s (/ cold) | relief s (/ cold) "
           "| targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
