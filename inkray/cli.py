@@ -515,6 +515,21 @@ def _beside(compute):
     return result
 
 
+def _cmd_edit(args, progress):
+    from inkray.editor.server import serve
+    from inkray.editor.session import EditSession
+
+    session = EditSession(args.annotation, drawing=args.drawing)
+    if session.restored:
+        print(f"inkray edit: restored unsaved changes from {session.autosave} "
+              f"({args.annotation} is unchanged until you save)", file=sys.stderr)
+    try:
+        serve(session, host=args.host, port=args.port, open_browser=not args.no_browser)
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
 _COMMANDS = {
     "validate": (_cmd_validate, "check an annotation file and its drawing"),
     "segment": (_cmd_segment, "segment the drawing into regions from the scribbles"),
@@ -527,6 +542,7 @@ _COMMANDS = {
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
+    "edit": (_cmd_edit, "annotate in the browser with live depth and relief previews"),
 }
 
 
@@ -675,6 +691,15 @@ def _parser():
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
     p["demo"].add_argument("--spp", type=int, default=32,
                            help="samples per pixel of the GI render (default: 32)")
+    ed = p["edit"]
+    ed.add_argument("annotation", metavar="ANN",
+                    help="annotation file (.inkray.json); a new one is started when missing")
+    ed.add_argument("--drawing", metavar="PATH",
+                    help="drawing file (needed for a new annotation; overrides the 'drawing' key)")
+    ed.add_argument("--host", default="127.0.0.1",
+                    help="address to serve on (default: 127.0.0.1, this machine only)")
+    ed.add_argument("--port", type=int, default=8765, help="port (default: 8765; 0: any free)")
+    ed.add_argument("--no-browser", action="store_true", help="do not open a browser")
     return parser
 
 

@@ -1,0 +1,208 @@
+"""Benchmark of ``inkray edit``: how soon each preview is ready after an edit, through HTTP.
+
+For each bundled drawing, at its own size and upscaled to about 1 Mpx, a fresh
+``inkray edit ... --no-browser --port 0`` server is started and driven as the
+page drives it: ``PUT /api/annotations``, then ``GET`` depth.png beside
+labels.png followed by relief.glb (the server computes the depth map and the
+relief under separate locks). Each preview's time is from the start of the PUT
+to the end of that preview's answer. The edits, in order:
+
+- cold: the annotation without its last order entry, last scribble of its most
+  scribbled region and last boundary (every stage computed; the baseline);
+- +arrow: that order entry added back;
+- +scribble: that scribble added back;
+- +boundary: that boundary added back (drawings without one skip it);
+- undo: the annotation before the last of these edits again.
+
+Targets at ~1 Mpx: depth <= 0.15 s after an arrow, labels <=
+0.3 s after a scribble, relief <= 1.0 s after an arrow, every preview <= 0.05 s
+after undo. ``/ cold`` is each time against the cold time of the same preview.
+
+Usage::
+
+    python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
+"""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+PREVIEWS = ("labels.png", "depth.png", "relief.glb")
+TARGETS = {("+arrow", "depth.png"): 0.15, ("+scribble", "labels.png"): 0.3,
+           ("+arrow", "relief.glb"): 1.0, ("undo", "labels.png"): 0.05,
+           ("undo", "depth.png"): 0.05, ("undo", "relief.glb"): 0.05}
+
+
+def _drawings():
+    return sorted(p.name for p in EXAMPLES.iterdir() if (p / "drawing.inkray.json").is_file())
+
+
+def _folder(name, megapixels):
+    """A temporary copy of a drawing and its annotation, upscaled to ``megapixels`` (0: as is)."""
+    from PIL import Image
+
+    src = EXAMPLES / name
+    doc = json.loads((src / "drawing.inkray.json").read_text())
+    image_path = src / doc["drawing"]
+    folder = Path(tempfile.mkdtemp(prefix=f"bench-edit-{name}-"))
+    if megapixels:
+        image = Image.open(image_path)
+        scale = (megapixels * 1e6 / (image.width * image.height)) ** 0.5
+        size = (round(image.width * scale), round(image.height * scale))
+        target = folder / f"drawing{image_path.suffix if image_path.suffix != '.svg' else '.png'}"
+        image.convert("RGB").resize(size, Image.LANCZOS).save(target)
+        doc = _rescaled(doc, size)
+        doc["drawing"] = target.name
+    else:
+        shutil.copy(image_path, folder / image_path.name)
+    ann = folder / "drawing.inkray.json"
+    ann.write_text(json.dumps(doc))
+    return ann, doc
+
+
+def _rescaled(doc, size):
+    """Every point mapped pixel centre to pixel centre: ``p' = (p + 0.5) * new / old - 0.5``."""
+    old = doc["size"]
+
+    def point(p):
+        return [min(max((p[k] + 0.5) * size[k] / old[k] - 0.5, 0.0), size[k] - 1.0) for k in (0, 1)]
+
+    out = json.loads(json.dumps(doc))
+    out["size"] = list(size)
+    for r in out.get("regions", []):
+        r["scribbles"] = [[point(p) for p in s] for s in r["scribbles"]]
+    out["background"] = [[point(p) for p in s] for s in out.get("background", [])]
+    for o in out.get("order", []):
+        o["front"], o["back"] = point(o["front"]), point(o["back"])
+    for e in out.get("equal", []):
+        e["a"], e["b"] = point(e["a"]), point(e["b"])
+    for b in out.get("boundaries", []):
+        b["path"] = [point(p) for p in b["path"]]
+    return out
+
+
+def _edits(doc):
+    """(label, document) in the order they are sent."""
+    full = json.loads(json.dumps(doc))
+    base = json.loads(json.dumps(doc))
+    base["order"] = base.get("order", [])[:-1]
+    most = max(range(len(base["regions"])), key=lambda i: len(base["regions"][i]["scribbles"]))
+    scribbled = len(base["regions"][most]["scribbles"]) > 1
+    if scribbled:
+        base["regions"][most]["scribbles"] = base["regions"][most]["scribbles"][:-1]
+    base["boundaries"] = base.get("boundaries", [])[:-1]
+    arrow = dict(json.loads(json.dumps(base)), order=full.get("order", []))
+    scribble = json.loads(json.dumps(arrow))
+    scribble["regions"] = full["regions"]
+    edits = [("cold", base)]
+    if doc.get("order"):
+        edits.append(("+arrow", arrow))
+    if scribbled:
+        edits.append(("+scribble", scribble))
+    if doc.get("boundaries"):
+        edits.append(("+boundary", full))
+    edits.append(("undo", edits[-2][1] if len(edits) > 1 else base))
+    return edits
+
+
+def _request(url, method="GET", body=None):
+    req = urllib.request.Request(url, data=body, method=method)
+    try:
+        with urllib.request.urlopen(req, timeout=600) as r:
+            return r.status, r.headers, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers, e.read()
+
+
+def _one(name, megapixels):
+    ann, doc = _folder(name, megapixels)
+    code = "import sys; from inkray.cli import main; sys.exit(main())"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
+    proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
+                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env)
+    rows = []
+    try:
+        url = proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/")
+        for label, edit in _edits(doc):
+            start = time.perf_counter()
+            status, _, body = _request(url + "/api/annotations", "PUT", json.dumps(edit).encode())
+            if status != 200:
+                raise RuntimeError(f"PUT {label}: {status} {body[:200]!r}")
+            row = {"edit": label}
+
+            def fetch(previews):
+                for preview in previews:
+                    status, headers, body = _request(f"{url}/api/preview/{preview}")
+                    row[preview] = (time.perf_counter() - start if status == 200 else
+                                    json.loads(body).get("error", str(status)),
+                                    float(headers.get("X-Inkray-Compute-Ms", "nan")))
+
+            # as the page asks: the depth map beside the labels, then the relief
+            beside = threading.Thread(target=fetch, args=(["depth.png"],))
+            beside.start()
+            fetch(["labels.png", "relief.glb"])
+            beside.join()
+            rows.append(row)
+    finally:
+        proc.terminate()
+        proc.wait(30)
+        shutil.rmtree(ann.parent, ignore_errors=True)
+    return {"name": name, "size": doc["size"], "rows": rows}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--names", help="comma-separated bundled drawings (default: all)")
+    parser.add_argument("--mpx", type=float, default=1.0, help="upscale to this many Mpx (default 1)")
+    parser.add_argument("--own-size-only", action="store_true", help="skip the upscaled run")
+    parser.add_argument("--upscaled-only", action="store_true", help="skip the own-size run")
+    args = parser.parse_args()
+    names = args.names.split(",") if args.names else _drawings()
+    sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
+    print("| drawing | size | edit | labels s (/ cold) | depth s (/ cold) | relief s (/ cold) "
+          "| targets at ~1 Mpx |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            try:
+                r = _one(name, mpx)
+            except (RuntimeError, OSError, IndexError) as e:
+                print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
+                continue
+            cold = r["rows"][0]
+            size = f"{r['size'][0]}x{r['size'][1]}"
+            errors = []
+            for row in r["rows"]:
+                cells, notes = [], []
+                for preview in PREVIEWS:
+                    s, _ = row[preview]
+                    c, _ = cold[preview]
+                    if isinstance(s, str):
+                        if s not in errors:
+                            errors.append(s)
+                        cells.append(f"error {errors.index(s) + 1}")
+                        continue
+                    ratio = f" ({s / c:.0%})" if row is not cold and isinstance(c, float) else ""
+                    cells.append(f"{s:.3f}{ratio}")
+                    target = TARGETS.get((row["edit"], preview))
+                    if target is not None and mpx:
+                        notes.append(f"{preview.split('.')[0]} <= {target:g} "
+                                     f"{'ok' if s <= target else 'MISSED'}")
+                print(f"| {name} | {size} | {row['edit']} | {' | '.join(cells)} | "
+                      f"{', '.join(notes)} |", flush=True)
+            for k, error in enumerate(errors):
+                print(f"| {name} | {size} | error {k + 1}: {error} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

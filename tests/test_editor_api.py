@@ -1,0 +1,404 @@
+"""The editor's HTTP API on a real server: every endpoint, bad documents, save, previews, concurrency."""
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+pytest.importorskip("uvicorn")
+pytest.importorskip("starlette")
+
+from _editor import call, copy_example, running  # noqa: E402
+
+from inkray.editor import session as session_module  # noqa: E402
+from inkray.editor.session import EditSession, autosave_path, entry_paths  # noqa: E402
+from inkray.errors import InkrayError, InputError  # noqa: E402
+from inkray.formats.depth_png import read_depth_png  # noqa: E402
+from inkray.input.loading import load_input  # noqa: E402
+
+
+@pytest.fixture
+def turtle(tmp_path):
+    return copy_example("turtle", tmp_path)
+
+
+def _json(response):
+    status, _, body = response
+    return status, json.loads(body)
+
+
+def _image(body):
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(body)))
+
+
+def test_get_annotations_is_the_file(turtle):
+    with running(EditSession(turtle)) as url:
+        status, doc = _json(call(url + "/api/annotations"))
+        status_info, info = _json(call(url + "/api/info"))
+        page = call(url + "/")
+        three = call(url + "/static/vendor/three/build/three.module.js")
+    assert status == 200 and doc == json.loads(turtle.read_text())
+    assert status_info == 200 and info["size"] == [512, 512] and info["generation"] == 0
+    assert info["palette"][0] == "#ffffff" and len(info["palette"]) == 1 + len(doc["regions"])
+    assert page[0] == 200 and b"<html" in page[2].lower()
+    assert three[0] == 200 and b"REVISION" in three[2]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{", "drawing.inkray.json: not valid JSON"),
+    ('{"format": "inkray-annotations", "version": 1, "size": [512, 512], "size": [1, 1]}',
+     "drawing.inkray.json: size: duplicate key"),
+    ('{"format": "inkray-annotations", "version": 1, "size": [512, 512], "drawing": "drawing.png",'
+     ' "order": [{"front": [10, 10], "back": [600, 10]}]}',
+     "order[0].back: point (600, 10) lies outside the 512x512 drawing"),
+    ('{"format": "inkray-annotations", "version": 1, "size": [512, 512], "drawing": "drawing.png",'
+     ' "boundries": []}', "boundries: unknown key"),
+    ('{"format": "inkray-annotations", "version": 1, "size": [256, 256], "drawing": "drawing.png"}',
+     "size: the annotation is for a 256x256 drawing but the drawing is 512x512"),
+    ('{"format": "inkray-annotations", "version": 1, "size": [512, 512], "drawing": "other.png"}',
+     "drawing: this editor edits the annotation of \"drawing.png\""),
+])
+def test_bad_document_is_400_and_changes_nothing(turtle, text, message):
+    session = EditSession(turtle)
+    with running(session) as url:
+        before = call(url + "/api/annotations")[2]
+        status, answer = _json(call(url + "/api/annotations", "PUT", text))
+        after = call(url + "/api/annotations")[2]
+    assert status == 400 and answer["error"].startswith(message), answer
+    assert "\n" not in answer["error"]
+    assert after == before and session.generation == 0
+    assert not autosave_path(turtle).exists()
+
+
+def test_put_then_save_round_trip(turtle, tmp_path):
+    session = EditSession(turtle)
+    doc = json.loads(turtle.read_text())
+    doc["order"] = doc["order"][:2]
+    doc["regions"][0]["inflation"] = 3.5
+    doc["_note"] = "comments are kept"
+    original = turtle.read_bytes()
+    with running(session) as url:
+        status, answer = _json(call(url + "/api/annotations", "PUT", doc))
+        assert status == 200 and answer["generation"] == 1 and len(answer["palette"]) == 5
+        assert json.loads(autosave_path(turtle).read_text()) == doc
+        assert turtle.read_bytes() == original  # nothing saved yet
+        assert _json(call(url + "/api/annotations"))[1] == doc
+        status, saved = _json(call(url + "/api/save", "POST"))
+        info = _json(call(url + "/api/info"))[1]
+    assert status == 200 and saved == {"path": str(turtle)}
+    assert json.loads(turtle.read_text()) == doc
+    assert not autosave_path(turtle).exists() and info["saved"] is True
+    ann, drawing = load_input(turtle)
+    assert len(ann.order) == 2 and ann.regions[0].inflation == 3.5
+    from inkray.cli import main
+
+    assert main(["validate", str(turtle)]) == 0
+
+
+def test_saving_twice_gives_the_same_bytes(turtle):
+    session = EditSession(turtle)
+    session.save()
+    first = turtle.read_bytes()
+    session.save()
+    assert turtle.read_bytes() == first
+
+
+def test_previews_and_their_headers(turtle):
+    with running(EditSession(turtle)) as url:
+        labels = call(url + "/api/preview/labels.png")
+        depth = call(url + "/api/preview/depth.png")
+        relief = call(url + "/api/preview/relief.glb")
+        missing = call(url + "/api/preview/normals.png")
+    for status, headers, _ in (labels, depth, relief):
+        assert status == 200
+        assert float(headers["X-Inkray-Compute-Ms"]) >= 0
+        assert headers["X-Inkray-Generation"] == "0"
+    assert labels[1]["Content-Type"] == "image/png" and _image(labels[2]).shape == (512, 512)
+    assert set(np.unique(_image(labels[2]))) == {0, 1, 2, 3, 4}
+    assert _image(depth[2]).dtype == np.uint16
+    assert relief[1]["Content-Type"] == "model/gltf-binary" and relief[2][:4] == b"glTF"
+    assert missing[0] == 404
+
+
+def test_previews_change_after_an_edit(turtle, tmp_path):
+    doc = json.loads(turtle.read_text())
+    session = EditSession(turtle)
+    with running(session) as url:
+        before = {n: call(url + f"/api/preview/{n}")[2] for n in ("labels.png", "depth.png")}
+        # a new region scribbled on the shell's lower band and the head in front of the shell
+        doc["regions"].append({"name": "band", "scribbles": [[[300, 362], [400, 366]]]})
+        doc["order"].append({"front": [150, 285], "back": [300, 190]})
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200
+        after = {n: call(url + f"/api/preview/{n}") for n in ("labels.png", "depth.png")}
+    assert all(h["X-Inkray-Generation"] == "1" for _, h, _ in after.values())
+    old, new = _image(before["labels.png"]), _image(after["labels.png"][2])
+    assert (new == 5).sum() > 100 and not (old == 5).any()
+    (tmp_path / "a.png").write_bytes(before["depth.png"])
+    (tmp_path / "b.png").write_bytes(after["depth.png"][2])
+    d0, d1 = read_depth_png(tmp_path / "a.png")[0], read_depth_png(tmp_path / "b.png")[0]
+    assert np.abs(d1 - d0).max() > 0.5
+
+
+def test_undo_is_served_from_the_cache(turtle):
+    doc = json.loads(turtle.read_text())
+    session = EditSession(turtle)
+    with running(session) as url:
+        first = call(url + "/api/preview/relief.glb")
+        edited = dict(doc, order=doc["order"][:-1])
+        call(url + "/api/annotations", "PUT", edited)
+        call(url + "/api/preview/relief.glb")
+        call(url + "/api/annotations", "PUT", doc)
+        undone = call(url + "/api/preview/relief.glb")
+    assert undone[2] == first[2]
+    assert float(undone[1]["X-Inkray-Compute-Ms"]) < float(first[1]["X-Inkray-Compute-Ms"]) / 5
+
+
+def test_relations_and_accepting_a_prediction(turtle):
+    doc = json.loads(turtle.read_text())
+    doc["order"] = []
+    turtle.write_text(json.dumps(doc))
+    session = EditSession(turtle)
+    with running(session) as url:
+        status, rel = _json(call(url + "/api/relations"))
+        labels = _image(call(url + "/api/preview/labels.png")[2]).astype(int) - 1
+        predicted = [r for r in rel["relations"] if r["source"] == "predicted"]
+        assert status == 200 and predicted and rel["error"] is None
+        for r in predicted:
+            assert 0 < r["confidence"] <= 1 and r["entry"] is None
+            (fx, fy), (bx, by) = r["points"]
+            assert labels[int(fy), int(fx)] == r["front_index"]
+            assert labels[int(by), int(bx)] == r["back_index"]
+        pick = max(predicted, key=lambda r: r["confidence"])
+        # flip it: the back point in front
+        doc["order"] = [{"front": pick["points"][1], "back": pick["points"][0]}]
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200
+        status, rel = _json(call(url + "/api/relations"))
+    users = [r for r in rel["relations"] if r["source"] == "user"]
+    assert status == 200 and rel["generation"] == 1
+    assert [(u["front"], u["back"], u["entry"], u["label"]) for u in users] == \
+        [(pick["back"], pick["front"], 0, "order[0]")]
+
+
+def test_contradiction_names_the_cycle(turtle):
+    doc = json.loads(turtle.read_text())
+    first = doc["order"][0]
+    doc["order"].append({"front": first["back"], "back": first["front"]})
+    session = EditSession(turtle)
+    with running(session) as url:
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200
+        status, answer = _json(call(url + "/api/preview/relief.glb"))
+        status_d, answer_d = _json(call(url + "/api/preview/depth.png"))
+        _, rel = _json(call(url + "/api/relations"))
+    last = f"order[{len(doc['order']) - 1}]"
+    assert status == 422 and "contradict" in answer["error"]
+    assert set(answer["paths"]) == {"order[0]", last}
+    assert status_d == 422 and set(answer_d["paths"]) == {"order[0]", last}
+    assert rel["error"] == answer["error"] and set(rel["paths"]) == {"order[0]", last}
+
+
+def test_boundary_far_from_outlines_is_named(turtle):
+    doc = json.loads(turtle.read_text())
+    doc["boundaries"] = doc.get("boundaries", []) + [
+        {"type": "graft", "path": [[40, 40], [60, 45]]}]
+    k = len(doc["boundaries"]) - 1
+    session = EditSession(turtle)
+    with running(session) as url:
+        call(url + "/api/annotations", "PUT", doc)
+        status, answer = _json(call(url + "/api/preview/relief.glb"))
+    assert status == 422 and answer["paths"] == [f"boundaries[{k}]"]
+    assert answer["error"].startswith(f"boundaries[{k}]: no region outline within")
+
+
+def test_new_annotation_for_a_drawing(tmp_path):
+    copy_example("frog", tmp_path)
+    (tmp_path / "drawing.inkray.json").unlink()
+    target = tmp_path / "sub" / "frog.inkray.json"
+    target.parent.mkdir()
+    session = EditSession(target, drawing=tmp_path / "drawing.png")
+    w, h = session.drawing.size
+    with running(session) as url:
+        _, doc = _json(call(url + "/api/annotations"))
+        assert doc["drawing"] == "../drawing.png" and doc["size"] == [w, h]
+        status, answer = _json(call(url + "/api/preview/relief.glb"))
+        assert status == 422 and answer["error"].startswith("regions:")
+        doc["regions"] = [{"name": "body", "scribbles": [[[w / 2, h / 2]]]}]
+        call(url + "/api/annotations", "PUT", doc)
+        call(url + "/api/save", "POST")
+    ann, drawing = load_input(target)
+    assert [r.name for r in ann.regions] == ["body"] and drawing.size == (w, h)
+
+
+def test_a_missing_file_needs_a_drawing(tmp_path, capsys):
+    from inkray.cli import main
+
+    with pytest.raises(InputError, match="pass --drawing"):
+        EditSession(tmp_path / "new.inkray.json")
+    assert main(["edit", str(tmp_path / "new.inkray.json"), "--no-browser"]) == 2
+    assert capsys.readouterr().err.startswith("inkray: error: ")
+    assert not (tmp_path / "new.inkray.json").exists()
+
+
+def test_an_autosave_is_restored(turtle):
+    doc = json.loads(turtle.read_text())
+    doc["order"] = doc["order"][:1]
+    autosave_path(turtle).write_text(json.dumps(doc))
+    session = EditSession(turtle)
+    assert session.restored and session.document == doc and not session.saved
+    assert json.loads(turtle.read_text())["order"] != doc["order"]
+
+
+def test_an_edit_during_a_preview_supersedes_it(turtle, monkeypatch):
+    """The preview answered is of the newest document, computed again after the edit."""
+    session = EditSession(turtle)
+    doc = json.loads(turtle.read_text())
+    edited = dict(doc, order=doc["order"][:-1])
+    stage, encode, media_type = session_module._PREVIEW["depth.png"]
+    seen = []
+
+    def depth_with_an_edit(chain):
+        seen.append(len(chain.annotations.order))
+        if len(seen) == 1:  # an edit arrives while the first preview is computing
+            threading.Thread(target=session.replace, args=(json.dumps(edited),)).start()
+            while session.generation == 0:
+                pass
+        return stage(chain)
+
+    monkeypatch.setitem(session_module._PREVIEW, "depth.png", (depth_with_an_edit, encode,
+                                                                media_type))
+    preview = session.preview("depth.png")
+    assert preview.generation == 1 == session.generation
+    assert seen == [len(doc["order"]), len(doc["order"]) - 1]
+    fresh = EditSession(turtle)
+    fresh.replace(json.dumps(edited))
+    assert preview.body == fresh.preview("depth.png").body
+
+
+def test_entry_paths():
+    assert entry_paths("boundaries[2]: no region outline; regions[0] and order[11]") == \
+        ["boundaries[2]", "regions[0]", "order[11]"]
+    assert entry_paths("size: the annotation is for a 3x3 drawing") == []
+
+
+def test_cli_serves_warns_off_loopback_and_stops_on_ctrl_c(turtle):
+    code = "import sys; from inkray.cli import main; sys.exit(main())"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(turtle), "--no-browser",
+                             "--host", "0.0.0.0", "--port", "0"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = proc.stdout.readline().strip()
+        assert line.startswith("inkray edit: serving http://0.0.0.0:") and line.endswith("/")
+        port = int(line.rsplit(":", 1)[1].strip("/"))
+        status, info = _json(call(f"http://127.0.0.1:{port}/api/info"))
+        assert status == 200 and info["size"] == [512, 512]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert "warning: serving on 0.0.0.0, not loopback" in err
+    assert "Traceback" not in err
+
+
+def test_exact_depth_on_request(turtle, tmp_path):
+    with running(EditSession(turtle)) as url:
+        fast = call(url + "/api/preview/depth.png")
+        exact = call(url + "/api/preview/depth.png?method=exact")
+        bad = _json(call(url + "/api/preview/depth.png?method=slow"))
+    assert fast[0] == exact[0] == 200 and fast[2] != exact[2]
+    (tmp_path / "fast.png").write_bytes(fast[2])
+    (tmp_path / "exact.png").write_bytes(exact[2])
+    d_fast, d_exact = (read_depth_png(tmp_path / n)[0] for n in ("fast.png", "exact.png"))
+    # the same ordering: both put the head (front) above the shell (back) at order[0]
+    for d in (d_fast, d_exact):
+        assert d[273, 168] > d[265, 180]
+    assert bad[0] == 400 and bad[1]["error"].startswith("method: unknown depth method 'slow'")
+
+
+def test_a_failing_stage_is_one_line(turtle, monkeypatch, capsys):
+    def broken(chain):
+        raise RuntimeError("boom\nsecond line")
+
+    stage, encode, media_type = session_module._PREVIEW["relief.glb"]
+    monkeypatch.setitem(session_module._PREVIEW, "relief.glb", (broken, encode, media_type))
+    with running(EditSession(turtle)) as url:
+        status, answer = _json(call(url + "/api/preview/relief.glb"))
+    assert status == 500 and answer["error"] == "internal error: RuntimeError: boom second line"
+    assert "inkray edit: error: internal error: RuntimeError" in capsys.readouterr().err
+
+
+def test_an_edit_stops_the_work_of_the_document_it_replaces(turtle):
+    """A relief under way stops at its next stage once a newer document arrives."""
+    doc = json.loads(turtle.read_text())
+    session = EditSession(turtle)
+    old = session._chain
+    answer = {}
+    worker = threading.Thread(target=lambda: answer.update(p=session.preview("relief.glb")))
+    worker.start()
+    while not old.recomputed:  # the segmentation is done: the rest takes a second or more
+        pass
+    session.replace(json.dumps(dict(doc, order=doc["order"][:-1])))
+    worker.join()
+    assert answer["p"].generation == 1
+    assert "assemble" not in old.recomputed and "assemble" in session._chain.recomputed
+    assert "segment" not in session._chain.recomputed  # the stopped chain's stage was kept
+
+
+def test_only_requests_naming_this_machine(turtle):
+    session = EditSession(turtle)
+    doc = json.loads(turtle.read_text())
+    with running(session) as url:
+        port = url.rsplit(":", 1)[1]
+        rebound = call(url + "/api/annotations", "PUT", dict(doc, order=[]),
+                       headers={"Host": f"attacker.example:{port}"})
+        local = call(url + "/api/info", headers={"Host": f"localhost:{port}"})
+    assert rebound[0] == 400 and session.generation == 0
+    assert local[0] == 200
+
+
+def test_closing_stops_the_work_under_way(turtle):
+    session = EditSession(turtle)
+    chain = session._chain
+    failed = []
+
+    def work():
+        try:
+            session.preview("relief.glb")
+        except InkrayError as e:
+            failed.append(str(e))
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    while not chain.recomputed:
+        pass
+    session.close()
+    worker.join()
+    assert failed == ["the editor is closing"] and "assemble" not in chain.recomputed
+
+
+def test_the_page_needs_nothing_from_elsewhere(turtle):
+    """Every script, style and module the page loads is served by the editor itself."""
+    import re
+
+    with running(EditSession(turtle)) as url:
+        page = call(url + "/")[2].decode()
+        refs = re.findall(r'(?:src|href)="([^"]+)"', page)
+        imports = json.loads(re.search(r'<script type="importmap">(.*?)</script>', page,
+                                       re.S).group(1))["imports"]
+        modules = ["/static/editor.js", "/static/relief.js",
+                   imports["three"], imports["three/addons/"] + "controls/OrbitControls.js",
+                   imports["three/addons/"] + "loaders/GLTFLoader.js"]
+        served = {ref: call(url + ref)[0] for ref in refs + modules}
+        scripts = {ref: call(url + ref)[2].decode() for ref in modules}
+    assert refs and all(ref.startswith("/static/") for ref in refs)
+    assert all(status == 200 for status in served.values()), served
+    for ref, text in scripts.items():
+        for target in re.findall(r'^\s*(?:import|export)[^;]*?from\s+["\']([^"\']+)["\']', text, re.M):
+            assert target.startswith((".", "/", "three")), (ref, target)

@@ -1,0 +1,201 @@
+"""The editor's page in a real headless Chromium: draw, see the previews update, accept, undo, save.
+
+Needs the Playwright Python package and a system Chromium (``/usr/bin/chromium``, or
+``INKRAY_CHROMIUM``); ``.ci/run`` installs both. The screenshot of the page is kept
+as ``editor.png`` in the test's temporary folder (its path is printed), and also
+written to ``$INKRAY_EDITOR_SCREENSHOT`` when that is set.
+"""
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from _editor import copy_example, running
+
+CHROMIUM = os.environ.get("INKRAY_CHROMIUM", "/usr/bin/chromium")
+sync_api = pytest.importorskip("playwright.sync_api", reason="the playwright package is not "
+                               "installed (pip install '.[test]')")
+if not Path(CHROMIUM).is_file():
+    pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium, or set INKRAY_CHROMIUM)",
+                allow_module_level=True)
+
+from inkray.editor.session import EditSession  # noqa: E402
+from inkray.input.loading import load_input  # noqa: E402
+
+PREVIEWS = ("#labels", "#depth", "#relief", "#relations")
+
+
+@pytest.fixture
+def page():
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        page = browser.new_page(viewport={"width": 1440, "height": 1000})
+        errors = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        yield page
+        browser.close()
+        assert not errors, errors
+
+
+def _wait_previews(page, generation, timeout=60_000):
+    """Wait until the page shows every preview of ``generation`` and nothing is computing."""
+    page.wait_for_function(
+        "([ids, g]) => document.body.dataset.busy === 'false' && document.body.dataset.generation "
+        "=== g && ids.every((id) => document.querySelector(id).dataset.generation === g)",
+        arg=[list(PREVIEWS), str(generation)], timeout=timeout)
+
+
+def _drag(page, points, steps=6):
+    """Drag the mouse through drawing pixels ``points`` on the canvas."""
+    screen = page.evaluate("""(pts) => {
+        const vp = document.getElementById('viewport').getBoundingClientRect();
+        const v = window.inkray.view;
+        return pts.map(([x, y]) => [vp.left + v.tx + (x + 0.5) * v.s, vp.top + v.ty + (y + 0.5) * v.s]);
+    }""", points)
+    page.mouse.move(*screen[0])
+    page.mouse.down()
+    for a, b in zip(screen, screen[1:]):
+        for k in range(1, steps + 1):
+            t = k / steps
+            page.mouse.move(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+    page.mouse.up()
+
+
+def _pixels_of(page, colour):
+    """How many pixels of the segmentation overlay have ``colour`` (#rrggbb)."""
+    return page.evaluate("""(colour) => {
+        const img = document.getElementById('labels');
+        const c = document.createElement('canvas');
+        c.width = img.naturalWidth; c.height = img.naturalHeight;
+        const g = c.getContext('2d');
+        g.drawImage(img, 0, 0);
+        const d = g.getImageData(0, 0, c.width, c.height).data;
+        const want = [1, 3, 5].map((i) => parseInt(colour.slice(i, i + 2), 16));
+        let n = 0;
+        for (let i = 0; i < d.length; i += 4)
+            if (d[i] === want[0] && d[i + 1] === want[1] && d[i + 2] === want[2]) n++;
+        return n;
+    }""", colour)
+
+
+def test_draw_accept_undo_save(page, tmp_path):
+    ann = copy_example("turtle", tmp_path)
+    doc = json.loads(ann.read_text())
+    session = EditSession(ann)
+    with running(session) as url:
+        page.goto(url + "/")
+        _wait_previews(page, 0)
+        assert page.evaluate("window.inkray.doc") == doc
+        assert int(page.get_attribute("#relief", "data-meshes")) == len(doc["regions"])
+
+        # a scribble: a new region on the shell's lower band
+        page.click("#add-region")
+        _drag(page, [[300, 362], [350, 364], [400, 366]])
+        _wait_previews(page, 1)
+        shown = page.evaluate("window.inkray.doc")
+        assert [r["name"] for r in shown["regions"]][-1] == "part1"
+        colour = page.evaluate("window.inkray.palette[5]")
+        assert _pixels_of(page, colour) > 200  # the overlay shows the new region
+        assert int(page.get_attribute("#relief", "data-meshes")) == len(doc["regions"]) + 1
+
+        # an order arrow: the head in front of the shell
+        page.click("button[data-tool=order]")
+        _drag(page, [[150, 285], [300, 190]])
+        _wait_previews(page, 2)
+        assert page.evaluate("window.inkray.doc.order.length") == len(doc["order"]) + 1
+        relief_generation = page.get_attribute("#relief", "data-generation")
+        assert relief_generation == "2"
+
+        # a boundary far from any outline: the error names it and highlights the path
+        page.click("button[data-tool=boundary]")
+        _drag(page, [[40, 60], [80, 70], [120, 60]])
+        _wait_previews(page, 3)
+        k = len(doc["boundaries"])
+        error = page.text_content("#error")
+        assert page.is_visible("#error") and f"relief: boundaries[{k}]: no region outline" in error
+        assert page.get_attribute(f"#marks [data-key='boundaries[{k}]']", "class").split()[-1] == "bad"
+
+        # undo: the path goes, and with it the error
+        page.keyboard.press("Control+z")
+        _wait_previews(page, 4)
+        assert page.is_hidden("#error")
+        assert len(page.evaluate("window.inkray.doc.boundaries")) == k
+
+        # accept a predicted relation: it becomes an order entry
+        page.wait_for_selector("#relations button.accept")
+        before = page.evaluate("window.inkray.doc.order.length")
+        predicted = page.evaluate("window.inkray.relations.find((r) => r.source === 'predicted')")
+        page.click("#relations button.accept")
+        _wait_previews(page, 5)
+        order = page.evaluate("window.inkray.doc.order")
+        assert len(order) == before + 1
+        assert [order[-1]["front"], order[-1]["back"]] == predicted["points"]
+        users = page.evaluate("window.inkray.relations.filter((r) => r.source === 'user')")
+        assert any(u["entry"] == before and u["front"] == predicted["front"]
+                   and u["back"] == predicted["back"] for u in users)
+
+        # save: the file is the document the page shows, and it loads
+        page.click("#save")
+        page.wait_for_function("document.body.dataset.saved !== undefined")
+        shown = page.evaluate("window.inkray.doc")
+        shot = tmp_path / "editor.png"
+        page.evaluate("document.getElementById('side').scrollTop = 0")
+        page.screenshot(path=str(shot))
+    print(f"editor screenshot: {shot}")
+    if os.environ.get("INKRAY_EDITOR_SCREENSHOT"):
+        shutil.copy(shot, os.environ["INKRAY_EDITOR_SCREENSHOT"])
+    assert json.loads(ann.read_text()) == shown
+    loaded, _ = load_input(ann)
+    assert [r.name for r in loaded.regions][-1] == "part1"
+    assert len(loaded.order) == len(doc["order"]) + 2
+    assert len(loaded.boundaries) == len(doc["boundaries"])
+    assert not (tmp_path / "drawing.inkray.json.autosave").exists()
+
+
+def test_fields_refused_edit_move_delete_and_a_contradiction(page, tmp_path):
+    ann = copy_example("turtle", tmp_path)
+    doc = json.loads(ann.read_text())
+    session = EditSession(ann)
+    with running(session) as url:
+        page.goto(url + "/")
+        _wait_previews(page, 0)
+        page.fill("#regions .region[data-index='0'] .inflation", "5")
+        page.press("#regions .region[data-index='0'] .inflation", "Enter")
+        _wait_previews(page, 1)
+        assert session.document["regions"][0]["inflation"] == 5
+
+        # a name the format refuses: the server keeps its document, the page takes it back
+        page.fill("#regions .region[data-index='1'] .name", "leg front")
+        page.press("#regions .region[data-index='1'] .name", "Enter")
+        page.wait_for_selector("#error:not([hidden])")
+        assert page.text_content("#error").startswith("regions[1].name: 'leg front' may only")
+        assert page.input_value("#regions .region[data-index='1'] .name") == "leg_front"
+        assert "bad" in page.get_attribute("#regions .region[data-index='1']", "class")
+        assert session.generation == 1 and session.document["regions"][1]["name"] == "leg_front"
+        assert page.evaluate("window.inkray.doc") == session.document
+
+        # select an arrow, move it, delete it
+        front, back = doc["order"][1]["front"], doc["order"][1]["back"]
+        middle = [(front[0] + back[0]) / 2, (front[1] + back[1]) / 2]
+        page.click("button[data-tool=select]")
+        _drag(page, [middle, [middle[0] + 10, middle[1] + 6]])
+        _wait_previews(page, 2)
+        moved = session.document["order"][1]
+        assert abs(moved["front"][0] - front[0] - 10) < 1 and abs(moved["back"][1] - back[1] - 6) < 1
+        assert page.get_attribute("#marks [data-key='order[1]']", "class").split()[-1] == "selected"
+        page.keyboard.press("Delete")
+        _wait_previews(page, 3)
+        assert session.document["order"] == doc["order"][:1] + doc["order"][2:]
+
+        # the first arrow reversed: both arrows of the cycle are highlighted
+        first = doc["order"][0]
+        page.click("button[data-tool=order]")
+        _drag(page, [first["back"], first["front"]])
+        _wait_previews(page, 4)
+        assert "contradict" in page.text_content("#error")
+        bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
+    assert set(bad) == {"order[0]", f"order[{len(doc['order']) - 1}]"}
