@@ -40,12 +40,12 @@ import igl
 import numpy as np
 import scipy.sparse as sp
 from scipy.ndimage import binary_dilation
-from threadpoolctl import threadpool_limits
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.active_set import dual_active_set
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.numerics.spd import spd_factor
+from inkray.numerics.threads import one_blas_thread
 
 __all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
 
@@ -123,6 +123,17 @@ class _Rows:
         self.graft.append(bool(graft))
         self.xy.append(xy)
 
+    def extend(self, idx, w, rhs, ineq, label, graft, xy):
+        """Add ``len(rhs)`` rows at once: ``idx``, ``w`` (k, m), ``rhs`` (k,), ``xy`` (k, 2)."""
+        k = len(rhs)
+        self.idx.extend(np.asarray(idx, np.int64))
+        self.w.extend(np.asarray(w, float))
+        self.rhs.extend(np.asarray(rhs, float).tolist())
+        self.ineq.extend([bool(ineq)] * k)
+        self.label.extend([label] * k)
+        self.graft.extend([bool(graft)] * k)
+        self.xy.extend(map(tuple, np.asarray(xy, float).tolist()))
+
     def matrix(self, n):
         m = len(self.rhs)
         if m == 0:
@@ -151,9 +162,10 @@ class _Region:
         self.q = (-lap + (_SCREEN / area) * mass).tocsc()
         self._lu = None
         self._v3 = np.column_stack([self.v, np.zeros(len(self.v))])
+        self._tree = None  # AABB tree of the mesh, built at the first locate
 
     def solve(self, rhs):
-        with threadpool_limits(limits=1, user_api="blas"):  # see inkray.numerics.active_set.dual_active_set
+        with one_blas_thread():
             return self._solve(rhs)
 
     def _solve(self, rhs):
@@ -170,7 +182,10 @@ class _Region:
         if len(p) == 0:
             return np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0)
         p3 = np.column_stack([p, np.zeros(len(p))])
-        d2, face, closest = igl.point_mesh_squared_distance(p3, self._v3, self.f)
+        if self._tree is None:
+            self._tree = igl.AABB()
+            self._tree.init(self._v3, self.f)
+        d2, face, closest = self._tree.squared_distance(self._v3, self.f, p3)
         tri = self.f[np.asarray(face, np.int64)]
         a, b, c = (self.v[tri[:, k]] for k in range(3))
         q = np.asarray(closest)[:, :2]
@@ -328,13 +343,14 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
             xy = (blk.v[tri] * w[..., None]).sum(axis=1)
         ok = dist <= _INSIDE if ok is None else ok & (dist <= _INSIDE)
     rhs = np.broadcast_to(np.asarray(rhs, float), ok.shape)
-    for k in np.flatnonzero(ok):
-        idx = np.concatenate([blk.start + tri[k] for blk, tri, _, _ in located])
-        wts = np.concatenate([coef * w[k] for _, _, w, coef in located])
-        # z = h + g: move the known heights to the right-hand side
-        const = rhs[k] - sum(coef * float(blk.h[tri[k]] @ w[k]) for blk, tri, w, coef in located)
-        rows.add(idx, wts, const, ineq, label, graft, tuple(xy[k]))
-    return int(ok.sum())
+    k = np.flatnonzero(ok)
+    idx = np.concatenate([blk.start + tri[k] for blk, tri, _, _ in located], axis=1)
+    wts = np.concatenate([coef * w[k] for _, _, w, coef in located], axis=1)
+    # z = h + g: move the known heights to the right-hand side
+    const = rhs[k] - sum(coef * np.einsum("kj,kj->k", blk.h[tri[k]], w[k])
+                         for blk, tri, w, coef in located)
+    rows.extend(idx, wts, const, ineq, label, graft, xy[k])
+    return len(k)
 
 
 def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
