@@ -312,7 +312,8 @@ def _cmd_render(args, progress):
                        max_side=GI_MAX_SIDE if args.mode == "gi" else None)
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
-                   backdrop=not args.no_backdrop, seed=args.seed, progress=progress)
+                   backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
+                   progress=progress)
     if args.light is not None:
         options["light"] = args.light
     with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
@@ -537,6 +538,9 @@ def _parser():
     r.add_argument("--no-backdrop", action="store_true",
                    help="gi: no backdrop behind the relief (transparent background)")
     r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
+    r.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=True,
+                   help="gi: filter the path tracer's noise guided by the relief's normals, "
+                        "depth, parts and colours (default: on)")
     r.add_argument("--disparity", type=float, metavar="PX",
                    help="stereo: disparity of the highest point in pixels (default: 2%% of "
                         "the width)")

@@ -110,7 +110,7 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
     z = gz = None
     if depth is not None:
         z = np.asarray(depth, np.float32)
-        gz = np.stack(np.gradient(z), axis=-1).astype(np.float32)  # (d/drow, d/dcol)
+        gz = np.stack([_slope(z, 0), _slope(z, 1)], axis=-1)  # (d/drow, d/dcol)
     lab = None if labels is None else np.asarray(labels)
     var = None if variance is None else np.asarray(variance, np.float32)
     for level in range(levels):
@@ -122,6 +122,19 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
 
 def _luminance(image):
     return image[..., 0] if image.shape[2] != 3 else image @ _LUMA.astype(np.float32)
+
+
+def _slope(z, axis):
+    """The smaller one-sided difference: a depth step is not taken for a slope."""
+    if z.shape[axis] < 2:
+        return np.zeros(z.shape, np.float32)
+    d = np.diff(z, axis=axis)
+    pad = [(0, 0), (0, 0)]
+    pad[axis] = (1, 0)
+    back = np.pad(d, pad, mode="edge")
+    pad[axis] = (0, 1)
+    ahead = np.pad(d, pad, mode="edge")
+    return np.where(np.abs(back) < np.abs(ahead), back, ahead).astype(np.float32)
 
 
 def _blur3(a):

@@ -577,7 +577,7 @@ def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, denoise, progress
             # var(one sample) = sum n_k (L_k - mean)^2 / (passes - 1); the image averages spp
             variance = np.maximum(moments[1] - spp * mean * mean, 0.0) / (passes - 1) / spp
             variance /= np.maximum(alpha, 1e-3) ** 2
-        lin = _gi_denoise(lin, guides, variance)
+        lin = _gi_denoise(lin, guides, variance, backdrop)
     return Rendering("gi", _rgba8(_linear_to_srgb(lin) * ink[..., None], alpha), cover > 0)
 
 
@@ -585,8 +585,9 @@ def _gi_guides(raster, albedo, ss, backdrop):
     """Output-resolution guides for :func:`inkray.view.denoising.atrous_denoise`.
 
     The albedo is box-filtered like the path tracer's pixels average it (the
-    backdrop's own colour off the relief); normals and depth likewise; the
-    part seen at one sub-pixel labels the pixel (the backdrop is -1).
+    backdrop's own colour off the relief); normals and depth likewise; a
+    pixel is labelled with a part it sees at any sub-pixel (the backdrop or
+    the empty background is -1), so partly covered pixels join a part.
     """
     m = raster.mask
     albedo = np.where(m[..., None], albedo, _BACKDROP if backdrop else 1.0)
@@ -594,19 +595,27 @@ def _gi_guides(raster, albedo, ss, backdrop):
     normal = _downsample(normal, ss)
     normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-9)
     depth = np.where(m, raster.depth, 0.0)
-    half = ss // 2
+    h, w = m.shape[0] // ss, m.shape[1] // ss
+    labels = raster.part.reshape(h, ss, w, ss).max(axis=(1, 3))
     return {"albedo": np.maximum(_downsample(albedo, ss), _MIN_ALBEDO), "normals": normal,
-            "depth": _downsample(depth, ss), "labels": raster.part[half::ss, half::ss]}
+            "depth": _downsample(depth, ss), "labels": labels}
 
 
-def _gi_denoise(lin, guides, variance):
-    """Divide the albedo out, filter the (smooth) irradiance, multiply it back."""
+def _gi_denoise(lin, guides, variance, backdrop):
+    """Divide the albedo out, filter the (smooth) irradiance, multiply it back.
+
+    Without the backdrop, pixels off the relief only hold the pixel filter's
+    spill from its edge: they keep their own values.
+    """
     from inkray.view.denoising import atrous_denoise
 
     irradiance = atrous_denoise(lin / guides["albedo"], normals=guides["normals"],
                                 depth=guides["depth"], labels=guides["labels"],
                                 variance=variance)
-    return irradiance * guides["albedo"]
+    out = irradiance * guides["albedo"]
+    if not backdrop:
+        out[guides["labels"] < 0] = lin[guides["labels"] < 0]
+    return out
 
 
 def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
