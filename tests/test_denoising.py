@@ -20,8 +20,8 @@ def test_a_constant_field_is_left_as_it_is():
     img = np.full((20, 30), 0.7)
     n = np.zeros((20, 30, 3))
     n[..., 2] = 1
-    out = atrous_denoise(img, normals=n, depth=np.zeros((20, 30)),
-                         labels=np.zeros((20, 30), int), variance=np.full((20, 30), 0.01))
+    out = atrous_denoise(img, normals=n, labels=np.zeros((20, 30), int),
+                         variance=np.full((20, 30), 0.01))
     np.testing.assert_allclose(out, 0.7, rtol=1e-6)
 
 
@@ -47,19 +47,6 @@ def test_a_crease_in_the_normals_stops_the_filter():
     assert np.abs(out[:, 15] - 0.2).max() < 0.03 and np.abs(out[:, 16] - 0.9).max() < 0.03
 
 
-def test_a_depth_step_stops_the_filter_but_a_slope_does_not():
-    cols = np.arange(40, dtype=float)
-    slope = np.tile(0.5 * cols, (40, 1))
-    step = slope + np.where(cols >= 20, 30.0, 0.0)
-    clean = np.where(cols >= 20, 1.0, 0.0)[None, :].repeat(40, 0)
-    noisy = _noisy(clean, clean.shape, 0.05)
-    kept = atrous_denoise(noisy, depth=step)
-    assert abs(kept[:, 19].mean()) < 0.05 and abs(kept[:, 20].mean() - 1) < 0.05
-    # on the slope alone (no step) neighbours are averaged: the noise goes
-    flat = atrous_denoise(_noisy(0.5, (40, 40), 0.05), depth=slope)
-    assert flat[5:-5, 5:-5].std() < 0.01
-
-
 def test_the_variance_keeps_a_shadow_edge_larger_than_the_noise():
     # a shadow: same surface, same label, a step in brightness far above the noise
     cols = np.arange(64)
@@ -75,9 +62,7 @@ def test_the_variance_keeps_a_shadow_edge_larger_than_the_noise():
 def test_weights_are_normalised_at_the_borders_and_for_single_pixels():
     out = atrous_denoise(np.full((1, 1, 3), 0.3))
     np.testing.assert_allclose(out, 0.3)
-    out = atrous_denoise(np.full((3, 50), 2.0), levels=8, depth=np.zeros((3, 50)))
-    np.testing.assert_allclose(out, 2.0)
-    out = atrous_denoise(np.full((1, 50), 2.0), depth=np.arange(50.0)[None])
+    out = atrous_denoise(np.full((3, 50), 2.0), levels=8, variance=np.ones((3, 50)))
     np.testing.assert_allclose(out, 2.0)
 
 
@@ -88,12 +73,12 @@ def test_no_levels_is_the_identity():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(normals=np.zeros((4, 4))), "normals"),
-    (dict(depth=np.zeros((5, 4))), "depth"),
+    (dict(normals=np.zeros((5, 4, 3))), "normals"),
     (dict(labels=np.zeros((4, 5), int)), "labels"),
     (dict(variance=np.zeros((4,))), "variance"),
     (dict(levels=-1), "levels"),
     (dict(sigma_luminance=0.0), "sigma_luminance"),
-    (dict(sigma_depth=np.nan), "sigma_depth"),
+    (dict(sigma_normal=np.nan), "sigma_normal"),
 ])
 def test_bad_arguments_are_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -6,7 +6,9 @@ pixel sees. The edge-avoiding a-trous wavelet transform (Dammertz, Sewtz,
 Hanika and Lensch, "Edge-Avoiding A-Trous Wavelet Transform for fast Global
 Illumination Filtering", HPG 2010) smooths the picture with a sparse kernel
 whose holes double at every level, so a few levels reach far at little cost,
-and stops at the edges of those buffers. Spatiotemporal variance-guided
+and stops at the edges of those buffers (here: creases of the normals and
+changes of object; on a relief, a height field whose parts are objects of
+their own, a depth stop adds nothing). Spatiotemporal variance-guided
 filtering (Schied et al., "Spatiotemporal Variance-Guided Filtering", HPG 2017)
 adds the stop on luminance scaled by the noise each pixel is known to have, so
 real changes of light (shadows) stay while the noise goes; the variance is
@@ -26,8 +28,8 @@ _LUMA = np.array([0.2126, 0.7152, 0.0722])
 _EPS = 1e-10
 
 
-def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=None, levels=5,
-                   sigma_normal=64.0, sigma_depth=1.0, sigma_luminance=4.0):
+def atrous_denoise(image, *, normals=None, labels=None, variance=None, levels=5,
+                   sigma_normal=64.0, sigma_luminance=4.0):
     """Smooth ``image`` within the regions its guide buffers agree on.
 
     Level ``i`` (``i = 0 .. levels - 1``) averages each pixel with its eight
@@ -35,8 +37,6 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
     the edge-stopping weights
 
     - normals: ``max(0, n_p . n_q) ** sigma_normal``;
-    - depth: ``exp(-|z_p - z_q| / (sigma_depth * |grad z_p . (q - p)| + eps))``
-      (the depth a plane through ``p`` would have at ``q`` is not an edge);
     - labels: 1 when ``l_p == l_q``, else 0;
     - luminance (with ``variance``): ``exp(-|L_p - L_q| / (sigma_luminance *
       sqrt(var_p) + eps))``, ``var`` the variance of the luminance of the
@@ -48,8 +48,6 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
         The noisy picture (linear values).
     normals : (h, w, 3) float array, optional
         Unit normals.
-    depth : (h, w) float array, optional
-        Depth (any units; finite).
     labels : (h, w) int array, optional
         Object id per pixel; nothing is averaged across ids.
     variance : (h, w) float array, optional
@@ -57,9 +55,9 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
         0.2126, 0.7152, 0.0722 for three channels, the value for one).
     levels : int, optional
         Number of levels; the kernel reaches ``2 ** levels - 1`` pixels.
-    sigma_normal, sigma_depth, sigma_luminance : float, optional
-        Edge-stopping strengths (larger normal exponent: stricter; larger
-        depth and luminance sigmas: more lenient).
+    sigma_normal, sigma_luminance : float, optional
+        Edge-stopping strengths (a larger normal exponent is stricter, a
+        larger luminance sigma more lenient).
 
     Returns
     -------
@@ -92,49 +90,31 @@ def atrous_denoise(image, *, normals=None, depth=None, labels=None, variance=Non
     if image.ndim != 3 or image.shape[0] < 1 or image.shape[1] < 1:
         raise ValueError(f"atrous_denoise: image must be (h, w) or (h, w, c), got {image.shape}")
     h, w = image.shape[:2]
-    guides = {"normals": (normals, (h, w, 3)), "depth": (depth, (h, w)),
-              "labels": (labels, (h, w)), "variance": (variance, (h, w))}
+    guides = {"normals": (normals, (h, w, 3)), "labels": (labels, (h, w)),
+              "variance": (variance, (h, w))}
     for name, (g, shape) in guides.items():
         if g is not None and np.shape(g) != shape:
             raise ValueError(f"atrous_denoise: {name} must be {shape}, got {np.shape(g)}")
     if not (isinstance(levels, (int, np.integer)) and 0 <= levels <= 16):
         raise ValueError(f"atrous_denoise: levels must be an integer in 0..16, got {levels!r}")
-    for name, s in (("sigma_normal", sigma_normal), ("sigma_depth", sigma_depth),
-                    ("sigma_luminance", sigma_luminance)):
+    for name, s in (("sigma_normal", sigma_normal), ("sigma_luminance", sigma_luminance)):
         if not (np.isfinite(s) and s > 0):
             raise ValueError(f"atrous_denoise: {name} must be positive, got {s!r}")
 
     # float32 halves the memory traffic; the sums are short.
     out = image.astype(np.float32)
     n = None if normals is None else np.asarray(normals, np.float32)
-    z = gz = None
-    if depth is not None:
-        z = np.asarray(depth, np.float32)
-        gz = np.stack([_slope(z, 0), _slope(z, 1)], axis=-1)  # (d/drow, d/dcol)
     lab = None if labels is None else np.asarray(labels)
     var = None if variance is None else np.asarray(variance, np.float32)
     for level in range(levels):
-        out, var = _level(out, 1 << level, n, z, gz, lab, var, float(sigma_normal),
-                          float(sigma_depth), float(sigma_luminance))
+        out, var = _level(out, 1 << level, n, lab, var, float(sigma_normal),
+                          float(sigma_luminance))
     out = out.astype(float)
     return out[..., 0] if flat else out
 
 
 def _luminance(image):
     return image[..., 0] if image.shape[2] != 3 else image @ _LUMA.astype(np.float32)
-
-
-def _slope(z, axis):
-    """The smaller one-sided difference: a depth step is not taken for a slope."""
-    if z.shape[axis] < 2:
-        return np.zeros(z.shape, np.float32)
-    d = np.diff(z, axis=axis)
-    pad = [(0, 0), (0, 0)]
-    pad[axis] = (1, 0)
-    back = np.pad(d, pad, mode="edge")
-    pad[axis] = (0, 1)
-    ahead = np.pad(d, pad, mode="edge")
-    return np.where(np.abs(back) < np.abs(ahead), back, ahead).astype(np.float32)
 
 
 def _blur3(a):
@@ -144,7 +124,7 @@ def _blur3(a):
     return 0.25 * rows[:, :-2] + 0.5 * rows[:, 1:-1] + 0.25 * rows[:, 2:]
 
 
-def _level(image, step, n, z, gz, lab, var, sigma_n, sigma_z, sigma_l):
+def _level(image, step, n, lab, var, sigma_n, sigma_l):
     h, w = image.shape[:2]
     total = image * (_TAPS[1] * _TAPS[1])  # the centre tap: every weight 1
     weight = np.full((h, w), _TAPS[1] * _TAPS[1], np.float32)
@@ -169,9 +149,6 @@ def _level(image, step, n, z, gz, lab, var, sigma_n, sigma_z, sigma_l):
             if n is not None:
                 dot = np.einsum("ijk,ijk->ij", n[p], n[q])
                 wq = wq * np.maximum(dot, 0.0) ** sigma_n
-            if z is not None:
-                plane = np.abs(gz[p][..., 0] * oy + gz[p][..., 1] * ox)
-                wq = wq * np.exp(-np.abs(z[p] - z[q]) / (sigma_z * plane + 1e-3))
             if var is not None:
                 wq = wq * np.exp(-np.abs(lum[p] - lum[q]) * scale[p])
                 var_total[p] += wq * wq * var[q]

@@ -58,6 +58,9 @@ _GI_PASSES = 16  # progress granularity: spp is split over up to this many passe
 GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
 _BACKDROP = np.array([0.8, 0.8, 0.78])  # linear reflectance of the gi backdrop
 _MIN_ALBEDO = 0.02  # gi denoising: irradiance = radiance / albedo, kept finite on black
+# gi denoising: the luminance stop, in standard deviations of the noise of
+# the passes' mean (4 in SVGF; 16 is measured best here: benchmarks/bench_gi.py)
+_GI_SIGMA_LUMINANCE = 16.0
 _LUMA = np.array([0.2126, 0.7152, 0.0722])  # linear RGB -> luminance (Rec. 709)
 
 
@@ -585,7 +588,7 @@ def _gi_guides(raster, albedo, ss, backdrop):
     """Output-resolution guides for :func:`inkray.view.denoising.atrous_denoise`.
 
     The albedo is box-filtered like the path tracer's pixels average it (the
-    backdrop's own colour off the relief); normals and depth likewise; a
+    backdrop's own colour off the relief); normals likewise; a
     pixel is labelled with a part it sees at any sub-pixel (the backdrop or
     the empty background is -1), so partly covered pixels join a part.
     """
@@ -594,11 +597,10 @@ def _gi_guides(raster, albedo, ss, backdrop):
     normal = np.where(m[..., None], raster.normal, [0.0, 0.0, 1.0])
     normal = _downsample(normal, ss)
     normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-9)
-    depth = np.where(m, raster.depth, 0.0)
     h, w = m.shape[0] // ss, m.shape[1] // ss
     labels = raster.part.reshape(h, ss, w, ss).max(axis=(1, 3))
     return {"albedo": np.maximum(_downsample(albedo, ss), _MIN_ALBEDO), "normals": normal,
-            "depth": _downsample(depth, ss), "labels": labels}
+            "labels": labels}
 
 
 def _gi_denoise(lin, guides, variance, backdrop):
@@ -610,8 +612,8 @@ def _gi_denoise(lin, guides, variance, backdrop):
     from inkray.view.denoising import atrous_denoise
 
     irradiance = atrous_denoise(lin / guides["albedo"], normals=guides["normals"],
-                                depth=guides["depth"], labels=guides["labels"],
-                                variance=variance)
+                                labels=guides["labels"], variance=variance,
+                                sigma_luminance=_GI_SIGMA_LUMINANCE)
     out = irradiance * guides["albedo"]
     if not backdrop:
         out[guides["labels"] < 0] = lin[guides["labels"] < 0]
