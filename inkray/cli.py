@@ -534,7 +534,7 @@ def _parser():
                    help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
     r.add_argument("--flat-colors", action="store_true",
                    help="one colour per part instead of the drawing's colours")
-    r.add_argument("--spp", type=int, default=64, help="gi: samples per pixel (default: 64)")
+    r.add_argument("--spp", type=int, default=8, help="gi: samples per pixel (default: 8)")
     r.add_argument("--no-backdrop", action="store_true",
                    help="gi: no backdrop behind the relief (transparent background)")
     r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
@@ -557,8 +557,8 @@ def _parser():
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
-    p["demo"].add_argument("--spp", type=int, default=32,
-                           help="samples per pixel of the GI render (default: 32)")
+    p["demo"].add_argument("--spp", type=int, default=4,
+                           help="samples per pixel of the GI render, denoised (default: 4)")
     return parser
 
 

@@ -153,7 +153,7 @@ def output_size(drawing_size, *, size=None, width=None, height=None, max_side=No
 
 
 def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
-           flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
+           flat_colors=False, disparity=None, spp=8, backdrop=True, yaw=0.0, seed=0,
            denoise=True, progress=None):
     """Render a relief seen from the front (or from ``yaw`` degrees to the side).
 
@@ -176,7 +176,8 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         ``stereo``: horizontal shift in output pixels between the views at the
         relief's highest point (zero at height 0). Default: 2% of the width.
     spp : int, optional
-        ``gi``: samples per pixel.
+        ``gi``: samples per pixel. Denoised, 8 are as close to a converged
+        render as 64 without (``benchmarks/bench_gi.py``).
     backdrop : bool, optional
         ``gi``: put a matte backdrop behind the relief to catch its shadows.
         Without it the background is transparent.
