@@ -267,6 +267,17 @@ def test_gi_denoised_at_few_samples_is_closer_to_many_samples_than_raw(backdrop)
 
 
 @needs_mitsuba
+def test_gi_denoises_a_single_pass_without_a_variance():
+    relief = _figure()
+    raw, den = (render(relief, mode="gi", size=(32, 32), spp=1, denoise=d).image
+                for d in (False, True))
+    assert den.shape == raw.shape and not np.array_equal(den, raw)
+    # smoother: neighbours differ less than in the raw render
+    rough = [np.abs(np.diff(x[..., :3].astype(float), axis=1)).mean() for x in (raw, den)]
+    assert rough[1] < rough[0]
+
+
+@needs_mitsuba
 def test_gi_denoising_keeps_a_shadow_on_the_part_behind():
     back = _part("back", _square(0, 0, 80, 80), lambda x, y: np.zeros_like(x), max_area=20)
     front = _part("front", _circle(30, 30, 12), lambda x, y: np.full_like(x, 15.0))

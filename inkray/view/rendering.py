@@ -575,7 +575,7 @@ def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, denoise, progress
     lin = np.divide(img[..., :3], alpha[..., None], out=np.zeros((h, w, 3)),
                     where=alpha[..., None] > 0)
     if guides is not None:
-        variance = None
+        variance = None  # one pass shows no spread: no stop on luminance
         if passes > 1:
             mean = moments[0] / spp
             # var(one sample) = sum n_k (L_k - mean)^2 / (passes - 1); the image averages spp
