@@ -1,7 +1,7 @@
 """Edge-avoiding a-trous filtering of a noisy render, guided by its scene buffers.
 
 A path-traced picture at a few samples per pixel is noisy, but the scene that
-made it is known exactly: its surface normals, depths and which object every
+made it is known exactly: its surface normals and which object every
 pixel sees. The edge-avoiding a-trous wavelet transform (Dammertz, Sewtz,
 Hanika and Lensch, "Edge-Avoiding A-Trous Wavelet Transform for fast Global
 Illumination Filtering", HPG 2010) smooths the picture with a sparse kernel
