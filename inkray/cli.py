@@ -323,7 +323,8 @@ def _cmd_render(args, progress):
                        max_side=GI_MAX_SIDE if args.mode == "gi" else None)
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
-                   backdrop=not args.no_backdrop, seed=args.seed, progress=progress)
+                   backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
+                   progress=progress)
     if args.light is not None:
         options["light"] = args.light
     with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
@@ -638,10 +639,13 @@ def _parser():
                    help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
     r.add_argument("--flat-colors", action="store_true",
                    help="one colour per part instead of the drawing's colours")
-    r.add_argument("--spp", type=int, default=64, help="gi: samples per pixel (default: 64)")
+    r.add_argument("--spp", type=int, default=8, help="gi: samples per pixel (default: 8)")
     r.add_argument("--no-backdrop", action="store_true",
                    help="gi: no backdrop behind the relief (transparent background)")
     r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
+    r.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=True,
+                   help="gi: filter the path tracer's noise guided by the relief's normals, "
+                        "depth, parts and colours (default: on)")
     r.add_argument("--disparity", type=float, metavar="PX",
                    help="stereo: disparity of the highest point in pixels (default: 2%% of "
                         "the width)")
@@ -689,8 +693,8 @@ def _parser():
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
-    p["demo"].add_argument("--spp", type=int, default=32,
-                           help="samples per pixel of the GI render (default: 32)")
+    p["demo"].add_argument("--spp", type=int, default=4,
+                           help="samples per pixel of the GI render, denoised (default: 4)")
     ed = p["edit"]
     ed.add_argument("annotation", metavar="ANN",
                     help="annotation file (.inkray.json); a new one is started when missing")

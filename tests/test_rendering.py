@@ -11,6 +11,7 @@ from inkray.formats.images import write_renderings
 from inkray.formats.meshes import export_relief, read_relief
 from inkray.relief.model import Part, Relief
 from inkray.view.rendering import has_mitsuba, output_size, render, render_turntable
+from inkray.view.shading import over_white
 
 needs_mitsuba = pytest.mark.skipif(
     not has_mitsuba(), reason="Mitsuba 3 is not installed (pip install 'inkray[render]'); "
@@ -244,6 +245,60 @@ def test_gi_a_part_in_front_casts_a_shadow_on_the_part_behind():
     d = np.hypot(xx - 30, yy - 30)
     lee = (d > 13) & (d < 24) & (xx > 32) & (yy > 32)  # beside the disk, away from the light
     assert with_front[lee].mean() < 0.8 * without[lee].mean()
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("backdrop", [True, False])
+def test_gi_denoised_at_few_samples_is_closer_to_many_samples_than_raw(backdrop):
+    relief = _figure()
+    kw = dict(mode="gi", size=(64, 64), backdrop=backdrop)
+    ref, raw, den = (render(relief, spp=spp, denoise=d, seed=seed, **kw).image
+                     for spp, d, seed in ((128, False, 7), (4, False, 0), (4, True, 0)))
+    # as seen over a white page (the transparent background's colour is irrelevant)
+    err_raw, err_den = (np.sqrt(np.mean((over_white(x) - over_white(ref)) ** 2))
+                        for x in (raw, den))
+    assert err_den < 0.8 * err_raw
+    # the same coverage and ink: only the noise of the light changed
+    assert np.array_equal(den[..., 3], raw[..., 3])
+    sil = _silhouette((64, 64))
+    edge = sil ^ np.roll(sil, 1, 0) | sil ^ np.roll(sil, 1, 1)
+    lum = den[..., :3].astype(float).mean(axis=2)
+    assert lum[edge].mean() < lum[sil & ~edge].mean() - 40
+
+
+@needs_mitsuba
+def test_gi_denoises_a_single_pass_without_a_variance():
+    relief = _figure()
+    raw, den = (render(relief, mode="gi", size=(32, 32), spp=1, denoise=d).image
+                for d in (False, True))
+    assert den.shape == raw.shape and not np.array_equal(den, raw)
+    # smoother: neighbours differ less than in the raw render
+    rough = [np.abs(np.diff(x[..., :3].astype(float), axis=1)).mean() for x in (raw, den)]
+    assert rough[1] < rough[0]
+
+
+@needs_mitsuba
+def test_gi_denoising_keeps_a_shadow_on_the_part_behind():
+    back = _part("back", _square(0, 0, 80, 80), lambda x, y: np.zeros_like(x), max_area=20)
+    front = _part("front", _circle(30, 30, 12), lambda x, y: np.full_like(x, 15.0))
+    kw = dict(mode="gi", size=(64, 64), spp=4, light=(-1, 1, 1), backdrop=False)
+    img = render(Relief([back, front], size=(80, 80)), **kw).image[..., :3].mean(axis=2)
+    yy, xx = (np.mgrid[0:64, 0:64] + 0.5) / 0.8 - 0.5
+    d = np.hypot(xx - 30, yy - 30)
+    lee = (d > 13) & (d < 20) & (xx > 32) & (yy > 32)
+    lit = (d > 13) & (d < 20) & (xx < 28) & (yy < 28)
+    assert img[lee].mean() < 0.8 * img[lit].mean()
+
+
+@needs_mitsuba
+def test_cli_render_gi_denoises_unless_told_not_to(tmp_path):
+    glb = export_relief(_figure(), tmp_path / "fig.glb")[0]
+    base = ["--quiet", "render", str(glb), "--mode", "gi", "--width", "48", "--spp", "2"]
+    assert main(base + ["-o", str(tmp_path / "d.png")]) == 0
+    assert main(base + ["-o", str(tmp_path / "r.png"), "--no-denoise"]) == 0
+    assert main(base + ["-o", str(tmp_path / "d2.png"), "--denoise"]) == 0
+    d, r, d2 = ((tmp_path / f).read_bytes() for f in ("d.png", "r.png", "d2.png"))
+    assert d == d2 and d != r
 
 
 def test_gi_without_mitsuba_says_how_to_install(monkeypatch):

@@ -56,6 +56,12 @@ _PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
 _RIM = 6.0  # drawing pixels: reach of outline ink past the silhouette (half a thick stroke)
 _GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
 GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
+_BACKDROP = np.array([0.8, 0.8, 0.78])  # linear reflectance of the gi backdrop
+_MIN_ALBEDO = 0.02  # gi denoising: irradiance = radiance / albedo, kept finite on black
+# gi denoising: the luminance stop, in standard deviations of the noise of
+# the passes' mean (4 in SVGF; 16 is measured best here: benchmarks/bench_gi.py)
+_GI_SIGMA_LUMINANCE = 16.0
+_LUMA = np.array([0.2126, 0.7152, 0.0722])  # linear RGB -> luminance (Rec. 709)
 
 
 @dataclass
@@ -147,8 +153,8 @@ def output_size(drawing_size, *, size=None, width=None, height=None, max_side=No
 
 
 def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
-           flat_colors=False, disparity=None, spp=64, backdrop=True, yaw=0.0, seed=0,
-           progress=None, frame_yaw=None):
+           flat_colors=False, disparity=None, spp=8, backdrop=True, yaw=0.0, seed=0,
+           denoise=True, progress=None, frame_yaw=None):
     """Render a relief seen from the front (or from ``yaw`` degrees to the side).
 
     Parameters
@@ -170,7 +176,8 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         ``stereo``: horizontal shift in output pixels between the views at the
         relief's highest point (zero at height 0). Default: 2% of the width.
     spp : int, optional
-        ``gi``: samples per pixel.
+        ``gi``: samples per pixel. Denoised, 8 are as close to a converged
+        render as 64 without (``benchmarks/bench_gi.py``).
     backdrop : bool, optional
         ``gi``: put a matte backdrop behind the relief to catch its shadows.
         Without it the background is transparent.
@@ -179,6 +186,10 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         centre; positive moves the camera to the viewer's right.
     seed : int, optional
         ``gi``: sampler seed (renders are deterministic for a seed).
+    denoise : bool, optional
+        ``gi``: filter the path tracer's noise, guided by the relief's own
+        normals, depth, parts and colours (:mod:`inkray.view.denoising`), so
+        a few samples per pixel look like many.
     frame_yaw : float, optional
         Turned views (not ``gi``): the image holds the relief as seen from any
         yaw up to this one, so nothing is cropped (default: ``yaw``; a
@@ -219,7 +230,7 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         return Rendering("shade", rgba, rgba[..., 3] > 0)
     if mode == "stereo":
         return _stereo(relief, layers, size, yaw, light, ambient, disparity)
-    return _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress)
+    return _gi(relief, layers, size, yaw, light, spp, backdrop, seed, denoise, progress)
 
 
 def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=None, **options):
@@ -563,39 +574,86 @@ def _mitsuba():
     return mi
 
 
-def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, progress):
+def _gi(relief, layers, size, yaw, light, spp, backdrop, seed, denoise, progress):
     mi = _mitsuba()
     mi.set_log_level(mi.LogLevel.Warn)
     w, h = size
     passes = min(_GI_PASSES, spp)
     counts = [spp // passes + (k < spp % passes) for k in range(passes)]
-    acc = np.zeros((h, w, 4))
-    try:
-        scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
-        for k, n in enumerate(counts):
-            img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
-            acc += img * n
-            if progress is not None:
-                progress.update(k + 1, passes)
-    except RuntimeError as e:  # Mitsuba reports its failures as RuntimeError
-        raise StageError(f"gi: Mitsuba failed: {' '.join(str(e).split())}") from e
-    img = acc / spp
     # The ink never goes through the path tracer: it is looked up per pixel
     # (supersampled) and multiplied on top, so it is as sharp as the output.
     # With the backdrop (just behind the relief) the outer halves of outline
     # strokes are drawn on it; a transparent background keeps only the relief.
     ss = _supersample(size)
     r = _raster(relief, size, yaw, ss)
-    _, ink = layers.sample(r, rim=backdrop)
+    albedo, ink = layers.sample(r, rim=backdrop)
     ink = _downsample(ink, ss)
     cover = _downsample(r.mask.astype(float), ss)
-    if backdrop:
-        rgb = _linear_to_srgb(img[..., :3]) * ink[..., None]
-        return Rendering("gi", _rgba8(rgb, np.ones((h, w))), cover > 0)
-    alpha = np.clip(img[..., 3], 0, 1)  # Mitsuba's colour is premultiplied by it
+    guides = _gi_guides(r, albedo, ss, backdrop) if denoise else None
+    acc = np.zeros((h, w, 4))
+    moments = np.zeros((2, h, w))  # sums of n * L and n * L**2 of the passes' irradiance
+    try:
+        scene = mi.load_dict(_gi_scene(mi, relief, layers, size, yaw, light, backdrop))
+        for k, n in enumerate(counts):
+            img = np.asarray(mi.render(scene, seed=seed * _GI_PASSES + k, spp=n), float)
+            acc += img * n
+            if guides is not None and passes > 1:
+                lum = (img[..., :3] / guides["albedo"]) @ _LUMA
+                moments += [n * lum, n * lum * lum]
+            if progress is not None:
+                progress.update(k + 1, passes)
+    except RuntimeError as e:  # Mitsuba reports its failures as RuntimeError
+        raise StageError(f"gi: Mitsuba failed: {' '.join(str(e).split())}") from e
+    img = acc / spp
+    alpha = np.ones((h, w)) if backdrop else np.clip(img[..., 3], 0, 1)
+    # without the backdrop Mitsuba's colour is premultiplied by its alpha
     lin = np.divide(img[..., :3], alpha[..., None], out=np.zeros((h, w, 3)),
                     where=alpha[..., None] > 0)
+    if guides is not None:
+        variance = None  # one pass shows no spread: no stop on luminance
+        if passes > 1:
+            mean = moments[0] / spp
+            # var(one sample) = sum n_k (L_k - mean)^2 / (passes - 1); the image averages spp
+            variance = np.maximum(moments[1] - spp * mean * mean, 0.0) / (passes - 1) / spp
+            variance /= np.maximum(alpha, 1e-3) ** 2
+        lin = _gi_denoise(lin, guides, variance, backdrop)
     return Rendering("gi", _rgba8(_linear_to_srgb(lin) * ink[..., None], alpha), cover > 0)
+
+
+def _gi_guides(raster, albedo, ss, backdrop):
+    """Output-resolution guides for :func:`inkray.view.denoising.atrous_denoise`.
+
+    The albedo is box-filtered like the path tracer's pixels average it (the
+    backdrop's own colour off the relief); normals likewise; a
+    pixel is labelled with a part it sees at any sub-pixel (the backdrop or
+    the empty background is -1), so partly covered pixels join a part.
+    """
+    m = raster.mask
+    albedo = np.where(m[..., None], albedo, _BACKDROP if backdrop else 1.0)
+    normal = np.where(m[..., None], raster.normal, [0.0, 0.0, 1.0])
+    normal = _downsample(normal, ss)
+    normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-9)
+    h, w = m.shape[0] // ss, m.shape[1] // ss
+    labels = raster.part.reshape(h, ss, w, ss).max(axis=(1, 3))
+    return {"albedo": np.maximum(_downsample(albedo, ss), _MIN_ALBEDO), "normals": normal,
+            "labels": labels}
+
+
+def _gi_denoise(lin, guides, variance, backdrop):
+    """Divide the albedo out, filter the (smooth) irradiance, multiply it back.
+
+    Without the backdrop, pixels off the relief only hold the pixel filter's
+    spill from its edge: they keep their own values.
+    """
+    from inkray.view.denoising import atrous_denoise
+
+    irradiance = atrous_denoise(lin / guides["albedo"], normals=guides["normals"],
+                                labels=guides["labels"], variance=variance,
+                                sigma_luminance=_GI_SIGMA_LUMINANCE)
+    out = irradiance * guides["albedo"]
+    if not backdrop:
+        out[guides["labels"] < 0] = lin[guides["labels"] < 0]
+    return out
 
 
 def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
@@ -664,7 +722,8 @@ def _gi_scene(mi, relief, layers, size, yaw, light, backdrop):
         scene["backdrop"] = {"type": "rectangle",
                              "to_world": T().translate([0, 0, z]) @ T().scale([20, 20, 1]),
                              "bsdf": {"type": "diffuse",
-                                      "reflectance": {"type": "rgb", "value": [0.8, 0.8, 0.78]}}}
+                                      "reflectance": {"type": "rgb",
+                                                      "value": _BACKDROP.tolist()}}}
     return scene
 
 
