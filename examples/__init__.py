@@ -10,7 +10,7 @@ from inkray.errors import InputError
 __all__ = ["EXAMPLES", "example_path"]
 
 _HERE = Path(__file__).resolve().parent
-EXAMPLES = ("turtle", "frog", "balls", "donkey", "dragon", "fox", "gingerbread", "man", "rings", "figure")
+EXAMPLES = ("turtle", "frog", "balls", "donkey", "dragon", "fox", "gingerbread", "man", "rings", "figure", "cat")
 
 
 def example_path(name="turtle"):

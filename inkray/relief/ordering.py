@@ -43,7 +43,7 @@ __all__ = ["JUNCTION_RADIUS", "Relation", "WEIGHTS", "depth_order", "predict_pla
 
 #: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
 #: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
-WEIGHTS = {"junction": 4.782, "area": 1.223, "surround": 4.143}
+WEIGHTS = {"junction": 4.826, "area": 1.498, "surround": 4.236}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
 
