@@ -83,3 +83,4 @@ def test_well_formed_files_pass(tmp_path):
     for suffix in (".glb", ".obj", ".ply"):
         path = export_relief(relief, tmp_path / f"r{suffix}")[0]
         assert inspect_mesh_file(path) == path
+

@@ -38,7 +38,8 @@ FAST = ("balls", "turtle")
 # 90th percentile of the normal jump at ink-free seams (degrees) each drawing
 # stays below (before this measurement existed: donkey 36, frog 60, turtle 20).
 JUMP_P90 = {"balls": 1.0, "donkey": 30.0, "dragon": 1.0, "fox": 120.0, "frog": 40.0,
-            "gingerbread": 1.0, "man": 85.0, "turtle": 15.0}
+            "gingerbread": 1.0, "man": 85.0, "turtle": 15.0, "cat": 1.0, "figure": 1.0,
+            "rings": 1.0}
 
 
 def _measure(name, tmp_path):
@@ -85,7 +86,8 @@ def test_fast_drawings_are_clean(name, tmp_path):
 
 # Known defect: the man's order[5] fails by up to 0.37 px over the last samples of
 # its segment, next to its back point (not yet understood).
-KNOWN = {"man": "order[5] fails by 0.37 px next to its back point"}
+KNOWN = {"man": "order[5] fails by 0.37 px next to its back point",
+         "rings": "95.8 % of the outline ink on the mesh where the rings cross (target 97 %)"}
 
 
 @pytest.mark.slow

@@ -343,6 +343,10 @@ def _load(path, *, materials):
     if _z_up(path):
         meshes = [m._replace(vertices=m.vertices @ _Z_UP) for m in meshes]
     for m in meshes:
+        if m.vertices.ndim != 2 or m.vertices.shape[1] != 3 or m.faces.ndim != 2 \
+                or m.faces.shape[1] != 3:
+            raise InputError(f"{path}: part {m.name!r}: not a triangle mesh (vertices "
+                             f"{m.vertices.shape}, faces {m.faces.shape})")
         bad = np.flatnonzero(~np.isfinite(m.vertices).all(axis=1))
         if len(bad):
             raise InputError(f"{path}: part {m.name!r}: vertex {bad[0]} is not finite "
@@ -747,6 +751,9 @@ def read_relief(path):
         transform, geom_name = scene.graph[node]
         geom = scene.geometry[geom_name]
         uv = getattr(geom.visual, "uv", None)
+        if uv is not None and (np.ndim(uv) != 2 or np.shape(uv)[1] < 2
+                               or len(uv) != len(geom.vertices)):
+            uv = None  # malformed texture coordinates: read as untextured
         material = getattr(geom.visual, "material", None)
         image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
         if path.suffix.lower() == ".ply" or uv is None or image is None:
