@@ -123,8 +123,7 @@ def _cmd_validate(args, progress):
     except InputError as e:
         if not args.json:
             raise
-        message = _one_line(e)
-        problems = [Problem("error", message.split(":", 1)[0], message)]
+        problems = [Problem.from_message("error", _one_line(e))]
         ann = None
     else:
         chain = ReliefChain(ann, drawing, options=ChainOptions(), progress=progress)

@@ -42,12 +42,16 @@ class Problem:
     key: str
     message: str
 
+    @classmethod
+    def from_message(cls, severity, message):
+        """The problem of a one-line message ``"key: what"`` (the key before the first colon)."""
+        return cls(severity, message.split(":", 1)[0].split(" (", 1)[0], message)
+
     def as_dict(self):
         return asdict(self)
 
 
-def _problem(severity, message):
-    return Problem(severity, message.split(":", 1)[0].split(" (", 1)[0], message)
+_problem = Problem.from_message
 
 
 def validate(chain):

@@ -6,6 +6,7 @@ as ``editor.png`` in the test's temporary folder (its path is printed), and also
 written to ``$INKRAY_EDITOR_SCREENSHOT`` when that is set.
 """
 
+import contextlib
 import json
 import os
 import shutil
@@ -82,13 +83,20 @@ def _pixels_of(page, colour):
     }""", colour)
 
 
-def test_draw_accept_undo_save(page, tmp_path):
+@contextlib.contextmanager
+def _turtle_page(page, tmp_path):
+    """The editor on a copy of the turtle, its page loaded with every preview shown."""
     ann = copy_example("turtle", tmp_path)
     doc = json.loads(ann.read_text())
     session = EditSession(ann)
     with running(session) as url:
         page.goto(url + "/")
         _wait_previews(page, 0)
+        yield ann, doc, session, url
+
+
+def test_draw_accept_undo_save(page, tmp_path):
+    with _turtle_page(page, tmp_path) as (ann, doc, session, url):
         assert page.evaluate("window.inkray.doc") == doc
         assert int(page.get_attribute("#relief", "data-meshes")) == len(doc["regions"])
 
@@ -157,12 +165,7 @@ def test_draw_accept_undo_save(page, tmp_path):
 
 
 def test_fields_refused_edit_move_delete_and_a_contradiction(page, tmp_path):
-    ann = copy_example("turtle", tmp_path)
-    doc = json.loads(ann.read_text())
-    session = EditSession(ann)
-    with running(session) as url:
-        page.goto(url + "/")
-        _wait_previews(page, 0)
+    with _turtle_page(page, tmp_path) as (ann, doc, session, url):
         page.fill("#regions .region[data-index='0'] .inflation", "5")
         page.press("#regions .region[data-index='0'] .inflation", "Enter")
         _wait_previews(page, 1)
