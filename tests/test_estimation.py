@@ -16,6 +16,8 @@ from inkray.errors import InputError
 from inkray.input.loading import load_input
 from inkray.depthmap.quadratic_program import GroundedLaplacian, constraint_cycle, solve_depth_qp
 from inkray.numerics.grid import edge_weights, grid_laplacian
+from inkray.input.scribbles import seed_image
+from inkray.segmentation import lazybrush
 
 from conftest import EXAMPLES, shared_drawing_names
 
@@ -282,14 +284,19 @@ def test_fast_still_names_a_real_cycle():
         depth(replace(ann, order=ann.order + [back]), drawing, method="fast")
 
 
-def test_session_updates_its_factorization_and_matches_a_fresh_solve():
-    # Three inked boxes on paper, each with a region scribble.
+def _three_boxes():
+    """Three inked boxes on paper, each with a region scribble: the drawing and the seeds."""
     gray = np.ones((96, 128))
     seeds = np.full(gray.shape, -2, np.int32)
     for k, (y0, x0) in enumerate(((10, 10), (10, 70), (55, 40))):
         gray[y0, x0:x0 + 40] = gray[y0 + 30, x0:x0 + 40] = 0.0
         gray[y0:y0 + 31, x0] = gray[y0:y0 + 31, x0 + 40] = 0.0
         seeds[y0 + 15, x0 + 5:x0 + 35] = k
+    return gray, seeds
+
+
+def test_session_updates_its_factorization_and_matches_a_fresh_solve():
+    gray, seeds = _three_boxes()
     s = DepthSession(gray, seeds=seeds)
     s.add((30, 25), (90, 25))
     s.solve()
@@ -431,3 +438,42 @@ def test_interactive_chain_splits_a_region_when_an_entry_is_added():
     assert d[100, 67] - d[158, 125] >= 1 - 1e-6
     assert d[54, 160] - d[71, 145] >= 1 - 1e-6 and d[146, 160] - d[129, 175] >= 1 - 1e-6
     assert len(after.info["levels"]) == len(before.info["levels"]) + 1    # one more part
+
+
+def test_session_pins_an_arrow_between_held_segments_without_refactoring():
+    # The new arrow's segments already hold endpoints, so only its two
+    # endpoint pixels become fixed.
+    gray, seeds = _three_boxes()
+    arrows = [((30, 25), (90, 25)), ((60, 70), (90, 30)), ((20, 35), (75, 80))]
+    s = DepthSession(gray, seeds=seeds)
+    for front, back in arrows[:2]:
+        s.add(front, back)
+    s.solve()
+    s.add(*arrows[2])                       # the first box one level up, two new pixels
+    d = s.solve()
+    assert s.refactored_fronts == 0
+    fresh = DepthSession(gray, seeds=seeds, incremental=False)
+    for front, back in arrows:
+        fresh.add(front, back)
+    assert np.abs(d - fresh.solve()).max() < 1e-9
+    assert d[35, 20] - d[80, 75] >= 1 - 1e-9 and d[35, 20] - d[25, 90] >= 2 - 1e-9
+
+
+def test_fast_cuts_a_region_holding_both_points_of_an_entry_on_the_dragon():
+    # The editor benchmark's first document of the dragon (its last order entry
+    # and the last scribble of its most scribbled region left out): the
+    # scribbles' segmentation then holds both points of order[15] in one
+    # region, which the fast method must cut, not call a contradiction.
+    ann, drawing = _reduced("dragon", max_side=585)
+    most = max(range(len(ann.regions)), key=lambda i: len(ann.regions[i].scribbles))
+    regions = list(ann.regions)
+    regions[most] = replace(regions[most], scribbles=regions[most].scribbles[:-1])
+    ann = replace(ann, regions=regions, order=ann.order[:-1])
+    p, q, ineq, labels = depth_constraints(ann)
+    k = labels.index("order[15]")
+    scribbled = lazybrush(drawing.gray, seed_image(ann), frame_background=False)
+    assert scribbled.flat[p[k]] == scribbled.flat[q[k]]
+    r = depth(ann, drawing, method="fast")
+    assert r.info["labels"].flat[p[k]] != r.info["labels"].flat[q[k]]
+    d = r.depth.ravel()
+    assert (d[p[ineq]] - d[q[ineq]] >= 1 - 1e-6).all()

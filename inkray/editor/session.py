@@ -403,7 +403,9 @@ def _relief(chain):
 # preview -> (its stage's result from a chain, the file bytes of that result, media type)
 _PREVIEW = {
     "labels.png": (lambda chain: chain.segmentation, labels_png, "image/png"),
-    "depth.png": (lambda chain: chain.depth_map, lambda d: depth_png(d.depth)[0], "image/png"),
+    # zlib level 1: half the encoding time of a 1 Mpx preview, the same decoded depths
+    "depth.png": (lambda chain: chain.depth_map, lambda d: depth_png(d.depth, compress_level=1)[0],
+                  "image/png"),
     "relief.glb": (_relief, glb_bytes, "model/gltf-binary"),
 }
 

@@ -188,18 +188,67 @@ class GridCholesky:
         array shaped like ``rhs``
         """
         b = self._rhs(rhs)
-        shape = np.shape(rhs)
-        k = b.shape[1]
         with one_blas_thread():
-            ys = []
-            for g, (Li, W) in zip(self._plan, self._factors):
-                y = Li @ b[g.S]
-                if g.r:
-                    rows, scatter = _ring_scatter(g, self.n)
-                    b[rows] -= scatter @ (W.transpose(0, 2, 1) @ y).reshape(-1, k)
-                ys.append(y)
-            x = self._backward(ys, k)
-        return x.reshape(shape)
+            x = self._backward(self._forward_dense(b), b.shape[1])
+        return x.reshape(np.shape(rhs))
+
+    def solve_pinned(self, rhs, pixels, values):
+        """Solve ``A x = rhs + P c`` with the sources ``c`` that pin ``x[pixels] = values``.
+
+        ``P`` holds the unit columns of ``pixels``: every row but the pinned
+        ones keeps its equation, so this is the solution of the operator with
+        those pixels' rows replaced by the identity (a Dirichlet condition),
+        without refactoring. It costs one solve plus a forward substitution
+        from the pinned pixels (the capacitance matrix ``P^T A^-1 P`` is
+        their :meth:`gram`).
+
+        Parameters
+        ----------
+        rhs : (N,) array
+        pixels : (k,) int array
+            Distinct raster indices.
+        values : (k,) array
+
+        Returns
+        -------
+        (N,) float64 array: ``x[pixels] == values`` and ``(A x)[i] == rhs[i]`` elsewhere.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from inkray.numerics.grid import grid_operator
+        >>> op = (np.full((2, 5), 3.0), -np.ones((2, 4)), -np.ones((1, 5)))
+        >>> x = GridCholesky(*op).solve_pinned(np.ones(10), [2, 7], [2.0, -1.0])
+        >>> x[[2, 7]].tolist(), bool(np.allclose(np.delete(grid_operator(*op) @ x, [2, 7]), 1.0))
+        ([2.0, -1.0], True)
+        """
+        pixels = np.asarray(pixels, np.int64).reshape(-1)
+        values = np.asarray(values, np.float64).reshape(-1)
+        if len(values) != len(pixels) or len(np.unique(pixels)) != len(pixels):
+            raise InputError(f"pixels: expected {len(values)} distinct pixels, one per value")
+        b = self._rhs(rhs)
+        if b.shape[1] != 1:
+            raise InputError(f"rhs: expected one right-hand side, got shape {np.shape(rhs)}")
+        if not len(pixels):
+            return self.solve(rhs)
+        k = len(pixels)
+        f = self.forward(sp.csr_matrix((np.ones(k), (pixels, np.arange(k))), shape=(self.n, k)))
+        with one_blas_thread():
+            ys = self._forward_dense(b)
+            # x[pixels] before pinning is (L^-1 P)^T (L^-1 rhs): only the fronts P reaches.
+            free = np.zeros(k)
+            for y, part in zip(ys, f._ys):
+                if part is not None:
+                    sel, yk = part
+                    free += np.einsum("bsk,bs->k", yk, y[sel, :, 0])
+            c = np.linalg.solve(f.gram, values - free)
+            for y, part in zip(ys, f._ys):
+                if part is not None:
+                    sel, yk = part
+                    y[sel, :, 0] += yk @ c
+            x = self._backward(ys, 1)[:, 0]
+        x[pixels] = values  # exact, not to round-off
+        return x
 
     def forward(self, rhs):
         """Forward substitution ``Y = L^-1 rhs`` for point sources, with ``A = L L^T``.
@@ -307,6 +356,18 @@ class GridCholesky:
             ys.append(y)
         with one_blas_thread():
             return self._backward(ys, 1)[:, 0]
+
+    def _forward_dense(self, b):
+        """Forward substitution ``y = L^-1 b`` per group (``b`` is overwritten)."""
+        k = b.shape[1]
+        ys = []
+        for g, (Li, W) in zip(self._plan, self._factors):
+            y = Li @ b[g.S]
+            if g.r:
+                rows, scatter = _ring_scatter(g, self.n)
+                b[rows] -= scatter @ (W.transpose(0, 2, 1) @ y).reshape(-1, k)
+            ys.append(y)
+        return ys
 
     def _backward(self, ys, k):
         """Back substitution ``x = L^-T y`` from the per-group blocks of ``y``."""
