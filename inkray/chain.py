@@ -241,6 +241,11 @@ class ReliefChain:
             self.annotations, self.drawing, progress=self.progress))
 
     @property
+    def segmented(self):
+        """Whether :attr:`segmentation` is already computed (then it costs nothing)."""
+        return self._cache.get(self._segment_key()) is not None
+
+    @property
     def candidates(self):
         """:class:`~inkray.relief.completion.Completion` of every neighbouring pair, before the order."""
         seg = self.segmentation

@@ -402,3 +402,24 @@ def test_the_page_needs_nothing_from_elsewhere(turtle):
     for ref, text in scripts.items():
         for target in re.findall(r'^\s*(?:import|export)[^;]*?from\s+["\']([^"\']+)["\']', text, re.M):
             assert target.startswith((".", "/", "three")), (ref, target)
+
+
+def test_the_depth_map_starts_after_the_segmentation(turtle, monkeypatch):
+    """The page asks for both after a scribble: the segmentation is computed first, alone."""
+    session = EditSession(turtle)
+    stage, encode, media_type = session_module._PREVIEW["depth.png"]
+    segmented = []
+
+    def depth_after(chain):
+        segmented.append(chain.segmented)
+        return stage(chain)
+
+    monkeypatch.setitem(session_module._PREVIEW, "depth.png", (depth_after, encode, media_type))
+    assert not session._chain.segmented
+    session.preview("depth.png")
+    assert segmented == [True]
+    doc = json.loads(turtle.read_text())
+    session.replace(json.dumps(dict(doc, regions=doc["regions"][1:])))
+    assert not session._chain.segmented
+    session.preview("depth.png")
+    assert segmented == [True, True]

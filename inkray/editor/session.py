@@ -47,6 +47,7 @@ _ENTRY = re.compile(r"\b(regions|background|order|equal|boundaries)\[(\d+)\]")
 _SUGGEST_RADIUS = 40  # px around a prediction's pixel searched for its arrow's ends
 _SUGGEST_DEPTH = 3.0  # px an accepted arrow's end lies inside its region, where it can
 _FILES_BYTES = 256 * 2**20  # encoded previews kept for undo (a 1 Mpx relief GLB is ~10 MB)
+_POLL = 0.005  # s between looks at a segmentation the depth map waits for
 
 
 @dataclass
@@ -257,6 +258,8 @@ class EditSession:
         if name not in PREVIEWS:
             raise KeyError(name)
         stage, encode, media_type = _PREVIEW[name]
+        if name == "depth.png":
+            self._segmentation_first()
         if exact and name == "depth.png":
             return self._newest(lambda chain, digest: (self._encoded(
                 (name, "exact", digest), lambda: encode(stage(chain.edit(
@@ -321,6 +324,33 @@ class EditSession:
                 if self.generation == generation:  # a newer edit writes its own
                     write_text(self.autosave, text)
         return generation
+
+    def _segmentation_first(self):
+        """Wait until the newest document's segmentation is computed, computing it
+        when no one is.
+
+        After a scribble the page asks for the segmentation and the depth map
+        at once; the segmentation (the overlay drawn on the drawing) takes a
+        few tenths of a second alone at 1 Mpx and twice that beside a depth
+        computation, which takes seconds. So the depth map starts after it.
+        When something else holds the relief lock, it is either that
+        segmentation or a relief past it (a relief computes the segmentation
+        first), so this polls until the segmentation is cached or the lock is
+        free.
+        """
+        while True:
+            with self._state:
+                chain = self._chain
+            if self._closed or chain.segmented:
+                return
+            lock = self._locks["relief"]
+            if lock.acquire(timeout=_POLL):
+                lock.release()
+                try:
+                    self.preview("labels.png")
+                except Exception:  # noqa: BLE001 - its own request reports it
+                    pass
+                return
 
     def _encoded(self, key, make):
         """The file bytes of a preview of a document, kept by the document's digest.
