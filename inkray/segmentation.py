@@ -413,7 +413,10 @@ def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):
 def _order(seeds):
     """Labels present in ``seeds``: background first (the biggest, it removes
     most pixels from the later cuts), then regions ascending."""
-    return [int(v) for v in np.unique(seeds[seeds != UNSEEDED])]  # -1 sorts first
+    # Labels run from UNSEEDED up (regions are 0..R-1 inside lazybrush): counting
+    # them is a sort-free np.unique.
+    present = np.flatnonzero(np.bincount(seeds.ravel() - UNSEEDED)[1:]) + UNSEEDED + 1
+    return [int(v) for v in present]  # -1 sorts first
 
 
 def _edge_weights(cost, floor):
@@ -514,20 +517,21 @@ def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflo
     n = len(flat)
     node = np.full(h * w, -1, np.int64)
     node[flat] = np.arange(n)
-    node = node.reshape(h, w)
     g = maxflow.Graph[float](n, 2 * n)
     g.add_nodes(n)
-    for axis, cap in ((1, right), (0, down)):
-        first = (slice(None), slice(None, -1)) if axis else (slice(None, -1), slice(None))
-        second = (slice(None), slice(1, None)) if axis else (slice(1, None), slice(None))
-        a, b = node[first], node[second]
-        both = (a >= 0) & (b >= 0)
+    # The edges from the pixels ``flat`` (ascending) to their right, then their
+    # lower neighbour among them: raster order of the first end, as a mask over
+    # the whole grid gives them, at the cost of the band alone.
+    for a, offset, cap in ((flat[flat % w < w - 1], 1, right), (flat[flat < (h - 1) * w], w, down)):
+        b = a + offset
+        both = node[b] >= 0
         if both.any():
-            fwd = rev = cap[both]
+            a, b = a[both], b[both]
+            fwd = rev = cap.ravel()[a - a // w if offset == 1 else a]
             if pull is not None:  # a -> b is cut when a takes c and b does not
-                fwd = fwd + pull[first][both]
-                rev = rev + pull[second][both]
-            g.add_edges(a[both], b[both], fwd, rev)
+                fwd = fwd + pull.ravel()[a]
+                rev = rev + pull.ravel()[b]
+            g.add_edges(node[a], node[b], fwd, rev)
     s = seeds.ravel()[flat]
     st = strength.ravel()[flat]
     src = np.where(s == c, st, 0.0)
@@ -556,12 +560,10 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     pooling may have cut wrongly: see below."""
     h, w = cost.shape
     hp, wp = h + h % 2, w + w % 2
-    padded = np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge")
-    small_cost = padded.reshape(hp // 2, 2, wp // 2, 2).min(axis=(1, 3))
-    padded = np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED)
-    small_seeds = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
-    padded = np.pad(strength, ((0, hp - h), (0, wp - w)))
-    small_strength = padded.reshape(hp // 2, 2, wp // 2, 2).max(axis=(1, 3))
+    small_cost = _pool(np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge"), np.minimum)
+    small_seeds = _pool(np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED),
+                        np.maximum)
+    small_strength = _pool(np.pad(strength, ((0, hp - h), (0, wp - w))), np.maximum)
     sh, sw = small_cost.shape
     if sh * sw > 500_000 and min(sh, sw) >= 64:
         coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, paper, None, band,
@@ -596,3 +598,9 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     free |= redo[comp]
     fixed = np.where(free, UNSEEDED, up).astype(np.int32)
     return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress)
+
+
+def _pool(a, op):
+    """2x2 pooling of an even-sized array by ``op`` (np.minimum or np.maximum): the
+    four strided quarters, a tenth of the time of a reduction over reshaped axes."""
+    return op(op(a[0::2, 0::2], a[0::2, 1::2]), op(a[1::2, 0::2], a[1::2, 1::2]))
