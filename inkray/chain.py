@@ -138,7 +138,8 @@ class _Cache:
         self.capacity = capacity
         self._items = OrderedDict()
         self._lock = threading.Lock()
-        self.session = None  # (key, DepthSession, {constraint: handle}) of the interactive depth
+        # (key, DepthSession, {constraint: handle}, its scribbles' digest) of the interactive depth
+        self.session = None
 
     def get(self, key):
         with self._lock:
@@ -322,10 +323,11 @@ class ReliefChain:
         o = self.options
         ann = self.annotations
         seeds = _seeds(ann)
+        seeds_key = None if seeds is None else _digest(seeds)
         key = ("depth", o.depth_method, o.depth_epsilon, self._drawing_key, _entries_key(ann),
-               None if seeds is None else _digest(seeds))
+               seeds_key)
         if o.depth_method == "fast" and o.interactive:
-            return self._stage("depth", key, lambda: self._session_depth(seeds))
+            return self._stage("depth", key, lambda: self._session_depth(seeds, seeds_key))
         # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
         return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
                                                         epsilon=o.depth_epsilon,
@@ -408,15 +410,20 @@ class ReliefChain:
         value = self._stage("order", self._relations_key(), compute)
         return value
 
-    def _session_depth(self, seeds):
-        """The fast depth from the kept session: only the changed constraints are re-done."""
+    def _session_depth(self, seeds, seeds_key):
+        """The fast depth from the kept session: only the changed constraints are re-done,
+        and new scribbles keep the session's factorization (it is updated where the
+        segments moved)."""
         o = self.options
-        skey = (self._drawing_key, None if seeds is None else _digest(seeds), o.depth_epsilon)
+        skey = (self._drawing_key, o.depth_epsilon)
         cache = self._cache
         if cache.session is None or cache.session[0] != skey:
             cache.session = (skey, DepthSession(self.drawing.gray, epsilon=o.depth_epsilon,
-                                                seeds=seeds, incremental=True), {})
-        _, session, handles = cache.session
+                                                seeds=seeds, incremental=True), {}, seeds_key)
+        _, session, handles, seeded = cache.session
+        if seeded != seeds_key:
+            session.reseed(seeds)
+            cache.session = (skey, session, handles, seeds_key)
         p, q, ineq, labels = depth_constraints(self.annotations)
         wanted = {(int(a), int(b), bool(c), lab) for a, b, c, lab in zip(p, q, ineq, labels)}
         for c in [c for c in handles if c not in wanted]:

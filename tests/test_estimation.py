@@ -477,3 +477,26 @@ def test_fast_cuts_a_region_holding_both_points_of_an_entry_on_the_dragon():
     assert r.info["labels"].flat[p[k]] != r.info["labels"].flat[q[k]]
     d = r.depth.ravel()
     assert (d[p[ineq]] - d[q[ineq]] >= 1 - 1e-6).all()
+
+
+def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
+    gray, seeds = _three_boxes()
+    arrows = [((30, 25), (90, 25)), ((60, 70), (5, 90))]
+    s = DepthSession(gray, seeds=seeds)
+    for front, back in arrows:
+        s.add(front, back)
+    s.solve()
+    fronts = s._chol.fronts
+    fewer = np.where(seeds == 0, -2, seeds)           # the first box's scribble removed
+    s.reseed(fewer)
+    d = s.solve()
+    assert 0 < s.refactored_fronts < fronts
+    fresh = DepthSession(gray, seeds=fewer, incremental=False)
+    for front, back in arrows:
+        fresh.add(front, back)
+    assert np.abs(d - fresh.solve()).max() < 1e-9
+    s.reseed(None)                                    # back to segments of the endpoints
+    alone = DepthSession(gray)
+    for front, back in arrows:
+        alone.add(front, back)
+    assert np.abs(s.solve() - alone.solve()).max() < 1e-9

@@ -291,13 +291,7 @@ class DepthSession:
             raise InputError(f"epsilon: expected a positive depth step, got {epsilon}")
         self.epsilon = float(epsilon)
         h, w = self.shape = self.gray.shape
-        self._scribbles = None
-        if seeds is not None:
-            seeds = np.asarray(seeds, np.int32)
-            if seeds.shape != (h, w):
-                raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {(h, w)}")
-            if (seeds != -2).any():
-                self._scribbles = seeds
+        self._scribbles = self._checked(seeds)
         self._constraints = {}  # handle -> (p, q, inequality, label)
         self._next = 0
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
@@ -315,6 +309,27 @@ class DepthSession:
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
+
+    def reseed(self, seeds):
+        """Replace the region and background scribbles (``seeds`` as for the constructor).
+
+        The next :meth:`solve` segments afresh; the fill's factorization is
+        kept and updated, so it refactors only the fronts where the fixed
+        pixels moved (where the segments changed), not the whole grid.
+        """
+        self._scribbles = self._checked(seeds)
+        self.labels = None
+        self._split_cache = {}
+        self._dirty = set()
+
+    def _checked(self, seeds):
+        """The scribbles as an int32 image, or None when there are none."""
+        if seeds is None:
+            return None
+        seeds = np.asarray(seeds, np.int32)
+        if seeds.shape != self.shape:
+            raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {self.shape}")
+        return seeds if (seeds != -2).any() else None
 
     # -- constraints ------------------------------------------------------------
 
