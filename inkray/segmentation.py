@@ -164,8 +164,10 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         raise InputError(f"seeds: pixel ({x}, {y}) has label {seeds[y, x]}, beyond int32")
     # Region labels become 0..m-1 inside (any integers may come in, e.g. one
     # per constraint endpoint), and go back at the end.
-    regions = np.unique(seeds[seeds >= 0])
-    seeds = np.where(seeds >= 0, np.searchsorted(regions, seeds), seeds).astype(np.int32)
+    seeded = seeds >= 0
+    regions = np.unique(seeds[seeded])
+    seeds = seeds.astype(np.int32)
+    seeds[seeded] = np.searchsorted(regions, seeds[seeded])  # the seed pixels alone: few
     area, n_areas = ndimage.label(gray >= INK_THRESHOLD)
     if frame_background:
         seeds = _frame_seeds(seeds, area, n_areas)
