@@ -20,7 +20,7 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
   depth is smooth across cuts through paper
   and over unconstrained areas. :class:`DepthSession` keeps the segmentation
   and the factorization of step (4) and reuses them when a constraint is
-  added or removed.
+  added or removed or the scribbles change.
 
 Depth grows toward the viewer; both methods return a zero-mean depth map in
 units of the annotation's epsilon (default 1). Annotation points are rounded
@@ -244,14 +244,14 @@ class DepthSession:
 
     Add and remove constraints, then :meth:`solve`. Nodes of the region graph
     are the segments of a LazyBrush labelling: of the region and background
-    scribbles when given (fixed for the session), otherwise of seeds at the
-    constraint endpoints (a small disk of paper around each; a new endpoint
-    re-segments only the segment it lands in, a removed one only its own).
-    The Laplace fill is one system over the grid (fixed pixels as identity
-    rows) whose nested-dissection factorization is kept and updated in place:
-    a change that moves the fixed pixels only inside a window refactors the
-    fronts of that window and their ancestors, and a change that only
-    moves levels costs back-substitutions.
+    scribbles when given (replaced by :meth:`reseed`), otherwise of seeds at
+    the constraint endpoints (a small disk of paper around each; a new
+    endpoint re-segments only the segment it lands in, a removed one only
+    its own). The Laplace fill is one system over the grid (fixed pixels as
+    identity rows) whose nested-dissection factorization is kept and updated
+    in place: a change that moves the fixed pixels only inside a window
+    refactors the fronts of that window and their ancestors, and a change
+    that only moves levels, or also fixes a few more pixels, costs one solve.
 
     Parameters
     ----------

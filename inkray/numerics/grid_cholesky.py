@@ -16,7 +16,9 @@ LAPACK/BLAS calls. The symbolic part (the tree, the groups and their index
 maps) depends only on the grid size and is cached. :meth:`GridCholesky.update`
 refactors only the fronts whose entries changed and their ancestors;
 :meth:`GridCholesky.gram` gives ``B^T A^-1 B`` by forward substitution over
-the fronts that ``B``'s nonzero rows reach.
+the fronts that ``B``'s nonzero rows reach, and :meth:`GridCholesky.solve_pinned`
+with it a solve under a few more Dirichlet pixels without refactoring (the
+capacitance matrix method).
 
 Used by the depth QP (:mod:`inkray.qp`), whose one image-size factorization
 dominates its cost, and by the fast depth method's Laplace fill
