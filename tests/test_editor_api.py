@@ -19,7 +19,7 @@ from _editor import call, copy_example, running  # noqa: E402
 from inkray.editor import session as session_module  # noqa: E402
 from inkray.editor.session import EditSession, autosave_path, entry_paths  # noqa: E402
 from inkray.errors import InkrayError, InputError  # noqa: E402
-from inkray.formats.depth_png import read_depth_png  # noqa: E402
+from inkray.formats.depth_png import depth_png, read_depth_png  # noqa: E402
 from inkray.input.loading import load_input  # noqa: E402
 
 
@@ -423,3 +423,17 @@ def test_the_depth_map_starts_after_the_segmentation(turtle, monkeypatch):
     assert not session._chain.segmented
     session.preview("depth.png")
     assert segmented == [True, True]
+
+
+def test_the_depth_preview_is_the_depth_file_compressed_less(turtle, tmp_path):
+    """The preview's zlib level differs from `inkray depth`'s files, not its values."""
+    session = EditSession(turtle)
+    body = session.preview("depth.png").body
+    file_bytes = depth_png(session._chain.depth_map.depth)[0]
+    (tmp_path / "preview.png").write_bytes(body)
+    (tmp_path / "file.png").write_bytes(file_bytes)
+    assert body != file_bytes
+    assert np.array_equal(_image(body), _image(file_bytes))
+    preview, meta = read_depth_png(tmp_path / "preview.png")
+    assert np.array_equal(preview, read_depth_png(tmp_path / "file.png")[0])
+    assert meta == read_depth_png(tmp_path / "file.png")[1]
