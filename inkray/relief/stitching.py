@@ -310,6 +310,8 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         active, rounds = active2, rounds + rounds2
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
+    for zone in zones:
+        _blend(g, blocks, *zone)
     return Layers(regions=regions, epsilon=float(epsilon), constraints=len(rhs), active=active,
                   rounds=rounds, violation=float(violation), warnings=warnings,
                   bands=[z[:4] for z in zones],
@@ -420,8 +422,9 @@ def _equal_rows(rows, blocks, rel):
 def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
     """Rows of the ``stitch`` and ``graft`` entries; returns the graft zones.
 
-    A zone ``(front, base, station points, band width)`` says where
-    inequalities between the two regions are left out.
+    A zone ``(front, base, station points, band width, key, lift)`` says
+    where inequalities between the two regions are left out and where
+    :func:`_blend` joins them.
     """
     zones = []
     for entry in seams:
@@ -456,8 +459,8 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
             seam = blocks[front].v[st]
             length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
             width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        _graft_rows(rows, blocks, regions, front, other, st, width, epsilon, key)
-        zones.append((front, other, blocks[front].v[st], width, key))
+        lift = _graft_rows(rows, blocks, regions, front, other, st, width, epsilon, key)
+        zones.append((front, other, blocks[front].v[st], width, key, lift))
     return zones
 
 
@@ -498,6 +501,53 @@ def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, ke
     floor = np.where(dist[sel] < step, lift[near], 0.0)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
                 np.maximum(_margin(dist[sel], width, epsilon), floor), True, key, graft=True)
+    return float(lift.max(initial=0.0))
+
+
+def _blend(g, blocks, front, base, seam, width, key, lift):
+    """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
+
+    Over the band the grafted part's height becomes ``z_base + lift + w(d /
+    width) (z_front - z_base - lift)`` with ``w(t) = 3 t^2 - 2 t^3`` and ``d``
+    the distance to the seam: ``w(0) = w'(0) = 0``, so at the seam it has the
+    base's height (lifted by the bulge of the base between stations) and
+    gradient; ``w(1) = 1, w'(1) = 0``, so it joins the solved surface with
+    no crease at the band's end. The graft rows keep ``z_front >= z_base``
+    there, so the blend stays above the base. Where the base ends at the
+    seam instead of continuing under the grafted part, its surface is
+    continued by its reflection through the seam point, ``2 z(s) - z(2 s -
+    p)``, which has its slope across the seam.
+    """
+    f, b = blocks[front], blocks[base]
+    foot = _foot(f.v, seam)
+    d = np.linalg.norm(f.v - foot, axis=1)
+    sel = np.flatnonzero(d < width)
+    zf = f.h[sel] + g[f.start + sel]
+    zb, dist = _height(g, b, f.v[sel])
+    beyond = np.flatnonzero(dist > _INSIDE)
+    if len(beyond):
+        at, _ = _height(g, b, foot[sel[beyond]])
+        mirror, _ = _height(g, b, 2.0 * foot[sel[beyond]] - f.v[sel[beyond]])
+        zb[beyond] = 2.0 * at - mirror
+    t = d[sel] / width
+    w = t * t * (3.0 - 2.0 * t)
+    g[f.start + sel] = zb + lift + w * (zf - zb - lift) - f.h[sel]
+
+
+def _height(g, blk, points):
+    """Final height of ``blk`` at ``points`` (its nearest point's) and their distance to it."""
+    tri, w, dist = blk.locate(points)
+    return ((blk.h + g[blk.start:blk.start + len(blk.h)])[tri] * w).sum(axis=1), dist
+
+
+def _foot(points, line):
+    """Nearest point of the polyline ``line`` to each of ``points``."""
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    t = ((points[:, None] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12)
+    near = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+    k = np.argmin(((points[:, None] - near) ** 2).sum(-1), axis=1)
+    return near[np.arange(len(points)), k]
 
 
 def _sagitta(base, seam):
@@ -579,7 +629,7 @@ def _band_warnings(relations, zones):
         if rel.kind != "order" or rel.points is None:
             continue
         pts = np.array(rel.points, float).reshape(-1, 2)
-        for front, base, line, width, key in zones:
+        for front, base, line, width, key, _ in zones:
             if {front, base} == {rel.front, rel.back} and \
                     (point_polyline_distance(pts, line) < width).any():
                 out.append(f"{rel.label}: gives way to the graft seam of {key} within "
@@ -595,7 +645,7 @@ def _keepout(zones):
     """
     def near(i, j, pts):
         out = np.zeros(len(pts), bool)
-        for front, base, line, width, _ in zones:
+        for front, base, line, width, _, _ in zones:
             if {front, base} == {i, j} and len(pts):
                 out |= point_polyline_distance(pts, line) < width
         return out
