@@ -13,9 +13,14 @@ gets an offset field ``g_i`` on its mesh so that the heights
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
 - **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
   outline carries the entry, inflated with a Neumann condition there) meets
-  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and on
-  every vertex of ``F`` within ``band`` pixels of them that lies over ``K``'s
-  mesh, so ``F`` leaves ``K``'s surface tangentially (no rim);
+  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and
+  ``z_F >= z_K`` plus a margin growing to ``epsilon`` on every vertex of
+  ``F`` within ``band`` pixels of them that lies over ``K``'s mesh (no
+  z-fighting); after the solve ``F`` is blended onto ``K``'s surface over
+  that band with a weight of zero value and slope at the seam, so ``F``
+  leaves ``K`` with its height and slope (no crease, no rim), as the single
+  smooth surface of Dvořožňák et al. 2018, "Seamless reconstruction of
+  part-based high-relief models from hand-drawn images", would;
 - ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
 
 with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
@@ -55,7 +60,6 @@ _SCREEN = 1e-4  # lambda_i * area_i: rigid shifts cost 1e-4 of a unit bend
 _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
-_SLOPE_STEP = 0.5  # outline edges from a graft seam to where its slope is matched
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
 
 
@@ -78,7 +82,8 @@ class Layers:
     rounds : int
         Constraint-generation rounds.
     violation : float
-        Largest violation of any candidate constraint at the solution (px).
+        Largest violation of any candidate constraint at the QP's solution, before
+        the graft bands are blended (px).
     bands : list of (int, int, (k, 2) array, float)
         Per graft: the grafted region, its base, the seam (station points)
         and the band's width (px). Within the band the grafted part rises
@@ -222,8 +227,8 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
     band : float, optional
         Width in px of the graft band where the front region follows the one
-        behind; default a quarter of the seam's length, at least two outline
-        edges and at most two mean edges of the front mesh.
+        behind; default half the seam's length, at least two outline edges
+        of the front mesh.
     tol : float, default 1e-6
         Allowed constraint violation (px).
     max_rounds : int, default 60
@@ -473,34 +478,26 @@ def _in_front(relations, a, b, blocks):
 
 
 def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, key):
-    """The front region grows out of ``base``: no crack, no crease, no z-fighting.
+    """The front region grows out of ``base``: no crack, no z-fighting.
 
-    At the stations ``z_front = z_base`` (C0) and the slopes across the seam
-    match (C1, :func:`_slope_rows`). Where ``base`` continues under ``front``
-    (it was completed there), every vertex of ``front`` in the band between
-    two slope steps and ``width`` from the stations, at distance ``d``, lies
-    above ``base`` by the margin ``epsilon (d / width)^2``: zero with zero
-    slope at the seam (the two surfaces leave it together), ``epsilon`` (the
-    order step) at the end of the band. The base thus stays below the grafted
-    part all the way, and the seam is one clean curve instead of two
-    coincident surfaces fighting in the z-buffer.
+    At the stations ``z_front = z_base`` (C0, lifted by the base's bulge:
+    :func:`_sagitta`). Where ``base`` continues under ``front`` (it was
+    completed there), every other vertex of ``front`` within ``width`` of the
+    stations, at distance ``d``, lies above ``base`` by the margin ``epsilon
+    (d / width)^2``: zero at the seam, ``epsilon`` (the order step) at the end
+    of the band. The base thus stays below the grafted part all the way, and
+    :func:`_blend` then makes the grafted part leave the seam with the
+    base's slope. Returns the largest lift of a station.
     """
     blk = blocks[front]
     seam = blk.v[stations]
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    step = min(_SLOPE_STEP * _mean_outline_edge(regions[front].mesh), 0.5 * width)
-    touched = _slope_rows(rows, blocks, front, base, stations, step,
-                          float(_margin(step, width, epsilon)), key)
     dist = point_polyline_distance(blk.v, seam)
-    # Vertices the slope rows speak of are left to them (two rows on one vertex could
-    # contradict each other through the interpolation).
-    sel = np.setdiff1d(np.flatnonzero(dist <= width), np.concatenate([stations, touched]))
-    near = np.argmin(np.linalg.norm(blk.v[sel, None, :] - seam[None], axis=2), axis=1)
-    floor = np.where(dist[sel] < step, lift[near], 0.0)
+    sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
-                np.maximum(_margin(dist[sel], width, epsilon), floor), True, key, graft=True)
+                _margin(dist[sel], width, epsilon), True, key, graft=True)
     return float(lift.max(initial=0.0))
 
 
@@ -574,40 +571,6 @@ def _margin(d, width, epsilon):
     return epsilon * np.minimum(np.asarray(d, float) / width, 1.0) ** 2
 
 
-def _slope_rows(rows, blocks, a, b, stations, step, lift, label):
-    """C1 across a graft seam: equal slopes along the seam normal.
-
-    At every station ``s`` with unit normal ``n`` (pointing into ``a``):
-    where ``b`` continues under ``a``, ``z_a(s + t n) - z_a(s) = z_b(s + t n)
-    - z_b(s) + lift`` (``a`` leaves the seam along ``b``'s surface, lifted by
-    the band's margin at ``t``); where ``b`` ends at the seam, ``z_a(s + t n)
-    - z_a(s) = z_b(s) - z_b(s - t n)`` (``a`` leaves with the slope ``b``
-    arrives with). Returns the vertices of ``a`` these rows interpolate.
-    """
-    p = blocks[a].v[stations]
-    if len(p) < 2:
-        return np.zeros(0, np.int64)
-    tangent = np.gradient(p, axis=0)
-    n = np.column_stack([-tangent[:, 1], tangent[:, 0]])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    _, _, into_a = blocks[a].locate(p + step * n)
-    _, _, into_b = blocks[a].locate(p - step * n)
-    if np.median(into_a) > np.median(into_b):
-        n = -n
-    ahead = p + step * n
-    _, _, covered = blocks[b].locate(ahead)
-    under = covered <= _INSIDE
-    st = np.asarray(stations)
-    for sel, terms, rhs in (
-            (under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, f, -1.0), (b, q, 1.0)], lift),
-            (~under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, q, -1.0),
-                                      (b, 2 * q - f, 1.0)], 0.0)):
-        if sel.any():
-            _terms_rows(rows, blocks, terms(p[sel], st[sel], ahead[sel]), float(rhs), False, label,
-                        graft=True)
-    return np.unique(blocks[a].locate(ahead)[0])
-
-
 def _behind(regions, blocks, front, stations, holders):
     """The region on the other side of a marked stretch of ``front``'s outline."""
     neigh = regions[front].mesh.neighbour[stations]
@@ -650,12 +613,6 @@ def _keepout(zones):
                 out |= point_polyline_distance(pts, line) < width
         return out
     return near
-
-
-def _mean_edge(mesh):
-    f = np.asarray(mesh.faces)
-    v = np.asarray(mesh.vertices)
-    return float(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2).mean())
 
 
 def _mean_outline_edge(mesh):
