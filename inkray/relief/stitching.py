@@ -61,6 +61,7 @@ _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
+_REACH = 2.0  # px before a graft seam from which the base's slope is taken (over two fine triangles)
 
 
 @dataclass
@@ -504,31 +505,35 @@ def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, ke
 def _blend(g, blocks, front, base, seam, width, key, lift):
     """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
 
-    Over the band the grafted part's height becomes ``z_base + lift + w(d /
-    width) (z_front - z_base - lift)`` with ``w(t) = 3 t^2 - 2 t^3`` and ``d``
-    the distance to the seam: ``w(0) = w'(0) = 0``, so at the seam it has the
-    base's height (lifted by the bulge of the base between stations) and
-    gradient; ``w(1) = 1, w'(1) = 0``, so it joins the solved surface with
-    no crease at the band's end. The graft rows keep ``z_front >= z_base``
-    there, so the blend stays above the base. Where the base ends at the
-    seam instead of continuing under the grafted part, its surface is
-    continued by its reflection through the seam point, ``2 z(s) - z(2 s -
-    p)``, which has its slope across the seam.
+    Over the band the grafted part's height becomes ``e + lift + w(d / width)
+    (z_front - e - lift)`` with ``w(t) = 3 t^2 - 2 t^3``, ``d`` the distance
+    to the seam and ``e`` the base continued across the seam by its tangent
+    plane (its slope from the last :data:`_REACH` px before the seam):
+    ``w(0) = w'(0) = 0``, so at the seam the grafted part has the base's
+    height (lifted by the base's bulge between stations) and slope; ``w(1) =
+    1, w'(1) = 0``, so it joins its solved surface with no crease at the
+    band's end. The tangent plane, not the base's own surface where it was
+    completed under the grafted part: that surface falls to zero height at
+    its invented outline, wherever the completion ended. Where the base is
+    above its tangent plane (a concave base) its own surface is taken, so
+    that with ``z_front >= z_base`` (the graft rows) the grafted part stays
+    above the base all the way.
     """
     f, b = blocks[front], blocks[base]
     foot = _foot(f.v, seam)
     d = np.linalg.norm(f.v - foot, axis=1)
     sel = np.flatnonzero(d < width)
-    zf = f.h[sel] + g[f.start + sel]
-    zb, dist = _height(g, b, f.v[sel])
-    beyond = np.flatnonzero(dist > _INSIDE)
-    if len(beyond):
-        at, _ = _height(g, b, foot[sel[beyond]])
-        mirror, _ = _height(g, b, 2.0 * foot[sel[beyond]] - f.v[sel[beyond]])
-        zb[beyond] = 2.0 * at - mirror
-    t = d[sel] / width
+    p, s, d = f.v[sel], foot[sel], d[sel]
+    away = (p - s) / np.maximum(d, 1e-12)[:, None]
+    # the slope at the seam, by the second-order one-sided difference
+    at, one, two = (_height(g, b, s - k * _REACH / 2.0 * away)[0] for k in (0, 1, 2))
+    e = at + (3.0 * at - 4.0 * one + two) * d / _REACH
+    under, dist = _height(g, b, p)
+    e = np.where(dist <= _INSIDE, np.maximum(e, under), e)
+    t = d / width
     w = t * t * (3.0 - 2.0 * t)
-    g[f.start + sel] = zb + lift + w * (zf - zb - lift) - f.h[sel]
+    z = f.h[sel] + g[f.start + sel]
+    g[f.start + sel] = e + lift + w * (z - e - lift) - f.h[sel]
 
 
 def _height(g, blk, points):
