@@ -53,7 +53,7 @@ MEET = 0.5  # two parts meet where their heights differ by less than this times 
 
 
 def normal_jumps(relief, gray, *, epsilon=None, margin=2, raster=None):
-    """Angles (deg) between the normals of neighbouring pixels of two parts that meet with no ink between.
+    """Angles (deg) between the normals of neighbouring pixels of two parts that meet, ink-free.
 
     ``epsilon`` is the relief's depth step: pairs whose two surfaces differ
     by ``MEET * epsilon`` or more at the point between the pixel centres (an

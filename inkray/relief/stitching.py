@@ -61,7 +61,7 @@ _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
-_REACH = 2.0  # px before a graft seam from which the base's slope is taken (over two fine triangles)
+_REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
 @dataclass

@@ -191,7 +191,7 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
 
 
 def _refine(res, seams, max_area, min_angle):
-    """Triangle's refinement of ``res`` to the area bound of each triangle's distance to ``seams``."""
+    """``res`` refined by Triangle to the area bound of each triangle's distance to ``seams``."""
     centre = np.asarray(res["vertices"])[np.asarray(res["triangles"])].mean(axis=1)
     dist = np.min([point_polyline_distance(centre, np.asarray(s, float)) for s in seams], axis=0)
     edge = _SEAM_EDGE + _SEAM_GROWTH * dist
