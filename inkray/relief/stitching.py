@@ -16,11 +16,12 @@ gets an offset field ``g_i`` on its mesh so that the heights
   the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and
   ``z_F >= z_K`` plus a margin growing to ``epsilon`` on every vertex of
   ``F`` within ``band`` pixels of them that lies over ``K``'s mesh (no
-  z-fighting); after the solve ``F`` is blended onto ``K``'s surface over
-  that band with a weight of zero value and slope at the seam, so ``F``
-  leaves ``K`` with its height and slope (no crease, no rim), as the single
-  smooth surface of Dvořožňák et al. 2018, "Seamless reconstruction of
-  part-based high-relief models from hand-drawn images", would;
+  z-fighting); after the solve ``F`` is blended over that band onto ``K``'s
+  tangent plane across the seam, with a weight of zero value and slope at
+  the seam, so ``F`` leaves ``K`` with its height and slope (no crease, no
+  rim), as the single smooth surface of Dvořožňák et al. 2018, "Seamless
+  reconstruction of part-based high-relief models from hand-drawn images",
+  would;
 - ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
 
 with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
@@ -88,8 +89,8 @@ class Layers:
     bands : list of (int, int, (k, 2) array, float)
         Per graft: the grafted region, its base, the seam (station points)
         and the band's width (px). Within the band the grafted part rises
-        from its base's surface to ``epsilon`` above it: an order between the
-        two gives way to the seam there.
+        from its base's surface, with its slope, to its own: an order between
+        the two gives way to the seam there.
     warnings : list of str
         Order entries whose points lie in such a band.
     """
@@ -316,8 +317,8 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         active, rounds = active2, rounds + rounds2
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
-    for zone in zones:
-        _blend(g, blocks, *zone)
+    for front, base, seam, width, _, lift in zones:
+        _blend(g, blocks, front, base, seam, width, lift)
     return Layers(regions=regions, epsilon=float(epsilon), constraints=len(rhs), active=active,
                   rounds=rounds, violation=float(violation), warnings=warnings,
                   bands=[z[:4] for z in zones],
@@ -465,7 +466,7 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
             seam = blocks[front].v[st]
             length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
             width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        lift = _graft_rows(rows, blocks, regions, front, other, st, width, epsilon, key)
+        lift = _graft_rows(rows, blocks, front, other, st, width, epsilon, key)
         zones.append((front, other, blocks[front].v[st], width, key, lift))
     return zones
 
@@ -478,7 +479,7 @@ def _in_front(relations, a, b, blocks):
     return len(blocks[a].h) < len(blocks[b].h)
 
 
-def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, key):
+def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
     """The front region grows out of ``base``: no crack, no z-fighting.
 
     At the stations ``z_front = z_base`` (C0, lifted by the base's bulge:
@@ -502,7 +503,7 @@ def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, ke
     return float(lift.max(initial=0.0))
 
 
-def _blend(g, blocks, front, base, seam, width, key, lift):
+def _blend(g, blocks, front, base, seam, width, lift):
     """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
 
     Over the band the grafted part's height becomes ``e + lift + w(d / width)
@@ -544,7 +545,7 @@ def _height(g, blk, points):
 
 def _foot(points, line):
     """Nearest point of the polyline ``line`` to each of ``points``."""
-    a, b = line[:-1], line[1:]
+    a, b = (line[:-1], line[1:]) if len(line) > 1 else (line, line)
     ab = b - a
     t = ((points[:, None] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12)
     near = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
