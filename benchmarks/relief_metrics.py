@@ -6,9 +6,14 @@ what a viewer sees, not on the solver's own variables:
 
 - **normal jump** at ink-free seams: the relief is rasterized from the front
   with interpolated vertex normals (as a viewer shades it); where two
-  4-neighbouring pixels show different parts and no ink is drawn within
-  ``margin`` px, the angle between their normals. A seamless join is ~0 deg;
-  reported is the 90th percentile.
+  4-neighbouring pixels show different parts, no ink is drawn within
+  ``margin`` px and the two parts' surfaces meet (at the point between the
+  two pixel centres their heights differ by less than half the depth step
+  ``epsilon``), the angle between their normals. A seamless join is ~0 deg;
+  reported is the 90th percentile. Where the heights differ by more, one
+  part is in front of the other through a gap in the ink: an occlusion step,
+  not a seam (``epsilon=None`` counts those pixels too, as this figure
+  first did).
 - **order held**: along the segment between an ``order`` entry's two points,
   and over its place's overlap, the front part's surface is above the back
   part's by the depth step (wherever both meshes are there, outside the band
@@ -44,8 +49,15 @@ def ink_mask(gray):
     return np.asarray(gray) < INK
 
 
-def normal_jumps(relief, gray, *, margin=2, raster=None):
-    """Angles (deg) between the normals of neighbouring pixels of two parts with no ink between.
+MEET = 0.5  # two parts meet where their heights differ by less than this times epsilon
+
+
+def normal_jumps(relief, gray, *, epsilon=None, margin=2, raster=None):
+    """Angles (deg) between the normals of neighbouring pixels of two parts that meet, ink-free.
+
+    ``epsilon`` is the relief's depth step: pairs whose two surfaces differ
+    by ``MEET * epsilon`` or more at the point between the pixel centres (an
+    occlusion step) are left out; ``None`` keeps them.
 
     Returns an array with one angle per ink-free 4-neighbour pixel pair
     across a part change (empty when there is none).
@@ -59,10 +71,23 @@ def normal_jumps(relief, gray, *, margin=2, raster=None):
         a[axis], b[axis] = slice(None, -1), slice(1, None)
         pa, pb = r.part[tuple(a)], r.part[tuple(b)]
         sel = (pa >= 0) & (pb >= 0) & (pa != pb) & ~ink[tuple(a)] & ~ink[tuple(b)]
+        if epsilon is not None:
+            ys, xs = np.nonzero(sel)
+            mid = np.column_stack([xs, ys]) + 0.5 * np.eye(2)[::-1][axis]
+            step = np.abs(_height_of(relief, pa[sel], mid) - _height_of(relief, pb[sel], mid))
+            sel[ys[step >= MEET * epsilon], xs[step >= MEET * epsilon]] = False
         na, nb = r.normal[tuple(a)][sel], r.normal[tuple(b)][sel]
         cos = np.clip((na * nb).sum(axis=1), -1.0, 1.0)
         out.append(np.degrees(np.arccos(cos)))
     return np.concatenate(out)
+
+
+def _height_of(relief, part, points):
+    """Height of part ``part[k]`` of the relief at ``points[k]``."""
+    z = np.zeros(len(points))
+    for i in np.unique(part):
+        z[part == i] = height_on(relief.parts[i], points[part == i])[0]
+    return z
 
 
 def height_on(part, points):
@@ -260,7 +285,8 @@ def relief_figures(result, gray):
     """The open relief's figures from a :class:`~inkray.chain.ReliefResult` (dict)."""
     relief = result.relief
     raster = rasterize(relief)
-    jumps = normal_jumps(relief, gray, raster=raster)
+    jumps = normal_jumps(relief, gray, epsilon=result.layers.epsilon, raster=raster)
+    steps = normal_jumps(relief, gray, raster=raster)
     margins = order_margins(relief, result.relations, result.layers.epsilon,
                             completion=result.completion, bands=result.layers.bands)
     seg = np.concatenate([m["segment"] for m in margins.values()] or [np.zeros(0)])
@@ -269,6 +295,7 @@ def relief_figures(result, gray):
     return {
         "jump_p90": float(np.percentile(jumps, 90)) if len(jumps) else 0.0,
         "seam_pixels": int(len(jumps)),
+        "jump_p90_all": float(np.percentile(steps, 90)) if len(steps) else 0.0,
         "order_held": float((seg >= tol).mean()) if len(seg) else 1.0,
         "place_held": float((place >= tol).mean()) if len(place) else 1.0,
         "entries_broken": sorted(k for k, m in margins.items()

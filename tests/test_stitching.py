@@ -12,6 +12,8 @@ from inkray.errors import InputError
 from inkray.relief.outline import MeshOptions
 from inkray.relief.inflation import inflate_region
 from inkray.relief.ordering import depth_order
+from inkray.numerics.polyline import point_polyline_distance
+from inkray.relief import stitching
 from inkray.relief.stitching import stitch
 from inkray.input.constraints import constraints
 
@@ -153,19 +155,37 @@ def _limb():
     return labels
 
 
-def test_graft_has_no_crack_and_continuous_slope():
+def _graft_layers():
     labels = _limb()
     ann = _doc((360, 220), order=[((250, 110), (100, 110))],
                boundaries=[("graft", [(149.5, 88), (149.5, 132)])])
-    layers, c, rel = _build(labels, ann, ["body", "limb"])
+    return _build(labels, ann, ["body", "limb"])[0]
+
+
+def _seam_slopes(layers, step=1.0):
+    """dz/dx of the visible surface ``step`` px either side of the seam x = 149.5:
+    the body's on the left, the limb's on the right, along five rows."""
+    B, F = layers.regions
+    out = []
+    for y in (95.0, 100.0, 110.0, 120.0, 125.0):
+        zl, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0),
+                          np.array([[149.5 - step, y], [149.5, y]]))
+        zr, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1),
+                          np.array([[149.5, y], [149.5 + step, y]]))
+        out.append((np.diff(zl)[0] / step, np.diff(zr)[0] / step))
+    return np.array(out)
+
+
+def test_graft_has_no_crack_and_no_crease():
+    layers = _graft_layers()
     B, F = layers.regions
     st = F.mesh.station_vertices(0)
     assert len(st) >= 5
     zb, db = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), F.mesh.vertices[st])
     assert db.max() < 1e-9  # the body continues under the limb
-    # No crack: the limb's seam rests on the body, each station lifted by the
-    # body's bulge over the straight seam edges beside it (a fraction of a pixel),
-    # so that the body does not show through between the stations either.
+    # No crack: the limb's seam rests on the body, lifted by the body's bulge over
+    # the straight seam edges between stations (a fraction of a pixel), so that the
+    # body does not show through between the stations either.
     lift = layers.z(1)[st] - zb
     assert lift.min() >= -1e-6 and lift.max() < 0.25
     seam = F.mesh.vertices[st]
@@ -173,30 +193,30 @@ def test_graft_has_no_crack_and_continuous_slope():
     zfm, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), mid)
     zbm, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), mid)
     assert np.all(zfm >= zbm - 1e-6)
-    # slope continuity along y = 110: right of the seam the limb leaves with the
-    # slope of the body surface it grows out of (the body continues under it) ...
-    xs = 149.5 + np.array([2.0, 6.0])
-    right = np.column_stack([xs, [110.0, 110.0]])
-    zf, dr = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), right)
-    zk, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), right)
-    assert dr.max() < 1e-9
-    # (matched over the first half outline edge; beyond it the limb, now above the
-    # body, bends toward its own shape: 4 px out the slopes differ by ~0.1)
-    slope_limb, slope_body = np.diff(zf)[0] / 4.0, np.diff(zk)[0] / 4.0
-    assert abs(slope_limb - slope_body) < 0.15, (slope_limb, slope_body)
-    assert np.all(zf >= zk)  # the limb is above the body: no z-fighting
-    # ... and the visible surface (body left of the seam, limb right of it) has
-    # one-sided slopes 3 px either side that differ by less than 0.1 in dz/dx
-    left = np.array([[149.5 - 4.5, 110.0], [149.5 - 1.5, 110.0]])
-    right = np.array([[149.5 + 1.5, 110.0], [149.5 + 4.5, 110.0]])
-    zl, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), left)
-    zr, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), right)
-    assert abs(np.diff(zr)[0] / 3.0 - np.diff(zl)[0] / 3.0) < 0.1
+    # No crease (C1): the limb leaves the seam with the slope of the body it grows
+    # out of. (Solved alone, the limb rises from the seam at 0.3-3 px per px while
+    # the body falls at 0.24: see the next test.)
+    slopes = _seam_slopes(layers)
+    assert np.abs(slopes[:, 1] - slopes[:, 0]).max() < 0.08, slopes
+    # the limb stays above the body over the whole band: no z-fighting
+    (front, base, line, width), = layers.bands
+    band = np.flatnonzero(point_polyline_distance(F.mesh.vertices, line) < width)
+    under, d = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), F.mesh.vertices[band])
+    assert (front, base) == (1, 0) and d.max() < 1e-9
+    assert np.all(layers.z(1)[band] >= under - 1e-9)
     # the body is not dented by the limb: its offset stays rigid
     assert np.ptp(layers.offset[0]) < 0.01
     # the limb stands clear of the body beyond the graft band
     far = np.array([[260.0, 110.0]])
     assert height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), far)[0][0] > 0
+
+
+def test_a_graft_without_the_blend_creases(monkeypatch):
+    # The bound above tells a C1 graft from a C0 one: with only the QP's rows (the
+    # limb meets the body at the seam, above it over the band) the slopes differ.
+    monkeypatch.setattr(stitching, "_blend", lambda *args: None)
+    slopes = _seam_slopes(_graft_layers())
+    assert np.abs(slopes[:, 1] - slopes[:, 0]).max() > 0.5
 
 
 def test_contradictory_constraints_name_the_entries():

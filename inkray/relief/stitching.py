@@ -13,9 +13,15 @@ gets an offset field ``g_i`` on its mesh so that the heights
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
 - **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
   outline carries the entry, inflated with a Neumann condition there) meets
-  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and on
-  every vertex of ``F`` within ``band`` pixels of them that lies over ``K``'s
-  mesh, so ``F`` leaves ``K``'s surface tangentially (no rim);
+  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and
+  ``z_F >= z_K`` plus a margin growing to ``epsilon`` on every vertex of
+  ``F`` within ``band`` pixels of them that lies over ``K``'s mesh (no
+  z-fighting); after the solve ``F`` is blended over that band onto ``K``'s
+  tangent plane across the seam, with a weight of zero value and slope at
+  the seam, so ``F`` leaves ``K`` with its height and slope (no crease, no
+  rim), as the single smooth surface of Dvořožňák et al. 2018, "Seamless
+  reconstruction of part-based high-relief models from hand-drawn images",
+  would;
 - ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
 
 with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
@@ -55,8 +61,8 @@ _SCREEN = 1e-4  # lambda_i * area_i: rigid shifts cost 1e-4 of a unit bend
 _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
-_SLOPE_STEP = 0.5  # outline edges from a graft seam to where its slope is matched
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
+_REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
 @dataclass
@@ -78,12 +84,13 @@ class Layers:
     rounds : int
         Constraint-generation rounds.
     violation : float
-        Largest violation of any candidate constraint at the solution (px).
+        Largest violation of any candidate constraint at the QP's solution, before
+        the graft bands are blended (px).
     bands : list of (int, int, (k, 2) array, float)
         Per graft: the grafted region, its base, the seam (station points)
         and the band's width (px). Within the band the grafted part rises
-        from its base's surface to ``epsilon`` above it: an order between the
-        two gives way to the seam there.
+        from its base's surface, with its slope, to its own: an order between
+        the two gives way to the seam there.
     warnings : list of str
         Order entries whose points lie in such a band.
     """
@@ -222,8 +229,8 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
     band : float, optional
         Width in px of the graft band where the front region follows the one
-        behind; default a quarter of the seam's length, at least two outline
-        edges and at most two mean edges of the front mesh.
+        behind; default half the seam's length, at least two outline edges
+        of the front mesh.
     tol : float, default 1e-6
         Allowed constraint violation (px).
     max_rounds : int, default 60
@@ -310,6 +317,8 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         active, rounds = active2, rounds + rounds2
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
+    for front, base, seam, width, _, lift in zones:
+        _blend(g, blocks, front, base, seam, width, lift)
     return Layers(regions=regions, epsilon=float(epsilon), constraints=len(rhs), active=active,
                   rounds=rounds, violation=float(violation), warnings=warnings,
                   bands=[z[:4] for z in zones],
@@ -420,8 +429,9 @@ def _equal_rows(rows, blocks, rel):
 def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
     """Rows of the ``stitch`` and ``graft`` entries; returns the graft zones.
 
-    A zone ``(front, base, station points, band width)`` says where
-    inequalities between the two regions are left out.
+    A zone ``(front, base, station points, band width, key, lift)`` says
+    where inequalities between the two regions are left out and where
+    :func:`_blend` joins them.
     """
     zones = []
     for entry in seams:
@@ -456,8 +466,8 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
             seam = blocks[front].v[st]
             length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
             width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        _graft_rows(rows, blocks, regions, front, other, st, width, epsilon, key)
-        zones.append((front, other, blocks[front].v[st], width, key))
+        lift = _graft_rows(rows, blocks, front, other, st, width, epsilon, key)
+        zones.append((front, other, blocks[front].v[st], width, key, lift))
     return zones
 
 
@@ -469,35 +479,78 @@ def _in_front(relations, a, b, blocks):
     return len(blocks[a].h) < len(blocks[b].h)
 
 
-def _graft_rows(rows, blocks, regions, front, base, stations, width, epsilon, key):
-    """The front region grows out of ``base``: no crack, no crease, no z-fighting.
+def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
+    """The front region grows out of ``base``: no crack, no z-fighting.
 
-    At the stations ``z_front = z_base`` (C0) and the slopes across the seam
-    match (C1, :func:`_slope_rows`). Where ``base`` continues under ``front``
-    (it was completed there), every vertex of ``front`` in the band between
-    two slope steps and ``width`` from the stations, at distance ``d``, lies
-    above ``base`` by the margin ``epsilon (d / width)^2``: zero with zero
-    slope at the seam (the two surfaces leave it together), ``epsilon`` (the
-    order step) at the end of the band. The base thus stays below the grafted
-    part all the way, and the seam is one clean curve instead of two
-    coincident surfaces fighting in the z-buffer.
+    At the stations ``z_front = z_base`` (C0, lifted by the base's bulge:
+    :func:`_sagitta`). Where ``base`` continues under ``front`` (it was
+    completed there), every other vertex of ``front`` within ``width`` of the
+    stations, at distance ``d``, lies above ``base`` by the margin ``epsilon
+    (d / width)^2``: zero at the seam, ``epsilon`` (the order step) at the end
+    of the band. The base thus stays below the grafted part all the way, and
+    :func:`_blend` then makes the grafted part leave the seam with the
+    base's slope. Returns the largest lift of a station.
     """
     blk = blocks[front]
     seam = blk.v[stations]
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    step = min(_SLOPE_STEP * _mean_outline_edge(regions[front].mesh), 0.5 * width)
-    touched = _slope_rows(rows, blocks, front, base, stations, step,
-                          float(_margin(step, width, epsilon)), key)
     dist = point_polyline_distance(blk.v, seam)
-    # Vertices the slope rows speak of are left to them (two rows on one vertex could
-    # contradict each other through the interpolation).
-    sel = np.setdiff1d(np.flatnonzero(dist <= width), np.concatenate([stations, touched]))
-    near = np.argmin(np.linalg.norm(blk.v[sel, None, :] - seam[None], axis=2), axis=1)
-    floor = np.where(dist[sel] < step, lift[near], 0.0)
+    sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
-                np.maximum(_margin(dist[sel], width, epsilon), floor), True, key, graft=True)
+                _margin(dist[sel], width, epsilon), True, key, graft=True)
+    return float(lift.max(initial=0.0))
+
+
+def _blend(g, blocks, front, base, seam, width, lift):
+    """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
+
+    Over the band the grafted part's height becomes ``e + lift + w(d / width)
+    (z_front - e - lift)`` with ``w(t) = 3 t^2 - 2 t^3``, ``d`` the distance
+    to the seam and ``e`` the base continued across the seam by its tangent
+    plane (its slope from the last :data:`_REACH` px before the seam):
+    ``w(0) = w'(0) = 0``, so at the seam the grafted part has the base's
+    height (lifted by the base's bulge between stations) and slope; ``w(1) =
+    1, w'(1) = 0``, so it joins its solved surface with no crease at the
+    band's end. The tangent plane, not the base's own surface where it was
+    completed under the grafted part: that surface falls to zero height at
+    its invented outline, wherever the completion ended. Where the base is
+    above its tangent plane (a concave base) its own surface is taken, so
+    that with ``z_front >= z_base`` (the graft rows) the grafted part stays
+    above the base all the way.
+    """
+    f, b = blocks[front], blocks[base]
+    foot = _foot(f.v, seam)
+    d = np.linalg.norm(f.v - foot, axis=1)
+    sel = np.flatnonzero(d < width)
+    p, s, d = f.v[sel], foot[sel], d[sel]
+    away = (p - s) / np.maximum(d, 1e-12)[:, None]
+    # the slope at the seam, by the second-order one-sided difference
+    at, one, two = (_height(g, b, s - k * _REACH / 2.0 * away)[0] for k in (0, 1, 2))
+    e = at + (3.0 * at - 4.0 * one + two) * d / _REACH
+    under, dist = _height(g, b, p)
+    e = np.where(dist <= _INSIDE, np.maximum(e, under), e)
+    t = d / width
+    w = t * t * (3.0 - 2.0 * t)
+    z = f.h[sel] + g[f.start + sel]
+    g[f.start + sel] = e + lift + w * (z - e - lift) - f.h[sel]
+
+
+def _height(g, blk, points):
+    """Final height of ``blk`` at ``points`` (its nearest point's) and their distance to it."""
+    tri, w, dist = blk.locate(points)
+    return ((blk.h + g[blk.start:blk.start + len(blk.h)])[tri] * w).sum(axis=1), dist
+
+
+def _foot(points, line):
+    """Nearest point of the polyline ``line`` to each of ``points``."""
+    a, b = (line[:-1], line[1:]) if len(line) > 1 else (line, line)
+    ab = b - a
+    t = ((points[:, None] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12)
+    near = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+    k = np.argmin(((points[:, None] - near) ** 2).sum(-1), axis=1)
+    return near[np.arange(len(points)), k]
 
 
 def _sagitta(base, seam):
@@ -524,40 +577,6 @@ def _margin(d, width, epsilon):
     return epsilon * np.minimum(np.asarray(d, float) / width, 1.0) ** 2
 
 
-def _slope_rows(rows, blocks, a, b, stations, step, lift, label):
-    """C1 across a graft seam: equal slopes along the seam normal.
-
-    At every station ``s`` with unit normal ``n`` (pointing into ``a``):
-    where ``b`` continues under ``a``, ``z_a(s + t n) - z_a(s) = z_b(s + t n)
-    - z_b(s) + lift`` (``a`` leaves the seam along ``b``'s surface, lifted by
-    the band's margin at ``t``); where ``b`` ends at the seam, ``z_a(s + t n)
-    - z_a(s) = z_b(s) - z_b(s - t n)`` (``a`` leaves with the slope ``b``
-    arrives with). Returns the vertices of ``a`` these rows interpolate.
-    """
-    p = blocks[a].v[stations]
-    if len(p) < 2:
-        return np.zeros(0, np.int64)
-    tangent = np.gradient(p, axis=0)
-    n = np.column_stack([-tangent[:, 1], tangent[:, 0]])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    _, _, into_a = blocks[a].locate(p + step * n)
-    _, _, into_b = blocks[a].locate(p - step * n)
-    if np.median(into_a) > np.median(into_b):
-        n = -n
-    ahead = p + step * n
-    _, _, covered = blocks[b].locate(ahead)
-    under = covered <= _INSIDE
-    st = np.asarray(stations)
-    for sel, terms, rhs in (
-            (under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, f, -1.0), (b, q, 1.0)], lift),
-            (~under, lambda q, s, f: [(a, f, 1.0), (a, s, -1.0), (b, q, -1.0),
-                                      (b, 2 * q - f, 1.0)], 0.0)):
-        if sel.any():
-            _terms_rows(rows, blocks, terms(p[sel], st[sel], ahead[sel]), float(rhs), False, label,
-                        graft=True)
-    return np.unique(blocks[a].locate(ahead)[0])
-
-
 def _behind(regions, blocks, front, stations, holders):
     """The region on the other side of a marked stretch of ``front``'s outline."""
     neigh = regions[front].mesh.neighbour[stations]
@@ -579,7 +598,7 @@ def _band_warnings(relations, zones):
         if rel.kind != "order" or rel.points is None:
             continue
         pts = np.array(rel.points, float).reshape(-1, 2)
-        for front, base, line, width, key in zones:
+        for front, base, line, width, key, _ in zones:
             if {front, base} == {rel.front, rel.back} and \
                     (point_polyline_distance(pts, line) < width).any():
                 out.append(f"{rel.label}: gives way to the graft seam of {key} within "
@@ -595,17 +614,11 @@ def _keepout(zones):
     """
     def near(i, j, pts):
         out = np.zeros(len(pts), bool)
-        for front, base, line, width, _ in zones:
+        for front, base, line, width, _, _ in zones:
             if {front, base} == {i, j} and len(pts):
                 out |= point_polyline_distance(pts, line) < width
         return out
     return near
-
-
-def _mean_edge(mesh):
-    f = np.asarray(mesh.faces)
-    v = np.asarray(mesh.vertices)
-    return float(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2).mean())
 
 
 def _mean_outline_edge(mesh):

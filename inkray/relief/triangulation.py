@@ -5,7 +5,10 @@ Adding Global Illumination Effects to Hand-Drawn Characters" (TOG 2014) is
 inflated as a 2D triangle mesh. This module meshes a
 :class:`~inkray.relief.outline.RegionOutline` with a constrained conforming Delaunay
 triangulation: minimum angle 20 degrees (except next to sharper input corners),
-maximum area from the resolution knob ``max_area`` (px^2).
+maximum area from the resolution knob ``max_area`` (px^2), and finer
+triangles near the seams of ``graft`` entries, so that a grafted part can
+leave its base with the base's slope and its interpolated normals stay
+smooth across the seam (the triangles grow with the distance to the seam).
 
 All outline vertices are kept, so stations of ``boundaries`` entries stay
 vertices (the correspondences stitching uses). Triangle may split an outline
@@ -23,10 +26,14 @@ import numpy as np
 import triangle
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.polyline import point_polyline_distance
 from inkray.relief.outline import (DEFAULT_MAX_AREA, INTERIOR, MeshOptions, edge_length,
                                    region_outline)
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
+
+_SEAM_EDGE = 1.0  # px: longest triangle edge on a graft seam
+_SEAM_GROWTH = 0.25  # and its growth per px away from the seam
 
 
 @dataclass
@@ -90,7 +97,7 @@ class RegionMesh:
         return sel[np.argsort(self.station[sel])]
 
 
-def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
+def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, seams=()):
     """Quality-mesh the inside of a region outline.
 
     Parameters
@@ -100,6 +107,10 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
         Largest triangle area (px^2).
     min_angle : float, default 20
         Smallest angle (degrees) Triangle enforces (at most about 33).
+    seams : sequence of (k, 2) arrays, default ()
+        Polylines near which the triangles are finer: edges of about 1 px on
+        them, growing by a quarter of the distance to them, up to the size
+        ``max_area`` asks for.
 
     Returns
     -------
@@ -120,6 +131,10 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
     >>> mesh = triangulate_outline(out, max_area=30.0)
     >>> bool(mesh.faces.shape[0] > 40)
     True
+    >>> fine = triangulate_outline(out, max_area=30.0, seams=[np.array([[40.0, 10], [40, 50]])])
+    >>> near = np.abs(fine.vertices[:, 0] - 40) < 2
+    >>> int(near.sum()) > 4 * int((np.abs(mesh.vertices[:, 0] - 40) < 2).sum())
+    True
     """
     if not max_area > 0:
         raise InputError(f"max_area: expected a positive area in px^2, got {max_area!r}")
@@ -134,6 +149,8 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
     if len(outline.hole_points):
         pslg["holes"] = outline.hole_points
     res = triangle.triangulate(pslg, f"pq{min_angle:g}a{max_area:.17g}Q")
+    if len(seams) and len(res.get("triangles", ())):
+        res = _refine(res, seams, max_area, min_angle)
     faces = np.asarray(res.get("triangles", np.zeros((0, 3))), np.int64)
     if len(faces) == 0:
         raise StageError(f"region {outline.name}: the triangulation is empty")
@@ -173,6 +190,17 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0):
                       matched=outline.matched, snap_distance=dict(outline.snap_distance))
 
 
+def _refine(res, seams, max_area, min_angle):
+    """``res`` refined by Triangle to the area bound of each triangle's distance to ``seams``."""
+    centre = np.asarray(res["vertices"])[np.asarray(res["triangles"])].mean(axis=1)
+    dist = np.min([point_polyline_distance(centre, np.asarray(s, float)) for s in seams], axis=0)
+    edge = _SEAM_EDGE + _SEAM_GROWTH * dist
+    bound = np.minimum(max_area, np.sqrt(3.0) / 4.0 * edge ** 2)
+    if not (bound < max_area).any():
+        return res
+    return triangle.triangulate({**res, "triangle_max_area": bound}, f"rpq{min_angle:g}aQ")
+
+
 def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
                 options=None):
     """Outline and triangulate one completed region.
@@ -187,6 +215,8 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
         Small regions get smaller triangles, at most ``area /
         options.min_triangles``, so that they are not faceted; stations keep
         the spacing of ``options.max_area`` (they must agree between regions).
+        Triangles are finer near ``graft`` paths (see
+        :func:`triangulate_outline`).
 
     Returns
     -------
@@ -206,4 +236,5 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
                          boundaries=boundaries,
                          options=replace(o, max_area=area, station_spacing=station_spacing))
-    return triangulate_outline(out, max_area=area, min_angle=o.min_angle)
+    grafts = [np.asarray(b.path, float) for b in boundaries if b.type == "graft"]
+    return triangulate_outline(out, max_area=area, min_angle=o.min_angle, seams=grafts)
