@@ -10,7 +10,8 @@ from inkray.errors import InputError
 __all__ = ["EXAMPLES", "example_path"]
 
 _HERE = Path(__file__).resolve().parent
-EXAMPLES = ("turtle", "frog", "balls", "donkey", "dragon", "fox", "gingerbread", "man", "rings", "figure", "cat")
+EXAMPLES = ("turtle", "frog", "balls", "donkey", "dragon", "fox", "gingerbread", "man", "rings", "figure", "cat",
+            "bird", "fish", "cards", "snowman")
 
 
 def example_path(name="turtle"):

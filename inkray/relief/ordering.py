@@ -43,7 +43,7 @@ __all__ = ["JUNCTION_RADIUS", "Relation", "WEIGHTS", "depth_order", "predict_pla
 
 #: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
 #: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
-WEIGHTS = {"junction": 4.826, "area": 1.498, "surround": 4.236}
+WEIGHTS = {"junction": 5.234, "area": 1.668, "surround": 4.454}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
 
