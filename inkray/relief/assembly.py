@@ -254,7 +254,8 @@ def _envelope_solid(parts, *, gap):
 
 
 def _trim_footprint(xy, tris, neighbours, inside, gap):
-    """``inside`` with thin triangles between two outside (inside) neighbours flipped."""
+    """``inside`` with thin triangles between two outside (inside) neighbours flipped,
+    and islands smaller than ``(4 gap)^2`` dropped."""
     t = xy[tris]
     e = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2)
     e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
@@ -268,6 +269,18 @@ def _trim_footprint(xy, tris, neighbours, inside, gap):
             break
         inside[fill] = True
         inside[cut] = False
+    # islands smaller than a few gaps across (a tip cut off at a thin neck) would be
+    # needles of the solid's full height
+    k = np.flatnonzero(inside)
+    index = np.full(len(tris), -1)
+    index[k] = np.arange(len(k))
+    rows = np.repeat(np.arange(len(k)), 3)
+    cols = index[neighbours[k]].ravel()
+    keep = (cols >= 0) & (neighbours[k].ravel() >= 0)
+    graph = coo_matrix((np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(len(k), len(k)))
+    _, label = connected_components(graph, directed=False)
+    area = np.abs(e1[k, 0] * e2[k, 1] - e1[k, 1] * e2[k, 0]) / 2.0
+    inside[k[np.bincount(label, weights=area)[label] < 16.0 * gap ** 2]] = False
     return inside
 
 
