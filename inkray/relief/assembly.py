@@ -320,17 +320,19 @@ def _sample(vertices, faces, points, tol):
 def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
 
-    The whole surface is remeshed toward edges of length ``target`` (sharp
-    creases are not kept as features: the rims of a relief are smooth in the
-    drawing). The remeshing leaves a few triangles with an angle below
-    ``min_angle`` along creases it keeps; each is then flipped (a cap whose
-    long edge lies in a flat stretch), collapsed (a needle's short edge, to
-    whichever of its midpoint and ends shapes the triangles around it best)
-    or split (a cap's long edge at the foot of its far corner, making two
-    needles), only where this turns no face by more than 30 degrees and
-    raises the smallest angle around it. The result is returned only when it
-    is still watertight and edge-manifold; otherwise the input comes back
-    unchanged.
+    The whole surface is remeshed toward edges of length ``target``, and
+    again (up to three times) while a triangle has an angle below
+    ``min_angle``; creases sharper than 89 degrees (the steps between parts)
+    are kept as features. The remeshing leaves a few slivers along those
+    creases; each is then flipped (a cap whose long edge lies in a flat
+    stretch), collapsed (a needle's short edge, to whichever of its midpoint
+    and ends shapes the triangles around it best) or split (a cap's long
+    edge at the foot of its far corner, making two needles), only where this
+    turns no face by more than 30 degrees and raises the smallest angle
+    around it. The remeshed surface is returned only when it is still
+    watertight and edge-manifold (otherwise the input comes back unchanged),
+    and without the sliver fixes when they would break that or put two
+    vertices at one position.
 
     Parameters
     ----------
