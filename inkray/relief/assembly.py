@@ -13,15 +13,14 @@ silhouette (``h = 0``) the wall is a thin rim instead of a knife edge, which
 keeps every part a proper 2-manifold (a knife edge pinches wherever a
 triangle has all its corners on the silhouette) and gives ``flat`` parts a
 slab of thickness ``epsilon``. Every closed part is watertight and
-consistently oriented; ``union=True`` merges them into one solid with
-manifold3d and remeshes it (PyMeshLab's isotropic remeshing, then again
-while a triangle has an angle below 10 degrees): a boolean union
-cuts triangles into slivers along every intersection curve, and the steep
-rims of inflated parts are slivers in 3D too. Slivers remain only where two
-sheets nearly touch (along a graft's seam, the grafted part's wall meets its
-base's surface within a fraction of a pixel). Parts that do not touch the
-rest (a piece floating in front of the part it belongs to) stay separate
-shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
+consistently oriented; ``union=True`` makes one solid of them for 3D
+printing: the space between the highest front and the lowest back over the
+union of the parts' outlines, built as a height field (no boolean, so no
+near-coincident sheets and no slivers along intersection curves), which
+joins a part floating in front of the part behind it to it. It is remeshed
+(PyMeshLab's isotropic remeshing) and its remaining slivers are flipped,
+collapsed or split away. Parts whose outlines do not overlap (drawn apart)
+stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
 import numpy as np
@@ -35,10 +34,9 @@ from inkray.relief.model import Part, Relief
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE"]
 
-_SEPARATION = 1e-3  # px between parts in the union (see union_parts)
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
-_FIX_ROUNDS = 3  # local remeshing rounds around triangles still below MIN_ANGLE
+_FIX_ROUNDS = 3  # whole remeshing rounds while a triangle is below MIN_ANGLE
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -98,9 +96,8 @@ def assemble(layers, *, size, texture=None, closed=False, union=False):
         groups = shell_parts(solid, parts)
         if len(groups) > 1:
             apart = "; ".join(", ".join(g) for g in groups[1:])
-            warnings.append(f"union: {len(groups)} separate shells: {apart} do not touch "
-                            f"{', '.join(groups[0])} (they float in front of the parts behind "
-                            f"them or are drawn apart)")
+            warnings.append(f"union: {len(groups)} separate shells: {apart} do not overlap "
+                            f"{', '.join(groups[0])} in the drawing")
         parts = [solid]
     return Relief(parts=parts, size=tuple(size), texture=texture, warnings=warnings)
 
@@ -144,62 +141,198 @@ def close_part(part, back_z):
 
 
 def union_parts(parts, *, name="union", remesh=True):
-    """One watertight solid: the union of closed parts (manifold3d), remeshed.
+    """One watertight solid over the union of closed parts' outlines, remeshed.
+
+    Every closed part is a slab over the image plane: over its outline it
+    fills ``[back(x, y), front(x, y)]``. The solid fills ``[B, T]`` over the
+    union of the outlines, with ``T`` the highest front and ``B`` the lowest
+    back of the parts there: the union of the parts where their slabs
+    overlap, and the gap filled where a part floats in front of the part
+    behind it, so parts whose outlines overlap make one shell. It is built
+    as a height field, without a boolean: the union's footprint is
+    triangulated in 2D (Triangle) with every part's outline as a
+    constraint, ``T`` and ``B`` are sampled at its vertices, and a wall
+    joins them along the footprint's outline. Watertight, consistently
+    oriented and free of near-coincident sheets by construction. A step
+    where one part's outline crosses another part becomes a steep strip
+    about ``3 gap`` wide, ``gap`` being a twelfth of the parts' median edge
+    (rows of points beside every outline bound it); slits, spikes and ledges
+    narrower than about ``gap`` are closed, cut or filled (see
+    ``_envelope_solid``).
 
     Parameters
     ----------
     parts : list of Part
-        Closed parts.
+        Closed parts, slabs over the image plane (front faces clockwise in
+        ``(x, y)``, back faces counter-clockwise).
     name : str, default "union"
     remesh : bool, default True
-        Remesh the union (:func:`remesh_solid`) with edges a third as long
+        Remesh the solid (:func:`remesh_solid`) with edges a third as long
         as the parts' median edge.
 
     Returns
     -------
     Part
 
-    Raises
-    ------
-    StageError
-        When manifold3d rejects a part as not a manifold solid.
+    Examples
+    --------
+    >>> import manifold3d as m3d
+    >>> def box(x, z):
+    ...     m = m3d.Manifold.cube([4.0, 4.0, 1.0]).translate([x, 0.0, z]).to_mesh()
+    ...     v = np.asarray(m.vert_properties, float) * [1, -1, 1]  # y down
+    ...     return Part("box", v, np.asarray(m.tri_verts, np.int64), closed=True)
+    >>> solid = union_parts([box(0.0, 0.0), box(2.0, 3.0)], remesh=False)  # floats above
+    >>> len(shell_parts(solid, [box(0.0, 0.0)])), _closed_manifold(solid.faces)
+    (1, True)
     """
-    import manifold3d as m3d
-
-    total = None
-    for k, p in enumerate(parts):
-        # manifold3d works in a right-handed frame: flip y (down -> up) and back.
-        # Part k is lifted by k * 1e-3 px: a graft band makes two front surfaces
-        # coincide exactly, and coincident faces pinch the union into
-        # duplicate-position vertices that other tools weld into non-manifold edges.
-        verts = (np.asarray(p.vertices, float) + [0.0, 0.0, k * _SEPARATION]) * [1, -1, 1]
-        verts = verts.astype(np.float32)
-        solid = m3d.Manifold(m3d.Mesh(vert_properties=verts,
-                                      tri_verts=np.asarray(p.faces, np.uint32)))
-        if solid.status() != m3d.Error.NoError:
-            raise StageError(f"part {p.name}: not a manifold solid for the union ({solid.status().name})")
-        total = solid if total is None else total + solid
-    mesh = total.to_mesh()
-    verts = np.asarray(mesh.vert_properties, float)[:, :3] * np.array([1, -1, 1])
-    faces = np.asarray(mesh.tri_verts, np.int64)
-    if remesh and len(faces):
-        edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
-                                               axis=2).ravel() for p in parts])
-        verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)) / 3.0)
+    edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
+                                           axis=2).ravel() for p in parts])
+    target = float(np.median(edges)) / 3.0
+    verts, faces = _envelope_solid(parts, gap=target / 4.0)
+    if remesh:
+        verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
+def _envelope_solid(parts, *, gap):
+    """The height field ``[B, T]`` over the union of the parts' outlines (see union_parts).
+
+    Notches and gaps of the union's outline narrower than ``gap`` are filled,
+    spikes narrower than it cut off (a wall in a narrow slit cannot be
+    remeshed into well-shaped triangles).
+    """
+    import triangle
+
+    sheets = [_sheets(p) for p in parts]
+    points = np.concatenate([v[:, :2] for v, _, _ in sheets])
+    starts = np.cumsum([0] + [len(v) for v, _, _ in sheets])
+    segments = np.concatenate([np.sort(_boundary_edges(front), axis=1) + s
+                               for (_, front, _), s in zip(sheets, starts)])
+    # rows of points beside every outline, beyond the parts' reach (below): a step where
+    # a part's outline crosses another part becomes a strip this narrow, not a ramp
+    # across a large triangle of the part behind
+    a, b = points[segments[:, 0]], points[segments[:, 1]]
+    normal = (b - a)[:, ::-1] * [1.0, -1.0]
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    beside = [0.5 * (a + b) + k * gap * normal for k in (-5.0, -3.0, 3.0, 5.0)]
+    points = np.concatenate([points] + beside)
+    # one vertex per position: Triangle warns about (and skips) duplicates
+    points, inverse = np.unique(points, axis=0, return_inverse=True)
+    segments = np.unique(np.sort(inverse.ravel()[segments], axis=1), axis=0)
+    segments = segments[segments[:, 0] != segments[:, 1]]
+    tri = triangle.triangulate({"vertices": points, "segments": segments}, "pnQ")
+    xy, tris = np.asarray(tri["vertices"], float), np.asarray(tri["triangles"], np.int64)
+    neighbours = np.asarray(tri["neighbors"], np.int64)
+    tol = 1e-9 * float(np.ptp(xy, axis=0).max())
+    centroids = xy[tris].mean(axis=1)
+    inside = np.zeros(len(tris), bool)
+    top = np.full(len(xy), -np.inf)
+    bottom = np.full(len(xy), np.inf)
+    for v, front, back in sheets:
+        # the triangles of the convex hull inside this part (its outline is a constraint,
+        # so a triangle is inside or outside as a whole)
+        inside |= _sample(v, front, centroids, tol)[0]
+        # a part reaching a fraction of a pixel beyond the part behind it would leave a
+        # ledge that narrow on the solid's side: every part counts a little beyond its
+        # outline (its front out to 2 gap, its back, unseen from the front, out to 4 gap)
+        hit, z = _sample(v, front, xy, 2.0 * gap)
+        top[hit] = np.maximum(top[hit], z)
+        hit, z = _sample(v, back, xy, 4.0 * gap)
+        bottom[hit] = np.minimum(bottom[hit], z)
+    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap)]
+    used, tris = np.unique(tris, return_inverse=True)
+    tris = tris.reshape(-1, 3)
+    xy, top, bottom = xy[used], top[used], bottom[used]
+    if not (np.isfinite(top).all() and np.isfinite(bottom).all()):
+        raise StageError("union: a vertex of the outlines' triangulation lies in no part")
+    n = len(xy)
+    # Triangle's faces run counter-clockwise in (x, y): the back's orientation
+    a, b = _boundary_edges(tris).T
+    walls = np.concatenate([np.stack([a, b, b + n], 1), np.stack([a, b + n, a + n], 1)])
+    verts = np.concatenate([np.column_stack([xy, top]), np.column_stack([xy, bottom])])
+    return verts, np.concatenate([tris[:, ::-1], tris + n, walls])
+
+
+def _trim_footprint(xy, tris, neighbours, inside, gap):
+    """``inside`` with thin triangles between two outside (inside) neighbours flipped,
+    and islands smaller than ``(4 gap)^2`` dropped."""
+    t = xy[tris]
+    e = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2)
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    thin = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / e.max(axis=1) < gap  # altitude
+    inside = inside.copy()
+    for _ in range(len(tris)):
+        near = np.where(neighbours >= 0, inside[neighbours], False).sum(axis=1)
+        fill = thin & ~inside & (near >= 2)
+        cut = thin & inside & (near <= 1)
+        if not (fill.any() or cut.any()):
+            break
+        inside[fill] = True
+        inside[cut] = False
+    # islands smaller than a few gaps across (a tip cut off at a thin neck) would be
+    # needles of the solid's full height
+    k = np.flatnonzero(inside)
+    index = np.full(len(tris), -1)
+    index[k] = np.arange(len(k))
+    rows = np.repeat(np.arange(len(k)), 3)
+    cols = index[neighbours[k]].ravel()
+    keep = (cols >= 0) & (neighbours[k].ravel() >= 0)
+    graph = coo_matrix((np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(len(k), len(k)))
+    _, label = connected_components(graph, directed=False)
+    area = np.abs(e1[k, 0] * e2[k, 1] - e1[k, 1] * e2[k, 0]) / 2.0
+    inside[k[np.bincount(label, weights=area)[label] < 16.0 * gap ** 2]] = False
+    return inside
+
+
+def _sheets(part):
+    """A closed part's vertices, front faces (clockwise in (x, y)) and back faces."""
+    v = np.asarray(part.vertices, float)
+    f = np.asarray(part.faces, np.int64)
+    t = v[f][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    area = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # twice the signed area; walls have none
+    return v, f[area < 0], f[area > 0]
+
+
+def _sample(vertices, faces, points, tol):
+    """Which points lie on the faces in (x, y) (within ``tol``), and the faces' z there."""
+    import igl
+
+    hit = np.zeros(len(points), bool)
+    z = np.zeros(len(points))
+    lo, hi = vertices[:, :2].min(axis=0) - tol, vertices[:, :2].max(axis=0) + tol
+    box = np.flatnonzero(((points >= lo) & (points <= hi)).all(axis=1))
+    if len(box) == 0 or len(faces) == 0:
+        return hit, z[hit]
+    flat = np.column_stack([vertices[:, :2], np.zeros(len(vertices))])
+    query = np.column_stack([points[box], np.zeros(len(box))])
+    d2, face, near = igl.point_mesh_squared_distance(query, flat, faces)
+    t = vertices[faces[face]]
+    e1, e2, r = t[:, 1, :2] - t[:, 0, :2], t[:, 2, :2] - t[:, 0, :2], near[:, :2] - t[:, 0, :2]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    hit[box] = d2 <= tol * tol
+    z[box] = t[:, 0, 2] + l1 * (t[:, 1, 2] - t[:, 0, 2]) + l2 * (t[:, 2, 2] - t[:, 0, 2])
+    return hit, z[hit]
+
+
 def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
-    """Isotropic remeshing of a closed solid (PyMeshLab), slivers fixed where they remain.
+    """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
 
     The whole surface is remeshed toward edges of length ``target``, and
     again (up to three times) while a triangle has an angle below
-    ``min_angle`` (features thinner
-    than about a tenth of ``target``, such as two nearly touching sheets, can
-    keep a few slivers). Sharp creases are
-    not kept as features (the rims of a relief are smooth in the drawing).
-    The result is returned only when it is still watertight and
-    edge-manifold; otherwise the input comes back unchanged.
+    ``min_angle``; creases sharper than 89 degrees (the steps between parts)
+    are kept as features. The remeshing leaves a few slivers along those
+    creases; each is then flipped (a cap whose long edge lies in a flat
+    stretch), collapsed (a needle's short edge, to whichever of its midpoint
+    and ends shapes the triangles around it best) or split (a cap's long
+    edge at the foot of its far corner, making two needles), only where this
+    turns no face by more than 30 degrees and raises the smallest angle
+    around it. The remeshed surface is returned only when it is still
+    watertight and edge-manifold (otherwise the input comes back unchanged),
+    and without the sliver fixes when they would break that or put two
+    vertices at one position.
 
     Parameters
     ----------
@@ -245,7 +378,150 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
     if not _closed_manifold(nf):
         return v, f.astype(np.int64)
-    return nv, nf
+    fv, ff = _SliverFix(nv, nf).run(min_angle)
+    if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
+        return nv, nf
+    return fv, ff
+
+
+class _SliverFix:
+    """Local flips, collapses and splits of a closed mesh's slivers (see remesh_solid)."""
+
+    _ROUNDS = 8
+    _TURN = np.cos(np.radians(30.0))  # largest turn of a face's normal an operation may cause
+
+    def __init__(self, vertices, faces):
+        self.v = np.array(vertices, float)
+        self.f = np.array(faces, np.int64)
+        self.alive = np.ones(len(self.f), bool)
+        flat = self.f.ravel()
+        self._order = np.argsort(flat, kind="stable")
+        self._start = np.searchsorted(flat[self._order], np.arange(len(self.v) + 1))
+        self._around = {}
+
+    def run(self, min_angle):
+        """Vertices and faces with the slivers fixed where it can be done."""
+        for _ in range(self._ROUNDS):
+            live = np.flatnonzero(self.alive)
+            angles = _min_angles(self.v, self.f[live])
+            bad = live[np.argsort(angles, kind="stable")[: int((angles < min_angle).sum())]]
+            changed = False
+            for t in bad.tolist():
+                if self.alive[t] and self._angle(t) < min_angle:
+                    changed |= self._flip(t) or self._collapse(t) or self._split(t)
+            if not changed:
+                break
+        used, faces = np.unique(self.f[self.alive], return_inverse=True)
+        return self.v[used], faces.reshape(-1, 3).astype(np.int64)
+
+    def _faces(self, x):
+        """The live faces around vertex ``x`` (a set, updated in place)."""
+        if x not in self._around:
+            if x + 1 < len(self._start):
+                self._around[x] = set((self._order[self._start[x]:self._start[x + 1]] // 3).tolist())
+            else:
+                self._around[x] = set()
+        return self._around[x]
+
+    def _angle(self, t):
+        return float(_min_angles(self.v, self.f[[t]])[0])
+
+    def _edge(self, t, longest):
+        """Corners ``a, b, c`` of face ``t`` with ``a -> b`` its longest (shortest) edge."""
+        tri = self.f[t]
+        p = self.v[tri]
+        lengths = np.linalg.norm(p - np.roll(p, -1, axis=0), axis=1)
+        i = int(np.argmax(lengths) if longest else np.argmin(lengths))
+        return int(tri[i]), int(tri[(i + 1) % 3]), int(tri[(i + 2) % 3])
+
+    def _across(self, t, a, b):
+        """The other face on edge ``a b`` of ``t`` and its corner off the edge."""
+        other = self._faces(a) & self._faces(b) - {t}
+        if len(other) != 1:
+            return None, None
+        u = other.pop()
+        return u, int(next(x for x in self.f[u] if x != a and x != b))
+
+    def _flip(self, t):
+        a, b, c = self._edge(t, longest=True)
+        u, d = self._across(t, a, b)
+        if u is None or d == c or self._faces(c) & self._faces(d):
+            return False
+        n = _normal(self.v[self.f[t]])
+        new = np.array([[a, d, c], [d, b, c]])
+        if (_normal(self.v[self.f[u]]) @ n < self._TURN
+                or (_normal(self.v[new]) @ n < self._TURN).any()
+                or _min_angles(self.v, new).min() <= min(self._angle(t), self._angle(u))):
+            return False
+        self.f[t], self.f[u] = new
+        self._faces(b).discard(t)
+        self._faces(a).discard(u)
+        self._faces(d).add(t)
+        self._faces(c).add(u)
+        return True
+
+    def _collapse(self, t):
+        a, b, _ = self._edge(t, longest=False)
+        fa, fb = self._faces(a), self._faces(b)
+        shared = fa & fb
+        if len(shared) != 2 or self._ring(fa) & self._ring(fb) != self._ring(shared):
+            return False  # the link condition: the collapse would pinch the surface
+        moved = sorted((fa | fb) - shared)
+        before = min(self._angle(g) for g in moved + sorted(shared))
+        best, where = before, None
+        for p in (0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]):
+            tris = self.v[self.f[moved]]
+            tris[np.isin(self.f[moved], (a, b))] = p
+            if (np.einsum("ij,ij->i", _normal(tris), _normal(self.v[self.f[moved]])) < self._TURN).any():
+                continue
+            worst = _min_angles(tris.reshape(-1, 3), np.arange(3 * len(moved)).reshape(-1, 3)).min()
+            if worst > best:
+                best, where = worst, p.copy()
+        if where is None:
+            return False
+        self.v[b] = where
+        for g in shared:
+            self.alive[g] = False
+            for x in self.f[g].tolist():
+                self._faces(x).discard(g)
+        for g in sorted(fa - shared):
+            self.f[g][self.f[g] == a] = b
+            fb.add(g)
+        fa.clear()
+        return True
+
+    def _ring(self, faces):
+        """The vertices of ``faces``."""
+        return {int(y) for g in faces for y in self.f[g]}
+
+    def _split(self, t):
+        a, b, c = self._edge(t, longest=True)
+        u, d = self._across(t, a, b)
+        if u is None:
+            return False
+        ab = self.v[b] - self.v[a]
+        s = float((self.v[c] - self.v[a]) @ ab / (ab @ ab))
+        foot = self.v[a] + s * ab
+        if not 0.05 < s < 0.95 or np.linalg.norm(self.v[c] - foot) < 1e-3 * np.sqrt(ab @ ab):
+            return False  # (a corner on the edge would get a twin at its position)
+        m = len(self.v)
+        self.v = np.vstack([self.v, foot])
+        k = len(self.f)
+        self.f = np.vstack([self.f, [[m, b, c], [b, m, d]]])
+        self.alive = np.append(self.alive, [True, True])
+        self.f[t], self.f[u] = [a, m, c], [m, a, d]
+        self._faces(b).difference_update((t, u))
+        self._faces(b).update((k, k + 1))
+        self._faces(c).add(k)
+        self._faces(d).add(k + 1)
+        self._around[m] = {t, u, k, k + 1}
+        return True
+
+
+def _normal(tris):
+    """Unit normals of triangles given by their corners (..., 3, 3)."""
+    n = np.cross(tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :])
+    return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
 
 
 def shell_parts(solid, parts):
