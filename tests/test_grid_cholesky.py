@@ -145,6 +145,25 @@ def test_updates_in_sequence_that_redo_whole_groups_equal_fresh_factorizations()
         assert np.abs(f.solve(b) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
+def test_update_of_given_rows_equals_the_update_that_compares_every_entry():
+    h, w = 70, 90
+    diag, east, south = _operator(h, w, seed=10, weak=0.05)
+    hinted = GridCholesky(diag, east, south, updatable=True)
+    full = GridCholesky(diag, east, south, updatable=True)
+    b = np.random.default_rng(11).standard_normal(h * w)
+    before = np.zeros((h, w), bool)
+    for rows, cols in ((slice(10, 30), slice(5, 6)), (slice(0, 1), slice(None)),
+                       (slice(69, 70), slice(80, 90)), (slice(0, 0), slice(0, 0))):
+        fixed = np.zeros((h, w), bool)
+        fixed[rows, cols] = True
+        d2, e2, s2 = _dirichlet(fixed, diag, east, south)
+        assert hinted.update(d2, e2, s2, rows=fixed ^ before) == full.update(d2, e2, s2)
+        assert np.array_equal(hinted.solve(b), full.solve(b))
+        before = fixed
+    with pytest.raises(InputError, match="rows: shape"):
+        hinted.update(diag, east, south, rows=np.zeros((h, w - 1), bool))
+
+
 def test_errors():
     diag, east, south = _operator(4, 5)
     with pytest.raises(StageError, match="not positive definite"):
