@@ -14,7 +14,9 @@ sides inside the image has the same frontal structure, so the fronts of such
 a group are assembled, factored and solved together with numpy's stacked
 LAPACK/BLAS calls. The symbolic part (the tree, the groups and their index
 maps) depends only on the grid size and is cached. :meth:`GridCholesky.update`
-refactors only the fronts whose entries changed and their ancestors;
+refactors only the fronts whose entries changed and their ancestors, and an
+updatable factorization redoes its last forward substitution only where the
+right-hand side or the factor changed;
 :meth:`GridCholesky.gram` gives ``B^T A^-1 B`` by forward substitution over
 the fronts that ``B``'s nonzero rows reach, and :meth:`GridCholesky.solve_pinned`
 with it a solve under a few more Dirichlet pixels without refactoring (the
