@@ -500,3 +500,30 @@ def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
     for front, back in arrows:
         alone.add(front, back)
     assert np.abs(s.solve() - alone.solve()).max() < 1e-9
+
+
+def test_session_edits_on_a_bundled_drawing_match_fresh_solves():
+    # Each order added one at a time to one session (refactoring where a region
+    # gets its first endpoint, pinning otherwise, the forward substitution kept
+    # between them), then the first removed: every solve equals a fresh one.
+    ann, drawing = _reduced("frog", max_side=160)
+    seeds = seed_image(ann)
+    p, q, ineq, labels = depth_constraints(ann)
+    s = DepthSession(drawing.gray, seeds=seeds)
+    handles, paths = [], set()
+    for i in range(len(p)):
+        handles.append(s.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i]))
+        d = s.solve()
+        paths.add(s.refactored_fronts == 0)
+        fresh = DepthSession(drawing.gray, seeds=seeds, incremental=False)
+        for k in range(i + 1):
+            fresh.add(p[k], q[k], inequality=bool(ineq[k]), label=labels[k])
+        ref = fresh.solve()
+        assert np.abs(d - ref).max() <= 1e-8 * np.abs(ref).max()
+    assert paths == {True, False}  # both the pinned and the refactoring path ran
+    s.remove(handles[0])
+    fresh = DepthSession(drawing.gray, seeds=seeds, incremental=False)
+    for k in range(1, len(p)):
+        fresh.add(p[k], q[k], inequality=bool(ineq[k]), label=labels[k])
+    ref = fresh.solve()
+    assert np.abs(s.solve() - ref).max() <= 1e-8 * np.abs(ref).max()

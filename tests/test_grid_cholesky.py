@@ -145,6 +145,58 @@ def test_updates_in_sequence_that_redo_whole_groups_equal_fresh_factorizations()
         assert np.abs(f.solve(b) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
+def test_update_of_given_rows_equals_the_update_that_compares_every_entry():
+    h, w = 70, 90
+    diag, east, south = _operator(h, w, seed=10, weak=0.05)
+    hinted = GridCholesky(diag, east, south, updatable=True)
+    full = GridCholesky(diag, east, south, updatable=True)
+    b = np.random.default_rng(11).standard_normal(h * w)
+    before = np.zeros((h, w), bool)
+    for rows, cols in ((slice(10, 30), slice(5, 6)), (slice(0, 1), slice(None)),
+                       (slice(69, 70), slice(80, 90)), (slice(0, 0), slice(0, 0))):
+        fixed = np.zeros((h, w), bool)
+        fixed[rows, cols] = True
+        d2, e2, s2 = _dirichlet(fixed, diag, east, south)
+        assert hinted.update(d2, e2, s2, rows=fixed ^ before) == full.update(d2, e2, s2)
+        assert np.array_equal(hinted.solve(b), full.solve(b))
+        before = fixed
+    with pytest.raises(InputError, match="rows: shape"):
+        hinted.update(diag, east, south, rows=np.zeros((h, w - 1), bool))
+
+
+def test_kept_forward_substitution_follows_changes_of_the_factor_and_the_right_hand_side():
+    # An updatable factorization redoes only the changed part of the last forward
+    # substitution: after one or two updates, a local or a global change of the
+    # right-hand side, and under pinning, it must agree with a fresh factorization.
+    h, w = 60, 75
+    diag, east, south = _operator(h, w, seed=12, weak=0.05)
+    f = GridCholesky(diag, east, south, updatable=True)
+    rng = np.random.default_rng(13)
+    b = rng.standard_normal(h * w)
+    before = np.zeros((h, w), bool)
+    steps = [(slice(20, 40), slice(10, 11), False), (slice(5, 6), slice(0, 30), True),
+             (slice(50, 52), slice(60, 70), False), (slice(0, 0), slice(0, 0), False)]
+    for rows, cols, two in steps:
+        fixed = before.copy()
+        fixed[rows, cols] = True
+        if two:  # two updates before the next solve
+            f.update(*_dirichlet(fixed, diag, east, south), rows=fixed ^ before)
+            before = fixed.copy()
+            fixed[30:33, 40:45] = True
+        op = _dirichlet(fixed, diag, east, south)
+        f.update(*op, rows=fixed ^ before)
+        b[rng.integers(0, h * w, 3)] += 1.0  # a local change
+        fresh = GridCholesky(*op)
+        for rhs in (b, rng.standard_normal(h * w)):
+            ref = fresh.solve(rhs)
+            assert np.abs(f.solve(rhs) - ref).max() <= 1e-10 * np.abs(ref).max()
+        pins = [5, 700, 3001]
+        ref = fresh.solve_pinned(b, pins, [1.0, -2.0, 0.5])
+        assert np.abs(f.solve_pinned(b, pins, [1.0, -2.0, 0.5]) - ref).max() <= \
+            1e-10 * np.abs(ref).max()
+        before = fixed
+
+
 def test_errors():
     diag, east, south = _operator(4, 5)
     with pytest.raises(StageError, match="not positive definite"):

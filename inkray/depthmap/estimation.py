@@ -302,6 +302,7 @@ class DepthSession:
         self._incremental = bool(incremental)
         self._progress = progress
         self._weights = None    # the image's edge weights (wx, wy) and pixel degrees
+        self._operator = None   # the factored operator (diag, east, south), kept in step
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
         self.parts = None       # the segmentation with split segments, after solve()
@@ -602,10 +603,12 @@ class DepthSession:
         One system over the whole grid: a fixed pixel's row and column are the
         identity and its couplings move to the right-hand side. The session's
         factorization is updated in place, so a change that moves the fixed
-        set only inside a window refactors the fronts of that window. A change
-        that only adds a few fixed pixels (an arrow's endpoints in segments
-        that already hold some) refactors nothing: the factored system pins
-        them by point sources (:meth:`GridCholesky.solve_pinned`), one solve.
+        set only inside a window refactors the fronts of that window; only
+        the rows of the pixels that changed are rewritten and compared. A
+        change that only adds a few fixed pixels (an arrow's endpoints in
+        segments that already hold some) refactors nothing: the factored
+        system pins them by point sources (:meth:`GridCholesky.solve_pinned`),
+        one solve.
         """
         if self._weights is None:
             wx, wy, _ = edge_weights(self.gray)
@@ -614,40 +617,68 @@ class DepthSession:
         if self._chol is not None and self._incremental:
             added = fixed & ~self._factored
             if not (self._factored & ~fixed).any() and np.count_nonzero(added) <= _PINNED:
-                rhs = self._system(self._factored, vals, operator=False)
+                rhs = self._rhs(self._factored, vals)
                 self.refactored_fronts = 0
                 pins = np.flatnonzero(added)
-                d = self._chol.solve_pinned(rhs.ravel(), pins, vals.flat[pins])
+                d = self._chol.solve_pinned(rhs, pins, vals.flat[pins])
                 return np.where(fixed, vals, d.reshape(self.shape))
-        diag, east, south, rhs = self._system(fixed, vals)
+        rhs = self._rhs(fixed, vals)
         if self._chol is None or not self._incremental:
-            self._chol = GridCholesky(diag, east, south, updatable=self._incremental,
+            self._operator = self._system(fixed)
+            self._chol = GridCholesky(*self._operator, updatable=self._incremental,
                                       progress=self._progress)
             self.refactored_fronts = self._chol.fronts
         else:
-            self.refactored_fronts = self._chol.update(diag, east, south)
+            rows = fixed ^ self._factored
+            self._rewrite(fixed, rows)
+            self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
         self._factored = fixed
-        d = self._chol.solve(rhs.ravel()).reshape(self.shape)
+        d = self._chol.solve(rhs).reshape(self.shape)
         return np.where(fixed, vals, d)
 
-    def _system(self, fixed, vals, *, operator=True):
-        """The fill's operator (``diag, east, south``) and right-hand side, or the latter alone."""
+    def _system(self, fixed):
+        """The fill's operator ``diag, east, south``: free pixels keep their edges to
+        free neighbours, fixed pixels are identity rows."""
         wx, wy, deg = self._weights
         free = ~fixed
-        vals = np.where(fixed, vals, 0.0)
-        # Edges between two free pixels stay; an edge from a free pixel to a
-        # fixed one moves to the right-hand side.
-        rhs = vals.copy()
-        rhs[:, :-1] += np.where(free[:, :-1], wx * vals[:, 1:], 0.0)
-        rhs[:, 1:] += np.where(free[:, 1:], wx * vals[:, :-1], 0.0)
-        rhs[:-1, :] += np.where(free[:-1, :], wy * vals[1:, :], 0.0)
-        rhs[1:, :] += np.where(free[1:, :], wy * vals[:-1, :], 0.0)
-        if not operator:
-            return rhs
         diag = np.where(fixed, 1.0, deg)
         east = np.where(free[:, :-1] & free[:, 1:], -wx, 0.0)
         south = np.where(free[:-1, :] & free[1:, :], -wy, 0.0)
-        return diag, east, south, rhs
+        return diag, east, south
+
+    def _rewrite(self, fixed, rows):
+        """The kept operator's entries in ``rows`` (pixels whose fixedness changed)
+        rewritten for ``fixed``: rewriting a few hundred rows costs far less than
+        building the operator afresh at 1 Mpx."""
+        wx, wy, deg = self._weights
+        diag, east, south = self._operator
+        h, w = self.shape
+        y, x = np.nonzero(rows)
+        diag[y, x] = np.where(fixed[y, x], 1.0, deg[y, x])
+        for weights, edges, dy, dx in ((wx, east, 0, 1), (wy, south, 1, 0)):
+            # The edges from the row's pixel and to it from its west/north neighbour.
+            ey, ex = np.concatenate([y, y - dy]), np.concatenate([x, x - dx])
+            keep = (ey >= 0) & (ex >= 0) & (ey < h - dy) & (ex < w - dx)
+            ey, ex = ey[keep], ex[keep]
+            free = ~fixed[ey, ex] & ~fixed[ey + dy, ex + dx]
+            edges[ey, ex] = np.where(free, -weights[ey, ex], 0.0)
+
+    def _rhs(self, fixed, vals):
+        """The fill's right-hand side (raster order): ``vals`` on the fixed pixels, and
+        on a free pixel its edges to fixed neighbours times their values. Built from
+        the fixed pixels alone, a few thousand at 1 Mpx."""
+        wx, wy, _ = self._weights
+        h, w = self.shape
+        rhs = np.zeros(h * w)
+        y, x = np.nonzero(fixed)
+        rhs[y * w + x] = vals[y, x]
+        for ny, nx, ey, ex, weights in ((y, x + 1, y, x, wx), (y, x - 1, y, x - 1, wx),
+                                        (y + 1, x, y, x, wy), (y - 1, x, y - 1, x, wy)):
+            keep = (ny >= 0) & (nx >= 0) & (ny < h) & (nx < w)
+            keep[keep] = ~fixed[ny[keep], nx[keep]]
+            np.add.at(rhs, ny[keep] * w + nx[keep],
+                      weights[ey[keep], ex[keep]] * vals[y[keep], x[keep]])
+        return rhs
 
 
 def _local_levels(p, q, ineq, labels):

@@ -48,6 +48,8 @@ _SUGGEST_RADIUS = 40  # px around a prediction's pixel searched for its arrow's 
 _SUGGEST_DEPTH = 3.0  # px an accepted arrow's end lies inside its region, where it can
 _FILES_BYTES = 256 * 2**20  # encoded previews kept for undo (a 1 Mpx relief GLB is ~10 MB)
 _POLL = 0.005  # s between looks at a segmentation the depth map waits for
+#: At most this long a relief waits for a depth map being computed (see _depth_first).
+_DEPTH_WAIT = 0.4
 
 
 @dataclass
@@ -260,6 +262,8 @@ class EditSession:
         stage, encode, media_type = _PREVIEW[name]
         if name == "depth.png":
             self._segmentation_first()
+        elif name == "relief.glb":
+            self._depth_first()
         if exact and name == "depth.png":
             return self._newest(lambda chain, digest: (self._encoded(
                 (name, "exact", digest), lambda: encode(stage(chain.edit(
@@ -351,6 +355,20 @@ class EditSession:
                 except Exception:  # noqa: BLE001 - its own request reports it
                     pass
                 return
+
+    def _depth_first(self):
+        """Wait a little for a depth map being computed before starting a relief.
+
+        After an arrow the page asks for both at once; on two cores the re-solve
+        took 0.3-0.5 s at 1 Mpx beside the relief instead of 0.2 s alone, and
+        the relief has time to spare. A depth map that takes longer (a fresh
+        factorization after a scribble) is not waited for past
+        :data:`_DEPTH_WAIT`.
+        """
+        end = time.monotonic() + _DEPTH_WAIT
+        while (self._locks["depth"].locked() and not self._closed
+               and time.monotonic() < end):
+            time.sleep(_POLL)
 
     def _encoded(self, key, make):
         """The file bytes of a preview of a document, kept by the document's digest.

@@ -14,7 +14,9 @@ sides inside the image has the same frontal structure, so the fronts of such
 a group are assembled, factored and solved together with numpy's stacked
 LAPACK/BLAS calls. The symbolic part (the tree, the groups and their index
 maps) depends only on the grid size and is cached. :meth:`GridCholesky.update`
-refactors only the fronts whose entries changed and their ancestors;
+refactors only the fronts whose entries changed and their ancestors, and an
+updatable factorization redoes its last forward substitution only where the
+right-hand side or the factor changed;
 :meth:`GridCholesky.gram` gives ``B^T A^-1 B`` by forward substitution over
 the fronts that ``B``'s nonzero rows reach, and :meth:`GridCholesky.solve_pinned`
 with it a solve under a few more Dirichlet pixels without refactoring (the
@@ -94,7 +96,11 @@ class GridCholesky:
         Boxes of at most this many pixels are not split further.
     updatable : bool, default False
         Keep the update matrices, which :meth:`update` reuses (they take
-        about three times the memory of the factor).
+        about three times the memory of the factor), and the last single
+        right-hand side's forward substitution: the next :meth:`solve` or
+        :meth:`solve_pinned` redoes it only on the fronts whose right-hand
+        side, factor or incoming updates changed (the result equals a fresh
+        substitution to round-off).
     progress : object with ``update(done, total)``, optional
         Told the progress while factoring (in percent of the estimated
         flops), e.g. an :class:`inkray.progress.Progress`.
@@ -127,12 +133,14 @@ class GridCholesky:
         self._plan = _plan(h, w, int(leaf))
         self.fronts = sum(g.S.shape[0] for g in self._plan)  # nodes of the elimination tree
         self._values_now = values
+        self._memo = None   # (rhs, ys, pushed, sub) of the last kept forward substitution
+        self._stale = None  # per group, the fronts refactored since that substitution
         with one_blas_thread():
             self._factors, self._updates = _factorize(self._plan, values,
                                                       keep_updates=self.updatable,
                                                       progress=progress)
 
-    def update(self, diagonal, east, south):
+    def update(self, diagonal, east, south, *, rows=None):
         """Refactor for new operator values, redoing only the fronts they change.
 
         A front is redone when an entry it assembles changed or a front below
@@ -143,6 +151,11 @@ class GridCholesky:
         ----------
         diagonal, east, south : arrays
             As for the constructor, same grid size.
+        rows : (H, W) bool array, optional
+            The pixels whose rows may have changed (the caller's promise):
+            only their entries are read and compared, which at 1 Mpx saves
+            building and comparing the whole operator when a few hundred
+            rows change. Default: every entry is compared.
 
         Returns
         -------
@@ -162,20 +175,56 @@ class GridCholesky:
         >>> diag[2, 3] = 5.0                       # one pixel's row changes
         >>> f.update(diag, -np.ones((40, 39)), -np.ones((39, 40))) < 20
         True
+        >>> diag[2, 3] = 4.5
+        >>> rows = np.zeros((40, 40), bool); rows[2, 3] = True
+        >>> f.update(diag, -np.ones((40, 39)), -np.ones((39, 40)), rows=rows) < 20
+        True
         """
         if not self.updatable:
             raise InputError("update: this factorization keeps no update matrices "
                              "(make it with updatable=True)")
-        values, shape = _operator_values(diagonal, east, south)
-        if shape != self.shape:
-            raise InputError(f"diagonal: shape {shape} differs from the factored {self.shape}")
-        changed = values != self._values_now
-        self._values_now = values
+        if rows is None:
+            values, shape = _operator_values(diagonal, east, south)
+            if shape != self.shape:
+                raise InputError(f"diagonal: shape {shape} differs from the factored "
+                                 f"{self.shape}")
+            changed = values != self._values_now
+            self._values_now = values
+        else:
+            changed = self._changed_rows(diagonal, east, south, rows)
         with one_blas_thread():
-            self._factors, self._updates, redone = _factorize(
-                self._plan, values, keep_updates=True, previous=(self._factors, self._updates),
-                changed=changed)
-        return redone
+            self._factors, self._updates, redo = _factorize(
+                self._plan, self._values_now, keep_updates=True,
+                previous=(self._factors, self._updates), changed=changed)
+        if self._memo is not None:
+            self._stale = redo if self._stale is None else [
+                a | b for a, b in zip(self._stale, redo)]
+        return sum(int(m.sum()) for m in redo)
+
+    def _changed_rows(self, diagonal, east, south, rows):
+        """Write the entries of ``rows`` into the kept values; which entries changed."""
+        h, w = self.shape
+        rows = np.asarray(rows, bool)
+        if rows.shape != self.shape or np.shape(diagonal) != self.shape:
+            raise InputError(f"rows: shape {rows.shape} differs from the factored {self.shape}")
+        y, x = np.nonzero(rows)
+        # A row holds its diagonal and the edges to its four neighbours; the
+        # west and north edges are stored with that neighbour.
+        ey, ex = np.concatenate([y, y]), np.concatenate([x, x - 1])
+        keep = (ex >= 0) & (ex < w - 1)
+        ey, ex = ey[keep], ex[keep]
+        sy, sx = np.concatenate([y, y - 1]), np.concatenate([x, x])
+        keep = (sy >= 0) & (sy < h - 1)
+        sy, sx = sy[keep], sx[keep]
+        n = h * w
+        at = np.concatenate([y * w + x, n + ey * w + ex, 2 * n + sy * w + sx])
+        new = np.concatenate([np.asarray(diagonal, np.float64)[y, x],
+                              np.asarray(east, np.float64)[ey, ex],
+                              np.asarray(south, np.float64)[sy, sx]])
+        changed = np.zeros(3 * n, bool)
+        changed[at] = new != self._values_now[at]
+        self._values_now[at] = new
+        return changed
 
     def solve(self, rhs):
         """Solve ``A x = rhs``.
@@ -191,7 +240,7 @@ class GridCholesky:
         """
         b = self._rhs(rhs)
         with one_blas_thread():
-            x = self._backward(self._forward_dense(b), b.shape[1])
+            x = self._backward(self._forward(b), b.shape[1])
         return x.reshape(np.shape(rhs))
 
     def solve_pinned(self, rhs, pixels, values):
@@ -236,7 +285,7 @@ class GridCholesky:
         k = len(pixels)
         f = self.forward(sp.csr_matrix((np.ones(k), (pixels, np.arange(k))), shape=(self.n, k)))
         with one_blas_thread():
-            ys = self._forward_dense(b)
+            ys = [y.copy() for y in self._forward(b)]  # the kept ones stay as they are
             # x[pixels] before pinning is (L^-1 P)^T (L^-1 rhs): only the fronts P reaches.
             free = np.zeros(k)
             for y, part in zip(ys, f._ys):
@@ -359,6 +408,47 @@ class GridCholesky:
         with one_blas_thread():
             return self._backward(ys, 1)[:, 0]
 
+    def _forward(self, b):
+        """Forward substitution of ``b`` (N, k): kept and redone where it changed for
+        one right-hand side of an updatable factorization, else afresh."""
+        if not self.updatable or b.shape[1] != 1:
+            return self._forward_dense(b)
+        if self._memo is None:
+            self._memo = (np.full(self.n, np.nan),
+                          [np.zeros((g.S.shape[0], g.s, 1)) for g in self._plan],
+                          [np.zeros((g.S.shape[0], g.r, 1)) for g in self._plan],
+                          np.zeros(self.n))
+            self._stale = None
+        last, ys, pushed, sub = self._memo
+        rhs = b[:, 0]
+        # A front is redone when its right-hand side, its factor or what the
+        # fronts below push onto it changed; ``sub`` holds the sum of those pushes.
+        touched = rhs != last  # all of it the first time (NaN)
+        for i, (g, (Li, W)) in enumerate(zip(self._plan, self._factors)):
+            dirty = touched[g.S].any(axis=1)
+            if self._stale is not None:
+                dirty |= self._stale[i]
+            whole = bool(dirty.all())
+            sel = slice(None) if whole else np.flatnonzero(dirty)
+            if not whole and not len(sel):
+                continue
+            S = g.S[sel]
+            y = (Li if whole else Li[sel]) @ (rhs[S] - sub[S])[..., None]
+            ys[i][sel] = y
+            if g.r:
+                push = W[sel].transpose(0, 2, 1) @ y
+                delta = (push - pushed[i][sel]).reshape(-1)
+                pushed[i][sel] = push
+                if whole:
+                    rows, scatter = _ring_scatter(g, self.n)
+                    sub[rows] += scatter @ delta
+                else:
+                    np.add.at(sub, g.R[sel].ravel(), delta)
+                touched[g.R[sel]] = True
+        last[:] = rhs
+        self._stale = None
+        return ys
+
     def _forward_dense(self, b):
         """Forward substitution ``y = L^-1 b`` per group (``b`` is overwritten)."""
         k = b.shape[1]
@@ -409,8 +499,8 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     Returns ``factors`` (per group ``(Li, W)``) and ``updates`` (per group the
     update matrices, kept only with ``keep_updates``); with ``previous`` and
     ``changed`` (which entries of ``values`` changed), only the fronts that
-    assemble a changed entry or have a redone child are redone, and the count
-    of redone fronts is returned third.
+    assemble a changed entry or have a redone child are redone, and which
+    fronts were redone (a mask per group) is returned third.
     """
     factors, updates = [], []
     # A group's updates may feed several parent groups: keep them until the last.
@@ -418,7 +508,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
     for g in ([] if keep_updates else plan):
         for gid, _, _ in g.children:
             uses[gid] = uses.get(gid, 0) + 1
-    redo, redone = [], 0
+    redo = []
     if progress is not None:
         cost = np.cumsum([g.S.shape[0] * (g.s ** 3 / 3 + g.s ** 2 * g.r + g.s * g.r ** 2)
                           for g in plan])
@@ -440,7 +530,6 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 factors.append(previous[0][i])
                 updates.append(previous[1][i])
                 continue
-            redone += int(dirty.sum())
             sel = slice(None) if dirty.all() else np.flatnonzero(dirty)
             nb = nb if isinstance(sel, slice) else len(sel)
         kids = [(updates[gid][pos] if isinstance(sel, slice) else
@@ -470,7 +559,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
         progress.update(100, 100)
     if previous is None:
         return factors, updates
-    return factors, updates, redone
+    return factors, updates, redo
 
 
 def _assemble(g, values, sel, kids, nb, out=None):
