@@ -38,7 +38,7 @@ from scipy import ndimage
 
 from inkray.numerics.polyline import point_polyline_distance
 
-__all__ = ["CUES", "order_cues", "outline_lengths"]
+__all__ = ["CUES", "contact_continuation", "order_cues", "outline_lengths"]
 
 #: Names of the cues :func:`order_cues` returns, in order.
 CUES = ("junction", "area", "surround", "continuation")
@@ -77,7 +77,7 @@ def outline_lengths(labels):
 
 
 def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40.0,
-               seam_distance=6.0, ink=None, continuation_widths=8.0, stroke_end_scale=3.0):
+               seam_distance=6.0, ink=None, continuation_widths=10.0, stroke_end_scale=1.0):
     """The order cues of one place, positive when ``place.a`` is in front.
 
     Parameters
@@ -100,10 +100,10 @@ def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40
         The drawing's stroke width and stroke ends (from
         :func:`inkray.relief.ink_style.ink_style`); without it the
         ``continuation`` cue is 0.
-    continuation_widths : float, default 8.0
+    continuation_widths : float, default 10.0
         Radius, in stroke widths, around each junction over which the contact
         line and the outlines leaving it are compared.
-    stroke_end_scale : float, default 3.0
+    stroke_end_scale : float, default 1.0
         The ``continuation`` cue is weighted by ``ink.clarity(stroke_end_scale)``
         (``inf``: not weighted).
 
@@ -128,8 +128,7 @@ def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40
     a, b = place.a, place.b
     if outlines is None:
         outlines = outline_lengths(completion.labels)
-    junctions = [j for j in place.junctions
-                 if all(point_polyline_distance(j, s) > seam_distance for s in seams)]
+    junctions = _free_junctions(place, seams, seam_distance)
     if place.junctions and not junctions:
         return None
     turn = 0.0
@@ -142,13 +141,64 @@ def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40
     lab = completion.labels[y0:y1, x0:x1]
     share = [float((place.contact & (lab == x)).sum()) / max(int(outlines[x]), 1) for x in (a, b)]
     owns = 0.0
-    if ink is not None and ink.width > 0:
-        values = [_continuation(completion.labels, a, b, np.asarray(j, float),
-                                continuation_widths * ink.width) for j in junctions]
-        values = [v for v in values if v is not None]
-        owns = float(np.mean(values)) * ink.clarity(stroke_end_scale) if values else 0.0
+    if ink is not None:
+        owns = contact_continuation(completion.labels, place, ink=ink, seams=seams,
+                                    continuation_widths=continuation_widths,
+                                    seam_distance=seam_distance)
+        owns *= ink.clarity(stroke_end_scale)
     return {"junction": float(turn), "area": float(_extension(completion, place)),
             "surround": min(share[0], 1.0) ** 2 - min(share[1], 1.0) ** 2, "continuation": owns}
+
+
+def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=10.0,
+                         seam_distance=6.0):
+    """Which part of a place owns the ink line between them, not weighted by the ink's clarity.
+
+    Parameters
+    ----------
+    labels : (H, W) int array
+        The segmentation (``completion.labels``).
+    place : inkray.relief.completion.Place
+    ink : inkray.relief.ink_style.InkStyle
+        The drawing's lines: the comparison runs over ``continuation_widths``
+        times ``ink.width`` pixels around each junction.
+    seams, seam_distance
+        As for :func:`order_cues`: junctions near ``graft`` and ``stitch``
+        seams are left out.
+    continuation_widths : float, default 10.0
+
+    Returns
+    -------
+    float
+        In [-1, 1], positive when ``place.a``'s outline continues the contact
+        line (``a`` in front), averaged over the junctions; 0 without a
+        junction or ink.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.completion import complete_regions
+    >>> from inkray.relief.ink_style import InkStyle
+    >>> labels = np.full((70, 80), -1); labels[30:, 30:50] = 1     # a leg ...
+    >>> labels[10:50, 10:70] = 0                                    # ... under a box
+    >>> c = complete_regions(labels)
+    >>> owns = contact_continuation(labels, c.places[0], ink=InkStyle(width=2.0, stroke_ends=0.0))
+    >>> owns > 0.5        # the box's outline runs on past the leg: the box (a) is in front
+    True
+    """
+    if ink.width <= 0:
+        return 0.0
+    values = [_continuation(np.asarray(labels), place.a, place.b, np.asarray(j, float),
+                            continuation_widths * ink.width)
+              for j in _free_junctions(place, seams, seam_distance)]
+    values = [v for v in values if v is not None]
+    return float(np.mean(values)) if values else 0.0
+
+
+def _free_junctions(place, seams, seam_distance):
+    """The place's junctions farther than ``seam_distance`` from every seam."""
+    return [j for j in place.junctions
+            if all(point_polyline_distance(j, s) > seam_distance for s in seams)]
 
 
 def _junction_scale(labels, a, b, point, limit):
@@ -198,17 +248,21 @@ def _continuation(labels, a, b, point, radius):
     x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 1, w)
     y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 1, h)
     lab = labels[y0:y1, x0:x1]
-    corner = np.array([x0, y0], float)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    dist = np.hypot(xx - point[0], yy - point[1])
+    start = dist <= _SEED_RADIUS
 
-    def near(mask):
-        yy, xx = np.nonzero(mask)
-        pts = np.stack([xx, yy], 1) + corner
-        return pts[np.hypot(*(pts - point).T) <= radius]
+    def along(mask):
+        # Walked along the outline from the junction, not cut out by the disk: the far
+        # side of a thin part (a hat's brim) lies within the disk but not along its outline.
+        y, x = np.nonzero(_walk(mask & (dist <= radius), start, radius))
+        return np.stack([x + x0, y + y0], 1).astype(float)
 
-    contact = np.concatenate([near(_border(lab, a, lambda n: n == b)),
-                              near(_border(lab, b, lambda n: n == a))])
-    other_a = near(_border(lab, a, lambda n: (n != a) & (n != b) & (n != _OUTSIDE)))
-    other_b = near(_border(lab, b, lambda n: (n != a) & (n != b) & (n != _OUTSIDE)))
+    def third(n):
+        return (n != a) & (n != b) & (n != _OUTSIDE)
+
+    contact = along(_border(lab, a, lambda n: n == b) | _border(lab, b, lambda n: n == a))
+    other_a, other_b = along(_border(lab, a, third)), along(_border(lab, b, third))
     if len(contact) < 4 or not len(other_a) or not len(other_b):
         return None
     # The contact's own frame: along its main direction u, across it v = p(u).
@@ -230,6 +284,19 @@ def _continuation(labels, a, b, point, radius):
     return (db - da) / max(da + db, 1e-9)
 
 
+def _walk(mask, start, steps):
+    """Pixels of ``mask`` reached from ``start`` in at most ``steps`` 8-connected steps."""
+    reached = start & mask
+    for _ in range(int(steps)):
+        grown = ndimage.binary_dilation(reached, _EIGHT) & mask
+        if np.array_equal(grown, reached):
+            break
+        reached = grown
+    return reached
+
+
+_EIGHT = np.ones((3, 3), bool)
+_SEED_RADIUS = 3.0  # pixels around a junction where the walks along the outlines start
 _OUTSIDE = -3  # beyond the image's edge: no outline there
 
 

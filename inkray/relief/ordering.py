@@ -18,7 +18,8 @@ of each part's outline the contact is, which part's outline continues the
 contact line, trusted as far as the drawing's lines are clean) are combined as a logistic model,
 ``score = sum(weights[cue] * cue)``; its sign says who is in front and
 ``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss, towards 1 when
-sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS` and :data:`STROKE_END_SCALE` were fitted on the
+sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`, :data:`CONTINUATION_WIDTHS` and
+:data:`STROKE_END_SCALE` were fitted on the
 bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
 leave-one-out (weights fitted without the drawing scored) and how accuracy
 grows with confidence. A global consistency step follows: predictions are
@@ -40,18 +41,21 @@ from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
 from inkray.relief.order_cues import CUES, order_cues, outline_lengths
 
-__all__ = ["JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS", "depth_order",
-           "predict_place"]
+__all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS",
+           "depth_order", "predict_place"]
 
 #: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
 #: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
-WEIGHTS = {"junction": 4.588, "area": 0.657, "surround": 4.227, "continuation": 4.478}
+WEIGHTS = {"junction": 4.682, "area": 1.157, "surround": 4.388, "continuation": 4.402}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
+#: Radius, in stroke widths, of the ``continuation`` cue around a junction (chosen
+#: by the same benchmark).
+CONTINUATION_WIDTHS = 10.0
 #: Stroke ends per 1000 skeleton pixels at which the ``continuation`` cue keeps
 #: ``1/e`` of its weight (:meth:`inkray.relief.ink_style.InkStyle.clarity`; chosen by
 #: the same benchmark).
-STROKE_END_SCALE = 3.0
+STROKE_END_SCALE = 1.0
 
 
 @dataclass
@@ -107,7 +111,8 @@ class Relation:
 
 
 def depth_order(constraints, labels, completion, *, seams=(), predict=True, weights=None,
-                junction_radius=None, min_confidence=0.0, ink=None, stroke_end_scale=None):
+                junction_radius=None, min_confidence=0.0, ink=None, continuation_widths=None,
+                stroke_end_scale=None):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -134,6 +139,9 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     ink : inkray.relief.ink_style.InkStyle, optional
         The drawing's lines (:func:`inkray.relief.ink_style.ink_style` of its
         grey image), for the ``continuation`` cue; without it that cue is 0.
+    continuation_widths : float, optional
+        Radius in stroke widths of the ``continuation`` cue (default
+        :data:`CONTINUATION_WIDTHS`).
     stroke_end_scale : float, optional
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
@@ -192,6 +200,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
                 continue
             r = predict_place(completion, place, weights=weights, junction_radius=junction_radius,
                               seams=paths, outlines=outlines, ink=ink,
+                              continuation_widths=continuation_widths,
                               stroke_end_scale=stroke_end_scale)
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
@@ -211,7 +220,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
 
 
 def predict_place(completion, place, *, weights=None, junction_radius=None, seams=(),
-                  seam_distance=6.0, outlines=None, ink=None, stroke_end_scale=None):
+                  seam_distance=6.0, outlines=None, ink=None, continuation_widths=None,
+                  stroke_end_scale=None):
     """Predict which region of a place is in front.
 
     Parameters
@@ -236,6 +246,9 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         already known.
     ink : inkray.relief.ink_style.InkStyle, optional
         The drawing's lines, for the ``continuation`` cue (0 without it).
+    continuation_widths : float, optional
+        Radius in stroke widths of the ``continuation`` cue (default
+        :data:`CONTINUATION_WIDTHS`).
     stroke_end_scale : float, optional
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
@@ -265,9 +278,11 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     radius = JUNCTION_RADIUS if junction_radius is None else float(junction_radius)
     if not radius > 0:
         raise InputError(f"junction_radius: expected a positive radius, got {junction_radius!r}")
+    widths = CONTINUATION_WIDTHS if continuation_widths is None else float(continuation_widths)
     scale = STROKE_END_SCALE if stroke_end_scale is None else float(stroke_end_scale)
     cues = order_cues(completion, place, outlines=outlines, seams=seams, junction_radius=radius,
-                      seam_distance=seam_distance, ink=ink, stroke_end_scale=scale)
+                      seam_distance=seam_distance, ink=ink, continuation_widths=widths,
+                      stroke_end_scale=scale)
     if cues is None:
         return None
     score = sum(float(w) * cues[k] for k, w in weights.items())
