@@ -14,6 +14,8 @@ import numpy as np
 from scipy import ndimage
 from skimage.morphology import skeletonize
 
+from inkray.segmentation import INK_THRESHOLD
+
 __all__ = ["InkStyle", "ink_style"]
 
 
@@ -46,14 +48,14 @@ class InkStyle:
         return float(np.exp(-self.stroke_ends / stroke_end_scale))
 
 
-def ink_style(gray, *, level=0.5):
+def ink_style(gray, *, level=INK_THRESHOLD):
     """Measure the stroke width and the stroke ends of a drawing.
 
     Parameters
     ----------
     gray : (H, W) float array
         Paper 1, ink near 0.
-    level : float, default 0.5
+    level : float, default :data:`inkray.segmentation.INK_THRESHOLD`
         Grey level below which a pixel is ink.
 
     Returns
