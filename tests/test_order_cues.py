@@ -107,7 +107,7 @@ def test_the_part_whose_outline_continues_the_contact_is_in_front():
 
 
 def test_the_far_side_of_a_thin_front_part_is_not_on_its_continuation():
-    # A brim 10 px high over a head: within 10 stroke widths (20 px) of a junction
+    # A brim 10 px high over a head: within 6 stroke widths (12 px) of a junction
     # the brim's top side is near in the plane but over 40 px away along its outline.
     head = _disk(130, 115, 60)
     brim = (XX >= 70) & (XX < 190) & (YY >= 50) & (YY < 60)

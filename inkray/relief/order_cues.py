@@ -22,8 +22,9 @@ Four cues, each signed so that a positive value says the place's region
   part has share 1.
 - ``continuation``: which part owns the ink line between them. At a
   T-junction the front part's outline runs on along the contact line and
-  the back part's outline leaves it. A parabola is fitted to the contact
-  within ``continuation_widths`` stroke widths of each junction; with
+  the back part's outline leaves it. A parabola (a line where the contact is
+  shorter than that) is fitted to the contact within ``continuation_widths``
+  stroke widths of each junction, walked along the outlines; with
   ``d_x`` the mean distance of ``x``'s other outline there from it, the cue
   is ``(d_b - d_a) / (d_a + d_b)``, averaged over the junctions, times the
   drawing's :meth:`inkray.relief.ink_style.InkStyle.clarity`: on sketchy,
@@ -77,7 +78,7 @@ def outline_lengths(labels):
 
 
 def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40.0,
-               seam_distance=6.0, ink=None, continuation_widths=10.0, stroke_end_scale=1.0):
+               seam_distance=6.0, ink=None, continuation_widths=6.0, stroke_end_scale=1.0):
     """The order cues of one place, positive when ``place.a`` is in front.
 
     Parameters
@@ -100,7 +101,7 @@ def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40
         The drawing's stroke width and stroke ends (from
         :func:`inkray.relief.ink_style.ink_style`); without it the
         ``continuation`` cue is 0.
-    continuation_widths : float, default 10.0
+    continuation_widths : float, default 6.0
         Radius, in stroke widths, around each junction over which the contact
         line and the outlines leaving it are compared.
     stroke_end_scale : float, default 1.0
@@ -150,7 +151,7 @@ def order_cues(completion, place, *, outlines=None, seams=(), junction_radius=40
             "surround": min(share[0], 1.0) ** 2 - min(share[1], 1.0) ** 2, "continuation": owns}
 
 
-def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=10.0,
+def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=6.0,
                          seam_distance=6.0):
     """Which part of a place owns the ink line between them, not weighted by the ink's clarity.
 
@@ -165,7 +166,7 @@ def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=10
     seams, seam_distance
         As for :func:`order_cues`: junctions near ``graft`` and ``stitch``
         seams are left out.
-    continuation_widths : float, default 10.0
+    continuation_widths : float, default 6.0
 
     Returns
     -------
@@ -274,7 +275,10 @@ def _continuation(labels, a, b, point, radius):
         return q[:, 0], q[:, 1]
 
     u, v = uv(contact)
-    coef = np.polynomial.polynomial.polyfit(u, v, 2)
+    # A contact shorter than the radius (a band crossing another) does not fix a
+    # curvature, and a parabola through it swings away over the radius: a line then.
+    degree = 2 if u.max() - u.min() >= radius else 1
+    coef = np.polynomial.polynomial.polyfit(u, v, degree)
 
     def off(pts):
         pu, pv = uv(pts)
