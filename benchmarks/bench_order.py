@@ -8,8 +8,10 @@ Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
 for each drawing, the predictor is fitted on all the *other* drawings only:
 the cue weights of :func:`inkray.relief.ordering.predict_place` by
 L2-regularized logistic regression on their annotated ``order`` entries,
-the junction radius and the regularization chosen from a small grid by an
-inner leave-one-out over those drawings (least log-loss).
+the junction radius, the radius (in stroke widths) and the stroke-end scale
+of the ``continuation`` cue and the regularization chosen from a small grid
+by an inner leave-one-out over those drawings (least log-loss). The held-out drawing's ink style (stroke
+width, stroke ends) is measured on its image, not fitted.
 Then the held-out drawing's order entries are removed and predicted (with
 the global consistency step of :func:`inkray.relief.ordering.depth_order`).
 A prediction is right when the entry's front region is the predicted front
@@ -19,7 +21,8 @@ no place and are not counted.
 Prints one row per drawing (entries, right, accuracy, what was chosen
 without it), the overall accuracy, the accuracy per confidence bin of the
 held-out predictions, and the model fitted on all drawings (the values of
-:data:`inkray.relief.ordering.WEIGHTS` and ``JUNCTION_RADIUS``); last, each
+:data:`inkray.relief.ordering.WEIGHTS`, ``JUNCTION_RADIUS`` and
+``STROKE_END_SCALE``); last, each
 measurement against its target (90 % leave-one-out, 95 % at confidence 0.5
 or more, 0.2 s per re-solve) as a ratio. Then, unless ``--no-resolve``, the fast depth
 method's re-solve time at 512x512 (the bundled turtle with its scribbles)
@@ -42,11 +45,13 @@ from inkray.depthmap.estimation import DepthSession
 from inkray.input.constraints import constraints
 from inkray.input.loading import load_input
 from inkray.input.scribbles import seed_image
-from inkray.relief.order_cues import CUES, order_cues, outline_lengths
+from inkray.relief.ink_style import ink_style
+from inkray.relief.order_cues import CUES, contact_continuation, order_cues, outline_lengths
 from inkray.relief.ordering import depth_order
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-GRID = {"junction_radius": (25.0, 40.0, 80.0), "regularization": (0.1, 1.0)}
+GRID = {"junction_radius": (25.0, 40.0, 80.0), "continuation_widths": (6.0, 8.0, 10.0),
+        "stroke_end_scale": (1.0, 3.0, 10.0), "regularization": (0.1, 1.0)}
 BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
 TARGET = 0.2  # seconds for one fast re-solve after adding an entry
 TARGET_ACCURACY = 0.90  # leave-one-out, all counted entries
@@ -68,39 +73,50 @@ class _Drawing:
         self.apart = len(orders) - len(self.truth)
         self._seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
         self._outlines = outline_lengths(self.labels)
+        self.ink = ink_style(drawing.gray)
         self._cues = {}
+        self._continuation = {}
 
-    def cues(self, radius):
+    def cues(self, params):
         """``(X, y)``: the cues of the entries' places (rows; None where the place has
-        no cue) and +1 where the entry's front is the place's region ``a``, else -1."""
+        no cue) and +1 where the entry's front is the place's region ``a``, else -1;
+        ``params`` is ``(junction_radius, continuation_widths, stroke_end_scale)``."""
+        radius, widths, scale = params
+        places = [self.completion.places[r.place] for r in self.truth]
         if radius not in self._cues:
-            rows = []
-            for r in self.truth:
-                place = self.completion.places[r.place]
-                c = order_cues(self.completion, place, outlines=self._outlines,
-                               seams=self._seams, junction_radius=radius)
-                rows.append(None if c is None else [c[k] for k in CUES])
-            y = np.array([1.0 if r.front == self.completion.places[r.place].a else -1.0
-                          for r in self.truth])
-            self._cues[radius] = rows, y
-        return self._cues[radius]
+            # Without the ink: the continuation (0 here) is measured apart, once per width.
+            rows = [order_cues(self.completion, p, outlines=self._outlines, seams=self._seams,
+                               junction_radius=radius) for p in places]
+            self._cues[radius] = [None if c is None else [c[k] for k in CUES] for c in rows]
+        if widths not in self._continuation:
+            self._continuation[widths] = [
+                contact_continuation(self.labels, p, ink=self.ink, seams=self._seams,
+                                     continuation_widths=widths) for p in places]
+        owns = np.array(self._continuation[widths]) * self.ink.clarity(scale)
+        column = CUES.index("continuation")
+        rows = [None if row is None else row[:column] + [o] + row[column + 1:]
+                for row, o in zip(self._cues[radius], owns)]
+        y = np.array([1.0 if r.front == p.a else -1.0 for r, p in zip(self.truth, places)])
+        return rows, y
 
-    def score(self, weights, radius):
+    def score(self, weights, params):
         """``[(right, confidence)]`` per counted entry, predicted with its order entries
         removed (a missing prediction is wrong with confidence 0)."""
+        radius, widths, scale = params
         ann = replace(self.annotations, order=[])
         rel, _ = depth_order(constraints(ann), self.labels, self.completion,
-                             seams=ann.boundaries, weights=weights, junction_radius=radius)
+                             seams=ann.boundaries, weights=weights, junction_radius=radius,
+                             ink=self.ink, continuation_widths=widths, stroke_end_scale=scale)
         pred = {r.place: (r.front, r.confidence) for r in rel if r.source == "predicted"}
         return [(pred.get(r.place, (None, 0.0))[0] == r.front, pred.get(r.place, (None, 0.0))[1])
                 for r in self.truth]
 
 
-def _fit(drawings, radius, lam):
+def _fit(drawings, params, lam):
     """Cue weights by L2-regularized logistic regression on the drawings' entries."""
     X, y = [], []
     for d in drawings:
-        rows, labels = d.cues(radius)
+        rows, labels = d.cues(params)
         for row, label in zip(rows, labels):
             if row is not None:
                 X.append(row)
@@ -116,25 +132,29 @@ def _fit(drawings, radius, lam):
     return {k: round(float(v), 3) for k, v in zip(CUES, w)}
 
 
-def _log_loss(drawings, weights, radius):
+def _log_loss(drawings, weights, params):
     """Logistic loss of the drawings' entries under ``weights`` (a place without cues
     counts as a coin toss)."""
     w = np.array([weights[k] for k in CUES])
     loss = 0.0
     for d in drawings:
-        rows, labels = d.cues(radius)
+        rows, labels = d.cues(params)
         for row, label in zip(rows, labels):
             loss += np.logaddexp(0.0, -label * np.dot(row, w)) if row is not None else np.log(2.0)
     return loss
 
 
 def _choose(drawings):
-    """(radius, lambda) of the grid with the least inner leave-one-out log-loss over
-    ``drawings`` (smoother than the count of right entries, so less swayed by one entry)."""
-    def inner(params):
-        return sum(_log_loss([d], _fit([o for o in drawings if o is not d], *params), params[0])
+    """``((junction radius, continuation widths, stroke-end scale), lambda)`` of the grid
+    with the least inner leave-one-out log-loss over ``drawings`` (smoother than the
+    count of right entries, so less swayed by one entry)."""
+    def inner(choice):
+        params, lam = choice
+        return sum(_log_loss([d], _fit([o for o in drawings if o is not d], params, lam), params)
                    for d in drawings)
-    return min(itertools.product(GRID["junction_radius"], GRID["regularization"]), key=inner)
+    params = itertools.product(GRID["junction_radius"], GRID["continuation_widths"],
+                               GRID["stroke_end_scale"])
+    return min(itertools.product(params, GRID["regularization"]), key=inner)
 
 
 def leave_one_out(drawings):
@@ -142,10 +162,11 @@ def leave_one_out(drawings):
     results = {}
     for held in drawings:
         others = [d for d in drawings if d is not held]
-        radius, lam = _choose(others)
-        weights = _fit(others, radius, lam)
-        results[held.name] = ({"junction_radius": radius, "regularization": lam, **weights},
-                              held.score(weights, radius))
+        params, lam = _choose(others)
+        weights = _fit(others, params, lam)
+        chosen = dict(zip(("junction_radius", "continuation_widths", "stroke_end_scale"), params))
+        results[held.name] = ({**chosen, "regularization": lam, **weights},
+                              held.score(weights, params))
     return results
 
 
@@ -215,9 +236,10 @@ def main(argv=None):
         folders = [f for f in folders if f.name in wanted]
     drawings = [_Drawing(f) for f in folders]
     accuracy, sure = report(drawings, leave_one_out(drawings))
-    radius, lam = _choose(drawings)
-    print(f"\nfitted on all drawings: JUNCTION_RADIUS = {radius:g}, regularization {lam:g}, "
-          f"WEIGHTS = {_fit(drawings, radius, lam)}")
+    (radius, widths, scale), lam = _choose(drawings)
+    print(f"\nfitted on all drawings: JUNCTION_RADIUS = {radius:g}, CONTINUATION_WIDTHS = "
+          f"{widths:g}, STROKE_END_SCALE = {scale:g}, regularization {lam:g}, "
+          f"WEIGHTS = {_fit(drawings, (radius, widths, scale), lam)}")
     rows = [("leave-one-out accuracy", f"{accuracy:.1%}", f"{TARGET_ACCURACY:.0%}",
              accuracy / TARGET_ACCURACY),
             ("accuracy, confidence >= 0.5", f"{sure:.1%}", f"{TARGET_SURE:.0%}", sure / TARGET_SURE)]

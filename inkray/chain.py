@@ -34,6 +34,7 @@ from inkray.progress import Progress
 from inkray.relief.assembly import assemble
 from inkray.relief.completion import Completion, complete_regions
 from inkray.relief.inflation import inflate_region
+from inkray.relief.ink_style import ink_style
 from inkray.relief.model import Relief
 from inkray.relief.ordering import depth_order
 from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
@@ -140,6 +141,9 @@ class _Cache:
         self._lock = threading.Lock()
         # (key, DepthSession, {constraint: handle}, its scribbles' digest) of the interactive depth
         self.session = None
+        # (drawing key, InkStyle) for the order prediction: kept apart from the stages so
+        # that it costs no stage its place
+        self.ink = None
 
     def get(self, key):
         with self._lock:
@@ -404,11 +408,18 @@ class ReliefChain:
         def compute():
             relations, notes = depth_order(constraints(self.annotations), labels, candidates,
                                            seams=self.annotations.boundaries,
-                                           predict=self.options.predict)
+                                           predict=self.options.predict, ink=self._ink_style())
             return relations, candidates.ordered(relations, memo=memo), notes
 
         value = self._stage("order", self._relations_key(), compute)
         return value
+
+    def _ink_style(self):
+        """The drawing's stroke width and stroke ends (for the order prediction), once per drawing."""
+        cache = self._cache
+        if cache.ink is None or cache.ink[0] != self._drawing_key:
+            cache.ink = (self._drawing_key, ink_style(self.drawing.gray))
+        return cache.ink[1]
 
     def _session_depth(self, seeds, seeds_key):
         """The fast depth from the kept session: only the changed constraints are re-done,

@@ -239,13 +239,18 @@ def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
     a, drawing = load_input(ann)
     character = ReliefChain(a, drawing).segmentation.labels >= 0
     assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "one.ora")]) == 0
-    assert "region 'b' must be split" in capsys.readouterr().err
+    # Either ring may be the one split (the weaker of the two predicted crossings
+    # decides); it is the back layer of the stack and of its split layer.
+    err = capsys.readouterr().err
+    (split_region,) = [x for x in "ab" if f"region '{x}' must be split" in err]
+    other = "b" if split_region == "a" else "a"
     stuck = read_layers(tmp_path / "one.ora")
-    assert [layer.name for layer in stuck.layers] == ["b", "a"]
+    assert [layer.name for layer in stuck.layers] == [split_region, other]
     assert psnr(stuck.flatten()[..., :3][character], drawing.rgb[character]) < 35.0
     assert cli.main(["--quiet", "layers", str(ann), "-o", str(tmp_path / "split.psd"),
                      "--split-local"]) == 0
     assert "must be split" not in capsys.readouterr().err
     split = read_layers(tmp_path / "split.psd")
-    assert [layer.name for layer in split.layers] == ["b", "a", "b over a"]
+    assert [layer.name for layer in split.layers] == [split_region, other,
+                                                     f"{split_region} over {other}"]
     assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0

@@ -5,7 +5,8 @@ import pytest
 
 from inkray.errors import InputError
 from inkray.relief.completion import complete_regions
-from inkray.relief.order_cues import CUES, order_cues, outline_lengths
+from inkray.relief.ink_style import InkStyle
+from inkray.relief.order_cues import CUES, contact_continuation, order_cues, outline_lengths
 from inkray.relief.ordering import WEIGHTS, predict_place
 
 H, W = 200, 260
@@ -81,3 +82,49 @@ def test_confidence_is_the_logistic_margin_of_the_weighted_cues():
         predict_place(c, place, weights={"size": 1.0})
     with pytest.raises(InputError, match="^junction_radius:"):
         predict_place(c, place, junction_radius=0)
+
+
+# -- contact continuation: which part's outline runs on along the contact --------
+
+CLEAN = InkStyle(width=2.0, stroke_ends=0.0)
+
+
+def _box_over_leg():
+    leg = (XX >= 110) & (XX < 150) & (YY >= 100)
+    box = (XX >= 40) & (XX < 220) & (YY >= 40) & (YY < 140)
+    return leg, box
+
+
+def test_the_part_whose_outline_continues_the_contact_is_in_front():
+    leg, box = _box_over_leg()
+    for front in (0, 1):                       # the box as region a, then as region b
+        labels = np.full((H, W), -1, np.int32)
+        labels[leg] = 1 - front
+        labels[box] = front
+        c = complete_regions(labels)
+        owns = contact_continuation(labels, c.places[0], ink=CLEAN)
+        assert owns > 0.8 if front == 0 else owns < -0.8
+
+
+def test_the_far_side_of_a_thin_front_part_is_not_on_its_continuation():
+    # A brim 10 px high over a head: within 6 stroke widths (12 px) of a junction
+    # the brim's top side is near in the plane but over 40 px away along its outline.
+    head = _disk(130, 115, 60)
+    brim = (XX >= 70) & (XX < 190) & (YY >= 50) & (YY < 60)
+    c = complete_regions(_paint(head, brim))
+    assert len(c.places[0].junctions) == 2
+    assert contact_continuation(c.labels, c.places[0], ink=CLEAN) < -0.5     # the brim (b)
+
+
+def test_the_continuation_cue_is_weighted_by_the_ink_clarity():
+    leg, box = _box_over_leg()
+    c = complete_regions(_paint(leg, box))
+    place = c.places[0]
+    owns = contact_continuation(c.labels, place, ink=CLEAN)
+    assert order_cues(c, place)["continuation"] == 0.0                   # no ink, no cue
+    assert order_cues(c, place, ink=CLEAN)["continuation"] == pytest.approx(owns)
+    gappy = InkStyle(width=2.0, stroke_ends=2.0)
+    assert order_cues(c, place, ink=gappy, stroke_end_scale=1.0)["continuation"] == \
+        pytest.approx(owns * np.exp(-2.0))
+    assert predict_place(c, place, ink=CLEAN).front == 1                  # the box
+    assert contact_continuation(c.labels, place, ink=InkStyle(width=0.0, stroke_ends=0.0)) == 0.0

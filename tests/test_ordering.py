@@ -315,11 +315,14 @@ def test_cli_regions_writes_nothing_on_contradiction(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
-    """With the order entries removed, the prediction agrees with them on >= 85 %
-    of the entries whose two regions touch (the figure per drawing is printed).
-    In-sample: the weights were fitted on these drawings; the leave-one-out
-    figure is benchmarks/bench_order.py's."""
+    """With the order entries removed, the prediction agrees with them on >= 89 %
+    of the entries whose two regions touch (the figure per drawing is printed;
+    it read 111 of 124, 89.5 %, when the continuation cue was added, up from
+    104). In-sample: the weights were fitted on these drawings (by log-loss, so
+    not to the most entries right); the leave-one-out figure (112 of 124) is
+    benchmarks/bench_order.py's."""
     from inkray.input.loading import load_input
+    from inkray.relief.ink_style import ink_style
     from inkray.segmentation import segment
 
     agree = counted = total = 0
@@ -330,7 +333,8 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
         seg = segment(ann, drawing)
         c = complete_regions(seg.labels, names=seg.names)
         users, _ = depth_order(constraints(ann), seg.labels, c, seams=ann.boundaries, predict=False)
-        guesses, _ = depth_order(constraints(replace(ann, order=[])), seg.labels, c, seams=ann.boundaries)
+        guesses, _ = depth_order(constraints(replace(ann, order=[])), seg.labels, c,
+                                 seams=ann.boundaries, ink=ink_style(drawing.gray))
         by_place = {r.place: r for r in guesses}
         orders = [u for u in users if u.kind == "order"]
         placed = [u for u in orders if u.place is not None]
@@ -344,4 +348,4 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
     with capsys.disabled():
         print("\n" + "\n".join(lines) + f"\nall: {agree}/{counted} = {agree / counted:.1%} "
               f"({total} entries, {total - counted} between regions that do not touch)")
-    assert agree / counted >= 0.85
+    assert agree / counted >= 0.89

@@ -14,10 +14,12 @@ be acyclic.
 
 Prediction, per place of a pair ``a``/``b``: the cues of
 :mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
-of each part's outline the contact is) are combined as a logistic model,
+of each part's outline the contact is, which part's outline continues the
+contact line, trusted as far as the drawing's lines are clean) are combined as a logistic model,
 ``score = sum(weights[cue] * cue)``; its sign says who is in front and
 ``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss, towards 1 when
-sure). :data:`WEIGHTS` and :data:`JUNCTION_RADIUS` were fitted on the
+sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`, :data:`CONTINUATION_WIDTHS` and
+:data:`STROKE_END_SCALE` were fitted on the
 bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
 leave-one-out (weights fitted without the drawing scored) and how accuracy
 grows with confidence. A global consistency step follows: predictions are
@@ -39,13 +41,21 @@ from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
 from inkray.relief.order_cues import CUES, order_cues, outline_lengths
 
-__all__ = ["JUNCTION_RADIUS", "Relation", "WEIGHTS", "depth_order", "predict_place"]
+__all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS",
+           "depth_order", "predict_place"]
 
 #: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
 #: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
-WEIGHTS = {"junction": 5.234, "area": 1.668, "surround": 4.454}
+WEIGHTS = {"junction": 4.397, "area": 0.838, "surround": 4.167, "continuation": 4.862}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
+#: Radius, in stroke widths, of the ``continuation`` cue around a junction (chosen
+#: by the same benchmark).
+CONTINUATION_WIDTHS = 6.0
+#: Stroke ends per 1000 skeleton pixels at which the ``continuation`` cue keeps
+#: ``1/e`` of its weight (:meth:`inkray.relief.ink_style.InkStyle.clarity`; chosen by
+#: the same benchmark).
+STROKE_END_SCALE = 1.0
 
 
 @dataclass
@@ -101,7 +111,8 @@ class Relation:
 
 
 def depth_order(constraints, labels, completion, *, seams=(), predict=True, weights=None,
-                junction_radius=None, min_confidence=0.0):
+                junction_radius=None, min_confidence=0.0, ink=None, continuation_widths=None,
+                stroke_end_scale=None):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -125,6 +136,15 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     min_confidence : float, default 0.0
         Predictions below this confidence are not made (the pair is left
         unordered there, e.g. at a symmetric Y-junction).
+    ink : inkray.relief.ink_style.InkStyle, optional
+        The drawing's lines (:func:`inkray.relief.ink_style.ink_style` of its
+        grey image), for the ``continuation`` cue; without it that cue is 0.
+    continuation_widths : float, optional
+        Radius in stroke widths of the ``continuation`` cue (default
+        :data:`CONTINUATION_WIDTHS`).
+    stroke_end_scale : float, optional
+        How fast stroke ends discount the ``continuation`` cue (default
+        :data:`STROKE_END_SCALE`).
 
     Returns
     -------
@@ -179,7 +199,9 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
             if place.index in spoken:
                 continue
             r = predict_place(completion, place, weights=weights, junction_radius=junction_radius,
-                              seams=paths, outlines=outlines)
+                              seams=paths, outlines=outlines, ink=ink,
+                              continuation_widths=continuation_widths,
+                              stroke_end_scale=stroke_end_scale)
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
         # Strongest first, so that in a cycle the weakest prediction is the one left out.
@@ -198,7 +220,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
 
 
 def predict_place(completion, place, *, weights=None, junction_radius=None, seams=(),
-                  seam_distance=6.0, outlines=None):
+                  seam_distance=6.0, outlines=None, ink=None, continuation_widths=None,
+                  stroke_end_scale=None):
     """Predict which region of a place is in front.
 
     Parameters
@@ -221,6 +244,14 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     outlines : (R,) array, optional
         :func:`inkray.relief.order_cues.outline_lengths` of the labels, when
         already known.
+    ink : inkray.relief.ink_style.InkStyle, optional
+        The drawing's lines, for the ``continuation`` cue (0 without it).
+    continuation_widths : float, optional
+        Radius in stroke widths of the ``continuation`` cue (default
+        :data:`CONTINUATION_WIDTHS`).
+    stroke_end_scale : float, optional
+        How fast stroke ends discount the ``continuation`` cue (default
+        :data:`STROKE_END_SCALE`).
 
     Returns
     -------
@@ -247,8 +278,11 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     radius = JUNCTION_RADIUS if junction_radius is None else float(junction_radius)
     if not radius > 0:
         raise InputError(f"junction_radius: expected a positive radius, got {junction_radius!r}")
+    widths = CONTINUATION_WIDTHS if continuation_widths is None else float(continuation_widths)
+    scale = STROKE_END_SCALE if stroke_end_scale is None else float(stroke_end_scale)
     cues = order_cues(completion, place, outlines=outlines, seams=seams, junction_radius=radius,
-                      seam_distance=seam_distance)
+                      seam_distance=seam_distance, ink=ink, continuation_widths=widths,
+                      stroke_end_scale=scale)
     if cues is None:
         return None
     score = sum(float(w) * cues[k] for k, w in weights.items())
