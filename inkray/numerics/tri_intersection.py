@@ -79,20 +79,22 @@ def _candidate_pairs(t):
     face = np.repeat(np.arange(len(t)), count)
     k = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)  # index within a face
     sx, sy = span[face, 0], span[face, 1]
-    cx = ilo[face, 0] + k % sx
-    cy = ilo[face, 1] + (k // sx) % sy
-    cz = ilo[face, 2] + k // (sx * sy)
-    cx, cy, cz = cx - cx.min(), cy - cy.min(), cz - cz.min()
-    key = (cx * (cy.max() + 1) + cy) * (cz.max() + 1) + cz  # one integer per cell
+    cell_of = np.stack([ilo[face, 0] + k % sx, ilo[face, 1] + (k // sx) % sy,
+                        ilo[face, 2] + k // (sx * sy)], axis=1)
+    c = cell_of - cell_of.min(axis=0)
+    size = c.max(axis=0) + 1
+    key = (c[:, 0] * size[1] + c[:, 1]) * size[2] + c[:, 2]  # one integer per cell
     order = np.lexsort((face, key))
-    key, face = key[order], face[order]
+    key, face, cell_of = key[order], face[order], cell_of[order]
     end = np.searchsorted(key, key, side="right")
     later = end - np.arange(len(key)) - 1  # members of the same cell after this one
     first = np.repeat(np.arange(len(key)), later)
     second = first + 1 + np.arange(len(first)) - np.repeat(np.cumsum(later) - later, later)
-    pairs = np.unique(np.stack([face[first], face[second]], axis=1), axis=0)
-    a, b = pairs[:, 0], pairs[:, 1]
+    a, b = face[first], face[second]
     keep = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    # a pair shares every cell its boxes' overlap spans: keep it in the overlap's lowest one
+    corner = np.floor(np.maximum(lo[a], lo[b]) / cell).astype(np.int64)
+    keep &= (corner == cell_of[first]).all(axis=1)
     return a[keep], b[keep]
 
 
