@@ -18,8 +18,9 @@ printing: the space between the highest front and the lowest back over the
 union of the parts' outlines, built as a height field (no boolean, so no
 near-coincident sheets and no slivers along intersection curves), which
 joins a part floating in front of the part behind it to it. It is remeshed
-(PyMeshLab's isotropic remeshing) and its remaining slivers are flipped,
-collapsed or split away. Parts whose outlines do not overlap (drawn apart)
+(PyMeshLab's isotropic remeshing), its remaining slivers are flipped,
+collapsed or split away and the vertices of faces folded through another
+moved off them. Parts whose outlines do not overlap (drawn apart)
 stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
@@ -155,10 +156,11 @@ def union_parts(parts, *, name="union", remesh=True):
     joins them along the footprint's outline. Watertight, consistently
     oriented and free of near-coincident sheets by construction. A step
     where one part's outline crosses another part becomes a steep strip
-    about ``3 gap`` wide, ``gap`` being a twelfth of the parts' median edge
+    about ``3 gap`` wide, ``gap`` being a sixth of the parts' median edge
     (rows of points beside every outline bound it); slits, spikes and ledges
-    narrower than about ``gap`` are closed, cut or filled (see
-    ``_envelope_solid``).
+    narrower than about ``gap`` are closed, cut or filled, and a lone vertex
+    rising (dropping) more than ``2 gap`` beyond all its neighbours is
+    brought back to them (see ``_envelope_solid``).
 
     Parameters
     ----------
@@ -342,17 +344,22 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
 
     The whole surface is remeshed toward edges of length ``target``, and
     again (up to three times) while a triangle has an angle below
-    ``min_angle``; creases sharper than 89 degrees (the steps between parts)
+    ``min_angle`` after the local fixes below; creases sharper than 89 degrees (the steps between parts)
     are kept as features. The remeshing leaves a few slivers along those
     creases; each is then flipped (a cap whose long edge lies in a flat
     stretch), collapsed (a needle's short edge, to whichever of its midpoint
     and ends shapes the triangles around it best) or split (a cap's long
     edge at the foot of its far corner, making two needles), only where this
     turns no face by more than 30 degrees and raises the smallest angle
-    around it. The remeshed surface is returned only when it is still
-    watertight and edge-manifold (otherwise the input comes back unchanged),
-    and without the sliver fixes when they would break that or put two
-    vertices at one position.
+    around it (an edge shorter than a quarter of the median edge may be
+    collapsed however far its faces turn, short of folding one over); a
+    further remeshing round runs only while these fixes leave a sliver.
+    Last, every vertex of a face that crosses another is moved to the
+    centroid of its neighbours (or halfway) where that leaves fewer
+    crossings and no angle below ``min_angle`` (``_untangle``). The remeshed
+    surface is returned only when it is still watertight and edge-manifold
+    (otherwise the input comes back unchanged), and without the sliver fixes
+    when they would break that or put two vertices at one position.
 
     Parameters
     ----------
