@@ -47,19 +47,21 @@ def test_union_is_one_watertight_manifold_solid(name, folder):
     assert not [w for w in warnings if w.startswith("union:")]
 
 
+def _known(failing, what):
+    """Every drawing, those in ``failing`` (name -> figure) as strict expected failures."""
+    return [pytest.param(n, marks=pytest.mark.xfail(reason=what.format(failing[n]), strict=True))
+            if n in failing else n for n in shared_drawing_names()]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(
-    reason=f"smallest angle {SLIVERS[n]} degrees", strict=True)) if n in SLIVERS else n
-    for n in shared_drawing_names()])
+@pytest.mark.parametrize("name", _known(SLIVERS, "smallest angle {} degrees"))
 def test_union_has_no_slivers(name, folder):
     report, _ = _report(name, folder)
     assert failed_requirements(report, "min-angle=10") == []
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(
-    reason=f"{CROSSINGS[n]} self-intersecting faces", strict=True)) if n in CROSSINGS else n
-    for n in shared_drawing_names()])
+@pytest.mark.parametrize("name", _known(CROSSINGS, "{} self-intersecting faces"))
 def test_union_has_no_self_intersections(name, folder):
     report, _ = _report(name, folder)
     assert failed_requirements(report, "no-self-intersections") == []
