@@ -26,6 +26,10 @@ what a viewer sees, not on the solver's own variables:
   one stroke width) covered by the front view of the relief.
 - **solids**: smallest triangle angle, largest aspect ratio and the number of
   connected shells of a closed (union) relief.
+- **top distance** of a union solid: the largest distance (px) from a
+  visible vertex of the closed parts' fronts (one no other part's front
+  covers) to the solid's surface: how far the printed top strays from the
+  relief a viewer sees.
 """
 
 import math
@@ -37,6 +41,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from inkray.formats.mesh_report import mesh_quality
+from inkray.relief.model import Part
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.view.rasterization import rasterize
 
@@ -303,3 +308,36 @@ def relief_figures(result, gray):
         "turning": turning_ratio(relief),
         "ink_on_mesh": outline_ink_on_mesh(relief, gray, result.segmentation.labels, raster=raster),
     }
+
+
+def top_distance(solid, parts):
+    """Largest distance (px) from the parts' visible front vertices to the solid's surface.
+
+    ``parts`` are the closed parts the union ``solid`` was made of; a front
+    vertex is visible when no other part's front lies above it.
+    """
+    fronts = []
+    for p in parts:
+        v, f = np.asarray(p.vertices, float), np.asarray(p.faces, np.int64)
+        t = v[f][:, :, :2]
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        front = f[e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0]  # clockwise in (x, y)
+        fronts.append((v, front))
+    worst = 0.0
+    sv, sf = np.asarray(solid.vertices, float), np.asarray(solid.faces, np.int64)
+    for i, (v, front) in enumerate(fronts):
+        pts = v[np.unique(front)]
+        covered = np.zeros(len(pts), bool)
+        for j, (w, g) in enumerate(fronts):
+            if j != i:
+                covered |= _above(pts, w, g)
+        if (~covered).any():
+            d2, _, _ = igl.point_mesh_squared_distance(pts[~covered], sv, sf)
+            worst = max(worst, float(np.sqrt(d2.max())))
+    return worst
+
+
+def _above(points, vertices, faces):
+    """Whether the front ``faces`` lie above ``points`` (within their outline in x, y)."""
+    z, d = height_on(Part("front", vertices, faces), points[:, :2])
+    return (d < 1e-6) & (z > points[:, 2] + 1e-9)

@@ -7,8 +7,9 @@ import trimesh
 
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
-from inkray.relief.assembly import (MIN_ANGLE, _min_angles, assemble, close_part, remesh_solid,
-                                    shell_parts, union_parts)
+from inkray.numerics.tri_intersection import self_intersecting_faces
+from inkray.relief.assembly import (MIN_ANGLE, _despike, _envelope_solid, _min_angles, _untangle,
+                                    assemble, close_part, remesh_solid, shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
 from inkray.errors import StageError
 from inkray.formats.mesh_report import mesh_quality
@@ -189,3 +190,58 @@ def test_close_part_walls_the_outline():
     assert mesh.volume == pytest.approx(2 * area @ v[faces, 2].mean(1) + 0.5 * 100, rel=1e-9)
     with pytest.raises(StageError, match="does not lie below the front"):
         close_part(Part("sq", v, faces), v[:, 2])
+
+
+def _box(x0, x1, top, name):
+    """A closed box over [x0, x1] x [0, 4] from z = 0 to ``top``, sides cut into unit steps."""
+    xs, ys = np.arange(x0, x1 + 0.5), np.arange(0.0, 5.0)
+    yy, xx = np.meshgrid(ys, xs, indexing="ij")
+    v = np.column_stack([xx.ravel(), yy.ravel(), np.full(xx.size, float(top))])
+    nx = len(xs)
+    q = (np.arange(len(ys) - 1)[:, None] * nx + np.arange(nx - 1)).ravel()
+    faces = np.concatenate([np.stack([q, q + nx, q + 1], 1), np.stack([q + 1, q + nx, q + nx + 1], 1)])
+    return close_part(Part(name, v, faces), np.zeros(len(v)))
+
+
+def test_envelope_of_two_boxes_is_the_higher_box_and_a_step():
+    low, high = _box(0.0, 6.0, 1.0, "low"), _box(3.0, 9.0, 3.0, "high")
+    gap = 0.1
+    v, f = _envelope_solid([low, high], gap=gap)
+    n = len(v) // 2
+    xy, top, bottom = v[:n, :2], v[:n, 2], v[n:, 2]
+    # closed form: the top is the high box's (3) where it reaches (its outline plus the
+    # 2 gap it is sampled beyond it), the low box's (1) elsewhere; the bottom is 0
+    expected = np.where(xy[:, 0] >= 3.0 - 2.0 * gap - 1e-9, 3.0, 1.0)
+    assert np.array_equal(top, expected) and np.array_equal(bottom, np.zeros(n))
+    q = mesh_quality(v, f)
+    assert q["watertight"] and q["consistently_oriented"] and q["self_intersecting_faces"] == 0
+    # the step ramps down between the high box's reach and the row of points 3 gap out
+    volume = -q["volume"]  # (y down: the envelope's faces run clockwise seen from +z)
+    assert 36.0 + (6.0 + 2.0 * gap) * 8.0 < volume < 36.0 + (6.0 + 3.0 * gap) * 8.0
+
+
+def test_despike_brings_a_lone_vertex_back_to_its_neighbours():
+    # a fan around vertex 0; its neighbours at heights 1..6 (top) and -1..-6 (bottom)
+    ring = np.arange(1, 7)
+    tris = np.stack([np.zeros(6, np.int64), ring, np.roll(ring, -1)], 1)
+    top = np.r_[20.0, np.arange(1.0, 7.0)]
+    bottom = -top
+    t, b = _despike(tris, top, bottom, 5.0)
+    assert t[0] == 6.0 and b[0] == -6.0  # the nearest neighbour on each sheet
+    assert np.array_equal(t[1:], top[1:]) and np.array_equal(b[1:], bottom[1:])
+    t, b = _despike(tris, top, bottom, 20.0)  # a rise that tall is kept
+    assert np.array_equal(t, top) and np.array_equal(b, bottom)
+
+
+def test_untangle_moves_a_vertex_pushed_through_the_solid_back():
+    box = _box(0.0, 4.0, 2.0, "box")
+    v, f = box.vertices.copy(), box.faces
+    centre = int(np.flatnonzero((v[:, 0] == 2.0) & (v[:, 1] == 2.0) & (v[:, 2] == 2.0))[0])
+    v[centre, 2] = -1.0  # through the bottom
+    assert self_intersecting_faces(v, f).any()
+    out = _untangle(v, f, min_angle=10.0)
+    assert not self_intersecting_faces(out, f).any()
+    # closed form: its neighbours are all on the top, so the centroid of them is too
+    assert out[centre, 2] == pytest.approx(2.0)
+    moved = np.flatnonzero((out != v).any(axis=1))
+    assert moved.tolist() == [centre]

@@ -14,8 +14,10 @@ of it. A face is degenerate when its height is below ``1e-6`` of its longest
 edge (this includes zero-area faces); angle and aspect-ratio statistics are
 over the other faces. Aspect ratio is ``longest edge * perimeter /
 (4 sqrt(3) area)``: 1 for an equilateral triangle, larger for worse shapes.
-Self-intersections come from PyMeshLab (faces that cross a face they share
-no vertex with).
+Self-intersections are tested exactly in double precision
+(:mod:`inkray.numerics.tri_intersection`): faces that cross or touch a face
+they share no edge with (faces sharing one corner count when one folds over
+the other, not for touching at it).
 """
 
 import numpy as np
@@ -55,7 +57,8 @@ def mesh_quality(vertices, faces, *, self_intersections=True):
     vertices : (n, 3) float array
     faces : (m, 3) int array
     self_intersections : bool, optional
-        Count self-intersecting faces (PyMeshLab); ``None`` in the result
+        Count self-intersecting faces (exactly, in double precision: see
+        :mod:`inkray.numerics.tri_intersection`); ``None`` in the result
         when False.
 
     Returns
@@ -476,15 +479,9 @@ def _weld(points):
 
 
 def _self_intersecting_faces(vertices, faces):
-    if len(faces) < 2:
-        return 0
-    import pymeshlab
+    from inkray.numerics.tri_intersection import self_intersecting_faces
 
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=np.ascontiguousarray(vertices, np.float64),
-                               face_matrix=np.ascontiguousarray(faces, np.int32)))
-    ms.compute_selection_by_self_intersections_per_face()
-    return int(ms.current_mesh().selected_face_number())
+    return int(self_intersecting_faces(vertices, faces).sum())
 
 
 def _overall(parts):

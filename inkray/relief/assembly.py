@@ -18,8 +18,9 @@ printing: the space between the highest front and the lowest back over the
 union of the parts' outlines, built as a height field (no boolean, so no
 near-coincident sheets and no slivers along intersection curves), which
 joins a part floating in front of the part behind it to it. It is remeshed
-(PyMeshLab's isotropic remeshing) and its remaining slivers are flipped,
-collapsed or split away. Parts whose outlines do not overlap (drawn apart)
+(PyMeshLab's isotropic remeshing), its remaining slivers are flipped,
+collapsed or split away and the vertices of faces folded through another
+moved off them. Parts whose outlines do not overlap (drawn apart)
 stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
@@ -155,10 +156,11 @@ def union_parts(parts, *, name="union", remesh=True):
     joins them along the footprint's outline. Watertight, consistently
     oriented and free of near-coincident sheets by construction. A step
     where one part's outline crosses another part becomes a steep strip
-    about ``3 gap`` wide, ``gap`` being a twelfth of the parts' median edge
+    about ``3 gap`` wide, ``gap`` being a sixth of the parts' median edge
     (rows of points beside every outline bound it); slits, spikes and ledges
-    narrower than about ``gap`` are closed, cut or filled (see
-    ``_envelope_solid``).
+    narrower than about ``gap`` are closed, cut or filled, and a lone vertex
+    rising (dropping) more than ``2 gap`` beyond all its neighbours is
+    brought back to them (see ``_envelope_solid``).
 
     Parameters
     ----------
@@ -188,7 +190,7 @@ def union_parts(parts, *, name="union", remesh=True):
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
     target = float(np.median(edges)) / 3.0
-    verts, faces = _envelope_solid(parts, gap=target / 4.0)
+    verts, faces = _envelope_solid(parts, gap=target / 2.0)
     if remesh:
         verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
@@ -245,12 +247,32 @@ def _envelope_solid(parts, *, gap):
     xy, top, bottom = xy[used], top[used], bottom[used]
     if not (np.isfinite(top).all() and np.isfinite(bottom).all()):
         raise StageError("union: a vertex of the outlines' triangulation lies in no part")
+    top, bottom = _despike(tris, top, bottom, 2.0 * gap)
     n = len(xy)
     # Triangle's faces run counter-clockwise in (x, y): the back's orientation
     a, b = _boundary_edges(tris).T
     walls = np.concatenate([np.stack([a, b, b + n], 1), np.stack([a, b + n, a + n], 1)])
     verts = np.concatenate([np.column_stack([xy, top]), np.column_stack([xy, bottom])])
     return verts, np.concatenate([tris[:, ::-1], tris + n, walls])
+
+
+def _despike(tris, top, bottom, height):
+    """``top`` and ``bottom`` with lone vertices more than ``height`` beyond all their
+    neighbours brought back to the nearest of them.
+
+    A vertex just within a part's sampling tolerance (see ``_envelope_solid``)
+    takes that part's height while its neighbours do not: a needle of the
+    solid a fraction of a pixel wide, which no remeshing makes well shaped.
+    """
+    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    n = len(top)
+    highest = np.full(n, -np.inf)
+    np.maximum.at(highest, e[:, 0], top[e[:, 1]])
+    lowest = np.full(n, np.inf)
+    np.minimum.at(lowest, e[:, 0], bottom[e[:, 1]])
+    return (np.where(top > highest + height, highest, top),
+            np.where(bottom < lowest - height, lowest, bottom))
 
 
 def _trim_footprint(xy, tris, neighbours, inside, gap):
@@ -322,17 +344,22 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
 
     The whole surface is remeshed toward edges of length ``target``, and
     again (up to three times) while a triangle has an angle below
-    ``min_angle``; creases sharper than 89 degrees (the steps between parts)
+    ``min_angle`` after the local fixes below; creases sharper than 89 degrees (the steps between parts)
     are kept as features. The remeshing leaves a few slivers along those
     creases; each is then flipped (a cap whose long edge lies in a flat
     stretch), collapsed (a needle's short edge, to whichever of its midpoint
     and ends shapes the triangles around it best) or split (a cap's long
     edge at the foot of its far corner, making two needles), only where this
     turns no face by more than 30 degrees and raises the smallest angle
-    around it. The remeshed surface is returned only when it is still
-    watertight and edge-manifold (otherwise the input comes back unchanged),
-    and without the sliver fixes when they would break that or put two
-    vertices at one position.
+    around it (an edge shorter than a quarter of the median edge may be
+    collapsed however far its faces turn, short of folding one over); a
+    further remeshing round runs only while these fixes leave a sliver.
+    Last, every vertex of a face that crosses another is moved to the
+    centroid of its neighbours (or halfway) where that leaves fewer
+    crossings and no angle below ``min_angle`` (``_untangle``). The remeshed
+    surface is returned only when it is still watertight and edge-manifold
+    (otherwise the input comes back unchanged), and without the sliver fixes
+    when they would break that or put two vertices at one position.
 
     Parameters
     ----------
@@ -364,24 +391,74 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     length = pymeshlab.PureValue(float(target))
     ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
                                             checksurfdist=False)
-    for _ in range(_FIX_ROUNDS):
+    for rounds in range(_FIX_ROUNDS + 1):
         m = ms.current_mesh()
         m.compact()
-        if _min_angles(m.vertex_matrix(), m.face_matrix()).min(initial=180.0) >= min_angle:
+        nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
+        if not _closed_manifold(nf):
+            return v, f.astype(np.int64)
+        fv, ff = _SliverFix(nv, nf).run(min_angle)
+        if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
+            fv, ff = nv, nf
+        if rounds == _FIX_ROUNDS or _min_angles(fv, ff).min(initial=180.0) >= min_angle:
             break
-        # (remeshing only the selected slivers would be cheaper, but PyMeshLab's
-        # selected-only remeshing depends on earlier calls: the output would too)
+        # the remeshing goes on from its own mesh, not the fixed one; (remeshing only the
+        # slivers would be cheaper, but PyMeshLab's selected-only remeshing depends on
+        # earlier calls: the output would too)
         ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
                                                 checksurfdist=False)
-    m = ms.current_mesh()
-    m.compact()
-    nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
-    if not _closed_manifold(nf):
-        return v, f.astype(np.int64)
-    fv, ff = _SliverFix(nv, nf).run(min_angle)
-    if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
-        return nv, nf
-    return fv, ff
+    return _untangle(fv, ff, min_angle=min_angle), ff
+
+
+def _untangle(vertices, faces, *, min_angle, rounds=3):
+    """Vertices of a mesh moved, one at a time, off the faces they fold through.
+
+    Each vertex of a face that crosses another is tried at the centroid of
+    its neighbours and halfway there; a move is kept when it leaves fewer
+    crossing faces around it and no angle of its faces below ``min_angle``
+    (or below the smallest one there before). Only positions change, so the
+    mesh stays as closed and manifold as it was.
+    """
+    from inkray.numerics.tri_intersection import self_intersecting_faces
+
+    v = np.array(vertices, float)
+    f = np.asarray(faces, np.int64)
+    n = len(v)
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    ring = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
+    ring = ((ring + ring.T) > 0).tocsr()
+    flat = f.ravel()
+    order = np.argsort(flat, kind="stable")
+    start = np.searchsorted(flat[order], np.arange(n + 1))
+
+    for _ in range(rounds):
+        bad = self_intersecting_faces(v, f)
+        if not bad.any():
+            break
+        t = v[f]
+        flo, fhi = t.min(axis=1), t.max(axis=1)  # the faces' boxes, kept up to date
+        moved = False
+        for x in np.unique(f[bad]).tolist():
+            around = order[start[x]:start[x + 1]] // 3
+            centroid = v[ring.indices[ring.indptr[x]:ring.indptr[x + 1]]].mean(axis=0)
+            here = v[x].copy()
+            lo = np.minimum(flo[around].min(axis=0), centroid)
+            hi = np.maximum(fhi[around].max(axis=0), centroid)
+            near = f[np.flatnonzero((flo <= hi).all(axis=1) & (fhi >= lo).all(axis=1))]
+            before = int(self_intersecting_faces(v, near).sum())
+            worst = min(min_angle, float(_min_angles(v, f[around]).min()))
+            for p in (centroid, 0.5 * (here + centroid)):
+                v[x] = p
+                if (self_intersecting_faces(v, near).sum() < before
+                        and _min_angles(v, f[around]).min() >= worst):
+                    moved = True
+                    t = v[f[around]]
+                    flo[around], fhi[around] = t.min(axis=1), t.max(axis=1)
+                    break
+                v[x] = here
+        if not moved:
+            break
+    return v
 
 
 class _SliverFix:
@@ -398,6 +475,8 @@ class _SliverFix:
         self._order = np.argsort(flat, kind="stable")
         self._start = np.searchsorted(flat[self._order], np.arange(len(self.v) + 1))
         self._around = {}
+        e = self.v[self.f] - self.v[np.roll(self.f, 1, axis=1)]
+        self._short = 0.25 * float(np.median(np.linalg.norm(e, axis=2)))
 
     def run(self, min_angle):
         """Vertices and faces with the slivers fixed where it can be done."""
@@ -469,10 +548,14 @@ class _SliverFix:
         moved = sorted((fa | fb) - shared)
         before = min(self._angle(g) for g in moved + sorted(shared))
         best, where = before, None
+        # an edge much shorter than the mesh's edges moves its faces little however far
+        # they turn: only a face turned over (a fold) is refused
+        short = np.linalg.norm(self.v[a] - self.v[b]) < self._short
+        turn = 0.0 if short else self._TURN
         for p in (0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]):
             tris = self.v[self.f[moved]]
             tris[np.isin(self.f[moved], (a, b))] = p
-            if (np.einsum("ij,ij->i", _normal(tris), _normal(self.v[self.f[moved]])) < self._TURN).any():
+            if (np.einsum("ij,ij->i", _normal(tris), _normal(self.v[self.f[moved]])) < turn).any():
                 continue
             worst = _min_angles(tris.reshape(-1, 3), np.arange(3 * len(moved)).reshape(-1, 3)).min()
             if worst > best:

@@ -1,0 +1,127 @@
+"""Self-intersections of a triangle mesh, tested exactly in double precision.
+
+Candidate pairs come from a uniform grid over the faces' bounding boxes;
+each pair is tested with the separating axis theorem (two triangles are
+disjoint exactly when their projections on one of 17 axes - the two
+normals, the nine cross products of their edges and the six in-plane edge
+normals, which separate coplanar triangles - do not overlap). Faces sharing
+an edge are never counted (they meet along it); faces sharing one vertex
+are tested shrunk a little toward their centroids, so touching at the
+shared corner does not count but a fold over it does.
+"""
+
+import numpy as np
+
+__all__ = ["self_intersecting_faces"]
+
+_SHRINK = 1e-6  # relative shrink of faces that share a corner
+_CHUNK = 200_000  # pairs tested at once (memory)
+
+
+def self_intersecting_faces(vertices, faces):
+    """Which faces cross or touch another face they share no edge with.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+
+    Returns
+    -------
+    (m,) bool array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 1]])
+    >>> self_intersecting_faces(v, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
+    [True, True]
+    >>> apart = v + np.repeat([[0.0, 0, 0], [5, 0, 0]], 3, axis=0)
+    >>> self_intersecting_faces(apart, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
+    [False, False]
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    out = np.zeros(len(f), bool)
+    if len(f) < 2:
+        return out
+    v = v - 0.5 * (v.min(axis=0) + v.max(axis=0))  # digits where the faces differ
+    a, b = _candidate_pairs(v[f])
+    shared = (f[a][:, :, None] == f[b][:, None, :]).sum(axis=(1, 2))
+    a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
+    for s in range(0, len(a), _CHUNK):
+        i, j, k = a[s:s + _CHUNK], b[s:s + _CHUNK], shared[s:s + _CHUNK]
+        ti, tj = v[f[i]], v[f[j]]
+        corner = k == 1
+        ti[corner] = _shrunk(ti[corner])
+        tj[corner] = _shrunk(tj[corner])
+        near = _straddle(ti, tj) & _straddle(tj, ti)
+        hit = np.zeros(len(i), bool)
+        hit[near] = _overlap(ti[near], tj[near])
+        out[i[hit]] = True
+        out[j[hit]] = True
+    return out
+
+
+def _shrunk(t):
+    c = t.mean(axis=1, keepdims=True)
+    return c + (1.0 - _SHRINK) * (t - c)
+
+
+def _candidate_pairs(t):
+    """Pairs ``a < b`` of faces whose bounding boxes overlap."""
+    lo, hi = t.min(axis=1), t.max(axis=1)
+    cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
+    ilo = np.floor(lo / cell).astype(np.int64)
+    ihi = np.floor(hi / cell).astype(np.int64)
+    span = ihi - ilo + 1
+    count = span.prod(axis=1)
+    face = np.repeat(np.arange(len(t)), count)
+    k = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)  # index within a face
+    sx, sy = span[face, 0], span[face, 1]
+    cell_of = np.stack([ilo[face, 0] + k % sx, ilo[face, 1] + (k // sx) % sy,
+                        ilo[face, 2] + k // (sx * sy)], axis=1)
+    c = cell_of - cell_of.min(axis=0)
+    size = c.max(axis=0) + 1
+    key = (c[:, 0] * size[1] + c[:, 1]) * size[2] + c[:, 2]  # one integer per cell
+    order = np.lexsort((face, key))
+    key, face, cell_of = key[order], face[order], cell_of[order]
+    end = np.searchsorted(key, key, side="right")
+    later = end - np.arange(len(key)) - 1  # members of the same cell after this one
+    first = np.repeat(np.arange(len(key)), later)
+    second = first + 1 + np.arange(len(first)) - np.repeat(np.cumsum(later) - later, later)
+    a, b = face[first], face[second]
+    keep = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    # a pair shares every cell its boxes' overlap spans: keep it in the overlap's lowest one
+    corner = np.floor(np.maximum(lo[a], lo[b]) / cell).astype(np.int64)
+    keep &= (corner == cell_of[first]).all(axis=1)
+    return a[keep], b[keep]
+
+
+def _straddle(p, q):
+    """Whether triangles ``q`` touch the planes of triangles ``p`` (cheap rejection)."""
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    d = np.einsum("kij,kj->ki", q - p[:, :1], n)
+    return (d.min(axis=1) <= 0) & (d.max(axis=1) >= 0)
+
+
+def _overlap(p, q):
+    """Separating-axis test of triangle pairs ``p, q`` (k, 3, 3): True where they meet."""
+    ep = np.roll(p, -1, axis=1) - p
+    eq = np.roll(q, -1, axis=1) - q
+    np_ = np.cross(ep[:, 0], ep[:, 1])
+    nq = np.cross(eq[:, 0], eq[:, 1])
+    axes = [np_, nq]
+    axes += [np.cross(ep[:, i], eq[:, j]) for i in range(3) for j in range(3)]
+    axes += [np.cross(np_, ep[:, i]) for i in range(3)] + [np.cross(nq, eq[:, i]) for i in range(3)]
+    scale = np.maximum(np.abs(ep).max(axis=(1, 2)), np.abs(eq).max(axis=(1, 2)))
+    meet = np.ones(len(p), bool)
+    for axis in axes:
+        norm = np.linalg.norm(axis, axis=1)
+        usable = norm > 1e-12 * scale ** 2  # (parallel edges give no axis)
+        u = axis / np.maximum(norm, 1e-300)[:, None]
+        sp = np.einsum("kij,kj->ki", p, u)
+        sq = np.einsum("kij,kj->ki", q, u)
+        apart = (sp.max(axis=1) < sq.min(axis=1)) | (sq.max(axis=1) < sp.min(axis=1))
+        meet &= ~(apart & usable)
+    return meet

@@ -1,0 +1,51 @@
+"""Exact self-intersection test of triangle meshes."""
+
+import numpy as np
+import pytest
+
+from inkray.numerics.tri_intersection import self_intersecting_faces
+
+
+def _pair(p, q):
+    return np.array(p + q, float), np.array([[0, 1, 2], [3, 4, 5]])
+
+
+def test_crossing_and_apart_pairs():
+    flat = [[0, 0, 0], [2, 0, 0], [0, 2, 0]]
+    v, f = _pair(flat, [[0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 1]])  # pierces the flat one
+    assert self_intersecting_faces(v, f).tolist() == [True, True]
+    v, f = _pair(flat, [[0.5, 0.5, 0.1], [1.5, 0.5, 1], [0.5, 1.5, 1]])  # hovers above it
+    assert self_intersecting_faces(v, f).tolist() == [False, False]
+
+
+@pytest.mark.parametrize("offset", [0.0, 250.0, 1e4])
+def test_near_disjoint_pair_far_from_the_origin(offset):
+    # two triangles of one sheet 0.05 apart in the plane: disjoint wherever they lie
+    v, f = _pair([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1.05, 0.05, 0.0], [1.05, 1, 0], [0.1, 1, 0]])
+    assert not self_intersecting_faces(v + offset, f).any()
+    v[3:, :2] -= 0.1  # now they overlap
+    assert self_intersecting_faces(v + offset, f).all()
+
+
+def test_shared_corner_counts_only_a_fold():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [1, 0.2, 0]], float)
+    beside = np.array([[0, 1, 2], [0, 3, 4]])  # meet only at vertex 0
+    folded = np.array([[0, 1, 2], [0, 5, 4]])  # the second lies over the first
+    assert not self_intersecting_faces(v, beside).any()
+    assert self_intersecting_faces(v, folded).all()
+
+
+def test_matches_libigl_on_a_random_soup():
+    igl = pytest.importorskip("igl")
+    rng = np.random.default_rng(3)
+    centres = rng.uniform(0, 6, (60, 1, 3))
+    tris = centres + rng.normal(0, 1, (60, 3, 3))
+    v, f = tris.reshape(-1, 3), np.arange(180).reshape(-1, 3)
+    expected = np.zeros(60, bool)
+    for i in range(60):
+        for j in range(i + 1, 60):
+            args = [x.reshape(1, 3).copy() for x in (*tris[i], *tris[j])]
+            if igl.tri_tri_intersection_test_3d(*args)[0]:
+                expected[[i, j]] = True
+    assert 0 < expected.sum() < 60
+    assert self_intersecting_faces(v, f).tolist() == expected.tolist()
