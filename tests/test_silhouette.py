@@ -71,15 +71,16 @@ def test_paper_beside_a_crisp_stroke_keeps_its_ink_inside_the_outline():
     assert r[added].max() <= r[ink].max() + 1.5
 
 
-def test_padding_gives_no_part_pixel_to_another():
-    labels = np.full((9, 12), -1)
-    labels[:, :5], labels[:, 7:] = 0, 1
-    ink = np.zeros((9, 12), bool)
-    ink[:, 4] = ink[:, 7] = True
+def test_padding_gives_no_part_pixel_to_another_and_keeps_narrow_gaps():
+    labels = np.full((9, 16), -1)
+    labels[:, :5], labels[:, 7:10] = 0, 1
+    ink = np.zeros((9, 16), bool)
+    ink[:, 4] = ink[:, 7] = ink[:, 9] = True
     padded = pad_ink_edge(labels, ink)
     inside = labels >= 0
     assert np.array_equal(padded[inside], labels[inside])
-    assert padded[4].tolist() == [0] * 6 + [1] * 6  # the gap goes to the nearer stroke
+    # the 2 px gap between the parts stays paper; the open side of part 1 gets its pixel
+    assert padded[4].tolist() == [0] * 5 + [-1, -1] + [1] * 4 + [-1] * 5
     with pytest.raises(InputError, match="shape"):
         pad_ink_edge(labels, ink[:3])
 

@@ -18,7 +18,7 @@ pixels, also where a crisp stroke has no soft edge.
 import math
 
 import numpy as np
-from scipy.ndimage import binary_dilation, distance_transform_edt
+from scipy.ndimage import binary_dilation, distance_transform_edt, maximum_filter, minimum_filter
 
 from inkray.errors import InputError
 
@@ -26,6 +26,7 @@ __all__ = ["INK_LEVEL", "ink_pixels", "stroke_width", "grow_over_ink", "pad_ink_
 
 #: Grey level (paper 1, ink 0) below which a pixel is ink.
 INK_LEVEL = 0.5
+_GAP = 3  # px: paper this close to another part stays paper (pad_ink_edge)
 
 
 def ink_pixels(gray, *, level=INK_LEVEL):
@@ -155,7 +156,9 @@ def pad_ink_edge(labels, ink):
     -------
     (H, W) int32 array
         ``labels`` with every background pixel that 8-touches ink of a part set
-        to the nearest such part; every other pixel unchanged.
+        to the nearest such part, unless another part is within 3 px of it
+        (a narrow gap between two parts stays paper); every other pixel
+        unchanged.
 
     Raises
     ------
@@ -178,5 +181,13 @@ def pad_ink_edge(labels, ink):
     beside = binary_dilation(edge, structure=np.ones((3, 3), bool)) & (labels < 0)
     if beside.any():
         _, (iy, ix) = distance_transform_edt(~edge, return_indices=True)
-        out[beside] = labels[iy[beside], ix[beside]]
+        nearest = labels[iy, ix]
+        # A narrow gap between two parts stays paper: two outlines brought within a
+        # pixel of each other would make a sliver between them in a union solid.
+        span = 2 * _GAP + 1
+        top = maximum_filter(np.where(labels >= 0, labels, -1), size=span)
+        low = minimum_filter(np.where(labels >= 0, labels, np.iinfo(np.int32).max), size=span)
+        alone = (top == nearest) & (low == nearest)
+        beside &= alone
+        out[beside] = nearest[beside]
     return out

@@ -8,8 +8,11 @@ gets an offset field ``g_i`` on its mesh so that the heights
 - **inequalities**: where region ``A`` is in front of ``B`` (a relation of
   :mod:`inkray.order`, local to its place), ``z_A >= z_B + epsilon`` at
   corresponding points of their overlap: the vertices of either mesh that lie
-  in the overlap of both completed regions inside that place, plus the user's
-  entry points;
+  in the overlap of both completed regions inside that place, the points
+  where an edge of one mesh crosses an edge of the other there (with the
+  vertices, the corners of every cell of the two meshes' overlay, on which
+  ``z_A - z_B`` is linear: the order holds over the whole overlap), plus the
+  user's entry points;
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
 - **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
   outline carries the entry, inflated with a Neumann condition there) meets
@@ -365,7 +368,8 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
 
 def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
     """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap
-    (and along the regions' contact), wherever both meshes are there."""
+    (and along the regions' contact) and at every crossing of their edges there,
+    wherever both meshes are there."""
     if blocks[a] is None or blocks[b] is None:
         return
     y0, y1, x0, x1 = place.box
