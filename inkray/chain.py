@@ -38,7 +38,7 @@ from inkray.relief.ink_style import ink_style
 from inkray.relief.model import Relief
 from inkray.relief.ordering import depth_order
 from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
-from inkray.relief.silhouette import grow_over_ink, ink_pixels
+from inkray.relief.silhouette import grow_over_ink, ink_pixels, pad_ink_edge
 from inkray.relief.stitching import Layers, stitch
 from inkray.segmentation import Segmentation, segment
 
@@ -274,8 +274,8 @@ class ReliefChain:
             return self._memo["meshes"]
         completion = self.completion
         # The parts reach the outer edge of their contour strokes (the outline on the mesh).
-        labels = self._stage("silhouettes", ("silhouettes", self._segment_key()), lambda: grow_over_ink(
-            completion.labels, ink_pixels(self.drawing.gray, level=_STROKE_EDGE)), timed=False)
+        labels = self._stage("silhouettes", ("silhouettes", self._segment_key()),
+                             lambda: _silhouettes(completion.labels, self.drawing.gray), timed=False)
         regions = self.annotations.regions
         seams = self.annotations.boundaries
         out, keys = [], []
@@ -482,6 +482,13 @@ def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_ARE
     options = ChainOptions(predict=predict, max_area=max_area, epsilon=epsilon, closed=closed,
                            union=union)
     return ReliefChain(annotations, drawing, options=options, progress=progress).result()
+
+
+def _silhouettes(labels, gray):
+    """The parts grown over their contour strokes (soft edges included) and one pixel of
+    paper beyond them, so that the smoothed outlines keep the whole stroke on the mesh."""
+    stroke = ink_pixels(gray, level=_STROKE_EDGE)
+    return pad_ink_edge(grow_over_ink(labels, stroke), stroke)
 
 
 # -- content keys ------------------------------------------------------------------

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from inkray.relief.completion import complete_regions, continue_outline
+from inkray.numerics.grid import grid_laplacian
+from inkray.relief.completion import _OUTSIDE, _dirichlet_system, complete_regions, continue_outline
 from inkray.errors import InputError
 from inkray.relief.ordering import depth_order
 
@@ -207,3 +208,21 @@ def test_ordering_keeps_a_hidden_part_without_an_outline_of_its_own():
     assert list(memo.values()) == [None]       # nothing reshaped: the diffusion's part is kept
     assert np.array_equal(first.owner, c.ordered([over], curvature=False).owner)
     assert np.array_equal(c.ordered([over], memo=memo).owner, first.owner)
+
+
+def test_the_occluder_system_is_the_box_laplacian_cut_to_its_pixels():
+    # built on the occluder's pixels only, it must equal the whole box's Laplacian with
+    # every other pixel fixed (1 for the column's label, 0 for any other)
+    rng = np.random.default_rng(5)
+    crop = np.pad(rng.integers(-1, 4, (30, 40)), 1, constant_values=_OUTSIDE)
+    crop[5:25, 8:30] = 0
+    inside = crop == 0
+    nbrs = np.array([1, 3])
+    system, rhs = _dirichlet_system(crop, inside, nbrs)
+    valid = crop != _OUTSIDE
+    lap = grid_laplacian(valid[:, :-1] & valid[:, 1:], valid[:-1, :] & valid[1:, :]).tocsr()
+    unknown, known = np.flatnonzero(inside.ravel()), np.flatnonzero(~inside.ravel())
+    values = (crop.ravel()[known][:, None] == nbrs[None, :]).astype(float)
+    assert abs(system - lap[unknown][:, unknown]).max() == 0
+    np.testing.assert_array_equal(rhs, -(lap[unknown][:, known] @ values))
+    assert rhs.sum() > 0

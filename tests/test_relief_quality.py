@@ -80,16 +80,8 @@ def test_fast_drawings_are_clean(name, tmp_path):
     _check(name, tmp_path)
 
 
-# Known defect: the man's order[5] fails by up to 0.37 px over the last samples of
-# its segment, next to its back point (not yet understood).
-KNOWN = {"man": "order[5] fails by 0.37 px next to its back point",
-         "rings": "95.8 % of the outline ink on the mesh where the rings cross (target 97 %)"}
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(reason=KNOWN[n], strict=True))
-                                  if n in KNOWN else n
-                                  for n in shared_drawing_names() if n not in FAST])
+@pytest.mark.parametrize("name", [n for n in shared_drawing_names() if n not in FAST])
 def test_every_drawing_is_clean(name, tmp_path):
     _check(name, tmp_path)
 

@@ -1,8 +1,10 @@
 import numpy as np
 import pytest
+from skimage.measure import points_in_poly
 
 from inkray.errors import InputError
-from inkray.relief.silhouette import grow_over_ink, ink_pixels, stroke_width
+from inkray.relief.outline import region_outline
+from inkray.relief.silhouette import grow_over_ink, ink_pixels, pad_ink_edge, stroke_width
 
 
 def _ring_drawing(size=80, radius=25, width=4):
@@ -46,6 +48,41 @@ def test_nearest_part_takes_a_pixel():
     ink[:, 3:8] = True
     grown = grow_over_ink(labels, ink, width=5)
     assert grown[2].tolist() == [0, 0, 0, 0, 0, grown[2, 5], 1, 1, 1, 1, 1]
+
+
+def _ink_off_outline(mask, ink):
+    """Ink pixels of the mask whose centres the smoothed outer outline leaves out."""
+    out = region_outline(mask)
+    loop = out.points[out.loop == int(np.flatnonzero(~out.hole)[0])]
+    ys, xs = np.nonzero(ink & mask)
+    return int((~points_in_poly(np.column_stack([xs, ys]).astype(float), loop)).sum())
+
+
+def test_paper_beside_a_crisp_stroke_keeps_its_ink_inside_the_outline():
+    # a crisp (binary) stroke: the smoothed outline cuts its stair-steps' corners
+    labels, ink, r = _ring_drawing(size=120, radius=41.3, width=3)
+    grown = grow_over_ink(labels, ink)
+    assert _ink_off_outline(grown == 0, ink) > 0
+    padded = pad_ink_edge(grown, ink)
+    assert _ink_off_outline(padded == 0, ink) == 0
+    added = padded != grown
+    assert (grown[added] == -1).all() and (padded[added] == 0).all()
+    assert r[added].min() >= r[ink].max()  # one pixel of paper beyond the stroke
+    assert r[added].max() <= r[ink].max() + 1.5
+
+
+def test_padding_gives_no_part_pixel_to_another_and_keeps_narrow_gaps():
+    labels = np.full((9, 16), -1)
+    labels[:, :5], labels[:, 7:10] = 0, 1
+    ink = np.zeros((9, 16), bool)
+    ink[:, 4] = ink[:, 7] = ink[:, 9] = True
+    padded = pad_ink_edge(labels, ink)
+    inside = labels >= 0
+    assert np.array_equal(padded[inside], labels[inside])
+    # the 2 px gap between the parts stays paper; the open side of part 1 gets its pixel
+    assert padded[4].tolist() == [0] * 5 + [-1, -1] + [1] * 4 + [-1] * 5
+    with pytest.raises(InputError, match="shape"):
+        pad_ink_edge(labels, ink[:3])
 
 
 def test_stroke_width_ignores_blobs():

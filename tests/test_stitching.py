@@ -62,12 +62,48 @@ def test_front_disk_stays_above_back_disk_everywhere():
     inside = (da < 1e-9) & (db < 1e-9)
     assert inside.sum() > 1000
     gap = za[inside] - zb[inside]
-    # vertices of both meshes: exact; between them both surfaces are linear, so
-    # the margin can only shrink at edge crossings, by far less than epsilon
-    assert gap.min() >= layers.epsilon - 0.05 * layers.epsilon
+    # the gap is linear on each cell of the two meshes' overlay, whose corners (the
+    # vertices and the edge crossings) all carry a row: it holds everywhere
+    assert gap.min() >= layers.epsilon - 1e-6
     assert layers.violation <= 1e-6
     # the parts move rigidly: a constant offset per region
     assert np.ptp(layers.offset[0]) < 0.05 and np.ptp(layers.offset[1]) < 0.05
+
+
+def _square_over_disk():
+    """A coarse square in front of a finely meshed dome: min(z_A - z_B - epsilon) over a
+    quarter-pixel grid of their overlap."""
+    h, w = 200, 200
+    yy, xx = np.mgrid[:h, :w]
+    labels = np.full((h, w), -1, np.int32)
+    labels[np.hypot(xx - 100, yy - 100) <= 70] = 1
+    labels[60:141, 60:141] = 0
+    ann = _doc((w, h), order=[((100, 100), (100, 20))])
+    c = complete_regions(labels, names=["A", "B"])
+    relations, _ = depth_order(constraints(ann), labels, c, seams=())
+    c = c.ordered(relations)
+    inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
+                               name=n, options=MeshOptions(max_area=area))
+                for i, (n, area) in enumerate([("A", 800.0), ("B", 8.0)])]
+    layers = stitch(inflated, relations, c)
+    pts = (np.column_stack([xx.ravel(), yy.ravel()])[:, None, :]
+           + 0.5 * np.array([[0, 0], [1, 0], [0, 1], [1, 1]])[None]).reshape(-1, 2)
+    (za, da), (zb, db) = (height_at(r.mesh.vertices, r.mesh.faces, layers.z(i), pts)
+                          for i, r in enumerate(inflated))
+    both = (da < 1e-9) & (db < 1e-9)
+    assert both.sum() > 20000
+    return float((za - zb)[both].min() - layers.epsilon)
+
+
+def test_order_holds_between_the_vertices_of_two_meshes():
+    # z_A - z_B is linear on each cell of the two meshes' overlay; its corners are the
+    # vertices and the crossings of an edge of one mesh with an edge of the other
+    assert _square_over_disk() >= -1e-6
+
+
+def test_without_the_edge_crossings_the_order_dips_between_its_rows(monkeypatch):
+    monkeypatch.setattr(stitching, "segment_crossings", lambda a, b: np.zeros((0, 2)))
+    assert _square_over_disk() < -1e-3
 
 
 def test_constraints_that_already_hold_leave_offsets_zero():

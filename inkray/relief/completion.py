@@ -29,8 +29,7 @@ import scipy.sparse.linalg as sla
 from scipy import ndimage
 
 from inkray.errors import InputError, StageError
-from inkray.numerics.grid import grid_laplacian
-from inkray.numerics.spd import MinQuadWithFixed
+from inkray.numerics.spd import spd_factor
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "check_labels"]
 
@@ -453,12 +452,9 @@ def _complete_under(labels, a, box, owner, threshold, reach):
     # Harmonic interpolation of each neighbour's indicator over a's pixels: unit
     # weights between pixels inside the frame (no flux across it), every pixel
     # that is not a's fixed at 1 for its own label's column and 0 elsewhere.
-    valid = crop != _OUTSIDE
-    laplacian = grid_laplacian(valid[:, :-1] & valid[:, 1:], valid[:-1, :] & valid[1:, :])
-    known = ~inside.ravel()
-    values = (crop.ravel()[known][:, None] == nbrs[None, :]).astype(float)
+    system, rhs = _dirichlet_system(crop, inside, nbrs)
     try:
-        u = MinQuadWithFixed(laplacian, known).solve(None, values)[inside.ravel()]
+        u = spd_factor(system).solve(rhs)
     except np.linalg.LinAlgError as e:  # a singular system would be a bug in the frame handling above
         raise StageError(f"completion under region {a}: cannot factor the Laplacian "
                          f"({e})") from None
@@ -468,6 +464,44 @@ def _complete_under(labels, a, box, owner, threshold, reach):
     ys, xs = np.nonzero(inside)
     ys, xs = ys[won] - 1 + y0, xs[won] - 1 + x0
     owner[ys, xs] = nbrs[best[won]]
+
+
+def _dirichlet_system(crop, inside, nbrs):
+    """The grid Laplacian on the ``inside`` pixels, the others fixed: ``(A, B)``.
+
+    ``A`` (n, n) couples the inside pixels in raster order (unit weights
+    between 4-neighbours inside the frame); column ``k`` of ``B`` (n, k) is
+    what the fixed pixels of label ``nbrs[k]`` (value 1, every other label 0)
+    bring to each row. Built on the inside pixels only: the Laplacian of the
+    whole box, then cut down, cost as much as factoring it at 1 Mpx.
+    """
+    n = int(inside.sum())
+    index = np.full(crop.shape, -1, np.int64)
+    index[inside] = np.arange(n)
+    ys, xs = np.nonzero(inside)  # the frame padding keeps every neighbour in the array
+    degree = np.zeros(n)
+    rows, cols = [np.arange(n)], [np.arange(n)]
+    fixed_rows, fixed_cols = [], []
+    col_of = {int(b): k for k, b in enumerate(nbrs)}
+    for dy, dx in _STEPS:
+        q = crop[ys + dy, xs + dx]
+        linked = q != _OUTSIDE
+        degree += linked
+        j = index[ys + dy, xs + dx]
+        coupled = linked & (j >= 0)
+        rows.append(np.flatnonzero(coupled))
+        cols.append(j[coupled])
+        for b, k in col_of.items():
+            hit = np.flatnonzero(linked & (j < 0) & (q == b))
+            fixed_rows.append(hit)
+            fixed_cols.append(np.full(len(hit), k))
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    v = np.concatenate([degree, -np.ones(len(r) - n)])
+    system = sp.csc_matrix((v, (r, c)), shape=(n, n))
+    fr, fc = np.concatenate(fixed_rows), np.concatenate(fixed_cols)
+    rhs = np.zeros((n, len(nbrs)))
+    np.add.at(rhs, (fr, fc), 1.0)
+    return system, rhs
 
 
 _CUT = -3  # a pixel of the occluder beyond reach: value 0, like "anything else"
@@ -749,4 +783,6 @@ def _poisson_solve(values, hidden, source, extrapolate):
         rhs[inner[fixed]] -= values[yy[fixed], xx[fixed]]
     r, c, v = (np.concatenate(t) for t in (rows, cols, coef))
     system = sp.csc_matrix((v, (r, c)), shape=(n, n))
-    return sla.splu(system, permc_spec="COLAMD").solve(rhs)
+    # Symmetric but for the edge rows: the minimum-degree order of A^T + A fills
+    # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels).
+    return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)

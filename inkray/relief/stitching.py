@@ -8,8 +8,11 @@ gets an offset field ``g_i`` on its mesh so that the heights
 - **inequalities**: where region ``A`` is in front of ``B`` (a relation of
   :mod:`inkray.order`, local to its place), ``z_A >= z_B + epsilon`` at
   corresponding points of their overlap: the vertices of either mesh that lie
-  in the overlap of both completed regions inside that place, plus the user's
-  entry points;
+  in the overlap of both completed regions inside that place, the points
+  where an edge of one mesh crosses an edge of the other there (with the
+  vertices, the corners of every cell of the two meshes' overlay, on which
+  ``z_A - z_B`` is linear: the order holds over the whole overlap), plus the
+  user's entry points;
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
 - **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
   outline carries the entry, inflated with a Neumann condition there) meets
@@ -49,6 +52,7 @@ from scipy.ndimage import binary_dilation
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.active_set import dual_active_set
+from inkray.numerics.crossings import segment_crossings
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.numerics.spd import spd_factor
 from inkray.numerics.threads import one_blas_thread
@@ -364,7 +368,8 @@ def _terms_rows(rows, blocks, terms, rhs, ineq, label, graft=False):
 
 def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label):
     """``z_a >= z_b + epsilon`` at every vertex of either mesh in the place's overlap
-    (and along the regions' contact), wherever both meshes are there."""
+    (and along the regions' contact) and at every crossing of their edges there,
+    wherever both meshes are there."""
     if blocks[a] is None or blocks[b] is None:
         return
     y0, y1, x0, x1 = place.box
@@ -382,17 +387,30 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
     contact = np.zeros_like(both)
     contact[inner] = place.contact
     zone = binary_dilation(pm, iterations=2) & binary_dilation(both | contact, iterations=2)
-    for src in (a, b):
-        blk = blocks[src]
-        px = np.rint(blk.v).astype(np.int64)
+
+    def in_zone(p):
+        px = np.rint(p).astype(np.int64)
         iy, ix = px[:, 1] - win[0].start, px[:, 0] - win[1].start
         inside = (iy >= 0) & (iy < zone.shape[0]) & (ix >= 0) & (ix < zone.shape[1])
-        sel = np.flatnonzero(inside)
-        sel = sel[zone[iy[sel], ix[sel]]]
-        sel = sel[~keepout(src, a if src == b else b, blk.v[sel])]
+        out = np.zeros(len(p), bool)
+        out[inside] = zone[iy[inside], ix[inside]]
+        return out & ~keepout(a, b, p)
+
+    edges = []
+    for src in (a, b):
+        blk = blocks[src]
+        sel = np.flatnonzero(in_zone(blk.v))
         pts = blk.v[sel]
         front_at = sel if src == a else pts
         _terms_rows(rows, blocks, [(a, front_at, 1.0), (b, pts, -1.0)], epsilon, True, label)
+        edges.append(_edges_at(blk, sel))
+    # z_a - z_b is linear on each cell of the overlay of the two meshes, so it
+    # is least at a cell's corners: the vertices above and the points where an
+    # edge of one mesh crosses an edge of the other (where the meshes'
+    # interpolations part most, along an outline edge over a finer mesh).
+    cross = segment_crossings(*edges)
+    cross = cross[in_zone(cross)]
+    _terms_rows(rows, blocks, [(a, cross, 1.0), (b, cross, -1.0)], epsilon, True, label)
     # Between the vertices the two meshes interpolate differently: the pixel centres of
     # the overlap (every other one) keep the order there too.
     ys, xs = np.nonzero(pm & both)
@@ -400,6 +418,16 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
     pts = np.column_stack([xs[grid] + win[1].start, ys[grid] + win[0].start]).astype(float)
     pts = pts[~keepout(a, b, pts)]
     _terms_rows(rows, blocks, [(a, pts, 1.0), (b, pts, -1.0)], epsilon, True, label)
+
+
+def _edges_at(blk, sel):
+    """The edges (k, 2, 2) of ``blk``'s triangles that have a vertex in ``sel``."""
+    mark = np.zeros(len(blk.v), bool)
+    mark[sel] = True
+    f = blk.f[mark[blk.f].any(axis=1)]
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    e = np.unique(e, axis=0)
+    return blk.v[e]
 
 
 def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
