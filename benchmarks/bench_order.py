@@ -51,7 +51,7 @@ from inkray.relief.ordering import depth_order
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 GRID = {"junction_radius": (25.0, 40.0, 80.0), "continuation_widths": (6.0, 8.0, 10.0),
-        "stroke_end_scale": (1.0, 3.0, 10.0), "regularization": (0.1, 1.0)}
+        "stroke_end_scale": (3.0, 10.0, 30.0), "regularization": (0.1, 1.0)}
 BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
 TARGET = 0.2  # seconds for one fast re-solve after adding an entry
 TARGET_ACCURACY = 0.90  # leave-one-out, all counted entries

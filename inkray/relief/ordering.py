@@ -46,16 +46,16 @@ __all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCA
 
 #: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
 #: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
-WEIGHTS = {"junction": 4.397, "area": 0.838, "surround": 4.167, "continuation": 4.862}
+WEIGHTS = {"junction": 4.369, "area": 0.797, "surround": 4.164, "continuation": 4.8}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
 #: Radius, in stroke widths, of the ``continuation`` cue around a junction (chosen
 #: by the same benchmark).
 CONTINUATION_WIDTHS = 6.0
-#: Stroke ends per 1000 skeleton pixels at which the ``continuation`` cue keeps
+#: Stroke ends per 1000 stroke widths of ink at which the ``continuation`` cue keeps
 #: ``1/e`` of its weight (:meth:`inkray.relief.ink_style.InkStyle.clarity`; chosen by
 #: the same benchmark).
-STROKE_END_SCALE = 1.0
+STROKE_END_SCALE = 10.0
 
 
 @dataclass
