@@ -33,3 +33,14 @@ def test_gaps_in_an_outline_are_stroke_ends_and_lower_the_clarity():
 
 def test_a_blank_drawing_has_no_style():
     assert ink_style(np.ones((20, 30))) == InkStyle(width=0.0, stroke_ends=0.0)
+
+
+def test_stroke_ends_read_the_same_at_twice_the_resolution():
+    # counted per stroke width of ink, not per pixel: a larger scan of the same
+    # sketchy drawing must not look cleaner
+    gray = _frame(3, gaps=5)
+    once, twice = ink_style(gray), ink_style(np.kron(gray, np.ones((2, 2))))
+    assert twice.width >= 1.4 * once.width
+    # per pixel the ratio would be 0.5 (same ends, twice the length); the width's
+    # pixel rounding (4 and 6 px for 3 and 6 px strokes) keeps it off 1
+    assert 0.7 <= twice.stroke_ends / once.stroke_ends <= 1.3
