@@ -226,3 +226,42 @@ def test_the_occluder_system_is_the_box_laplacian_cut_to_its_pixels():
     assert abs(system - lap[unknown][:, unknown]).max() == 0
     np.testing.assert_array_equal(rhs, -(lap[unknown][:, known] @ values))
     assert rhs.sum() > 0
+
+
+def _bands_over_a_square():
+    labels = np.full((60, 90), -1, np.int32)
+    labels[5:55, 5:85] = 0
+    for k in range(4):  # four bands over the big square, each its own occluder
+        labels[:, 12 + 18 * k:20 + 18 * k] = k + 1
+    return labels
+
+
+def test_occluders_solved_together_give_what_one_after_another_gives():
+    from scipy import ndimage
+
+    from inkray.relief.completion import _complete_under
+
+    labels = _bands_over_a_square()
+    c = complete_regions(labels)
+    owner = np.full(labels.shape, -1, np.int32)
+    for a, box in enumerate(ndimage.find_objects(labels + 1, max_label=5)):
+        _complete_under(labels, a, box, owner, 0.5, 4.0)
+    assert (owner >= 0).sum() > 100
+    np.testing.assert_array_equal(c.owner, owner)
+
+
+def test_completion_progress_runs_in_region_order_and_stops_on_an_error():
+    class Stop(Exception):
+        pass
+
+    seen = []
+
+    class Watch:
+        def update(self, done, total):
+            seen.append((done, total))
+            if done == 2:
+                raise Stop
+
+    with pytest.raises(Stop):
+        complete_regions(_bands_over_a_square(), progress=Watch())
+    assert seen == [(1, 5), (2, 5)]

@@ -21,6 +21,8 @@ every pixel, at most one neighbour exceeds 0.5 there, so a pixel of ``A``
 completes at most one region; the candidates fit in one ``owner`` image.
 """
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -413,11 +415,22 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, progress=N
     count = len(names)
     owner = np.full(labels.shape, -1, np.int32)
     boxes = ndimage.find_objects(labels + 1, max_label=count)
-    for a, box in enumerate(boxes):
-        if box is not None:
-            _complete_under(labels, a, box, owner, threshold, reach)
-        if progress is not None:
-            progress.update(a + 1, count)
+    # Each occluder writes only its own pixels of ``owner`` and SuperLU lets go of
+    # the GIL while it factors, so occluders are solved two at a time (at 1 Mpx
+    # the frog's body and head take 3.6 and 1.5 s); the result does not depend on it.
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        jobs = [None if box is None else
+                pool.submit(_complete_under, labels, a, box, owner, threshold, reach)
+                for a, box in enumerate(boxes)]
+        try:
+            for a, job in enumerate(jobs):
+                if job is not None:
+                    job.result()
+                if progress is not None:
+                    progress.update(a + 1, count)
+        except BaseException:  # an error or a superseded edit: start no more occluders
+            pool.shutdown(cancel_futures=True)
+            raise
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,
