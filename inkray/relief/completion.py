@@ -191,13 +191,24 @@ class Completion:
             kept.append((r.front, r.back, p, piece))
         if curvature:
             memo = {} if memo is None else memo
+            todo = {(front, back, p.index): (front, back, p.box, piece)
+                    for front, back, p, piece in kept if piece.any()}
+            todo = {key: args for key, args in todo.items() if key not in memo}
+            # Each reshaping reads only the labels: two at a time (as the occluders
+            # of complete_regions), applied below in the relations' order.
+            with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+                jobs = {key: pool.submit(_continuation, self.labels, *args)
+                        for key, args in todo.items()}
+                try:
+                    for key, job in jobs.items():
+                        memo[key] = job.result()
+                except BaseException:
+                    pool.shutdown(cancel_futures=True)
+                    raise
             for front, back, p, piece in kept:
-                if piece.any():
-                    key = (front, back, p.index)
-                    if key not in memo:
-                        memo[key] = _continuation(self.labels, front, back, p.box, piece)
-                    if memo[key] is not None:  # None: no outline of its own to continue
-                        _apply_continuation(owner, back, memo[key])
+                found = memo.get((front, back, p.index))
+                if piece.any() and found is not None:  # None: no outline of its own to continue
+                    _apply_continuation(owner, back, found)
         return replace(self, owner=owner)
 
 
