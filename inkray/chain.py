@@ -405,10 +405,20 @@ class ReliefChain:
             memo = {}
             self._cache.put(memo_key, memo)
 
+        # Predictions by place: they depend on the segments and the seams, not on the
+        # entries, so a new arrow predicts nothing again.
+        predictions_key = ("predictions", self._segment_key(),
+                           _digest(*((b.type, b.path) for b in self.annotations.boundaries)))
+        predictions = self._cache.get(predictions_key)
+        if predictions is None:
+            predictions = {}
+            self._cache.put(predictions_key, predictions)
+
         def compute():
             relations, notes = depth_order(constraints(self.annotations), labels, candidates,
                                            seams=self.annotations.boundaries,
-                                           predict=self.options.predict, ink=self._ink_style())
+                                           predict=self.options.predict, ink=self._ink_style(),
+                                           memo=predictions)
             return relations, candidates.ordered(relations, memo=memo), notes
 
         value = self._stage("order", self._relations_key(), compute)

@@ -208,6 +208,28 @@ def test_weakest_prediction_in_a_cycle_is_dropped():
     assert f"{weakest.front_name} over {weakest.back_name}" in dropped[0]
 
 
+def test_predictions_kept_in_a_memo_are_reused_across_entries(monkeypatch):
+    import inkray.relief.ordering as ordering
+
+    labels = SCENES["T-junction stack of 3"]()
+    c = complete_regions(labels, names=["back", "middle", "front"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 2))
+    entry = Annotations(size=(W, H), order=[Order(front=_near(labels, 0, place.where),
+                                                  back=_near(labels, 2, place.where), index=0)])
+    memo = {}
+    first = depth_order([], labels, c, memo=memo)
+    assert first == depth_order([], labels, c)
+    assert len(memo) == len(c.places)
+    calls = []
+    real = ordering.predict_place
+    monkeypatch.setattr(ordering, "predict_place", lambda *a, **k: calls.append(1) or real(*a, **k))
+    # an arrow changes which predictions are kept, not what the cues say: nothing is measured again
+    again, warnings = depth_order(constraints(entry), labels, c, memo=memo)
+    assert calls == []
+    assert again == depth_order(constraints(entry), labels, c)[0]
+    assert any("dropped" in w for w in warnings)
+
+
 def test_entries_that_name_no_pair_warn():
     labels = paint(disk(50, 80, 30), disk(170, 80, 30))          # two regions apart
     c = complete_regions(labels, names=["left", "right"])

@@ -112,7 +112,7 @@ class Relation:
 
 def depth_order(constraints, labels, completion, *, seams=(), predict=True, weights=None,
                 junction_radius=None, min_confidence=0.0, ink=None, continuation_widths=None,
-                stroke_end_scale=None):
+                stroke_end_scale=None, memo=None):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -145,6 +145,12 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     stroke_end_scale : float, optional
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
+    memo : dict, optional
+        Predictions by place index, filled and reused: the cues depend on the
+        completion, the seams and the drawing's ink, not on the user's
+        entries, so an editor passes the same dict to every call with the
+        same completion, ``seams`` and parameters, and a new arrow costs no
+        cue (at 1 Mpx the fox's continuation cues took 0.54 s per call).
 
     Returns
     -------
@@ -193,15 +199,20 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     if predict:
         paths = [b.path for b in seams if b.type in ("graft", "stitch")]
         spoken = {r.place for r in user if r.place is not None}
-        outlines = outline_lengths(labels)
+        outlines = None  # measured once, when some place is not in the memo
         predicted = []
+        memo = {} if memo is None else memo
         for place in completion.places:
             if place.index in spoken:
                 continue
-            r = predict_place(completion, place, weights=weights, junction_radius=junction_radius,
-                              seams=paths, outlines=outlines, ink=ink,
-                              continuation_widths=continuation_widths,
-                              stroke_end_scale=stroke_end_scale)
+            if place.index not in memo:
+                if outlines is None:
+                    outlines = outline_lengths(labels)
+                memo[place.index] = predict_place(
+                    completion, place, weights=weights, junction_radius=junction_radius,
+                    seams=paths, outlines=outlines, ink=ink,
+                    continuation_widths=continuation_widths, stroke_end_scale=stroke_end_scale)
+            r = memo[place.index]
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
         # Strongest first, so that in a cycle the weakest prediction is the one left out.
