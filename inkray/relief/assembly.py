@@ -353,12 +353,14 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     turns no face by more than 30 degrees and raises the smallest angle
     around it (an edge shorter than a quarter of the median edge may be
     collapsed however far its faces turn, short of folding one over); a
-    further remeshing round runs only while these fixes leave a sliver.
+    further remeshing round runs only while these fixes leave a sliver, and
+    the round with the largest smallest angle (the last of equals) is kept.
     Last, every vertex of a face that crosses another is moved to the
     centroid of its neighbours (or halfway) where that leaves fewer
     crossings and no angle below ``min_angle`` (``_untangle``). The remeshed
     surface is returned only when it is still watertight and edge-manifold
-    (otherwise the input comes back unchanged), and without the sliver fixes
+    (a round that is not ends the rounds; when the first is not, the input
+    comes back unchanged), and without the sliver fixes
     when they would break that or put two vertices at one position.
 
     Parameters
@@ -391,22 +393,31 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     length = pymeshlab.PureValue(float(target))
     ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
                                             checksurfdist=False)
+    best = None  # (smallest angle, vertices, faces) of the best round so far
     for rounds in range(_FIX_ROUNDS + 1):
         m = ms.current_mesh()
         m.compact()
         nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
         if not _closed_manifold(nf):
-            return v, f.astype(np.int64)
+            if best is None:
+                return v, f.astype(np.int64)
+            break
         fv, ff = _SliverFix(nv, nf).run(min_angle)
         if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
             fv, ff = nv, nf
-        if rounds == _FIX_ROUNDS or _min_angles(fv, ff).min(initial=180.0) >= min_angle:
+        smallest = _min_angles(fv, ff).min(initial=180.0)
+        # a round may leave worse needles than the one before (the fox: 1.8, 0.6,
+        # 0.01, 0.0 degrees): the best round is kept, not the last
+        if best is None or smallest >= best[0]:  # ties: the later round
+            best = (smallest, fv, ff)
+        if rounds == _FIX_ROUNDS or smallest >= min_angle:
             break
         # the remeshing goes on from its own mesh, not the fixed one; (remeshing only the
         # slivers would be cheaper, but PyMeshLab's selected-only remeshing depends on
         # earlier calls: the output would too)
         ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
                                                 checksurfdist=False)
+    _, fv, ff = best
     return _untangle(fv, ff, min_angle=min_angle), ff
 
 
