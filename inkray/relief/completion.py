@@ -24,6 +24,7 @@ completes at most one region; the candidates fit in one ``owner`` image.
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -192,24 +193,33 @@ class Completion:
         if curvature:
             memo = {} if memo is None else memo
             todo = {(front, back, p.index): (front, back, p.box, piece)
-                    for front, back, p, piece in kept if piece.any()}
-            todo = {key: args for key, args in todo.items() if key not in memo}
-            # Each reshaping reads only the labels: two at a time (as the occluders
-            # of complete_regions), applied below in the relations' order.
-            with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
-                jobs = {key: pool.submit(_continuation, self.labels, *args)
-                        for key, args in todo.items()}
-                try:
-                    for key, job in jobs.items():
-                        memo[key] = job.result()
-                except BaseException:
-                    pool.shutdown(cancel_futures=True)
-                    raise
+                    for front, back, p, piece in kept
+                    if piece.any() and (front, back, p.index) not in memo}
+            # Each reshaping reads only the labels; applied below in the relations' order.
+            calls = [partial(_continuation, self.labels, *args) for args in todo.values()]
+            memo.update(zip(todo, _two_at_a_time(calls)))
             for front, back, p, piece in kept:
                 found = memo.get((front, back, p.index))
                 if piece.any() and found is not None:  # None: no outline of its own to continue
                     _apply_continuation(owner, back, found)
         return replace(self, owner=owner)
+
+
+def _two_at_a_time(calls):
+    """The results of ``calls`` (callables, or None for no call), in order, two computed at once.
+
+    SuperLU lets go of the GIL while it factors, so two threads solve two
+    systems at once. When the caller stops early (an error, a superseded
+    edit), the calls not yet started are cancelled.
+    """
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        jobs = [None if call is None else pool.submit(call) for call in calls]
+        try:
+            for job in jobs:
+                yield None if job is None else job.result()
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
 
 
 def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, band=1.5):
@@ -426,22 +436,14 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, progress=N
     count = len(names)
     owner = np.full(labels.shape, -1, np.int32)
     boxes = ndimage.find_objects(labels + 1, max_label=count)
-    # Each occluder writes only its own pixels of ``owner`` and SuperLU lets go of
-    # the GIL while it factors, so occluders are solved two at a time (at 1 Mpx
+    # Each occluder writes only its own pixels of ``owner``: two at a time (at 1 Mpx
     # the frog's body and head take 3.6 and 1.5 s); the result does not depend on it.
-    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
-        jobs = [None if box is None else
-                pool.submit(_complete_under, labels, a, box, owner, threshold, reach)
-                for a, box in enumerate(boxes)]
-        try:
-            for a, job in enumerate(jobs):
-                if job is not None:
-                    job.result()
-                if progress is not None:
-                    progress.update(a + 1, count)
-        except BaseException:  # an error or a superseded edit: start no more occluders
-            pool.shutdown(cancel_futures=True)
-            raise
+    calls = [None if box is None else
+             partial(_complete_under, labels, a, box, owner, threshold, reach)
+             for a, box in enumerate(boxes)]
+    for a, _ in enumerate(_two_at_a_time(calls)):
+        if progress is not None:
+            progress.update(a + 1, count)
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,

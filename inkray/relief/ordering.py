@@ -136,15 +136,9 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     min_confidence : float, default 0.0
         Predictions below this confidence are not made (the pair is left
         unordered there, e.g. at a symmetric Y-junction).
-    ink : inkray.relief.ink_style.InkStyle, optional
-        The drawing's lines (:func:`inkray.relief.ink_style.ink_style` of its
-        grey image), for the ``continuation`` cue; without it that cue is 0.
-    continuation_widths : float, optional
-        Radius in stroke widths of the ``continuation`` cue (default
-        :data:`CONTINUATION_WIDTHS`).
-    stroke_end_scale : float, optional
-        How fast stroke ends discount the ``continuation`` cue (default
-        :data:`STROKE_END_SCALE`).
+    ink, continuation_widths, stroke_end_scale : optional
+        As for :func:`predict_place` (``ink`` is
+        :func:`inkray.relief.ink_style.ink_style` of the drawing's grey image).
     memo : dict, optional
         Predictions by place index, filled and reused: the cues depend on the
         completion, the seams and the drawing's ink, not on the user's
