@@ -123,12 +123,12 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         Receives ``update(done, total)`` after each binary cut.
     memo : dict, optional
         Kept by the caller between calls on the same drawing (an editor's
-        scribbles): what depends on the drawing alone (ink cost, paper areas,
-        edge capacities) is computed once, and a binary cut whose graph
-        differs from the kept one only by seeds that pull its pixels the way
-        they went is not solved again (the same labels, see
-        :func:`_unchanged_cut`). A different drawing or different parameters
-        empty it first.
+        scribbles), one call at a time: what depends on the drawing alone
+        (ink cost, paper areas, edge capacities) is computed once, a binary
+        cut whose graph differs from the kept one only by seeds that pull its
+        pixels the way they went is not solved again, and the background
+        cut resumes its kept flow (the same labels, see :func:`_min_cut`). A
+        different drawing or different parameters empty it first.
 
     Returns
     -------
@@ -608,22 +608,46 @@ def _terminals(flat, seeds, c, strength, nbrs, pull):
 
 
 def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
-    """The flat indices of the pixels ``flat`` that take ``c``: the kept cut of
-    ``c`` at this level when :func:`_unchanged_cut` shows it is still the
-    answer, otherwise a new one (kept in ``memo``)."""
+    """The flat indices of the pixels ``flat`` that take ``c``.
+
+    With a ``memo``, the kept cut of ``c`` at this level answers when
+    :func:`_unchanged_cut` shows it still does. The background cut (the first
+    and largest) also keeps its solved graph: on the same pixels only the
+    terminal capacities can differ, and those are changed on the solved graph
+    and the flow resumed from the kept search trees (Kohli and Torr,
+    "Efficiently solving dynamic Markov random fields using graph cuts",
+    ICCV 2005). Either way the labels are those of a fresh solve: the pixels
+    that cannot reach the sink in a maximum flow's residual graph are the
+    same for every maximum flow, and with capacities that are multiples of
+    :data:`_QUANTUM` the solver's arithmetic is exact.
+    """
     key = ("cut", shape, c)
     kept = None if memo is None else memo.get(key)
-    if kept is not None and _unchanged_cut(kept, flat, src, snk):
+    same = kept is not None and len(kept[0]) == len(flat) and np.array_equal(kept[0], flat)
+    if same and _unchanged_cut(kept, src, snk):
         return flat[kept[3]]
-    won = _binary_cut(flat, shape, right, down, src, snk, pull)
+    if same and kept[4] is not None:
+        graph = kept[4]
+        del memo[key]  # changed below: kept again only once it is consistent
+        # Only the difference of a pixel's two terminal capacities matters to the cut
+        # (both larger by the same amount: every cut costs that much more).
+        more = (src - kept[1]) - (snk - kept[2])
+        changed = np.flatnonzero(more)
+        graph.add_grid_tedges(changed, np.maximum(more[changed], 0.0),
+                              np.maximum(-more[changed], 0.0))
+        graph.mark_grid_nodes(changed)
+        graph.maxflow(reuse_trees=True)
+        won = ~graph.get_grid_segments(np.arange(len(flat)))
+    else:
+        graph, won = _binary_cut(flat, shape, right, down, src, snk, pull)
     if memo is not None:
-        memo[key] = (flat, src, snk, won)
+        memo[key] = (flat, src, snk, won, graph if c == BACKGROUND else None)
     return flat[won]
 
 
-def _unchanged_cut(kept, flat, src, snk):
-    """Whether the kept cut ``(flat, src, snk, won)`` answers the cut of the
-    same pixels with terminal capacities ``src`` and ``snk``.
+def _unchanged_cut(kept, src, snk):
+    """Whether the kept cut ``(flat, src, snk, won, ...)`` answers the cut of
+    the same pixels with terminal capacities ``src`` and ``snk``.
 
     Its edges are the same (they depend on the pixels, the level and the
     label only). When the capacities differ only by more source capacity at
@@ -633,9 +657,7 @@ def _unchanged_cut(kept, flat, src, snk):
     residual graph are the same: those are the pixels the solver leaves out,
     exactly, since the capacities are multiples of :data:`_QUANTUM`.
     """
-    flat0, src0, snk0, won = kept
-    if len(flat0) != len(flat) or not np.array_equal(flat0, flat):
-        return False
+    src0, snk0, won = kept[1:4]
     more_src, more_snk = src - src0, snk - snk0
     return not ((more_src < 0).any() or (more_snk < 0).any() or (more_src[~won] > 0).any()
                 or (more_snk[won] > 0).any())
@@ -645,7 +667,8 @@ def _binary_cut(flat, shape, right, down, src, snk, pull):
     """Min cut of one label against the greater labels on the pixels ``flat``
     (flat indices, ascending) with terminal capacities ``src`` and ``snk``;
     ``pull`` (H, W) or None an extra cost of a cut edge whose source side is
-    that pixel. Returns which of the pixels are on the source side."""
+    that pixel. Returns the solved graph and which of the pixels are on the
+    source side."""
     import maxflow
 
     h, w = shape
@@ -670,7 +693,7 @@ def _binary_cut(flat, shape, right, down, src, snk, pull):
     ids = np.arange(n)
     g.add_grid_tedges(ids, src, snk)
     g.maxflow()
-    return ~g.get_grid_segments(ids)
+    return g, ~g.get_grid_segments(ids)
 
 
 def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5000, *, memo=None):

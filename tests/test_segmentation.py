@@ -494,13 +494,33 @@ def test_unchanged_cut_is_the_fresh_cut_on_random_graphs():
         n = len(flat)
         src = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
         snk = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
-        won = _binary_cut(flat, (h, w), right, down, src, snk, None)
+        won = _binary_cut(flat, (h, w), right, down, src, snk, None)[1]
         more = _quantized(np.where(rng.random(n) < 0.2, rng.random(n), 0.0))
         # more capacity toward the side each pixel took, and now and then against it
         src2 = src + np.where(won | (rng.random(n) < 0.05), more, 0.0)
         snk2 = snk + np.where(~won | (rng.random(n) < 0.05), more[::-1], 0.0)
-        fresh = _binary_cut(flat, (h, w), right, down, src2, snk2, None)
-        if _unchanged_cut((flat, src, snk, won), flat, src2, snk2):
+        fresh = _binary_cut(flat, (h, w), right, down, src2, snk2, None)[1]
+        if _unchanged_cut((flat, src, snk, won), src2, snk2):
             reused += 1
             np.testing.assert_array_equal(fresh, won)
     assert 20 < reused < 200
+
+
+def test_resumed_background_cut_is_the_fresh_cut_on_random_graphs():
+    from inkray.segmentation import BACKGROUND, _binary_cut, _edge_weights, _min_cut, _quantized
+
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        h, w = rng.integers(3, 12, size=2)
+        right, down = _edge_weights(rng.random((h, w)) ** 3, 0.01)
+        pull = _quantized(0.04 * rng.random((h, w)))
+        flat = np.flatnonzero(rng.random(h * w) < 0.9)
+        n = len(flat)
+        memo = {}
+        for _ in range(3):  # any change of the terminals, more or less capacity
+            src = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+            snk = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+            won = _min_cut(flat, (h, w), BACKGROUND, right, down, src, snk, pull, memo)
+            fresh = _binary_cut(flat, (h, w), right, down, src, snk, pull)[1]
+            np.testing.assert_array_equal(won, flat[fresh])
+        assert memo[("cut", (h, w), BACKGROUND)][4] is not None
