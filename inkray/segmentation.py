@@ -468,7 +468,7 @@ def _unscribbled_areas(areas, seeds, labels, names, frame, min_area):
 
 
 def _order(seeds):
-    """Labels present in ``seeds``: background first (the biggest, it removes
+    """Labels present in ``seeds`` (any shape): background first (the biggest, it removes
     most pixels from the later cuts), then regions ascending."""
     # Labels run from UNSEEDED up (regions are 0..R-1 inside lazybrush): counting
     # them is a sort-free np.unique.
@@ -521,33 +521,37 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
     labels = fixed.copy()
     kept = None if memo is None else memo.get(("free", h, w))
     if kept is not None and np.array_equal(kept[0], fixed):
-        _, idx, rows, cols, nbrs = kept
+        _, idx, rows, cols, nbrs, placed = kept
     else:
         idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
         rows, cols = np.divmod(idx, w)
         nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
+        placed = _order(fixed)
         if memo is not None:
-            memo[("free", h, w)] = (fixed.copy(), idx, rows, cols, nbrs)
-    order = _order(np.where(fixed != UNSEEDED, fixed, seeds))
+            memo[("free", h, w)] = (fixed.copy(), idx, rows, cols, nbrs, placed)
     seed_idx = seeds.ravel()[idx]
+    order = sorted(set(placed) | set(_order(seed_idx)))
     flat_labels = labels.ravel()
+    alive = np.ones(len(idx), bool)  # which of ``idx`` are still unlabelled
     for step, c in enumerate(order):
-        alive = flat_labels[idx] == UNSEEDED
-        if not alive.any():
+        pos = np.flatnonzero(alive)
+        if not len(pos):
             break
-        ci, n = _pieces(labels, idx[alive], rows[alive], cols[alive], ("pieces", h, w, c), memo)
-        si = seed_idx[alive]
+        ci, n = _pieces(labels, idx[pos], rows[pos], cols[pos], ("pieces", h, w, c), memo)
+        si = seed_idx[pos]
         own = np.bincount(ci[si == c], minlength=n + 1)
         other = np.bincount(ci[si > c], minlength=n + 1)
         for lab, _, _ in nbrs:
-            la = lab[alive]
+            la = lab[pos]
             own += np.bincount(ci[la == c], minlength=n + 1)
             other += np.bincount(ci[la > c], minlength=n + 1)
         own[0] = other[0] = 0
-        flat_labels[idx[alive][((own > 0) & (other == 0))[ci]]] = c
+        alone = pos[((own > 0) & (other == 0))[ci]]
+        flat_labels[idx[alone]] = c
+        alive[alone] = False
         cut = (own > 0) & (other > 0)
         if c != order[-1] and cut.any():
-            on = cut[ci]
+            on = pos[cut[ci]]
             # Outline ink goes to the character, not to the background: a cut
             # with an ink pixel on its background side costs 4 floors more
             # (directed capacities, so the graph stays the same size), enough
@@ -555,10 +559,12 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
             # rounded end beats a chord through the ink.
             pull = (_kept(memo, ("pull", h, w), lambda: _quantized(4.0 * floor * (1.0 - cost)))
                     if c == BACKGROUND else None)
-            flat = idx[alive][on]
-            sub = [(lab[alive][on], wt[alive][on], off) for lab, wt, off in nbrs]
+            flat = idx[on]
+            sub = [(lab[on], wt[on], off) for lab, wt, off in nbrs]
             src, snk = _terminals(flat, seeds, c, strength, sub, pull)
-            flat_labels[_min_cut(flat, (h, w), c, right, down, src, snk, pull, memo)] = c
+            won = on[_min_cut(flat, (h, w), c, right, down, src, snk, pull, memo)]
+            flat_labels[idx[won]] = c
+            alive[won] = False
         if progress is not None:
             progress.update(step + 1, len(order))
     free = labels == UNSEEDED
@@ -608,7 +614,7 @@ def _terminals(flat, seeds, c, strength, nbrs, pull):
 
 
 def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
-    """The flat indices of the pixels ``flat`` that take ``c``.
+    """Which of the pixels ``flat`` take ``c`` (a mask).
 
     With a ``memo``, the kept cut of ``c`` at this level answers when
     :func:`_unchanged_cut` shows it still does. The background cut (the first
@@ -625,8 +631,11 @@ def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
     kept = None if memo is None else memo.get(key)
     same = kept is not None and len(kept[0]) == len(flat) and np.array_equal(kept[0], flat)
     if same and _unchanged_cut(kept, src, snk):
-        return flat[kept[3]]
-    if same and kept[4] is not None:
+        return kept[3]
+    won = None if same or kept is None else _grown_cut(kept, flat, shape, src, snk)
+    if won is not None:
+        graph = None
+    elif same and kept[4] is not None:
         graph = kept[4]
         del memo[key]  # changed below: kept again only once it is consistent
         # Only the difference of a pixel's two terminal capacities matters to the cut
@@ -642,7 +651,60 @@ def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
         graph, won = _binary_cut(flat, shape, right, down, src, snk, pull)
     if memo is not None:
         memo[key] = (flat, src, snk, won, graph if c == BACKGROUND else None)
-    return flat[won]
+    return won
+
+
+def _grown_cut(kept, flat, shape, src, snk):
+    """The kept cut ``(flat0, src0, snk0, won0, ...)`` grown to the pixels
+    ``flat`` (a superset of ``flat0``, both ascending), or None when that is
+    not shown to be the answer.
+
+    On the kept pixels the terminal capacities may grow as in
+    :func:`_unchanged_cut`. The new pixels ``X`` must have no source capacity
+    and no neighbour that took the label. Then every cut of the new graph
+    costs at least as much as its kept part did, and the kept cut with the
+    pieces of ``X`` that reach neither a sink capacity nor a kept pixel that
+    did not take the label (they cost nothing on either side; the solver puts
+    them on the source side) costs the same: it is the solver's answer.
+    """
+    flat0, src0, snk0, won0 = kept[:4]
+    if len(flat0) >= len(flat):
+        return None
+    at = np.searchsorted(flat, flat0)
+    if at[-1] >= len(flat) or not np.array_equal(flat[at], flat0):
+        return None  # a kept pixel left the cut
+    new = np.ones(len(flat), bool)
+    new[at] = False
+    if (src[new] > 0).any() or not _unchanged_cut(kept, src[at], snk[at]):
+        return None
+    h, w = shape
+    x = flat[new]
+    taken, left = flat0[won0], flat0[~won0]
+    touches_left = snk[new] > 0
+    for nb, ok in ((x + 1, x % w < w - 1), (x - 1, x % w > 0), (x + w, x < (h - 1) * w),
+                   (x - w, x >= w)):
+        if _among(nb[ok], taken).any():
+            return None
+        touches_left[ok] |= _among(nb[ok], left)
+    # The 4-connected pieces of the new pixels, within their bounding box.
+    rows, cols = np.divmod(x, w)
+    y0, x0 = rows.min(), cols.min()
+    box = np.zeros((rows.max() - y0 + 1, cols.max() - x0 + 1), bool)
+    box[rows - y0, cols - x0] = True
+    piece, n = ndimage.label(box)
+    piece = piece[rows - y0, cols - x0]
+    reaching = np.zeros(n + 1, bool)
+    reaching[piece[touches_left]] = True
+    won = np.zeros(len(flat), bool)
+    won[at] = won0
+    won[new] = ~reaching[piece]
+    return won
+
+
+def _among(values, sorted_values):
+    """Which of ``values`` are in the ascending array ``sorted_values``."""
+    at = np.minimum(np.searchsorted(sorted_values, values), max(len(sorted_values) - 1, 0))
+    return (sorted_values[at] == values) if len(sorted_values) else np.zeros(len(values), bool)
 
 
 def _unchanged_cut(kept, src, snk):

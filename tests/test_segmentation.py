@@ -482,18 +482,32 @@ def test_kept_memo_solves_only_the_cuts_a_scribble_changes(shared_drawings, monk
     assert len(solved) >= 3 * first
 
 
+def _random_grid(rng):
+    """A small grid's shape and its quantized edge capacities over random ink."""
+    from inkray.segmentation import _edge_weights
+
+    h, w = rng.integers(3, 14, size=2)
+    return (h, w) + _edge_weights(rng.random((h, w)) ** 3, 0.01)
+
+
+def _random_terminals(rng, n):
+    """Quantized source and sink capacities, each on about a fifth of ``n`` pixels."""
+    from inkray.segmentation import _quantized
+
+    return tuple(_quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+                 for _ in range(2))
+
+
 def test_unchanged_cut_is_the_fresh_cut_on_random_graphs():
-    from inkray.segmentation import _binary_cut, _edge_weights, _quantized, _unchanged_cut
+    from inkray.segmentation import _binary_cut, _quantized, _unchanged_cut
 
     rng = np.random.default_rng(1)
     reused = 0
     for _ in range(200):
-        h, w = rng.integers(3, 12, size=2)
-        right, down = _edge_weights(rng.random((h, w)) ** 3, 0.01)
+        h, w, right, down = _random_grid(rng)
         flat = np.flatnonzero(rng.random(h * w) < 0.9)
         n = len(flat)
-        src = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
-        snk = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+        src, snk = _random_terminals(rng, n)
         won = _binary_cut(flat, (h, w), right, down, src, snk, None)[1]
         more = _quantized(np.where(rng.random(n) < 0.2, rng.random(n), 0.0))
         # more capacity toward the side each pixel took, and now and then against it
@@ -507,20 +521,49 @@ def test_unchanged_cut_is_the_fresh_cut_on_random_graphs():
 
 
 def test_resumed_background_cut_is_the_fresh_cut_on_random_graphs():
-    from inkray.segmentation import BACKGROUND, _binary_cut, _edge_weights, _min_cut, _quantized
+    from inkray.segmentation import BACKGROUND, _binary_cut, _min_cut, _quantized
 
     rng = np.random.default_rng(2)
     for _ in range(100):
-        h, w = rng.integers(3, 12, size=2)
-        right, down = _edge_weights(rng.random((h, w)) ** 3, 0.01)
+        h, w, right, down = _random_grid(rng)
         pull = _quantized(0.04 * rng.random((h, w)))
         flat = np.flatnonzero(rng.random(h * w) < 0.9)
-        n = len(flat)
         memo = {}
         for _ in range(3):  # any change of the terminals, more or less capacity
-            src = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
-            snk = _quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+            src, snk = _random_terminals(rng, len(flat))
             won = _min_cut(flat, (h, w), BACKGROUND, right, down, src, snk, pull, memo)
             fresh = _binary_cut(flat, (h, w), right, down, src, snk, pull)[1]
-            np.testing.assert_array_equal(won, flat[fresh])
+            np.testing.assert_array_equal(won, fresh)
         assert memo[("cut", (h, w), BACKGROUND)][4] is not None
+
+
+def test_grown_cut_is_the_fresh_cut_on_random_graphs():
+    from inkray.segmentation import _binary_cut, _grown_cut
+
+    rng = np.random.default_rng(3)
+    grown = 0
+    for _ in range(300):
+        h, w, right, down = _random_grid(rng)
+        # some pixels join the cut: a block of the grid, without source capacity, now
+        # and then walled off from the rest (then it costs nothing on either side)
+        y, x, r = rng.integers(0, h), rng.integers(0, w), rng.integers(0, 3)
+        rows, cols = np.divmod(np.arange(h * w), w)
+        ring = np.maximum(abs(rows - y), abs(cols - x))
+        keep = (rng.random(h * w) < 0.9) | (ring <= r)
+        if rng.random() < 0.3:
+            keep &= ring != r + 1
+        flat = np.flatnonzero(keep)
+        src, snk = _random_terminals(rng, len(flat))
+        new = ring[flat] <= r
+        if new.all():
+            continue
+        src[new] = 0.0
+        snk[new] *= rng.random() < 0.5
+        old = ~new
+        won0 = _binary_cut(flat[old], (h, w), right, down, src[old], snk[old], None)[1]
+        won = _grown_cut((flat[old], src[old], snk[old], won0), flat, (h, w), src, snk)
+        if won is not None:
+            grown += 1
+            np.testing.assert_array_equal(won, _binary_cut(flat, (h, w), right, down, src, snk,
+                                                           None)[1])
+    assert 20 < grown < 300
