@@ -617,7 +617,8 @@ def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
     """Which of the pixels ``flat`` take ``c`` (a mask).
 
     With a ``memo``, the kept cut of ``c`` at this level answers when
-    :func:`_unchanged_cut` shows it still does. The background cut (the first
+    :func:`_unchanged_cut` or :func:`_grown_cut` shows it still does. The
+    background cut (the first
     and largest) also keeps its solved graph: on the same pixels only the
     terminal capacities can differ, and those are changed on the solved graph
     and the flow resumed from the kept search trees (Kohli and Torr,
@@ -780,13 +781,13 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
         coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)), memo=memo)
     up = coarse.repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
     # The band around the coarse boundaries: the same after most scribbles.
-    kept = None if memo is None else memo.get(("band", h, w))
+    kept = None if memo is None else memo.get(("band", h, w, band))
     if kept is not None and np.array_equal(kept[0], coarse):
         free = kept[1].copy()
     else:
         free = _near(_boundaries(up), band)
         if memo is not None:
-            memo[("band", h, w)] = (coarse, free.copy())
+            memo[("band", h, w, band)] = (coarse, free.copy())
     wrong = (seeds != UNSEEDED) & (seeds != up)
     free |= _near(wrong, band)
     # Pooling may close a thin neck of a small paper area and split it there:
