@@ -187,7 +187,7 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
     h, w = gray.shape
     if coarse_to_fine is None:
         coarse_to_fine = h * w > 500_000
-    strength = _seed_strength(seeds, area, _quantized(seed_strength))
+    strength = _seed_strength(seeds, area, _quantized(seed_strength), memo)
     if coarse_to_fine and min(h, w) >= 64:
         # Paper areas are "grey >= INK_THRESHOLD" at every level.
         paper = float(ink_cost(INK_THRESHOLD, ink_level=ink_level, paper_level=paper_level,
@@ -261,11 +261,12 @@ def _frame_seeds(seeds, area, n_areas):
     return out
 
 
-def _seed_strength(seeds, area, soft):
+def _seed_strength(seeds, area, soft, memo=None):
     """Per-pixel cost of relabelling a seed: hard in the paper ``area`` (a
     label image) that holds most of the pixels of its scribble (an
     8-connected run of one label), ``soft`` on ink and in other paper areas
-    (overshoots)."""
+    (overshoots). With a ``memo``, a label whose seed pixels did not change
+    keeps its costs."""
     out = np.zeros(seeds.shape)
     # Bounding box of each label (value v is at index v + 1 of the label image
     # seeds + 2, whose 0 is the unseeded pixels).
@@ -273,18 +274,31 @@ def _seed_strength(seeds, area, soft):
     for c in np.unique(seeds[seeds != UNSEEDED]):
         box = boxes[c - UNSEEDED - 1]
         mask = seeds[box] == c
-        stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
-        st, ar = stroke[mask], area[box][mask]
-        on = ar > 0
-        home = np.zeros(n + 1, np.int64)
-        if on.any():
-            pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
-            # Ties go to the lowest area number: deterministic.
-            best = np.lexsort((pairs[1], -counts, pairs[0]))
-            first = np.unique(pairs[0][best], return_index=True)[1]
-            home[pairs[0][best][first]] = pairs[1][best][first]
-        out[box][mask] = np.where(on & (ar == home[st]), _HARD, soft)
+        kept = None if memo is None else memo.get(("strength", c))
+        if kept is not None and kept[0] == box and np.array_equal(kept[1], mask):
+            values = kept[2]
+        else:
+            values = _label_strength(mask, area[box], soft)
+            if memo is not None:
+                memo[("strength", c)] = (box, mask, values)
+        out[box][mask] = values
     return out
+
+
+def _label_strength(mask, area, soft):
+    """:func:`_seed_strength` of one label's seed pixels ``mask`` in a box of
+    the paper ``area`` image: the costs of the pixels of ``mask``, in order."""
+    stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
+    st, ar = stroke[mask], area[mask]
+    on = ar > 0
+    home = np.zeros(n + 1, np.int64)
+    if on.any():
+        pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+        # Ties go to the lowest area number: deterministic.
+        best = np.lexsort((pairs[1], -counts, pairs[0]))
+        first = np.unique(pairs[0][best], return_index=True)[1]
+        home[pairs[0][best][first]] = pairs[1][best][first]
+    return np.where(on & (ar == home[st]), _HARD, soft)
 
 
 def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, min_area=30,
