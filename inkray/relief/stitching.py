@@ -133,7 +133,7 @@ class _Rows:
         self.ineq.append(bool(ineq))
         self.label.append(label)
         self.graft.append(bool(graft))
-        self.xy.append(xy)
+        self.xy.append(tuple(float(c) for c in xy))
 
     def extend(self, idx, w, rhs, ineq, label, graft, xy):
         """Add ``len(rhs)`` rows at once: ``idx``, ``w`` (k, m), ``rhs`` (k,), ``xy`` (k, 2)."""
@@ -269,8 +269,11 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     memo : dict, optional
         Kept across calls (the editor's chain keeps one): each mesh's
         factorization and point location by the mesh's content, so a
-        re-stitch after an edit redoes them only for the meshes it changed.
-        Left holding this call's meshes only.
+        re-stitch after an edit redoes them only for the meshes it changed,
+        and the rows that held the solution, which start the next working
+        set where the same entry speaks at the same point (the optimum is
+        the same; it is found in fewer rounds, equal to a fresh solve to
+        round-off). Left holding this call's meshes and rows only.
     progress : inkray.progress.Progress, optional
 
     Returns
@@ -297,13 +300,14 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     0.0
     """
     regions = list(inflated)
+    kept = None if memo is None else memo.setdefault("meshes", {})
     blocks, start, used = [], 0, {}
     for r in regions:
-        blocks.append(None if r is None else _Region(_mesh_of(r, memo, used), start))
+        blocks.append(None if r is None else _Region(_mesh_of(r, kept, used), start))
         start += 0 if r is None else len(r.height)
     if memo is not None:  # keep what this stitch used: one relief's worth
-        memo.clear()
-        memo.update(used)
+        kept.clear()
+        kept.update(used)
     n = start
     if epsilon is None:
         shape = completion.labels.shape if completion is not None else (0, 0)
@@ -343,17 +347,23 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     # where pass 1 put them and everything else is solved again with the
     # graft rows, so a grafted part follows its base without denting it.
     bases = {z[1] for z in zones} - {z[0] for z in zones}
-    g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner, tol,
-                               max_rounds, progress)
+    # Rows that held the last solution (same entry, same point) start in the working set.
+    keys = list(zip(rows.label, rows.xy, rows.ineq, rows.graft))
+    before = memo.get("held", set()) if memo is not None else set()
+    warm = np.fromiter((k in before for k in keys), bool, len(keys))
+    g, active, rounds, held = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner,
+                                     tol, max_rounds, progress, warm)
     if graft.any():
         fixed = np.isin(owner, sorted(bases))
         shifted = rhs - C[:, fixed] @ g[fixed]
         Cf = C.multiply(~fixed[None, :]).tocsr()
         touches = np.diff(Cf.indptr) > 0
-        g2, active2, rounds2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy, blocks,
-                                      owner, tol, max_rounds, progress)
+        g2, active2, rounds2, held2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy,
+                                             blocks, owner, tol, max_rounds, progress, warm)
         g = np.where(fixed, g, g2)
-        active, rounds = active2, rounds + rounds2
+        active, rounds, held = active2, rounds + rounds2, np.concatenate([held, held2])
+    if memo is not None:
+        memo["held"] = {keys[i] for i in held}
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
     for front, base, seam, width, _, lift in zones:
@@ -695,24 +705,26 @@ def _mean_outline_edge(mesh):
 
 # -- the QP ------------------------------------------------------------------------------
 
-def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, per_group=4):
+def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, warm,
+           per_group=4):
     """Constraint generation around the exact dual active set on the working set.
 
     Only rows where ``use`` is True take part. The working set starts with the
-    equalities and, per annotation entry, the ``per_group`` inequalities most
-    violated at ``g = 0``; each round adds the most violated candidates per
-    entry, spread apart (neighbouring samples carry nearly the same
-    information and would make the dual singular). Returns
-    ``(g, active, rounds)``.
+    equalities, the rows ``warm`` marks and, per annotation entry, the
+    ``per_group`` inequalities most violated at ``g = 0``; each round adds the
+    most violated candidates per entry, spread apart (neighbouring samples
+    carry nearly the same information and would make the dual singular).
+    Returns ``(g, active, rounds, held)``, ``held`` the rows with a nonzero
+    multiplier.
     """
     n = C.shape[1]
     cand = np.flatnonzero(use)
     C, rhs, ineq, xy = C[cand], rhs[cand], ineq[cand], np.asarray(xy, float)[cand]
     group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
-    in_work = ~ineq
+    in_work = ~ineq | warm[cand]
     in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, xy, tol, per_group)
     if not in_work.any():
-        return np.zeros(n), 0, 0
+        return np.zeros(n), 0, 0, np.zeros(0, np.int64)
     # Z = Q^-1 C[order]^T and H = C[order] Z grow by the new rows' blocks each round
     # (copying Z, n x rows, every round cost more than the solves on large drawings).
     Z = []
@@ -742,7 +754,7 @@ def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progre
         if progress is not None:
             progress.update(rnd, max_rounds)
         if viol.max(initial=0.0) <= tol:
-            return g, int((np.abs(lam) > 0).sum()), rnd
+            return g, int((np.abs(lam) > 0).sum()), rnd, cand[order[np.abs(lam) > 0]]
         in_work |= _worst_per_group(viol, group, xy, tol, per_group)
     raise StageError(f"stitching: constraint generation did not converge in {max_rounds} rounds")
 
