@@ -535,16 +535,16 @@ def _coarse_to_fine(crop, inside, a, nbrs, threshold):
     other = np.where(blocks == a, _OUTSIDE, blocks).max(axis=0)
     small = np.pad(np.where((blocks == a).sum(axis=0) >= 3, a, other), 1, constant_values=_OUTSIDE)
     coarse = _solvable(small, a)
-    field_ = np.zeros(small.shape + (len(nbrs),))
-    field_[..., :] = small[..., None] == nbrs
+    values_c = np.zeros(small.shape + (len(nbrs),))
+    values_c[..., :] = small[..., None] == nbrs
     if coarse.any():
-        field_[coarse] = _harmonic(small, coarse, a, nbrs)
+        values_c[coarse] = _harmonic(small, coarse, a, nbrs)
     # The frame's cells take the values of the nearest cell within it (no flux across it).
     _, (iy, ix) = ndimage.distance_transform_edt(small == _OUTSIDE, return_indices=True)
-    field_ = field_[iy, ix]
+    values_c = values_c[iy, ix]
     ys, xs = np.nonzero(inside)
     at = [(ys - 1) / 2.0 + 0.75, (xs - 1) / 2.0 + 0.75]  # pixel centres on the padded coarse grid
-    u = np.column_stack([ndimage.map_coordinates(field_[..., k], at, order=1, mode="nearest")
+    u = np.column_stack([ndimage.map_coordinates(values_c[..., k], at, order=1, mode="nearest")
                          for k in range(len(nbrs))])
     owner = np.full(crop.shape, -1, np.int32)
     owner[ys, xs] = np.where(u.max(axis=1) > threshold, np.argmax(u, axis=1), -1)
