@@ -148,6 +148,8 @@ class _Cache:
         # one segmentation at a time
         self.segment_memo = {}
         self.segment_lock = threading.Lock()
+        # the stitching's per-mesh factorizations, by mesh content (see stitch's memo)
+        self.stitch = {}
 
     def get(self, key):
         with self._lock:
@@ -312,7 +314,7 @@ class ReliefChain:
         key = ("stitch", self._relations_key(), tuple(self._memo["mesh_keys"]), self.options.epsilon)
         return self._stage("stitch", key, lambda: stitch(
             meshes, self.relations, self.completion, seams=self.annotations.boundaries,
-            epsilon=self.options.epsilon, progress=self.progress))
+            epsilon=self.options.epsilon, memo=self._cache.stitch, progress=self.progress))
 
     @property
     def relief(self):

@@ -245,7 +245,7 @@ def test_occluders_solved_together_give_what_one_after_another_gives():
     c = complete_regions(labels)
     owner = np.full(labels.shape, -1, np.int32)
     for a, box in enumerate(ndimage.find_objects(labels + 1, max_label=5)):
-        _complete_under(labels, a, box, owner, 0.5, 4.0)
+        _complete_under(labels, a, box, owner, 0.5, 4.0, None)
     assert (owner >= 0).sum() > 100
     np.testing.assert_array_equal(c.owner, owner)
 
@@ -265,3 +265,46 @@ def test_completion_progress_runs_in_region_order_and_stops_on_an_error():
     with pytest.raises(Stop):
         complete_regions(_bands_over_a_square(), progress=Watch())
     assert seen == [(1, 5), (2, 5)]
+
+
+def test_dirichlet_system_with_given_values_matches_the_indicators():
+    from inkray.relief.completion import _OUTSIDE, _dirichlet_system
+
+    labels = _bands_over_a_square()
+    crop = np.pad(labels, 1, constant_values=_OUTSIDE)
+    inside = crop == 0
+    nbrs = np.arange(1, 5)
+    system, rhs = _dirichlet_system(crop, inside, nbrs)
+    values = (crop[..., None] == nbrs).astype(float)
+    values[inside] = 7.0  # the unknowns' own entries are never read
+    system2, rhs2 = _dirichlet_system(crop, inside, nbrs, values)
+    assert abs(system - system2).max() == 0
+    np.testing.assert_array_equal(rhs, rhs2)
+
+
+def test_coarse_to_fine_completion_moves_the_owner_by_at_most_a_pixel():
+    from scipy import ndimage
+
+    # A disc behind two slanted bars and a small square: curved level sets, contact ends.
+    yy, xx = np.mgrid[:240, :300]
+    labels = np.full(yy.shape, -1, np.int32)
+    labels[(yy - 120) ** 2 + (xx - 150) ** 2 < 110 ** 2] = 0
+    labels[abs((yy - 0.6 * xx) - 10) < 9] = 1
+    labels[abs((yy + 0.9 * xx) - 330) < 7] = 2
+    labels[150:175, 60:85] = 3
+    exact = complete_regions(labels, coarse_above=None).owner
+    coarse = complete_regions(labels, coarse_above=1000).owner
+    owned = exact >= 0
+    differ = exact != coarse
+    assert owned.sum() > 3000
+    assert differ.sum() < 0.01 * owned.sum()
+    # every differing pixel lies beside a pixel of another owner in the exact result
+    change = np.zeros(labels.shape, bool)
+    for axis in (0, 1):
+        d = np.diff(exact, axis=axis) != 0
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        change[tuple(lo)] |= d
+        change[tuple(hi)] |= d
+    assert not (differ & ~ndimage.binary_dilation(change)).any()

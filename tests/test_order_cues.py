@@ -128,3 +128,25 @@ def test_the_continuation_cue_is_weighted_by_the_ink_clarity():
         pytest.approx(owns * np.exp(-2.0))
     assert predict_place(c, place, ink=CLEAN).front == 1                  # the box
     assert contact_continuation(c.labels, place, ink=InkStyle(width=0.0, stroke_ends=0.0)) == 0.0
+
+
+def test_walk_reaches_the_chessboard_ball_on_open_paper_and_follows_a_bent_line():
+    from inkray.relief.order_cues import _walk
+
+    open_paper = np.ones((41, 41), bool)
+    start = np.zeros_like(open_paper)
+    start[20, 20] = True
+    yy, xx = np.mgrid[:41, :41]
+    for steps in (0, 1, 7, 25):
+        ball = np.maximum(abs(yy - 20), abs(xx - 20)) <= steps
+        np.testing.assert_array_equal(_walk(open_paper, start, steps), ball)
+    # an L-shaped one-pixel line: 30 steps from its end reach its first 31 pixels and,
+    # cutting the corner diagonally, the first pixel past the corner
+    line = np.zeros((41, 41), bool)
+    line[5, 5:36] = True
+    line[5:36, 35] = True
+    start = np.zeros_like(line)
+    start[5, 5] = True
+    reached = _walk(line, start, 30)
+    assert reached.sum() == 32 and reached[5, 35] and reached[6, 35] and not reached[7, 35]
+    assert not _walk(line, ~line, 30).any()  # no start on the line: nothing reached

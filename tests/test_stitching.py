@@ -264,3 +264,38 @@ def test_contradictory_constraints_name_the_entries():
     with pytest.raises(InputError) as e:
         _build(labels, ann, ["left", "right"], epsilon=5.0)
     assert "boundaries[0]" in str(e.value) and "order[0]" in str(e.value)
+
+
+def test_a_memo_reuses_the_meshes_it_kept_and_changes_nothing(monkeypatch):
+    labels = _disks()
+    names = ["A", "B"]
+    ann = _doc((280, 200), order=[((150, 100), (60, 100))])
+    plain, c, relations = _build(labels, ann, names)
+    inflated = plain.regions
+    memo = {}
+    first = stitch(inflated, relations, c, memo=memo)
+    assert len(memo["meshes"]) == 2 and memo["held"]
+    kept = dict(memo["meshes"])
+    made = []
+    monkeypatch.setattr(stitching, "_Mesh", lambda r: made.append(r) or kept[None])
+    # the same meshes again (the other order): nothing is factored or located anew
+    flipped = [replace(r, front=r.back, back=r.front, front_name=r.back_name,
+                       back_name=r.front_name) if r.kind == "order" else r for r in relations]
+    second = stitch(inflated, flipped, c, memo=memo)
+    assert made == [] and memo["meshes"] == kept
+    for a, b in zip(first.offset, plain.offset):
+        np.testing.assert_array_equal(a, b)
+    assert second.z(1).max() > second.z(0).max()  # B in front now
+
+
+def test_the_rows_that_held_start_the_next_working_set():
+    labels = _rings()
+    ann = _doc((320, 220), order=[((160, 58), (176, 56)), ((160, 162), (144, 164))])
+    cold, c, relations = _build(labels, ann, ["A", "B"])
+    assert cold.rounds >= 2
+    memo = {}
+    first = stitch(cold.regions, relations, c, memo=memo)
+    again = stitch(cold.regions, relations, c, memo=memo)
+    assert first.rounds == cold.rounds and again.rounds < first.rounds
+    for a, b in zip(again.offset, cold.offset):  # the same optimum, to round-off
+        np.testing.assert_allclose(a, b, atol=1e-9)

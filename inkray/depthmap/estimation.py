@@ -524,7 +524,11 @@ class DepthSession:
                         yy, xx = yy - r0, xx - c0
                         keep = inside[yy, xx]
                         seeds[yy[keep], xx[keep]] = k
-                cut = lazybrush(gray, seeds, frame_background=False, seed_strength=_SEED_STRENGTH)
+                # Coarse to fine from 0.1 Mpx: the free paths around the segment
+                # (ink, cost 0) made the direct cut slow (the rings' at 1 Mpx: 0.55 s,
+                # 0.07 s coarse to fine, the same depth map).
+                cut = lazybrush(gray, seeds, frame_background=False, seed_strength=_SEED_STRENGTH,
+                                coarse_to_fine=inside.size > 100_000)
                 for k, group in enumerate(parts):
                     for v in group:  # an endpoint always lies in its own part
                         y, x = divmod(v, w)

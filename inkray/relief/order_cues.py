@@ -290,16 +290,16 @@ def _continuation(labels, a, b, point, radius):
 
 def _walk(mask, start, steps):
     """Pixels of ``mask`` reached from ``start`` in at most ``steps`` 8-connected steps."""
-    reached = start & mask
-    for _ in range(int(steps)):
-        grown = ndimage.binary_dilation(reached, _EIGHT) & mask
-        if np.array_equal(grown, reached):
-            break
-        reached = grown
-    return reached
+    from skimage.graph import MCP
 
+    seeds = np.argwhere(start & mask)
+    if not len(seeds):
+        return np.zeros(mask.shape, bool)
+    # One shortest-path pass (a path costs one per pixel, its start included), not one
+    # dilation per step: 0.6 s of the fox's 4.2 s relief at 1 Mpx went to those.
+    cost, _ = MCP(np.where(mask, 1.0, np.inf), fully_connected=True).find_costs(seeds)
+    return mask & (cost <= steps + 1.5)
 
-_EIGHT = np.ones((3, 3), bool)
 _SEED_RADIUS = 3.0  # pixels around a junction where the walks along the outlines start
 _OUTSIDE = -3  # beyond the image's edge: no outline there
 

@@ -43,6 +43,7 @@ round, the most violated candidates at the current solution, until none is
 violated by more than ``tol``.
 """
 
+import hashlib
 from dataclasses import dataclass, field
 
 import igl
@@ -132,7 +133,7 @@ class _Rows:
         self.ineq.append(bool(ineq))
         self.label.append(label)
         self.graft.append(bool(graft))
-        self.xy.append(xy)
+        self.xy.append(tuple(float(c) for c in xy))
 
     def extend(self, idx, w, rhs, ineq, label, graft, xy):
         """Add ``len(rhs)`` rows at once: ``idx``, ``w`` (k, m), ``rhs`` (k,), ``xy`` (k, 2)."""
@@ -155,14 +156,40 @@ class _Rows:
 
 
 class _Region:
-    """One region's block: factor of ``-L + lambda M``, point location, heights."""
+    """One region's block: its unknowns from ``start`` on, and its mesh's ``_Mesh``."""
 
-    def __init__(self, inflated, start):
+    def __init__(self, mesh, start):
+        self.start = start
+        self.v, self.f, self.h = mesh.v, mesh.f, mesh.h
+        self.solve, self.locate = mesh.solve, mesh.locate
+
+
+def _mesh_of(inflated, memo, used):
+    """The ``_Mesh`` of an inflated region, the one in ``memo`` when its content is
+    the same (an edit of the editor re-stitches the meshes it did not change)."""
+    mesh, solver = inflated.mesh, inflated.solver
+    arrays = [mesh.vertices, mesh.faces, inflated.height]
+    if solver is not None:
+        arrays += [solver.laplacian.data, solver.laplacian.indices, solver.mass.data]
+    digest = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        digest.update(np.ascontiguousarray(a).tobytes())
+    key = digest.digest()
+    found = memo.get(key) if memo is not None else None
+    if found is None:
+        found = _Mesh(inflated)
+    used[key] = found
+    return found
+
+
+class _Mesh:
+    """One region's mesh: factor of ``-L + lambda M``, point location, heights."""
+
+    def __init__(self, inflated):
         mesh = inflated.mesh
         self.v = np.asarray(mesh.vertices, float)
         self.f = np.asarray(mesh.faces, np.int64)
         self.h = np.asarray(inflated.height, float)
-        self.start = start
         solver = inflated.solver
         if solver is not None:
             lap, mass = solver.laplacian, solver.mass
@@ -211,7 +238,7 @@ class _Region:
 
 
 def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None,
-           tol=1e-6, max_rounds=60, progress=None):
+           tol=1e-6, max_rounds=60, memo=None, progress=None):
     """Solve the offsets ``g_i`` of every region.
 
     Parameters
@@ -239,6 +266,14 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         Allowed constraint violation (px).
     max_rounds : int, default 60
         Constraint-generation rounds before giving up.
+    memo : dict, optional
+        Kept across calls (the editor's chain keeps one): each mesh's
+        factorization and point location by the mesh's content, so a
+        re-stitch after an edit redoes them only for the meshes it changed,
+        and the rows that held the solution, which start the next working
+        set where the same entry speaks at the same point (the optimum is
+        the same; it is found in fewer rounds, equal to a fresh solve to
+        round-off). Left holding this call's meshes and rows only.
     progress : inkray.progress.Progress, optional
 
     Returns
@@ -265,10 +300,14 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     0.0
     """
     regions = list(inflated)
-    blocks, start = [], 0
+    kept = None if memo is None else memo.setdefault("meshes", {})
+    blocks, start, used = [], 0, {}
     for r in regions:
-        blocks.append(None if r is None else _Region(r, start))
+        blocks.append(None if r is None else _Region(_mesh_of(r, kept, used), start))
         start += 0 if r is None else len(r.height)
+    if memo is not None:  # keep what this stitch used: one relief's worth
+        kept.clear()
+        kept.update(used)
     n = start
     if epsilon is None:
         shape = completion.labels.shape if completion is not None else (0, 0)
@@ -308,17 +347,23 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     # where pass 1 put them and everything else is solved again with the
     # graft rows, so a grafted part follows its base without denting it.
     bases = {z[1] for z in zones} - {z[0] for z in zones}
-    g, active, rounds = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner, tol,
-                               max_rounds, progress)
+    # Rows that held the last solution (same entry, same point) start in the working set.
+    keys = list(zip(rows.label, rows.xy, rows.ineq, rows.graft))
+    before = memo.get("held", set()) if memo is not None else set()
+    warm = np.fromiter((k in before for k in keys), bool, len(keys))
+    g, active, rounds, held = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner,
+                                     tol, max_rounds, progress, warm)
     if graft.any():
         fixed = np.isin(owner, sorted(bases))
         shifted = rhs - C[:, fixed] @ g[fixed]
         Cf = C.multiply(~fixed[None, :]).tocsr()
         touches = np.diff(Cf.indptr) > 0
-        g2, active2, rounds2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy, blocks,
-                                      owner, tol, max_rounds, progress)
+        g2, active2, rounds2, held2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy,
+                                             blocks, owner, tol, max_rounds, progress, warm)
         g = np.where(fixed, g, g2)
-        active, rounds = active2, rounds + rounds2
+        active, rounds, held = active2, rounds + rounds2, np.concatenate([held, held2])
+    if memo is not None:
+        memo["held"] = {keys[i] for i in held}
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
     for front, base, seam, width, _, lift in zones:
@@ -660,46 +705,56 @@ def _mean_outline_edge(mesh):
 
 # -- the QP ------------------------------------------------------------------------------
 
-def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, per_group=4):
+def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progress, warm,
+           per_group=4):
     """Constraint generation around the exact dual active set on the working set.
 
     Only rows where ``use`` is True take part. The working set starts with the
-    equalities and, per annotation entry, the ``per_group`` inequalities most
-    violated at ``g = 0``; each round adds the most violated candidates per
-    entry, spread apart (neighbouring samples carry nearly the same
-    information and would make the dual singular). Returns
-    ``(g, active, rounds)``.
+    equalities, the rows ``warm`` marks and, per annotation entry, the
+    ``per_group`` inequalities most violated at ``g = 0``; each round adds the
+    most violated candidates per entry, spread apart (neighbouring samples
+    carry nearly the same information and would make the dual singular).
+    Returns ``(g, active, rounds, held)``, ``held`` the rows with a nonzero
+    multiplier.
     """
     n = C.shape[1]
     cand = np.flatnonzero(use)
     C, rhs, ineq, xy = C[cand], rhs[cand], ineq[cand], np.asarray(xy, float)[cand]
     group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
-    in_work = ~ineq
+    in_work = ~ineq | warm[cand]
     in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, xy, tol, per_group)
     if not in_work.any():
-        return np.zeros(n), 0, 0
-    Z = np.zeros((n, 0))
+        return np.zeros(n), 0, 0, np.zeros(0, np.int64)
+    # Z = Q^-1 C[order]^T and H = C[order] Z grow by the new rows' blocks each round
+    # (copying Z, n x rows, every round cost more than the solves on large drawings).
+    Z = []
+    H = np.zeros((0, 0))
     order = np.zeros(0, np.int64)  # row of C behind each column of Z
     lam = np.zeros(0)
     for rnd in range(1, max_rounds + 1):
         new = np.setdiff1d(np.flatnonzero(in_work), order)
-        Z = np.hstack([Z, _qinv_rows(C[new], blocks, owner)])
+        z = _qinv_rows(C[new], blocks, owner)
+        across = C[order] @ z
+        inner = C[new] @ z
+        H = np.block([[H, across], [across.T, 0.5 * (inner + inner.T)]])
+        Z.append(z)
         order = np.concatenate([order, new])
-        H = C[order] @ Z
-        H = 0.5 * (H + H.T)
         start = np.concatenate([lam, np.zeros(len(new))])
         try:
             lam = dual_active_set(H, rhs[order], ineq[order], what="stitching QP", start=start)
         except StageError:
             names = [labels[cand[r]] for r in order]
             raise InputError(_conflict_message(H, rhs[order], ineq[order], names)) from None
-        g = Z @ lam
+        g, k = np.zeros(n), 0
+        for z in Z:
+            g += z @ lam[k:k + z.shape[1]]
+            k += z.shape[1]
         viol = np.where(ineq, rhs - C @ g, 0.0)
         viol[in_work] = 0.0  # held by the dual; only new candidates matter
         if progress is not None:
             progress.update(rnd, max_rounds)
         if viol.max(initial=0.0) <= tol:
-            return g, int((np.abs(lam) > 0).sum()), rnd
+            return g, int((np.abs(lam) > 0).sum()), rnd, cand[order[np.abs(lam) > 0]]
         in_work |= _worst_per_group(viol, group, xy, tol, per_group)
     raise StageError(f"stitching: constraint generation did not converge in {max_rounds} rounds")
 
