@@ -144,6 +144,10 @@ class _Cache:
         # (drawing key, InkStyle) for the order prediction: kept apart from the stages so
         # that it costs no stage its place
         self.ink = None
+        # What segmentations of the drawing share between edits (segment's memo), used by
+        # one segmentation at a time
+        self.segment_memo = {}
+        self.segment_lock = threading.Lock()
         # the stitching's per-mesh factorizations, by mesh content (see stitch's memo)
         self.stitch = {}
 
@@ -244,8 +248,7 @@ class ReliefChain:
     @property
     def segmentation(self):
         """:class:`~inkray.segmentation.Segmentation` of the region and background scribbles."""
-        return self._stage("segment", self._segment_key(), lambda: segment(
-            self.annotations, self.drawing, progress=self.progress))
+        return self._stage("segment", self._segment_key(), self._segment)
 
     @property
     def segmented(self):
@@ -425,6 +428,18 @@ class ReliefChain:
 
         value = self._stage("order", self._relations_key(), compute)
         return value
+
+    def _segment(self):
+        """The segmentation, with the cache's kept memo unless another thread's segmentation
+        is using it (then without: the same labels, computed in full)."""
+        cache = self._cache
+        if not cache.segment_lock.acquire(blocking=False):
+            return segment(self.annotations, self.drawing, progress=self.progress)
+        try:
+            return segment(self.annotations, self.drawing, progress=self.progress,
+                           memo=cache.segment_memo)
+        finally:
+            cache.segment_lock.release()
 
     def _ink_style(self):
         """The drawing's stroke width and stroke ends (for the order prediction), once per drawing."""

@@ -94,7 +94,7 @@ def ink_cost(gray, *, ink_level=0.25, paper_level=0.9, gamma=2.0):
 
 
 def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_level=0.25,
-              paper_level=0.9, gamma=2.0, coarse_to_fine=None, progress=None):
+              paper_level=0.9, gamma=2.0, coarse_to_fine=None, progress=None, memo=None):
     """Multi-label LazyBrush segmentation of a drawing from seed pixels.
 
     Parameters
@@ -121,6 +121,14 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         boundaries; by default on for images above 0.5 Mpx.
     progress : inkray.progress.Progress, optional
         Receives ``update(done, total)`` after each binary cut.
+    memo : dict, optional
+        Kept by the caller between calls on the same drawing (an editor's
+        scribbles), one call at a time: what depends on the drawing alone
+        (ink cost, paper areas, edge capacities) is computed once, a binary
+        cut whose graph differs from the kept one only by seeds that pull its
+        pixels the way they went is not solved again, and the background
+        cut resumes its kept flow (the same labels, see :func:`_min_cut`). A
+        different drawing or different parameters empty it first.
 
     Returns
     -------
@@ -168,29 +176,70 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
     regions = np.unique(seeds[seeded])
     seeds = seeds.astype(np.int32)
     seeds[seeded] = np.searchsorted(regions, seeds[seeded])  # the seed pixels alone: few
-    area, n_areas = ndimage.label(gray >= INK_THRESHOLD)
+    memo = _checked(memo, gray, (seed_strength, ink_level, paper_level, gamma))
+    area, n_areas = _paper_areas(gray, memo)
     if frame_background:
         seeds = _frame_seeds(seeds, area, n_areas)
     if not (seeds != UNSEEDED).any():
         raise InputError("seeds: no seed pixel at all (nothing to grow labels from)")
-    cost = ink_cost(gray, ink_level=ink_level, paper_level=paper_level, gamma=gamma)
+    cost = _kept(memo, "cost", lambda: ink_cost(gray, ink_level=ink_level,
+                                                paper_level=paper_level, gamma=gamma))
     h, w = gray.shape
     if coarse_to_fine is None:
         coarse_to_fine = h * w > 500_000
-    strength = _seed_strength(seeds, area, seed_strength)
+    strength = _seed_strength(seeds, area, _quantized(seed_strength), memo)
     if coarse_to_fine and min(h, w) >= 64:
         # Paper areas are "grey >= INK_THRESHOLD" at every level.
         paper = float(ink_cost(INK_THRESHOLD, ink_level=ink_level, paper_level=paper_level,
                                gamma=gamma))
-        labels = _coarse_to_fine(cost, seeds, strength, paper, progress)
+        labels = _coarse_to_fine(cost, seeds, strength, paper, progress, memo=memo)
     else:
-        labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress)
+        labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress, memo=memo)
     if len(regions):
         labels = np.where(labels >= 0, regions[np.maximum(labels, 0)], labels)
     return labels.astype(np.int32)
 
 
 _HARD = 1e9  # a seed cost no cut can pay
+# Capacities are multiples of 2**-22 (below 2**30 with _HARD): every sum and
+# difference the max-flow solver forms is then exact in float64, so its labels
+# are those of the exact minimum cut (the pixels that cannot reach the sink in
+# any maximum flow's residual graph), whatever the order of its augmentations.
+_QUANTUM = 2.0 ** -22
+
+
+def _quantized(x):
+    """``x`` rounded to a multiple of :data:`_QUANTUM`."""
+    return np.round(np.asarray(x, np.float64) / _QUANTUM) * _QUANTUM
+
+
+def _checked(memo, gray, params):
+    """``memo``, emptied first unless it was kept for this very drawing and these
+    parameters (the comparison costs a millisecond at 1 Mpx, a digest ten)."""
+    if memo is None:
+        return None
+    kept = memo.get("gray")
+    if (kept is None or memo.get("params") != params or kept.shape != gray.shape
+            or not np.array_equal(kept, gray)):
+        memo.clear()
+        memo["gray"] = gray.copy()
+        memo["params"] = params
+    return memo
+
+
+def _kept(memo, key, make):
+    """``memo[key]``, made by ``make()`` the first time (every time without a memo)."""
+    if memo is None:
+        return make()
+    value = memo.get(key)
+    if value is None:
+        value = memo[key] = make()
+    return value
+
+
+def _paper_areas(gray, memo):
+    """The 4-connected paper areas (``grey >= INK_THRESHOLD``) and their count."""
+    return _kept(memo, "areas", lambda: ndimage.label(gray >= INK_THRESHOLD))
 
 
 def _frame_seeds(seeds, area, n_areas):
@@ -212,11 +261,12 @@ def _frame_seeds(seeds, area, n_areas):
     return out
 
 
-def _seed_strength(seeds, area, soft):
+def _seed_strength(seeds, area, soft, memo=None):
     """Per-pixel cost of relabelling a seed: hard in the paper ``area`` (a
     label image) that holds most of the pixels of its scribble (an
     8-connected run of one label), ``soft`` on ink and in other paper areas
-    (overshoots)."""
+    (overshoots). With a ``memo``, a label whose seed pixels did not change
+    keeps its costs."""
     out = np.zeros(seeds.shape)
     # Bounding box of each label (value v is at index v + 1 of the label image
     # seeds + 2, whose 0 is the unseeded pixels).
@@ -224,22 +274,35 @@ def _seed_strength(seeds, area, soft):
     for c in np.unique(seeds[seeds != UNSEEDED]):
         box = boxes[c - UNSEEDED - 1]
         mask = seeds[box] == c
-        stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
-        st, ar = stroke[mask], area[box][mask]
-        on = ar > 0
-        home = np.zeros(n + 1, np.int64)
-        if on.any():
-            pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
-            # Ties go to the lowest area number: deterministic.
-            best = np.lexsort((pairs[1], -counts, pairs[0]))
-            first = np.unique(pairs[0][best], return_index=True)[1]
-            home[pairs[0][best][first]] = pairs[1][best][first]
-        out[box][mask] = np.where(on & (ar == home[st]), _HARD, soft)
+        kept = None if memo is None else memo.get(("strength", c))
+        if kept is not None and kept[0] == box and np.array_equal(kept[1], mask):
+            values = kept[2]
+        else:
+            values = _label_strength(mask, area[box], soft)
+            if memo is not None:
+                memo[("strength", c)] = (box, mask, values)
+        out[box][mask] = values
     return out
 
 
+def _label_strength(mask, area, soft):
+    """:func:`_seed_strength` of one label's seed pixels ``mask`` in a box of
+    the paper ``area`` image: the costs of the pixels of ``mask``, in order."""
+    stroke, n = ndimage.label(mask, structure=np.ones((3, 3)))
+    st, ar = stroke[mask], area[mask]
+    on = ar > 0
+    home = np.zeros(n + 1, np.int64)
+    if on.any():
+        pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+        # Ties go to the lowest area number: deterministic.
+        best = np.lexsort((pairs[1], -counts, pairs[0]))
+        first = np.unique(pairs[0][best], return_index=True)[1]
+        home[pairs[0][best][first]] = pairs[1][best][first]
+    return np.where(on & (ar == home[st]), _HARD, soft)
+
+
 def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, min_area=30,
-            progress=None):
+            progress=None, memo=None):
     """Segment a drawing into the annotation's regions and the background.
 
     Parameters
@@ -258,6 +321,10 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
         many pixels that no scribble touches are reported in ``warnings``.
     progress : inkray.progress.Progress, optional
         Progress bar of the binary cuts.
+    memo : dict, optional
+        Kept by the caller between segmentations of the same drawing (an
+        editor's edits), see :func:`lazybrush`; the result is the same with
+        or without it.
 
     Returns
     -------
@@ -311,7 +378,7 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
     frame = not (annotations.background or (annotations.background_pixels is not None
                                             and len(annotations.background_pixels)))
     labels = lazybrush(gray, seeds, frame_background=frame, seed_strength=seed_strength,
-                       coarse_to_fine=coarse_to_fine, progress=progress)
+                       coarse_to_fine=coarse_to_fine, progress=progress, memo=memo)
     area = np.bincount(labels[labels >= 0].ravel(), minlength=len(names))
     seeded = np.bincount(seeds[seeds >= 0].ravel(), minlength=len(names))
     for i, name in enumerate(names):
@@ -322,7 +389,8 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
             # The region kept little more than its own scribble.
             warnings.append(f"regions[{i}] ({name}): only {area[i]} pixels (does its scribble lie "
                             f"on the background or on ink?)")
-    warnings += _unscribbled_areas(gray, seeds, labels, names, frame, min_area)
+    warnings += _unscribbled_areas(_paper_areas(gray, memo), seeds, labels, names, frame,
+                                   min_area)
     return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
 
 
@@ -385,9 +453,10 @@ def scribbles_on_ink(annotations, gray):
     return out
 
 
-def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):
-    """Warnings for paper areas of ``min_area`` pixels or more without a seed."""
-    comp, n = ndimage.label(gray >= INK_THRESHOLD)
+def _unscribbled_areas(areas, seeds, labels, names, frame, min_area):
+    """Warnings for paper areas (``areas``: their label image and count) of
+    ``min_area`` pixels or more without a seed."""
+    comp, n = areas
     if n == 0:
         return []
     seeded = np.zeros(n + 1, bool)
@@ -413,7 +482,7 @@ def _unscribbled_areas(gray, seeds, labels, names, frame, min_area):
 
 
 def _order(seeds):
-    """Labels present in ``seeds``: background first (the biggest, it removes
+    """Labels present in ``seeds`` (any shape): background first (the biggest, it removes
     most pixels from the later cuts), then regions ascending."""
     # Labels run from UNSEEDED up (regions are 0..R-1 inside lazybrush): counting
     # them is a sort-free np.unique.
@@ -423,8 +492,8 @@ def _order(seeds):
 
 def _edge_weights(cost, floor):
     """Capacities of the right (H, W-1) and down (H-1, W) neighbour edges."""
-    right = np.minimum(cost[:, :-1], cost[:, 1:]) + floor
-    down = np.minimum(cost[:-1, :], cost[1:, :]) + floor
+    right = _quantized(np.minimum(cost[:, :-1], cost[:, 1:]) + floor)
+    down = _quantized(np.minimum(cost[:-1, :], cost[1:, :]) + floor)
     return right, down
 
 
@@ -451,7 +520,7 @@ def _neighbours(fixed, right, down, idx):
     return out
 
 
-def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
+def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None):
     """Sequential binary cuts on the pixels where ``fixed`` is UNSEEDED.
 
     Labels are placed in ascending order, so "a label still to be placed"
@@ -459,46 +528,57 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
     labels far from any boundary) keep their label and pull their free
     neighbours toward it through the edge between them, as a neighbour of
     that label would."""
-    import maxflow
-
     h, w = cost.shape
-    right, down = _edge_weights(cost, floor)
+    right, down = _kept(memo, ("edges", h, w), lambda: _edge_weights(cost, floor))
     if fixed is None:
         fixed = np.full((h, w), UNSEEDED, np.int32)
     labels = fixed.copy()
-    idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
-    nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
-    order = _order(np.where(fixed != UNSEEDED, fixed, seeds))
+    kept = None if memo is None else memo.get(("free", h, w))
+    if kept is not None and np.array_equal(kept[0], fixed):
+        _, idx, rows, cols, nbrs, placed = kept
+    else:
+        idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
+        rows, cols = np.divmod(idx, w)
+        nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
+        placed = _order(fixed)
+        if memo is not None:
+            memo[("free", h, w)] = (fixed.copy(), idx, rows, cols, nbrs, placed)
     seed_idx = seeds.ravel()[idx]
+    order = sorted(set(placed) | set(_order(seed_idx)))
     flat_labels = labels.ravel()
+    alive = np.ones(len(idx), bool)  # which of ``idx`` are still unlabelled
     for step, c in enumerate(order):
-        alive = flat_labels[idx] == UNSEEDED
-        if not alive.any():
+        pos = np.flatnonzero(alive)
+        if not len(pos):
             break
-        comp, n = ndimage.label(labels == UNSEEDED)
-        ci = comp.ravel()[idx[alive]]
-        si = seed_idx[alive]
+        ci, n = _pieces(labels, idx[pos], rows[pos], cols[pos], ("pieces", h, w, c), memo)
+        si = seed_idx[pos]
         own = np.bincount(ci[si == c], minlength=n + 1)
         other = np.bincount(ci[si > c], minlength=n + 1)
         for lab, _, _ in nbrs:
-            la = lab[alive]
+            la = lab[pos]
             own += np.bincount(ci[la == c], minlength=n + 1)
             other += np.bincount(ci[la > c], minlength=n + 1)
         own[0] = other[0] = 0
-        flat_labels[idx[alive][((own > 0) & (other == 0))[ci]]] = c
+        alone = pos[((own > 0) & (other == 0))[ci]]
+        flat_labels[idx[alone]] = c
+        alive[alone] = False
         cut = (own > 0) & (other > 0)
         if c != order[-1] and cut.any():
-            on = cut[ci]
+            on = pos[cut[ci]]
             # Outline ink goes to the character, not to the background: a cut
             # with an ink pixel on its background side costs 4 floors more
             # (directed capacities, so the graph stays the same size), enough
             # that following the outer edge of a thick outline around a
             # rounded end beats a chord through the ink.
-            pull = 4.0 * floor * (1.0 - cost) if c == BACKGROUND else None
-            sub = [(lab[alive][on], wt[alive][on], off) for lab, wt, off in nbrs]
-            win = _binary_cut(idx[alive][on], (h, w), seeds, c, right, down, sub, strength,
-                              pull, maxflow)
-            flat_labels[win] = c
+            pull = (_kept(memo, ("pull", h, w), lambda: _quantized(4.0 * floor * (1.0 - cost)))
+                    if c == BACKGROUND else None)
+            flat = idx[on]
+            sub = [(lab[on], wt[on], off) for lab, wt, off in nbrs]
+            src, snk = _terminals(flat, seeds, c, strength, sub, pull)
+            won = on[_min_cut(flat, (h, w), c, right, down, src, snk, pull, memo)]
+            flat_labels[idx[won]] = c
+            alive[won] = False
         if progress is not None:
             progress.update(step + 1, len(order))
     free = labels == UNSEEDED
@@ -510,11 +590,164 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None):
     return labels
 
 
-def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflow):
-    """Min cut of label ``c`` against the greater labels on the pixels ``flat``
-    (flat indices); ``nbrs`` are their fixed neighbours, ``pull`` (H, W) or
-    None an extra cost of a cut edge whose ``c`` side is that pixel. Returns
-    the flat indices of the pixels that take ``c``."""
+def _pieces(labels, flat, rows, cols, key, memo):
+    """The 4-connected piece of unlabelled pixels that each of the unlabelled
+    pixels ``flat`` (all of them; at ``(rows, cols)``) lies in, numbered from
+    1, and the count: labelled within their bounding box only, and kept in
+    ``memo`` under ``key`` for the same pixels."""
+    kept = None if memo is None else memo.get(key)
+    if kept is not None and np.array_equal(kept[0], flat):
+        return kept[1], kept[2]
+    y0, x0 = rows.min(), cols.min()
+    box = labels[y0:rows.max() + 1, x0:cols.max() + 1] == UNSEEDED
+    comp, n = ndimage.label(box)
+    pieces = comp[rows - y0, cols - x0]
+    if memo is not None:
+        memo[key] = (flat, pieces, n)
+    return pieces, n
+
+
+def _terminals(flat, seeds, c, strength, nbrs, pull):
+    """Source (take ``c``) and sink (a greater label) capacities of the pixels
+    ``flat`` of a binary cut; ``nbrs`` are their fixed neighbours, ``pull``
+    (H, W) or None an extra cost of a cut edge whose ``c`` side is that pixel."""
+    s = seeds.ravel()[flat]
+    st = strength.ravel()[flat]
+    src = np.where(s == c, st, 0.0)
+    snk = np.where(s > c, st, 0.0)
+    for lab, wt, offset in nbrs:
+        # The edge to a fixed neighbour becomes a terminal link, with the
+        # directed ``pull`` of whichever end would be on the ``c`` side.
+        to_c, to_rest = lab == c, lab > c
+        src[to_c] += wt[to_c]
+        snk[to_rest] += wt[to_rest]
+        if pull is not None:
+            src[to_c] += pull.ravel()[flat[to_c] + offset]
+            snk[to_rest] += pull.ravel()[flat[to_rest]]
+    return src, snk
+
+
+def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
+    """Which of the pixels ``flat`` take ``c`` (a mask).
+
+    With a ``memo``, the kept cut of ``c`` at this level answers when
+    :func:`_unchanged_cut` or :func:`_grown_cut` shows it still does. The
+    background cut (the first
+    and largest) also keeps its solved graph: on the same pixels only the
+    terminal capacities can differ, and those are changed on the solved graph
+    and the flow resumed from the kept search trees (Kohli and Torr,
+    "Efficiently solving dynamic Markov random fields using graph cuts",
+    ICCV 2005). Either way the labels are those of a fresh solve: the pixels
+    that cannot reach the sink in a maximum flow's residual graph are the
+    same for every maximum flow, and with capacities that are multiples of
+    :data:`_QUANTUM` the solver's arithmetic is exact.
+    """
+    key = ("cut", shape, c)
+    kept = None if memo is None else memo.get(key)
+    same = kept is not None and len(kept[0]) == len(flat) and np.array_equal(kept[0], flat)
+    if same and _unchanged_cut(kept, src, snk):
+        return kept[3]
+    won = None if same or kept is None else _grown_cut(kept, flat, shape, src, snk)
+    if won is not None:
+        graph = None
+    elif same and kept[4] is not None:
+        graph = kept[4]
+        del memo[key]  # changed below: kept again only once it is consistent
+        # Only the difference of a pixel's two terminal capacities matters to the cut
+        # (both larger by the same amount: every cut costs that much more).
+        more = (src - kept[1]) - (snk - kept[2])
+        changed = np.flatnonzero(more)
+        graph.add_grid_tedges(changed, np.maximum(more[changed], 0.0),
+                              np.maximum(-more[changed], 0.0))
+        graph.mark_grid_nodes(changed)
+        graph.maxflow(reuse_trees=True)
+        won = ~graph.get_grid_segments(np.arange(len(flat)))
+    else:
+        graph, won = _binary_cut(flat, shape, right, down, src, snk, pull)
+    if memo is not None:
+        memo[key] = (flat, src, snk, won, graph if c == BACKGROUND else None)
+    return won
+
+
+def _grown_cut(kept, flat, shape, src, snk):
+    """The kept cut ``(flat0, src0, snk0, won0, ...)`` grown to the pixels
+    ``flat`` (a superset of ``flat0``, both ascending), or None when that is
+    not shown to be the answer.
+
+    On the kept pixels the terminal capacities may grow as in
+    :func:`_unchanged_cut`. The new pixels ``X`` must have no source capacity
+    and no neighbour that took the label. Then every cut of the new graph
+    costs at least as much as its kept part did, and the kept cut with the
+    pieces of ``X`` that reach neither a sink capacity nor a kept pixel that
+    did not take the label (they cost nothing on either side; the solver puts
+    them on the source side) costs the same: it is the solver's answer.
+    """
+    flat0, src0, snk0, won0 = kept[:4]
+    if len(flat0) >= len(flat):
+        return None
+    at = np.searchsorted(flat, flat0)
+    if at[-1] >= len(flat) or not np.array_equal(flat[at], flat0):
+        return None  # a kept pixel left the cut
+    new = np.ones(len(flat), bool)
+    new[at] = False
+    if (src[new] > 0).any() or not _unchanged_cut(kept, src[at], snk[at]):
+        return None
+    h, w = shape
+    x = flat[new]
+    taken, left = flat0[won0], flat0[~won0]
+    touches_left = snk[new] > 0
+    for nb, ok in ((x + 1, x % w < w - 1), (x - 1, x % w > 0), (x + w, x < (h - 1) * w),
+                   (x - w, x >= w)):
+        if _among(nb[ok], taken).any():
+            return None
+        touches_left[ok] |= _among(nb[ok], left)
+    # The 4-connected pieces of the new pixels, within their bounding box.
+    rows, cols = np.divmod(x, w)
+    y0, x0 = rows.min(), cols.min()
+    box = np.zeros((rows.max() - y0 + 1, cols.max() - x0 + 1), bool)
+    box[rows - y0, cols - x0] = True
+    piece, n = ndimage.label(box)
+    piece = piece[rows - y0, cols - x0]
+    reaching = np.zeros(n + 1, bool)
+    reaching[piece[touches_left]] = True
+    won = np.zeros(len(flat), bool)
+    won[at] = won0
+    won[new] = ~reaching[piece]
+    return won
+
+
+def _among(values, sorted_values):
+    """Which of ``values`` are in the ascending array ``sorted_values``."""
+    at = np.minimum(np.searchsorted(sorted_values, values), max(len(sorted_values) - 1, 0))
+    return (sorted_values[at] == values) if len(sorted_values) else np.zeros(len(values), bool)
+
+
+def _unchanged_cut(kept, src, snk):
+    """Whether the kept cut ``(flat, src, snk, won, ...)`` answers the cut of
+    the same pixels with terminal capacities ``src`` and ``snk``.
+
+    Its edges are the same (they depend on the pixels, the level and the
+    label only). When the capacities differ only by more source capacity at
+    pixels that took the label and more sink capacity at pixels that did
+    not, the kept maximum flow is still maximum (the kept cut's cost did not
+    change, no other's fell) and the pixels that can reach the sink in its
+    residual graph are the same: those are the pixels the solver leaves out,
+    exactly, since the capacities are multiples of :data:`_QUANTUM`.
+    """
+    src0, snk0, won = kept[1:4]
+    more_src, more_snk = src - src0, snk - snk0
+    return not ((more_src < 0).any() or (more_snk < 0).any() or (more_src[~won] > 0).any()
+                or (more_snk[won] > 0).any())
+
+
+def _binary_cut(flat, shape, right, down, src, snk, pull):
+    """Min cut of one label against the greater labels on the pixels ``flat``
+    (flat indices, ascending) with terminal capacities ``src`` and ``snk``;
+    ``pull`` (H, W) or None an extra cost of a cut edge whose source side is
+    that pixel. Returns the solved graph and which of the pixels are on the
+    source side."""
+    import maxflow
+
     h, w = shape
     n = len(flat)
     node = np.full(h * w, -1, np.int64)
@@ -534,26 +767,13 @@ def _binary_cut(flat, shape, seeds, c, right, down, nbrs, strength, pull, maxflo
                 fwd = fwd + pull.ravel()[a]
                 rev = rev + pull.ravel()[b]
             g.add_edges(node[a], node[b], fwd, rev)
-    s = seeds.ravel()[flat]
-    st = strength.ravel()[flat]
-    src = np.where(s == c, st, 0.0)
-    snk = np.where(s > c, st, 0.0)
-    for lab, wt, offset in nbrs:
-        # The edge to a fixed neighbour becomes a terminal link, with the
-        # directed ``pull`` of whichever end would be on the ``c`` side.
-        to_c, to_rest = lab == c, lab > c
-        src[to_c] += wt[to_c]
-        snk[to_rest] += wt[to_rest]
-        if pull is not None:
-            src[to_c] += pull.ravel()[flat[to_c] + offset]
-            snk[to_rest] += pull.ravel()[flat[to_rest]]
     ids = np.arange(n)
     g.add_grid_tedges(ids, src, snk)
     g.maxflow()
-    return flat[~g.get_grid_segments(ids)]
+    return g, ~g.get_grid_segments(ids)
 
 
-def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5000):
+def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5000, *, memo=None):
     """Solve on a 2x min-pooled copy, then only near its boundaries.
 
     Min-pooling keeps one-pixel lines closed at half resolution. The band of
@@ -562,32 +782,33 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     pooling may have cut wrongly: see below."""
     h, w = cost.shape
     hp, wp = h + h % 2, w + w % 2
-    small_cost = _pool(np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge"), np.minimum)
+    small_cost = _kept(memo, ("pooled", h, w), lambda: _pool(
+        np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge"), np.minimum))
     small_seeds = _pool(np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED),
                         np.maximum)
     small_strength = _pool(np.pad(strength, ((0, hp - h), (0, wp - w))), np.maximum)
     sh, sw = small_cost.shape
     if sh * sw > 500_000 and min(sh, sw) >= 64:
         coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, paper, None, band,
-                                 small_area // 4)
+                                 small_area // 4, memo=memo)
     else:
-        coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)))
+        coarse = _solve(small_cost, small_seeds, small_strength, 1.0 / (2 * (sh + sw)), memo=memo)
     up = coarse.repeat(2, axis=0).repeat(2, axis=1)[:h, :w]
-    edge = np.zeros((h, w), bool)
-    diff = up[:, :-1] != up[:, 1:]
-    edge[:, :-1] |= diff
-    edge[:, 1:] |= diff
-    diff = up[:-1, :] != up[1:, :]
-    edge[:-1, :] |= diff
-    edge[1:, :] |= diff
-    free = ndimage.maximum_filter(edge.view(np.uint8), size=2 * band + 1).view(bool)
+    # The band around the coarse boundaries: the same after most scribbles.
+    kept = None if memo is None else memo.get(("band", h, w, band))
+    if kept is not None and np.array_equal(kept[0], coarse):
+        free = kept[1].copy()
+    else:
+        free = _near(_boundaries(up), band)
+        if memo is not None:
+            memo[("band", h, w, band)] = (coarse, free.copy())
     wrong = (seeds != UNSEEDED) & (seeds != up)
-    free |= ndimage.maximum_filter(wrong.view(np.uint8), size=2 * band + 1).view(bool)
+    free |= _near(wrong, band)
     # Pooling may close a thin neck of a small paper area and split it there:
     # a small area whose fixed pixels and seeds hold two labels, or any area
     # holding a wrongly labelled seed, is solved again as a whole. (Large
     # areas that hold several labels are gap closures the band refines.)
-    comp, n = ndimage.label(cost >= paper)
+    comp, n = _kept(memo, ("paper", h, w), lambda: ndimage.label(cost >= paper))
     seeded = seeds != UNSEEDED
     inner = np.concatenate([comp[~free], comp[seeded]])
     inner_up = np.concatenate([up[~free], seeds[seeded]])
@@ -599,7 +820,35 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     redo[0] = False
     free |= redo[comp]
     fixed = np.where(free, UNSEEDED, up).astype(np.int32)
-    return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress)
+    return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress,
+                  memo=memo)
+
+
+def _boundaries(labels):
+    """The pixels with a 4-neighbour of another label."""
+    edge = np.zeros(labels.shape, bool)
+    diff = labels[:, :-1] != labels[:, 1:]
+    edge[:, :-1] |= diff
+    edge[:, 1:] |= diff
+    diff = labels[:-1, :] != labels[1:, :]
+    edge[:-1, :] |= diff
+    edge[1:, :] |= diff
+    return edge
+
+
+def _near(mask, band):
+    """The pixels within ``band`` (Chebyshev) of a ``mask`` pixel: a maximum
+    filter over the mask's bounding box and twice ``band`` around it only
+    (the filter's mirrored border then holds no mask pixel)."""
+    out = np.zeros(mask.shape, bool)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not len(rows):
+        return out
+    h, w = mask.shape
+    box = (slice(max(rows[0] - 2 * band, 0), min(rows[-1] + 2 * band + 1, h)),
+           slice(max(cols[0] - 2 * band, 0), min(cols[-1] + 2 * band + 1, w)))
+    out[box] = ndimage.maximum_filter(mask[box].view(np.uint8), size=2 * band + 1).view(bool)
+    return out
 
 
 def _pool(a, op):

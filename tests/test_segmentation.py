@@ -398,3 +398,172 @@ def test_graft_and_stitch_paths_guide_the_cut():
     # cut wraps tightly around the limb's dot
     assert (cut[81:109, 61:100] == 1).all() and (cut[60:79, 61:100] == 0).all()
     assert (plain == 1).sum() < 0.5 * (cut == 1).sum()
+
+
+# -- kept between edits (memo) -------------------------------------------------
+
+def _edits(ann):
+    """A sequence of annotations as an editor makes them: scribbles added back one at a
+    time, a scribble given to another region, a background scribble, a seam removed,
+    and back to the start (undo)."""
+    from dataclasses import replace
+
+    regions = ann.regions
+    fewer = [replace(r, scribbles=r.scribbles[:1]) for r in regions]
+    out = [replace(ann, regions=fewer)]
+    for i, r in enumerate(regions):
+        if len(r.scribbles) > 1:
+            fewer = fewer[:i] + [replace(fewer[i], scribbles=r.scribbles)] + fewer[i + 1:]
+            out.append(replace(ann, regions=fewer))
+    moved = list(fewer)
+    moved[1] = replace(moved[1], scribbles=moved[1].scribbles + [regions[0].scribbles[-1]])
+    out.append(replace(ann, regions=moved))
+    out.append(replace(ann, background=list(ann.background) + [regions[-1].scribbles[0]]))
+    out.append(replace(ann, boundaries=[]))
+    out.append(ann)
+    return out
+
+
+@pytest.mark.parametrize("name", ["turtle", "fox"])
+def test_kept_memo_gives_what_a_fresh_segmentation_gives(shared_drawings, name):
+    ann, d = load_input(shared_drawings / name / "drawing.inkray.json")
+    memo = {}
+    for edit in _edits(ann):
+        kept = segment(edit, d, coarse_to_fine=True, memo=memo)
+        fresh = segment(edit, d, coarse_to_fine=True)
+        np.testing.assert_array_equal(kept.labels, fresh.labels)
+        assert kept.warnings == fresh.warnings
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["turtle", "fox", "dragon", "donkey", "frog", "man"])
+def test_kept_memo_gives_what_a_fresh_segmentation_gives_at_1_mpx(shared_drawings, name):
+    from inkray.input.annotations import rescale_annotations
+    from skimage.transform import resize
+
+    ann, d = load_input(shared_drawings / name / "drawing.inkray.json")
+    h, w = d.gray.shape
+    s = (1e6 / (h * w)) ** 0.5
+    size = (int(round(w * s)), int(round(h * s)))
+    gray = resize(d.gray, (size[1], size[0]), order=1)
+    memo = {}
+    for edit in _edits(rescale_annotations(ann, size)):
+        kept = segment(edit, gray, memo=memo)
+        fresh = segment(edit, gray)
+        np.testing.assert_array_equal(kept.labels, fresh.labels)
+        assert kept.warnings == fresh.warnings
+
+
+def test_kept_memo_solves_only_the_cuts_a_scribble_changes(shared_drawings, monkeypatch):
+    from dataclasses import replace
+
+    from inkray import segmentation
+
+    ann, d = load_input(shared_drawings / "turtle" / "drawing.inkray.json")
+    solved = []
+    cut = segmentation._binary_cut
+    monkeypatch.setattr(segmentation, "_binary_cut", lambda *a: solved.append(1) or cut(*a))
+    memo = {}
+    labels = segment(ann, d, coarse_to_fine=True, memo=memo).labels
+    first = len(solved)
+    # a dot deep inside the area its region already has: every cut stays
+    shell = [r.name for r in ann.regions].index("shell")
+    inside = ndimage.distance_transform_edt(labels == shell)
+    y, x = np.unravel_index(np.argmax(inside), inside.shape)
+    again = [replace(r, scribbles=r.scribbles + [[[float(x), float(y)]]]) if i == shell else r
+             for i, r in enumerate(ann.regions)]
+    dotted = segment(replace(ann, regions=again), d, coarse_to_fine=True, memo=memo)
+    assert first > 0 and len(solved) == first
+    np.testing.assert_array_equal(dotted.labels, labels)
+    # the same with another drawing: the memo is emptied and everything solved again
+    other = np.where(d.gray > 0.99, 1.0, d.gray * 0.5)
+    np.testing.assert_array_equal(segment(ann, other, coarse_to_fine=True, memo=memo).labels,
+                                  segment(ann, other, coarse_to_fine=True).labels)
+    assert len(solved) >= 3 * first
+
+
+def _random_grid(rng):
+    """A small grid's shape and its quantized edge capacities over random ink."""
+    from inkray.segmentation import _edge_weights
+
+    h, w = rng.integers(3, 14, size=2)
+    return (h, w) + _edge_weights(rng.random((h, w)) ** 3, 0.01)
+
+
+def _random_terminals(rng, n):
+    """Quantized source and sink capacities, each on about a fifth of ``n`` pixels."""
+    from inkray.segmentation import _quantized
+
+    return tuple(_quantized(np.where(rng.random(n) < 0.2, rng.random(n) * 3, 0.0))
+                 for _ in range(2))
+
+
+def test_unchanged_cut_is_the_fresh_cut_on_random_graphs():
+    from inkray.segmentation import _binary_cut, _quantized, _unchanged_cut
+
+    rng = np.random.default_rng(1)
+    reused = 0
+    for _ in range(200):
+        h, w, right, down = _random_grid(rng)
+        flat = np.flatnonzero(rng.random(h * w) < 0.9)
+        n = len(flat)
+        src, snk = _random_terminals(rng, n)
+        won = _binary_cut(flat, (h, w), right, down, src, snk, None)[1]
+        more = _quantized(np.where(rng.random(n) < 0.2, rng.random(n), 0.0))
+        # more capacity toward the side each pixel took, and now and then against it
+        src2 = src + np.where(won | (rng.random(n) < 0.05), more, 0.0)
+        snk2 = snk + np.where(~won | (rng.random(n) < 0.05), more[::-1], 0.0)
+        fresh = _binary_cut(flat, (h, w), right, down, src2, snk2, None)[1]
+        if _unchanged_cut((flat, src, snk, won), src2, snk2):
+            reused += 1
+            np.testing.assert_array_equal(fresh, won)
+    assert 20 < reused < 200
+
+
+def test_resumed_background_cut_is_the_fresh_cut_on_random_graphs():
+    from inkray.segmentation import BACKGROUND, _binary_cut, _min_cut, _quantized
+
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        h, w, right, down = _random_grid(rng)
+        pull = _quantized(0.04 * rng.random((h, w)))
+        flat = np.flatnonzero(rng.random(h * w) < 0.9)
+        memo = {}
+        for _ in range(3):  # any change of the terminals, more or less capacity
+            src, snk = _random_terminals(rng, len(flat))
+            won = _min_cut(flat, (h, w), BACKGROUND, right, down, src, snk, pull, memo)
+            fresh = _binary_cut(flat, (h, w), right, down, src, snk, pull)[1]
+            np.testing.assert_array_equal(won, fresh)
+        assert memo[("cut", (h, w), BACKGROUND)][4] is not None
+
+
+def test_grown_cut_is_the_fresh_cut_on_random_graphs():
+    from inkray.segmentation import _binary_cut, _grown_cut
+
+    rng = np.random.default_rng(3)
+    grown = 0
+    for _ in range(300):
+        h, w, right, down = _random_grid(rng)
+        # some pixels join the cut: a block of the grid, without source capacity, now
+        # and then walled off from the rest (then it costs nothing on either side)
+        y, x, r = rng.integers(0, h), rng.integers(0, w), rng.integers(0, 3)
+        rows, cols = np.divmod(np.arange(h * w), w)
+        ring = np.maximum(abs(rows - y), abs(cols - x))
+        keep = (rng.random(h * w) < 0.9) | (ring <= r)
+        if rng.random() < 0.3:
+            keep &= ring != r + 1
+        flat = np.flatnonzero(keep)
+        src, snk = _random_terminals(rng, len(flat))
+        new = ring[flat] <= r
+        if new.all():
+            continue
+        src[new] = 0.0
+        snk[new] *= rng.random() < 0.5
+        old = ~new
+        won0 = _binary_cut(flat[old], (h, w), right, down, src[old], snk[old], None)[1]
+        won = _grown_cut((flat[old], src[old], snk[old], won0), flat, (h, w), src, snk)
+        if won is not None:
+            grown += 1
+            np.testing.assert_array_equal(won, _binary_cut(flat, (h, w), right, down, src, snk,
+                                                           None)[1])
+    assert 20 < grown < 300
