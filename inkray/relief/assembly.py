@@ -31,6 +31,8 @@ from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
 from inkray.relief.model import Part, Relief
+from inkray.relief.patches import min_angles as _min_angles
+from inkray.relief.patches import repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE"]
@@ -241,7 +243,8 @@ def _envelope_solid(parts, *, gap):
         top[hit] = np.maximum(top[hit], z)
         hit, z = _sample(v, back, xy, 4.0 * gap)
         bottom[hit] = np.minimum(bottom[hit], z)
-    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap)]
+    sampled = np.isfinite(top) & np.isfinite(bottom)
+    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap, sampled[tris].all(axis=1))]
     used, tris = np.unique(tris, return_inverse=True)
     tris = tris.reshape(-1, 3)
     xy, top, bottom = xy[used], top[used], bottom[used]
@@ -275,9 +278,10 @@ def _despike(tris, top, bottom, height):
             np.where(bottom < lowest - height, lowest, bottom))
 
 
-def _trim_footprint(xy, tris, neighbours, inside, gap):
+def _trim_footprint(xy, tris, neighbours, inside, gap, sampled):
     """``inside`` with thin triangles between two outside (inside) neighbours flipped,
-    and islands smaller than ``(4 gap)^2`` dropped."""
+    islands smaller than ``(4 gap)^2`` dropped and holes that small filled (where
+    every corner is ``sampled``)."""
     t = xy[tris]
     e = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2)
     e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
@@ -292,18 +296,29 @@ def _trim_footprint(xy, tris, neighbours, inside, gap):
         inside[fill] = True
         inside[cut] = False
     # islands smaller than a few gaps across (a tip cut off at a thin neck) would be
-    # needles of the solid's full height
-    k = np.flatnonzero(inside)
-    index = np.full(len(tris), -1)
+    # needles of the solid's full height; holes that small (a gap where several parts
+    # meet around one outline vertex) would be pipes of it
+    area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / 2.0
+    limit = 16.0 * gap ** 2
+    inside[_small_pieces(inside, neighbours, area, limit)] = False
+    open_ = (neighbours < 0).any(axis=1) | ~sampled  # the outside around the footprint
+    inside[_small_pieces(~inside, neighbours, np.where(open_, np.inf, area), limit)] = True
+    return inside
+
+
+def _small_pieces(chosen, neighbours, area, limit):
+    """The ``chosen`` triangles in edge-connected pieces of ``chosen`` with area below ``limit``."""
+    k = np.flatnonzero(chosen)
+    index = np.full(len(chosen), -1)
     index[k] = np.arange(len(k))
     rows = np.repeat(np.arange(len(k)), 3)
     cols = index[neighbours[k]].ravel()
     keep = (cols >= 0) & (neighbours[k].ravel() >= 0)
     graph = coo_matrix((np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(len(k), len(k)))
     _, label = connected_components(graph, directed=False)
-    area = np.abs(e1[k, 0] * e2[k, 1] - e1[k, 1] * e2[k, 0]) / 2.0
-    inside[k[np.bincount(label, weights=area)[label] < 16.0 * gap ** 2]] = False
-    return inside
+    small = np.zeros(len(chosen), bool)
+    small[k] = np.bincount(label, weights=area[k])[label] < limit
+    return small
 
 
 def _sheets(part):
@@ -357,7 +372,9 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     the round with the largest smallest angle (the last of equals) is kept.
     Last, every vertex of a face that crosses another is moved to the
     centroid of its neighbours (or halfway) where that leaves fewer
-    crossings and no angle below ``min_angle`` (``_untangle``). The remeshed
+    crossings and no angle below ``min_angle`` (``_untangle``); the patches
+    around faces still bad are re-triangulated
+    (:func:`~inkray.relief.patches.repair_patches`). The remeshed
     surface is returned only when it is still watertight and edge-manifold
     (a round that is not ends the rounds; when the first is not, the input
     comes back unchanged), and without the sliver fixes
@@ -418,7 +435,13 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
         ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
                                                 checksurfdist=False)
     _, fv, ff = best
-    return _untangle(fv, ff, min_angle=min_angle), ff
+    fv, crossing = _untangle(fv, ff, min_angle=min_angle)
+    bad = crossing | (_min_angles(fv, ff) < min_angle)
+    if bad.any():
+        rv, rf = repair_patches(fv, ff, target=target, min_angle=min_angle, bad=bad)
+        if _closed_manifold(rf):
+            return rv, rf
+    return fv, ff
 
 
 def _untangle(vertices, faces, *, min_angle, rounds=3):
@@ -428,7 +451,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
     its neighbours and halfway there; a move is kept when it leaves fewer
     crossing faces around it and no angle of its faces below ``min_angle``
     (or below the smallest one there before). Only positions change, so the
-    mesh stays as closed and manifold as it was.
+    mesh stays as closed and manifold as it was. Returns the vertices and which
+    faces still cross another.
     """
     from inkray.numerics.tri_intersection import self_intersecting_faces
 
@@ -442,8 +466,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
     order = np.argsort(flat, kind="stable")
     start = np.searchsorted(flat[order], np.arange(n + 1))
 
+    bad = self_intersecting_faces(v, f)
     for _ in range(rounds):
-        bad = self_intersecting_faces(v, f)
         if not bad.any():
             break
         t = v[f]
@@ -469,7 +493,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
                 v[x] = here
         if not moved:
             break
-    return v
+        bad = self_intersecting_faces(v, f)
+    return v, bad
 
 
 class _SliverFix:
@@ -654,17 +679,6 @@ def shell_parts(solid, parts):
         groups.setdefault(int(np.bincount(label[near]).argmax()), []).append(p.name)
     sizes = np.bincount(label)
     return [groups[k] for k in sorted(groups, key=lambda k: -sizes[k])]
-
-
-def _min_angles(vertices, faces):
-    """Smallest angle (degrees) of each triangle."""
-    t = np.asarray(vertices, float)[np.asarray(faces)]
-    out = []
-    for i in range(3):
-        a, b = t[:, (i + 1) % 3] - t[:, i], t[:, (i + 2) % 3] - t[:, i]
-        norm = np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-        out.append(np.degrees(np.arccos(np.clip((a * b).sum(axis=1) / norm, -1.0, 1.0))))
-    return np.min(out, axis=0)
 
 
 def _closed_manifold(faces):
