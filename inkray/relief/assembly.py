@@ -19,8 +19,8 @@ union of the parts' outlines, built as a height field (no boolean, so no
 near-coincident sheets and no slivers along intersection curves), which
 joins a part floating in front of the part behind it to it. It is remeshed
 (PyMeshLab's isotropic remeshing), its remaining slivers are flipped,
-collapsed or split away and the vertices of faces folded through another
-moved off them. Parts whose outlines do not overlap (drawn apart)
+collapsed or split away, the vertices of faces folded through another
+moved off them and the patches around faces still bad re-triangulated. Parts whose outlines do not overlap (drawn apart)
 stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
@@ -39,7 +39,7 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
-_FIX_ROUNDS = 3  # whole remeshing rounds while a triangle is below MIN_ANGLE
+_FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -357,28 +357,28 @@ def _sample(vertices, faces, points, tol):
 def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
 
-    The whole surface is remeshed toward edges of length ``target``, and
-    again (up to three times) while a triangle has an angle below
-    ``min_angle`` after the local fixes below; creases sharper than 89 degrees (the steps between parts)
-    are kept as features. The remeshing leaves a few slivers along those
-    creases; each is then flipped (a cap whose long edge lies in a flat
-    stretch), collapsed (a needle's short edge, to whichever of its midpoint
-    and ends shapes the triangles around it best) or split (a cap's long
-    edge at the foot of its far corner, making two needles), only where this
-    turns no face by more than 30 degrees and raises the smallest angle
-    around it (an edge shorter than a quarter of the median edge may be
-    collapsed however far its faces turn, short of folding one over); a
-    further remeshing round runs only while these fixes leave a sliver, and
-    the round with the largest smallest angle (the last of equals) is kept.
-    Last, every vertex of a face that crosses another is moved to the
-    centroid of its neighbours (or halfway) where that leaves fewer
-    crossings and no angle below ``min_angle`` (``_untangle``); the patches
-    around faces still bad are re-triangulated
-    (:func:`~inkray.relief.patches.repair_patches`). The remeshed
-    surface is returned only when it is still watertight and edge-manifold
-    (a round that is not ends the rounds; when the first is not, the input
-    comes back unchanged), and without the sliver fixes
-    when they would break that or put two vertices at one position.
+    The whole surface is remeshed toward edges of length ``target``;
+    creases sharper than 89 degrees (the steps between parts) are kept as
+    features. The remeshing leaves a few slivers along those creases; each
+    is then flipped (a cap whose long edge lies in a flat stretch),
+    collapsed (a needle's short edge, to whichever of its midpoint and ends
+    shapes the triangles around it best) or split (a cap's long edge at the
+    foot of its far corner, making two needles), only where this turns no
+    face by more than 30 degrees and raises the smallest angle around it (an
+    edge shorter than a quarter of the median edge may be collapsed however
+    far its faces turn, short of folding one over). Then every vertex of a
+    face that crosses another is moved to the centroid of its neighbours (or
+    halfway) where that leaves fewer crossings and no angle below
+    ``min_angle`` (``_untangle``), and the patches around faces still bad
+    (an angle below ``min_angle`` or crossing another) are re-triangulated
+    (:func:`~inkray.relief.patches.repair_patches`). When faces are left bad,
+    further remeshing rounds (up to three) run while the local fixes leave a
+    sliver, and the round with the largest smallest angle (the last of
+    equals) is repaired the same way and kept. The remeshed surface is
+    returned only when it is still watertight and edge-manifold (a round
+    that is not ends the rounds; when the first is not, the input comes back
+    unchanged), and without the sliver fixes (the re-triangulation) when
+    they would break that or put two vertices at one position.
 
     Parameters
     ----------
@@ -411,6 +411,7 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
                                             checksurfdist=False)
     best = None  # (smallest angle, vertices, faces) of the best round so far
+    first = None  # the first round repaired, and its bad faces left
     for rounds in range(_FIX_ROUNDS + 1):
         m = ms.current_mesh()
         m.compact()
@@ -422,11 +423,16 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
         fv, ff = _SliverFix(nv, nf).run(min_angle)
         if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
             fv, ff = nv, nf
+        if rounds == 0:
+            # most solids are done here: the further rounds cost minutes on large ones
+            first = _repair(fv, ff, target=target, min_angle=min_angle)
+            if first[2] == 0:
+                return first[0], first[1]
         smallest = _min_angles(fv, ff).min(initial=180.0)
         # a round may leave worse needles than the one before (the fox: 1.8, 0.6,
         # 0.01, 0.0 degrees): the best round is kept, not the last
         if best is None or smallest >= best[0]:  # ties: the later round
-            best = (smallest, fv, ff)
+            best = (smallest, fv, ff, rounds)
         if rounds == _FIX_ROUNDS or smallest >= min_angle:
             break
         # the remeshing goes on from its own mesh, not the fixed one; (remeshing only the
@@ -434,14 +440,26 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
         # earlier calls: the output would too)
         ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
                                                 checksurfdist=False)
-    _, fv, ff = best
-    fv, crossing = _untangle(fv, ff, min_angle=min_angle)
-    bad = crossing | (_min_angles(fv, ff) < min_angle)
-    if bad.any():
-        rv, rf = repair_patches(fv, ff, target=target, min_angle=min_angle, bad=bad)
-        if _closed_manifold(rf):
-            return rv, rf
+    if best[3] == 0:
+        return first[0], first[1]
+    fv, ff, _ = _repair(best[1], best[2], target=target, min_angle=min_angle)
     return fv, ff
+
+
+def _repair(vertices, faces, *, target, min_angle):
+    """Vertices moved off the faces they fold through, then the patches around faces
+    still bad re-triangulated; with the number of faces bad after both."""
+    from inkray.numerics.tri_intersection import self_intersecting_faces
+
+    v, crossing = _untangle(vertices, faces, min_angle=min_angle)
+    bad = crossing | (_min_angles(v, faces) < min_angle)
+    if not bad.any():
+        return v, faces, 0
+    rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
+    if not _closed_manifold(rf):
+        return v, faces, int(bad.sum())
+    left = self_intersecting_faces(rv, rf) | (_min_angles(rv, rf) < min_angle)
+    return rv, rf, int(left.sum())
 
 
 def _untangle(vertices, faces, *, min_angle, rounds=3):

@@ -63,10 +63,14 @@ def repair_patches(vertices, faces, *, target, min_angle, bad=None):
         return v, f
     alive = np.ones(len(f), bool)
     for rings in _RINGS:
-        if not (bad & alive).any():
-            break
-        v, f, alive, bad = _pass(v, f, alive, bad, rings=rings, target=target,
-                                 min_angle=min_angle)
+        # again while a pass replaces something: a patch next to one replaced in the
+        # same pass waits for the next
+        while (bad & alive).any():
+            count = len(f)
+            v, f, alive, bad = _pass(v, f, alive, bad, rings=rings, target=target,
+                                     min_angle=min_angle)
+            if len(f) == count:
+                break
     used, f = np.unique(f[alive], return_inverse=True)
     return v[used], f.reshape(-1, 3).astype(np.int64)
 
@@ -95,7 +99,7 @@ def _pass(v, f, alive, bad, *, rings, target, min_angle):
         points, tris = out
         tris = np.where(tris >= len(v), tris - len(v) + count, tris)
         if touched[f[patch]].any() or _adds_existing_edge(incidence, patch, tris, len(v)):
-            continue  # (a patch next to one replaced in this pass waits for the next)
+            continue
         w = np.concatenate([v, *new_v, points])
         box_lo, box_hi = w[tris].min(axis=(0, 1)), w[tris].max(axis=(0, 1))
         near = np.flatnonzero((lo <= box_hi).all(axis=1) & (hi >= box_lo).all(axis=1))
