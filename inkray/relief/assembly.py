@@ -32,7 +32,7 @@ from scipy.spatial import cKDTree
 from inkray.errors import StageError
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
-from inkray.relief.patches import repair_patches
+from inkray.relief.patches import bad_faces, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE"]
@@ -449,17 +449,14 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
 def _repair(vertices, faces, *, target, min_angle):
     """Vertices moved off the faces they fold through, then the patches around faces
     still bad re-triangulated; with the number of faces bad after both."""
-    from inkray.numerics.tri_intersection import self_intersecting_faces
-
-    v, crossing = _untangle(vertices, faces, min_angle=min_angle)
-    bad = crossing | (_min_angles(v, faces) < min_angle)
+    v, _ = _untangle(vertices, faces, min_angle=min_angle)
+    bad = bad_faces(v, faces, min_angle=min_angle)
     if not bad.any():
         return v, faces, 0
     rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
     if not _closed_manifold(rf):
         return v, faces, int(bad.sum())
-    left = self_intersecting_faces(rv, rf) | (_min_angles(rv, rf) < min_angle)
-    return rv, rf, int(left.sum())
+    return rv, rf, int(bad_faces(rv, rf, min_angle=min_angle).sum())
 
 
 def _untangle(vertices, faces, *, min_angle, rounds=3):

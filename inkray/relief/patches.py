@@ -18,9 +18,10 @@ from scipy.sparse.linalg import spsolve
 
 from inkray.numerics.tri_intersection import self_intersecting_faces
 
-__all__ = ["repair_patches", "min_angles"]
+__all__ = ["repair_patches", "bad_faces", "min_angles"]
 
 _RINGS = (1, 2, 3)  # patch sizes tried, in rings of faces around the bad ones
+_STORED_SCALES = (1.0, 0.001)  # pixels, and the mesh files' default units per pixel
 
 
 def repair_patches(vertices, faces, *, target, min_angle, bad=None):
@@ -36,7 +37,7 @@ def repair_patches(vertices, faces, *, target, min_angle, bad=None):
         equilateral triangle's of this edge).
     min_angle : float
         Faces with a smaller angle (degrees) are bad, as are faces crossing
-        another (:func:`~inkray.numerics.tri_intersection.self_intersecting_faces`).
+        another (:func:`bad_faces`).
     bad : (m,) bool array, optional
         The bad faces, when the caller knows them.
 
@@ -57,7 +58,7 @@ def repair_patches(vertices, faces, *, target, min_angle, bad=None):
     v = np.array(vertices, float)
     f = np.array(faces, np.int64)
     if bad is None:
-        bad = _bad(v, f, min_angle)
+        bad = bad_faces(v, f, min_angle=min_angle)
     bad = np.asarray(bad, bool).copy()
     if not bad.any():
         return v, f
@@ -105,8 +106,8 @@ def _pass(v, f, alive, bad, *, rings, target, min_angle):
         near = np.flatnonzero((lo <= box_hi).all(axis=1) & (hi >= box_lo).all(axis=1))
         near = np.setdiff1d(near, patch)
         added = np.concatenate(new_f) if new_f else np.zeros((0, 3), np.int64)
-        before = int(_bad(v, np.concatenate([f[near], f[patch]]), min_angle).sum())
-        after = _bad(w, np.concatenate([f[near], added, tris]), min_angle)
+        before = int(bad_faces(v, np.concatenate([f[near], f[patch]]), min_angle=min_angle).sum())
+        after = bad_faces(w, np.concatenate([f[near], added, tris]), min_angle=min_angle)
         if after[-len(tris):].any() or after.sum() >= before:
             continue
         touched[f[patch].ravel()] = True
@@ -260,9 +261,36 @@ def _simple(poly):
     return not meet.any()
 
 
-def _bad(v, f, min_angle):
-    """Faces with an angle below ``min_angle`` or crossing another."""
-    return (min_angles(v, f) < min_angle) | self_intersecting_faces(v, f)
+def bad_faces(vertices, faces, *, min_angle):
+    """Faces with an angle below ``min_angle`` or crossing another, also once rounded.
+
+    A face that only touches another within a rounding error in double
+    precision may cross it in a file: PLY and GLB store float32 positions,
+    in pixels or scaled (0.001 units per pixel by default). Such faces are
+    bad too.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    min_angle : float
+        Degrees.
+
+    Returns
+    -------
+    (m,) bool array
+
+    Examples
+    --------
+    >>> v = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5], [6, 5, 5], [5, 5.01, 5]])
+    >>> bad_faces(v, np.array([[0, 1, 2], [3, 4, 5]]), min_angle=10.0).tolist()
+    [False, True]
+    """
+    v = np.asarray(vertices, float)
+    bad = (min_angles(v, faces) < min_angle) | self_intersecting_faces(v, faces)
+    for scale in _STORED_SCALES:
+        bad |= self_intersecting_faces((v * scale).astype(np.float32).astype(float), faces)
+    return bad
 
 
 def min_angles(vertices, faces):
