@@ -8,13 +8,15 @@ import trimesh
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.assembly import (MIN_ANGLE, _despike, _envelope_solid, _min_angles, _untangle,
-                                    assemble, close_part, remesh_solid, shell_parts, union_parts)
+from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _despike, _envelope_solid,
+                                    _min_angles, _untangle, assemble, close_part, remesh_solid,
+                                    shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
 from inkray.errors import StageError
 from inkray.formats.mesh_report import mesh_quality
 from inkray.relief.inflation import inflate_region
 from inkray.relief.ordering import depth_order
+from inkray.relief.patches import repair_patches
 from inkray.relief.model import Part
 from inkray.relief.stitching import stitch
 from inkray.input.constraints import constraints
@@ -239,9 +241,37 @@ def test_untangle_moves_a_vertex_pushed_through_the_solid_back():
     centre = int(np.flatnonzero((v[:, 0] == 2.0) & (v[:, 1] == 2.0) & (v[:, 2] == 2.0))[0])
     v[centre, 2] = -1.0  # through the bottom
     assert self_intersecting_faces(v, f).any()
-    out = _untangle(v, f, min_angle=10.0)
-    assert not self_intersecting_faces(out, f).any()
+    out, crossing = _untangle(v, f, min_angle=10.0)
+    assert not self_intersecting_faces(out, f).any() and not crossing.any()
     # closed form: its neighbours are all on the top, so the centroid of them is too
     assert out[centre, 2] == pytest.approx(2.0)
     moved = np.flatnonzero((out != v).any(axis=1))
     assert moved.tolist() == [centre]
+
+
+def test_repair_patches_retriangulates_a_sliver_on_a_tilted_plane():
+    # a grid on the plane z = 0.3 x - 0.2 y + 1 with one vertex pushed almost onto its
+    # neighbour (needles), then past it (faces folded over others)
+    xs = np.arange(7.0)
+    xx, yy = np.meshgrid(xs, xs)
+    xy = np.column_stack([xx.ravel(), yy.ravel()])
+    q = (np.arange(6)[:, None] * 7 + np.arange(6)).ravel()
+    faces = np.concatenate([np.stack([q, q + 1, q + 7], 1), np.stack([q + 1, q + 8, q + 7], 1)])
+    centre = 3 * 7 + 3
+    for x in (3.95, 4.4):  # a needle next to the vertex at (4, 3), then a fold past it
+        p = xy.copy()
+        p[centre] = [x, 3.0]
+        v = np.column_stack([p, 0.3 * p[:, 0] - 0.2 * p[:, 1] + 1.0])
+        assert _min_angles(v, faces).min() < 10.0
+        assert self_intersecting_faces(v, faces).any() == (x > 4.0)
+        w, g = repair_patches(v, faces, target=1.0, min_angle=10.0)
+        assert _min_angles(w, g).min() >= 10.0
+        assert not self_intersecting_faces(w, g).any()
+        # closed form: every vertex still on the plane, the grid's outline and area kept
+        assert np.allclose(w[:, 2], 0.3 * w[:, 0] - 0.2 * w[:, 1] + 1.0)
+        t = w[g][:, :, :2]
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        assert np.sum(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])) / 2.0 == pytest.approx(36.0)
+        border = (xy == 0.0).any(axis=1) | (xy == 6.0).any(axis=1)
+        assert all((w == vert).all(axis=1).any() for vert in v[border])
+        assert len(_boundary_edges(g)) == 24

@@ -19,8 +19,8 @@ union of the parts' outlines, built as a height field (no boolean, so no
 near-coincident sheets and no slivers along intersection curves), which
 joins a part floating in front of the part behind it to it. It is remeshed
 (PyMeshLab's isotropic remeshing), its remaining slivers are flipped,
-collapsed or split away and the vertices of faces folded through another
-moved off them. Parts whose outlines do not overlap (drawn apart)
+collapsed or split away, the vertices of faces folded through another
+moved off them and the patches around faces still bad re-triangulated. Parts whose outlines do not overlap (drawn apart)
 stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
@@ -31,13 +31,15 @@ from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
 from inkray.relief.model import Part, Relief
+from inkray.relief.patches import min_angles as _min_angles
+from inkray.relief.patches import bad_faces, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE"]
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
-_FIX_ROUNDS = 3  # whole remeshing rounds while a triangle is below MIN_ANGLE
+_FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -241,7 +243,8 @@ def _envelope_solid(parts, *, gap):
         top[hit] = np.maximum(top[hit], z)
         hit, z = _sample(v, back, xy, 4.0 * gap)
         bottom[hit] = np.minimum(bottom[hit], z)
-    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap)]
+    sampled = np.isfinite(top) & np.isfinite(bottom)
+    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap, sampled[tris].all(axis=1))]
     used, tris = np.unique(tris, return_inverse=True)
     tris = tris.reshape(-1, 3)
     xy, top, bottom = xy[used], top[used], bottom[used]
@@ -275,9 +278,10 @@ def _despike(tris, top, bottom, height):
             np.where(bottom < lowest - height, lowest, bottom))
 
 
-def _trim_footprint(xy, tris, neighbours, inside, gap):
+def _trim_footprint(xy, tris, neighbours, inside, gap, sampled):
     """``inside`` with thin triangles between two outside (inside) neighbours flipped,
-    and islands smaller than ``(4 gap)^2`` dropped."""
+    islands smaller than ``(4 gap)^2`` dropped and holes that small filled (where
+    every corner is ``sampled``)."""
     t = xy[tris]
     e = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2)
     e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
@@ -292,18 +296,29 @@ def _trim_footprint(xy, tris, neighbours, inside, gap):
         inside[fill] = True
         inside[cut] = False
     # islands smaller than a few gaps across (a tip cut off at a thin neck) would be
-    # needles of the solid's full height
-    k = np.flatnonzero(inside)
-    index = np.full(len(tris), -1)
+    # needles of the solid's full height; holes that small (a gap where several parts
+    # meet around one outline vertex) would be pipes of it
+    area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / 2.0
+    limit = 16.0 * gap ** 2
+    inside[_small_pieces(inside, neighbours, area, limit)] = False
+    open_ = (neighbours < 0).any(axis=1) | ~sampled  # the outside around the footprint
+    inside[_small_pieces(~inside, neighbours, np.where(open_, np.inf, area), limit)] = True
+    return inside
+
+
+def _small_pieces(chosen, neighbours, area, limit):
+    """The ``chosen`` triangles in edge-connected pieces of ``chosen`` with area below ``limit``."""
+    k = np.flatnonzero(chosen)
+    index = np.full(len(chosen), -1)
     index[k] = np.arange(len(k))
     rows = np.repeat(np.arange(len(k)), 3)
     cols = index[neighbours[k]].ravel()
     keep = (cols >= 0) & (neighbours[k].ravel() >= 0)
     graph = coo_matrix((np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(len(k), len(k)))
     _, label = connected_components(graph, directed=False)
-    area = np.abs(e1[k, 0] * e2[k, 1] - e1[k, 1] * e2[k, 0]) / 2.0
-    inside[k[np.bincount(label, weights=area)[label] < 16.0 * gap ** 2]] = False
-    return inside
+    small = np.zeros(len(chosen), bool)
+    small[k] = np.bincount(label, weights=area[k])[label] < limit
+    return small
 
 
 def _sheets(part):
@@ -342,26 +357,28 @@ def _sample(vertices, faces, points, tol):
 def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
 
-    The whole surface is remeshed toward edges of length ``target``, and
-    again (up to three times) while a triangle has an angle below
-    ``min_angle`` after the local fixes below; creases sharper than 89 degrees (the steps between parts)
-    are kept as features. The remeshing leaves a few slivers along those
-    creases; each is then flipped (a cap whose long edge lies in a flat
-    stretch), collapsed (a needle's short edge, to whichever of its midpoint
-    and ends shapes the triangles around it best) or split (a cap's long
-    edge at the foot of its far corner, making two needles), only where this
-    turns no face by more than 30 degrees and raises the smallest angle
-    around it (an edge shorter than a quarter of the median edge may be
-    collapsed however far its faces turn, short of folding one over); a
-    further remeshing round runs only while these fixes leave a sliver, and
-    the round with the largest smallest angle (the last of equals) is kept.
-    Last, every vertex of a face that crosses another is moved to the
-    centroid of its neighbours (or halfway) where that leaves fewer
-    crossings and no angle below ``min_angle`` (``_untangle``). The remeshed
-    surface is returned only when it is still watertight and edge-manifold
-    (a round that is not ends the rounds; when the first is not, the input
-    comes back unchanged), and without the sliver fixes
-    when they would break that or put two vertices at one position.
+    The whole surface is remeshed toward edges of length ``target``;
+    creases sharper than 89 degrees (the steps between parts) are kept as
+    features. The remeshing leaves a few slivers along those creases; each
+    is then flipped (a cap whose long edge lies in a flat stretch),
+    collapsed (a needle's short edge, to whichever of its midpoint and ends
+    shapes the triangles around it best) or split (a cap's long edge at the
+    foot of its far corner, making two needles), only where this turns no
+    face by more than 30 degrees and raises the smallest angle around it (an
+    edge shorter than a quarter of the median edge may be collapsed however
+    far its faces turn, short of folding one over). Then every vertex of a
+    face that crosses another is moved to the centroid of its neighbours (or
+    halfway) where that leaves fewer crossings and no angle below
+    ``min_angle`` (``_untangle``), and the patches around faces still bad
+    (an angle below ``min_angle`` or crossing another) are re-triangulated
+    (:func:`~inkray.relief.patches.repair_patches`). When faces are left bad,
+    further remeshing rounds (up to three) run while the local fixes leave a
+    sliver, and the round with the largest smallest angle (the last of
+    equals) is repaired the same way and kept. The remeshed surface is
+    returned only when it is still watertight and edge-manifold (a round
+    that is not ends the rounds; when the first is not, the input comes back
+    unchanged), and without the sliver fixes (the re-triangulation) when
+    they would break that or put two vertices at one position.
 
     Parameters
     ----------
@@ -394,6 +411,7 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
                                             checksurfdist=False)
     best = None  # (smallest angle, vertices, faces) of the best round so far
+    first = None  # the first round repaired, and its bad faces left
     for rounds in range(_FIX_ROUNDS + 1):
         m = ms.current_mesh()
         m.compact()
@@ -405,11 +423,16 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
         fv, ff = _SliverFix(nv, nf).run(min_angle)
         if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
             fv, ff = nv, nf
+        if rounds == 0:
+            # most solids are done here: the further rounds cost minutes on large ones
+            first = _repair(fv, ff, target=target, min_angle=min_angle)
+            if first[2] == 0:
+                return first[0], first[1]
         smallest = _min_angles(fv, ff).min(initial=180.0)
         # a round may leave worse needles than the one before (the fox: 1.8, 0.6,
         # 0.01, 0.0 degrees): the best round is kept, not the last
         if best is None or smallest >= best[0]:  # ties: the later round
-            best = (smallest, fv, ff)
+            best = (smallest, fv, ff, rounds)
         if rounds == _FIX_ROUNDS or smallest >= min_angle:
             break
         # the remeshing goes on from its own mesh, not the fixed one; (remeshing only the
@@ -417,8 +440,23 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
         # earlier calls: the output would too)
         ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
                                                 checksurfdist=False)
-    _, fv, ff = best
-    return _untangle(fv, ff, min_angle=min_angle), ff
+    if best[3] == 0:
+        return first[0], first[1]
+    fv, ff, _ = _repair(best[1], best[2], target=target, min_angle=min_angle)
+    return fv, ff
+
+
+def _repair(vertices, faces, *, target, min_angle):
+    """Vertices moved off the faces they fold through, then the patches around faces
+    still bad re-triangulated; with the number of faces bad after both."""
+    v, _ = _untangle(vertices, faces, min_angle=min_angle)
+    bad = bad_faces(v, faces, min_angle=min_angle)
+    if not bad.any():
+        return v, faces, 0
+    rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
+    if not _closed_manifold(rf):
+        return v, faces, int(bad.sum())
+    return rv, rf, int(bad_faces(rv, rf, min_angle=min_angle).sum())
 
 
 def _untangle(vertices, faces, *, min_angle, rounds=3):
@@ -428,7 +466,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
     its neighbours and halfway there; a move is kept when it leaves fewer
     crossing faces around it and no angle of its faces below ``min_angle``
     (or below the smallest one there before). Only positions change, so the
-    mesh stays as closed and manifold as it was.
+    mesh stays as closed and manifold as it was. Returns the vertices and which
+    faces still cross another.
     """
     from inkray.numerics.tri_intersection import self_intersecting_faces
 
@@ -442,8 +481,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
     order = np.argsort(flat, kind="stable")
     start = np.searchsorted(flat[order], np.arange(n + 1))
 
+    bad = self_intersecting_faces(v, f)
     for _ in range(rounds):
-        bad = self_intersecting_faces(v, f)
         if not bad.any():
             break
         t = v[f]
@@ -469,7 +508,8 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
                 v[x] = here
         if not moved:
             break
-    return v
+        bad = self_intersecting_faces(v, f)
+    return v, bad
 
 
 class _SliverFix:
@@ -654,17 +694,6 @@ def shell_parts(solid, parts):
         groups.setdefault(int(np.bincount(label[near]).argmax()), []).append(p.name)
     sizes = np.bincount(label)
     return [groups[k] for k in sorted(groups, key=lambda k: -sizes[k])]
-
-
-def _min_angles(vertices, faces):
-    """Smallest angle (degrees) of each triangle."""
-    t = np.asarray(vertices, float)[np.asarray(faces)]
-    out = []
-    for i in range(3):
-        a, b = t[:, (i + 1) % 3] - t[:, i], t[:, (i + 2) % 3] - t[:, i]
-        norm = np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-        out.append(np.degrees(np.arccos(np.clip((a * b).sum(axis=1) / norm, -1.0, 1.0))))
-    return np.min(out, axis=0)
 
 
 def _closed_manifold(faces):
