@@ -20,6 +20,7 @@ from ``+Z`` (glTF's convention), so their normals point toward the viewer.
 """
 
 import re
+import threading
 from pathlib import Path
 from typing import NamedTuple
 
@@ -596,17 +597,22 @@ class _GlbBuffer:
 
 
 _TEXTURES = {}  # digest of a drawing -> its PNG, the last few
+_TEXTURES_LOCK = threading.Lock()  # batches write GLBs from several threads
 
 
 def _texture_png(image):
     import hashlib
 
     key = hashlib.blake2b(image.tobytes(), digest_size=16).digest() + repr(image.shape).encode()
-    if key not in _TEXTURES:
-        while len(_TEXTURES) >= 4:
-            _TEXTURES.pop(next(iter(_TEXTURES)))
-        _TEXTURES[key] = _png_bytes(image)
-    return _TEXTURES[key]
+    with _TEXTURES_LOCK:
+        png = _TEXTURES.get(key)
+    if png is None:
+        png = _png_bytes(image)
+        with _TEXTURES_LOCK:
+            while len(_TEXTURES) >= 4:
+                _TEXTURES.pop(next(iter(_TEXTURES)))
+            _TEXTURES[key] = png
+    return png
 
 
 # -- OBJ ---------------------------------------------------------------------

@@ -449,8 +449,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
 def _repair(vertices, faces, *, target, min_angle):
     """Vertices moved off the faces they fold through, then the patches around faces
     still bad re-triangulated; with the number of faces bad after both."""
-    v, _ = _untangle(vertices, faces, min_angle=min_angle)
-    bad = bad_faces(v, faces, min_angle=min_angle)
+    v, crossing = _untangle(vertices, faces, min_angle=min_angle)
+    bad = bad_faces(v, faces, min_angle=min_angle, crossing=crossing)
     if not bad.any():
         return v, faces, 0
     rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)

@@ -261,7 +261,7 @@ def _simple(poly):
     return not meet.any()
 
 
-def bad_faces(vertices, faces, *, min_angle):
+def bad_faces(vertices, faces, *, min_angle, crossing=None):
     """Faces with an angle below ``min_angle`` or crossing another, also once rounded.
 
     A face that only touches another within a rounding error in double
@@ -275,6 +275,8 @@ def bad_faces(vertices, faces, *, min_angle):
     faces : (m, 3) int array
     min_angle : float
         Degrees.
+    crossing : (m,) bool array, optional
+        Which faces cross another in double precision, when the caller knows.
 
     Returns
     -------
@@ -287,7 +289,9 @@ def bad_faces(vertices, faces, *, min_angle):
     [False, True]
     """
     v = np.asarray(vertices, float)
-    bad = (min_angles(v, faces) < min_angle) | self_intersecting_faces(v, faces)
+    if crossing is None:
+        crossing = self_intersecting_faces(v, faces)
+    bad = (min_angles(v, faces) < min_angle) | crossing
     for scale in _STORED_SCALES:
         bad |= self_intersecting_faces((v * scale).astype(np.float32).astype(float), faces)
     return bad
