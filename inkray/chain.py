@@ -72,6 +72,11 @@ class ChainOptions:
     interactive : bool, default False
         Keep the fast depth method's factorization between edits (re-solves
         after an arrow cost back-substitutions; about 0.4 GB at 512x512).
+    depth_draft : bool, default False
+        With ``interactive``: a preview of the fast depth map whose Laplace
+        fill is solved at half resolution above 0.3 Mpx (about a third of
+        the time after an arrow; see
+        :meth:`~inkray.depthmap.estimation.DepthSession.solve`).
 
     Examples
     --------
@@ -87,6 +92,7 @@ class ChainOptions:
     depth_method: str = "exact"
     depth_epsilon: float = 1.0
     interactive: bool = False
+    depth_draft: bool = False
 
     def __post_init__(self):
         if self.union and not self.closed:
@@ -333,8 +339,9 @@ class ReliefChain:
         ann = self.annotations
         seeds = _seeds(ann)
         seeds_key = None if seeds is None else _digest(seeds)
+        draft = o.depth_draft and o.depth_method == "fast" and o.interactive
         key = ("depth", o.depth_method, o.depth_epsilon, self._drawing_key, _entries_key(ann),
-               seeds_key)
+               seeds_key, draft)
         if o.depth_method == "fast" and o.interactive:
             return self._stage("depth", key, lambda: self._session_depth(seeds, seeds_key))
         # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
@@ -469,7 +476,7 @@ class ReliefChain:
         try:
             for c in sorted(wanted - set(handles)):
                 handles[c] = session.add(c[0], c[1], inequality=c[2], label=c[3])
-            d = session.solve()
+            d = session.solve(draft=o.depth_draft)
         except InputError:
             cache.session = None  # a rejected edit must not stay in the kept session
             raise

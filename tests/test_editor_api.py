@@ -437,3 +437,32 @@ def test_the_depth_preview_is_the_depth_file_compressed_less(turtle, tmp_path):
     preview, meta = read_depth_png(tmp_path / "preview.png")
     assert np.array_equal(preview, read_depth_png(tmp_path / "file.png")[0])
     assert meta == read_depth_png(tmp_path / "file.png")[1]
+
+
+def test_depth_draft_first(turtle, tmp_path, monkeypatch):
+    """The draft (the page's first answer) is the fast depth map with its fill at half
+    resolution; below the draft size it is the full map itself."""
+    from inkray.depthmap import estimation
+
+    with running(EditSession(turtle)) as url:
+        small = call(url + "/api/preview/depth.png?quality=draft")
+        full = call(url + "/api/preview/depth.png")
+        bad = _json(call(url + "/api/preview/depth.png?quality=best"))
+        exact = _json(call(url + "/api/preview/depth.png?quality=draft&method=exact"))
+    assert small[0] == full[0] == 200
+    (tmp_path / "small.png").write_bytes(small[2])
+    (tmp_path / "full.png").write_bytes(full[2])
+    d_full = read_depth_png(tmp_path / "full.png")[0]
+    assert np.array_equal(read_depth_png(tmp_path / "small.png")[0], d_full)
+    assert bad[0] == 400 and bad[1]["error"].startswith("quality: unknown quality 'best'")
+    assert exact[0] == 400 and exact[1]["error"].startswith("quality: a draft is of the fast")
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    with running(EditSession(turtle)) as url:
+        draft = call(url + "/api/preview/depth.png?quality=draft")
+    assert draft[0] == 200 and draft[1]["X-Inkray-Compute-Ms"]
+    (tmp_path / "draft.png").write_bytes(draft[2])
+    d_draft = read_depth_png(tmp_path / "draft.png")[0]
+    assert d_draft.shape == d_full.shape and not np.array_equal(d_draft, d_full)
+    assert np.abs(d_draft - d_full).mean() < 0.05 * np.ptp(d_full)
+    assert d_draft[273, 168] > d_draft[265, 180]  # order[0]: the head over the shell

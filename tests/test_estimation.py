@@ -308,8 +308,8 @@ def test_session_updates_its_factorization_and_matches_a_fresh_solve():
         fresh.add((30, 25), (90, 25))
         fresh.add((60, 70), (5, 90))
         assert np.abs(d - fresh.solve()).max() < 1e-9
-    assert sum(u.nbytes for u in fresh._chol._updates if u is not None) == 0  # nothing kept
-    assert 0 < redone < s._chol.fronts
+    assert sum(u.nbytes for u in fresh._fills[False]._chol._updates if u is not None) == 0  # nothing kept
+    assert 0 < redone < s._fills[False]._chol.fronts
     s.remove(k)
     again = DepthSession(gray, seeds=seeds)
     again.add((30, 25), (90, 25))
@@ -486,7 +486,7 @@ def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
     for front, back in arrows:
         s.add(front, back)
     s.solve()
-    fronts = s._chol.fronts
+    fronts = s._fills[False]._chol.fronts
     fewer = np.where(seeds == 0, -2, seeds)           # the first box's scribble removed
     s.reseed(fewer)
     d = s.solve()
@@ -527,3 +527,29 @@ def test_session_edits_on_a_bundled_drawing_match_fresh_solves():
         fresh.add(p[k], q[k], inequality=bool(ineq[k]), label=labels[k])
     ref = fresh.solve()
     assert np.abs(s.solve() - ref).max() <= 1e-8 * np.abs(ref).max()
+
+
+def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
+    # A draft solves the fill at half resolution (here above 1000 pixels): the same
+    # levels and fixed pixels, values close to the full fill's; draft and full
+    # solves alternate without disturbing each other's kept factorization.
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    gray, seeds = _three_boxes()
+    s = DepthSession(gray, seeds=seeds)
+    s.add((30, 25), (90, 25))
+    s.solve(draft=True)
+    s.add((60, 70), (5, 90))
+    full = s.solve()
+    levels = dict(s.region_levels)
+    draft = s.solve(draft=True)              # the draft's own fill, updated for the new arrow
+    assert s.region_levels == levels
+    fresh = DepthSession(gray, seeds=seeds, incremental=False)
+    fresh.add((30, 25), (90, 25))
+    fresh.add((60, 70), (5, 90))
+    assert np.abs(full - fresh.solve()).max() < 1e-9
+    assert np.abs(draft - full).mean() < 0.05 * np.ptp(full)
+    assert not np.array_equal(draft, full)
+    assert np.abs(s.solve() - full).max() < 1e-9  # the full fill, unchanged, one solve
+    assert s.refactored_fronts == 0

@@ -34,10 +34,10 @@ import numpy as np
 from scipy import ndimage
 
 from inkray.errors import InputError
-from inkray.numerics.grid_cholesky import GridCholesky
+from inkray.numerics.harmonic_fill import DraftFill, HarmonicFill
 from inkray.numerics.order_graph import OrderGraph
 from inkray.depthmap.quadratic_program import check_constraints, solve_depth_qp
-from inkray.numerics.grid import WEIGHT_FLOOR, edge_weights, grid_degree, grid_laplacian
+from inkray.numerics.grid import WEIGHT_FLOOR, edge_weights, grid_laplacian
 
 __all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "METHODS"]
 
@@ -48,11 +48,9 @@ INK_LEVEL = 0.5
 #: LazyBrush seed strength for the fast method: above the cost of cutting
 #: around one pixel (4 paper edges), so an endpoint keeps its own label.
 _SEED_STRENGTH = 5.0
-#: At most this many pixels fixed since the fill was factored are pinned by
-#: point sources instead of refactoring (an arrow fixes its two endpoints; a
-#: new level's segment its outline). At 1 Mpx pinning 120 pixels costs about
-#: a refactoring of a typical edit, 5 pixels a fifth of it.
-_PINNED = 128
+#: A draft (:meth:`DepthSession.solve`) solves the fill at half resolution
+#: only above this many pixels; below, a full solve is fast enough.
+DRAFT_ABOVE = 300_000
 
 
 @dataclass
@@ -248,10 +246,12 @@ class DepthSession:
     the constraint endpoints (a small disk of paper around each; a new
     endpoint re-segments only the segment it lands in, a removed one only
     its own). The Laplace fill is one system over the grid (fixed pixels as
-    identity rows) whose nested-dissection factorization is kept and updated
-    in place: a change that moves the fixed pixels only inside a window
-    refactors the fronts of that window and their ancestors, and a change
-    that only moves levels, or also fixes a few more pixels, costs one solve.
+    identity rows, :class:`~inkray.numerics.harmonic_fill.HarmonicFill`) whose
+    nested-dissection factorization is kept and updated in place: a change
+    that moves the fixed pixels only inside a window refactors the fronts of
+    that window and their ancestors, and a change that only moves levels, or
+    also fixes a few more pixels, costs one solve. A draft solve keeps its
+    own half-resolution fill, updated alike.
 
     Parameters
     ----------
@@ -297,12 +297,10 @@ class DepthSession:
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
-        self._chol = None       # the fill's factorization, updated in place
-        self._factored = None   # the fixed pixels that factorization is for
+        self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
+        self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
         self._progress = progress
-        self._weights = None    # the image's edge weights (wx, wy) and pixel degrees
-        self._operator = None   # the factored operator (diag, east, south), kept in step
         self._ink = self.gray < INK_LEVEL
         self._radius = max(2, int(round(0.01 * max(h, w))))
         self.parts = None       # the segmentation with split segments, after solve()
@@ -401,8 +399,16 @@ class DepthSession:
 
     # -- solve ------------------------------------------------------------------
 
-    def solve(self):
+    def solve(self, *, draft=False):
         """The depth map for the current constraints.
+
+        Parameters
+        ----------
+        draft : bool, default False
+            Above :data:`DRAFT_ABOVE` pixels, solve the Laplace fill of step
+            (4) on a half-resolution grid (:class:`~inkray.numerics.harmonic_fill.DraftFill`,
+            about a quarter of the time; the levels and the fixed pixels stay
+            exact). Draft and full fills keep their own factorizations.
 
         Returns
         -------
@@ -449,7 +455,7 @@ class DepthSession:
             fixed[a] |= step & ~np.isnan(lvl[a])
             fixed[b] |= step & ~np.isnan(lvl[b])
         fixed.flat[np.concatenate([p, q])] = True
-        d = self._fill(fixed, np.where(fixed, lvl, 0.0))
+        d = self._fill(fixed, np.where(fixed, lvl, 0.0), draft)
         self.timings["laplace"] = time.perf_counter() - t
         return d - d.mean()
 
@@ -601,88 +607,22 @@ class DepthSession:
         self.labels[crop] = np.where(inside, new, self.labels[crop])
         self._pin()
 
-    def _fill(self, fixed, vals):
-        """Laplace equation with the image's edge weights and Dirichlet ``vals`` on ``fixed``.
-
-        One system over the whole grid: a fixed pixel's row and column are the
-        identity and its couplings move to the right-hand side. The session's
-        factorization is updated in place, so a change that moves the fixed
-        set only inside a window refactors the fronts of that window; only
-        the rows of the pixels that changed are rewritten and compared. A
-        change that only adds a few fixed pixels (an arrow's endpoints in
-        segments that already hold some) refactors nothing: the factored
-        system pins them by point sources (:meth:`GridCholesky.solve_pinned`),
-        one solve.
-        """
-        if self._weights is None:
-            wx, wy, _ = edge_weights(self.gray)
-            self._weights = wx, wy, grid_degree(wx, wy)
-        vals = np.where(fixed, vals, 0.0)
-        if self._chol is not None and self._incremental:
-            added = fixed & ~self._factored
-            if not (self._factored & ~fixed).any() and np.count_nonzero(added) <= _PINNED:
-                rhs = self._rhs(self._factored, vals)
-                self.refactored_fronts = 0
-                pins = np.flatnonzero(added)
-                d = self._chol.solve_pinned(rhs, pins, vals.flat[pins])
-                return np.where(fixed, vals, d.reshape(self.shape))
-        rhs = self._rhs(fixed, vals)
-        if self._chol is None or not self._incremental:
-            self._operator = self._system(fixed)
-            self._chol = GridCholesky(*self._operator, updatable=self._incremental,
-                                      progress=self._progress)
-            self.refactored_fronts = self._chol.fronts
-        else:
-            rows = fixed ^ self._factored
-            self._rewrite(fixed, rows)
-            self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
-        self._factored = fixed
-        d = self._chol.solve(rhs).reshape(self.shape)
-        return np.where(fixed, vals, d)
-
-    def _system(self, fixed):
-        """The fill's operator ``diag, east, south``: free pixels keep their edges to
-        free neighbours, fixed pixels are identity rows."""
-        wx, wy, deg = self._weights
-        free = ~fixed
-        diag = np.where(fixed, 1.0, deg)
-        east = np.where(free[:, :-1] & free[:, 1:], -wx, 0.0)
-        south = np.where(free[:-1, :] & free[1:, :], -wy, 0.0)
-        return diag, east, south
-
-    def _rewrite(self, fixed, rows):
-        """The kept operator's entries in ``rows`` (pixels whose fixedness changed)
-        rewritten for ``fixed``: rewriting a few hundred rows costs far less than
-        building the operator afresh at 1 Mpx."""
-        wx, wy, deg = self._weights
-        diag, east, south = self._operator
-        h, w = self.shape
-        y, x = np.nonzero(rows)
-        diag[y, x] = np.where(fixed[y, x], 1.0, deg[y, x])
-        for weights, edges, dy, dx in ((wx, east, 0, 1), (wy, south, 1, 0)):
-            # The edges from the row's pixel and to it from its west/north neighbour.
-            ey, ex = np.concatenate([y, y - dy]), np.concatenate([x, x - dx])
-            keep = (ey >= 0) & (ex >= 0) & (ey < h - dy) & (ex < w - dx)
-            ey, ex = ey[keep], ex[keep]
-            free = ~fixed[ey, ex] & ~fixed[ey + dy, ex + dx]
-            edges[ey, ex] = np.where(free, -weights[ey, ex], 0.0)
-
-    def _rhs(self, fixed, vals):
-        """The fill's right-hand side (raster order): ``vals`` on the fixed pixels, and
-        on a free pixel its edges to fixed neighbours times their values. Built from
-        the fixed pixels alone, a few thousand at 1 Mpx."""
-        wx, wy, _ = self._weights
-        h, w = self.shape
-        rhs = np.zeros(h * w)
-        y, x = np.nonzero(fixed)
-        rhs[y * w + x] = vals[y, x]
-        for ny, nx, ey, ex, weights in ((y, x + 1, y, x, wx), (y, x - 1, y, x - 1, wx),
-                                        (y + 1, x, y, x, wy), (y - 1, x, y - 1, x, wy)):
-            keep = (ny >= 0) & (nx >= 0) & (ny < h) & (nx < w)
-            keep[keep] = ~fixed[ny[keep], nx[keep]]
-            np.add.at(rhs, ny[keep] * w + nx[keep],
-                      weights[ey[keep], ex[keep]] * vals[y[keep], x[keep]])
-        return rhs
+    def _fill(self, fixed, vals, draft):
+        """The harmonic fill for ``vals`` on ``fixed``, by the kept fill of the full grid
+        or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one."""
+        draft = draft and self.gray.size > DRAFT_ABOVE
+        if draft not in self._fills:
+            if self._weights is None:
+                self._weights = edge_weights(self.gray)[:2]
+            wx, wy = self._weights
+            self._fills[draft] = (
+                DraftFill(self.gray, wx=wx, wy=wy, incremental=self._incremental,
+                          progress=self._progress) if draft else
+                HarmonicFill(wx, wy, incremental=self._incremental, progress=self._progress))
+        fill = self._fills[draft]
+        d = fill.solve(fixed, vals)
+        self.refactored_fronts = fill.refactored_fronts
+        return d
 
 
 def _local_levels(p, q, ineq, labels):

@@ -11,7 +11,8 @@ Endpoints (a public contract, see ``docs/editor.md``):
 - ``GET /api/preview/labels.png``, ``depth.png``, ``relief.glb`` the previews,
   with ``X-Inkray-Compute-Ms`` and ``X-Inkray-Generation``; 422 ``{"error",
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
-  the exact depth map;
+  the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
+  at half resolution (the first answer after an edit);
 - ``GET /api/relations`` the user's and predicted relations and the warnings.
 """
 
@@ -108,8 +109,14 @@ def editor_app(session, *, allowed_hosts=None):
         method = request.query_params.get("method", "fast")
         if method not in ("fast", "exact"):
             return _error(400, f"method: unknown depth method {method!r} (expected fast, exact)")
+        quality = request.query_params.get("quality", "full")
+        if quality not in ("full", "draft"):
+            return _error(400, f"quality: unknown quality {quality!r} (expected full, draft)")
+        if quality == "draft" and method == "exact":
+            return _error(400, "quality: a draft is of the fast method only (method=fast)")
         try:
-            p = await anyio.to_thread.run_sync(lambda: session.preview(name, exact=method == "exact"))
+            p = await anyio.to_thread.run_sync(lambda: session.preview(
+                name, exact=method == "exact", draft=quality == "draft"))
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
         return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **{

@@ -145,7 +145,8 @@ function refresh() {
   const generation = S.generation;
   const method = document.querySelector("input[name=depth-method]:checked").value;
   for (const kind of PREVIEW_KINDS) busy(kind, true);
-  const get = async (kind, url, use) => {
+  // ``final`` false: a first answer (the depth draft) shown while the kind stays busy.
+  const get = async (kind, url, use, final = true) => {
     try {
       const r = await fetch(url, { signal: controller.signal, cache: "no-store" });
       if (controller.signal.aborted || generation !== S.generation) return;
@@ -156,25 +157,34 @@ function refresh() {
         await use(r);
         const target = kind === "relations" ? $("relations") : $(kind);
         target.dataset.generation = String(generation);
+        target.dataset.quality = final ? "full" : "draft";
         const ms = r.headers.get("X-Inkray-Compute-Ms");
         if (ms !== null && $(`${kind}-ms`)) $(`${kind}-ms`).textContent = `${(+ms).toFixed(0)} ms`;
       } else {
         const answer = await r.json();
         S.errors[kind] = { error: answer.error, paths: answer.paths || [] };
         if (kind !== "relations") markStale(kind, generation);
+        final = true;  // the full answer would be the same error
       }
-      busy(kind, false);
+      if (final) busy(kind, false);
       render();
+      return !final;
     } catch (e) {
       if (e.name !== "AbortError") {
         S.errors[kind] = { error: String(e), paths: [] };
         busy(kind, false);
         render();
       }
+      return false;
     }
   };
-  // The depth map (its own lock on the server) beside the rest, which goes cheapest first.
-  get("depth", `/api/preview/depth.png?method=${method}`, async (r) => setImage("depth", await r.blob()));
+  // The depth map (its own lock on the server) beside the rest, which goes cheapest first;
+  // the fast one as a half-resolution draft first, at once, then in full.
+  (async () => {
+    const depth = async (r) => setImage("depth", await r.blob());
+    if (method === "fast" && !await get("depth", "/api/preview/depth.png?quality=draft", depth, false)) return;
+    await get("depth", `/api/preview/depth.png?method=${method}`, depth);
+  })();
   (async () => {
     await get("labels", "/api/preview/labels.png", async (r) => setImage("labels", await r.blob()));
     await get("relations", "/api/relations", async (r) => {

@@ -1,0 +1,125 @@
+"""The harmonic fill: the full grid's against a sparse direct solve, updates against
+fresh factorizations, and the half-resolution draft against the full fill."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.numerics.grid import edge_weights, grid_laplacian
+from inkray.numerics.harmonic_fill import PINNED, DraftFill, HarmonicFill, _bilinear
+
+
+def _reference(wx, wy, fixed, values):
+    """The Dirichlet problem by a sparse direct solve of the free pixels' equations."""
+    L = grid_laplacian(wx, wy).tocsr()
+    free = ~fixed.ravel()
+    v = np.where(fixed, values, 0.0).ravel()
+    d = v.copy()
+    d[free] = spla.spsolve(L[free][:, free].tocsc(), -L[free][:, ~free] @ v[~free])
+    return d.reshape(fixed.shape)
+
+
+def _rings(h=120, w=150):
+    """Paper with an ink circle and an ink square; fixed pixels on both sides of
+    each outline, the circle's inside at 2, the square's inside at 1, outside 0."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    r = np.hypot(yy - 60, xx - 50)
+    circle = np.abs(r - 30) <= 1.5
+    square = np.zeros((h, w), bool)
+    square[20:100, 95:140] = True
+    square[23:97, 98:137] = False
+    gray = np.where(circle | square, 0.0, 1.0)
+    fixed = np.zeros((h, w), bool)
+    values = np.zeros((h, w))
+    inside_c = ndimage.binary_dilation(circle) & ~circle & (r < 30)
+    outside_c = ndimage.binary_dilation(circle) & ~circle & (r > 30)
+    inner = np.zeros((h, w), bool)
+    inner[23:97, 98:137] = True
+    inside_s = ndimage.binary_dilation(square) & ~square & inner
+    fixed |= inside_c | outside_c | inside_s
+    values[inside_c] = 2.0
+    values[inside_s] = 1.0
+    return gray, fixed, values
+
+
+def test_fill_matches_a_sparse_direct_solve():
+    rng = np.random.default_rng(3)
+    gray = rng.random((23, 31))
+    wx, wy, _ = edge_weights(gray)
+    fixed = rng.random(gray.shape) < 0.05
+    values = rng.normal(size=gray.shape)
+    d = HarmonicFill(wx, wy).solve(fixed, values)
+    assert np.abs(d - _reference(wx, wy, fixed, values)).max() < 1e-9
+    assert np.array_equal(d[fixed], values[fixed])
+
+
+def test_updates_match_fresh_factorizations():
+    gray, fixed, values = _rings()
+    wx, wy, _ = edge_weights(gray)
+    fill = HarmonicFill(wx, wy)
+    fill.solve(fixed, values)
+    full = fill.refactored_fronts
+    # A few more fixed pixels: pinned by point sources, nothing refactored.
+    pins = fixed.copy()
+    pins[5, 5:5 + PINNED // 2] = True
+    d = fill.solve(pins, values)
+    assert fill.refactored_fronts == 0
+    assert np.abs(d - HarmonicFill(wx, wy, incremental=False).solve(pins, values)).max() < 1e-9
+    # The square's inside freed: its fronts and their ancestors refactored.
+    moved = fixed & (values != 1.0)
+    d = fill.solve(moved, values)
+    assert 0 < fill.refactored_fronts < full
+    assert np.abs(d - _reference(wx, wy, moved, values)).max() < 1e-9
+
+
+def test_draft_is_close_to_the_full_fill_and_keeps_the_steps():
+    gray, fixed, values = _rings()
+    wx, wy, _ = edge_weights(gray)
+    full = HarmonicFill(wx, wy).solve(fixed, values)
+    draft = DraftFill(gray).solve(fixed, values)
+    assert np.array_equal(draft[fixed], values[fixed])
+    err = np.abs(draft - full)
+    assert err.mean() < 0.02 * np.ptp(full)
+    paper = gray > 0.5
+    assert np.percentile(err[paper], 99) < 0.05 * np.ptp(full)
+    # Across the circle's ink the step stays whole: no level bleeds over the line.
+    yy, xx = np.mgrid[0:gray.shape[0], 0:gray.shape[1]]
+    r = np.hypot(yy - 60, xx - 50)
+    assert np.abs(draft[(r > 24) & (r < 27)] - 2.0).max() < 0.05
+    assert np.abs(draft[(r > 33) & (r < 36) & (xx < 90)]).max() < 0.05
+
+
+def test_draft_updates_match_a_fresh_draft():
+    gray, fixed, values = _rings(121, 151)  # odd sizes: the last blocks are half blocks
+    draft = DraftFill(gray)
+    draft.solve(fixed, values)
+    moved = fixed & (values != 1.0)
+    d = draft.solve(moved, values)
+    assert 0 < draft.refactored_fronts
+    assert np.abs(d - DraftFill(gray, incremental=False).solve(moved, values)).max() < 1e-9
+    assert d.shape == gray.shape
+
+
+def test_bilinear_interpolates_at_the_fine_pixel_centres():
+    c = np.random.default_rng(0).random((7, 9))
+    for shape in ((14, 18), (13, 17)):
+        yy, xx = np.meshgrid((np.arange(shape[0]) + 0.5) / 2 - 0.5,
+                             (np.arange(shape[1]) + 0.5) / 2 - 0.5, indexing="ij")
+        ref = ndimage.map_coordinates(c, [yy, xx], order=1, mode="nearest")
+        assert np.abs(_bilinear(c, shape) - ref).max() < 1e-12
+
+
+def test_bad_inputs_are_one_line_errors():
+    with pytest.raises(InputError, match="wx, wy: expected shapes"):
+        HarmonicFill(np.ones((3, 4)), np.ones((3, 5)))
+    with pytest.raises(InputError, match="positive"):
+        HarmonicFill(np.zeros((3, 4)), np.ones((2, 5)))
+    fill = HarmonicFill(np.ones((3, 4)), np.ones((2, 5)))
+    with pytest.raises(InputError, match="fixed, values: expected shape"):
+        fill.solve(np.zeros((4, 5), bool), np.zeros((4, 5)))
+    with pytest.raises(InputError, match="gray"):
+        DraftFill(np.ones(5))
+    assert sp.issparse(grid_laplacian(np.ones((3, 4)), np.ones((2, 5))))
