@@ -541,15 +541,16 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     s.add((30, 25), (90, 25))
     s.solve(draft=True)
     s.add((60, 70), (5, 90))
-    full = s.solve()
-    levels = dict(s.region_levels)
     draft = s.solve(draft=True)              # the draft's own fill, updated for the new arrow
+    levels = dict(s.region_levels)
+    full = s.solve()
     assert s.region_levels == levels
     fresh = DepthSession(gray, seeds=seeds, incremental=False)
     fresh.add((30, 25), (90, 25))
     fresh.add((60, 70), (5, 90))
     assert np.abs(full - fresh.solve()).max() < 1e-9
-    assert np.abs(draft - full).mean() < 0.05 * np.ptp(full)
+    assert np.abs(draft - full).mean() < 0.02 * np.ptp(full)
     assert not np.array_equal(draft, full)
-    assert np.abs(s.solve() - full).max() < 1e-9  # the full fill, unchanged, one solve
+    assert np.abs(s.solve(draft=True) - draft).max() < 1e-9  # both fills kept as they were
+    assert np.abs(s.solve() - full).max() < 1e-9
     assert s.refactored_fronts == 0

@@ -455,9 +455,10 @@ class DepthSession:
             fixed[a] |= step & ~np.isnan(lvl[a])
             fixed[b] |= step & ~np.isnan(lvl[b])
         fixed.flat[np.concatenate([p, q])] = True
-        d = self._fill(fixed, np.where(fixed, lvl, 0.0), draft)
+        d = self._fill(fixed, lvl, draft)  # the fills read lvl on the fixed pixels only
+        d -= d.mean()
         self.timings["laplace"] = time.perf_counter() - t
-        return d - d.mean()
+        return d
 
     def _segment(self):
         from inkray.segmentation import lazybrush
@@ -615,10 +616,9 @@ class DepthSession:
             if self._weights is None:
                 self._weights = edge_weights(self.gray)[:2]
             wx, wy = self._weights
-            self._fills[draft] = (
-                DraftFill(self.gray, wx=wx, wy=wy, incremental=self._incremental,
-                          progress=self._progress) if draft else
-                HarmonicFill(wx, wy, incremental=self._incremental, progress=self._progress))
+            kind = DraftFill if draft else HarmonicFill
+            self._fills[draft] = kind(wx, wy, incremental=self._incremental,
+                                      progress=self._progress)
         fill = self._fills[draft]
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts
