@@ -202,3 +202,22 @@ def test_fields_refused_edit_move_delete_and_a_contradiction(page, tmp_path):
         assert "contradict" in page.text_content("#error")
         bad = page.eval_on_selector_all("#marks .bad", "els => els.map((e) => e.dataset.key)")
     assert set(bad) == {"order[0]", f"order[{len(doc['order']) - 1}]"}
+
+
+def test_the_depth_draft_comes_first_then_the_full_map(page, tmp_path, monkeypatch):
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)  # the turtle drafts too
+    with _turtle_page(page, tmp_path) as (ann, doc, session, url):
+        page.evaluate("""() => {
+            window.depthShown = [];
+            new MutationObserver(() => window.depthShown.push(
+                document.getElementById('depth').dataset.quality))
+                .observe(document.getElementById('depth'), {attributes: true,
+                                                            attributeFilter: ['data-quality']});
+        }""")
+        page.click("button[data-tool=order]")
+        _drag(page, [[150, 285], [300, 190]])
+        _wait_previews(page, 1)
+        assert page.evaluate("window.depthShown") == ["draft", "full"]
+        assert page.get_attribute("#depth", "data-quality") == "full"
