@@ -219,6 +219,7 @@ class DraftFill:
         self._incremental = bool(incremental)
         self._progress = progress
         self._chol = None
+        self._operator = None  # the factored coarse operator (diag, east, south)
         self.refactored_fronts = 0
 
     def solve(self, fixed, values):
@@ -274,7 +275,18 @@ class DraftFill:
                                       progress=self._progress)
             self.refactored_fronts = self._chol.fronts
         else:
-            self.refactored_fronts = self._chol.update(diag, east_op, south_op)
+            # The rows that changed, found on the coarse arrays: cheaper than letting
+            # the update compare every entry of the operator.
+            old_diag, old_east, old_south = self._operator
+            rows = diag != old_diag
+            moved = east_op != old_east
+            rows[:, :-1] |= moved
+            rows[:, 1:] |= moved
+            moved = south_op != old_south
+            rows[:-1] |= moved
+            rows[1:] |= moved
+            self.refactored_fronts = self._chol.update(diag, east_op, south_op, rows=rows)
+        self._operator = diag, east_op, south_op
         c = self._chol.solve(rhs.ravel()).reshape(fn.shape)
         return c, (np.where(fe, ve, (self._e1 * c[:, :-1] + self._e2 * c[:, 1:])
                             / (self._e1 + self._e2)),
