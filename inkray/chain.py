@@ -145,7 +145,8 @@ class _Cache:
         self.capacity = capacity
         self._items = OrderedDict()
         self._lock = threading.Lock()
-        # (key, DepthSession, {constraint: handle}, its scribbles' digest) of the interactive depth
+        # (key, DepthSession, {constraint: handle}, (its scribbles' key, its seed image's
+        # digest)) of the interactive depth
         self.session = None
         # (drawing key, InkStyle) for the order prediction: kept apart from the stages so
         # that it costs no stage its place
@@ -337,13 +338,12 @@ class ReliefChain:
         """The 2010 depth map (:class:`~inkray.depthmap.estimation.DepthResult`) of the entries."""
         o = self.options
         ann = self.annotations
-        seeds = _seeds(ann)
-        seeds_key = None if seeds is None else _digest(seeds)
+        seeds_key = _seeds_key(ann)
         draft = o.depth_draft and o.depth_method == "fast" and o.interactive
         key = ("depth", o.depth_method, o.depth_epsilon, self._drawing_key, _entries_key(ann),
                seeds_key, draft)
         if o.depth_method == "fast" and o.interactive:
-            return self._stage("depth", key, lambda: self._session_depth(seeds, seeds_key))
+            return self._stage("depth", key, lambda: self._session_depth(seeds_key))
         # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
         return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
                                                         epsilon=o.depth_epsilon,
@@ -455,20 +455,25 @@ class ReliefChain:
             cache.ink = (self._drawing_key, ink_style(self.drawing.gray))
         return cache.ink[1]
 
-    def _session_depth(self, seeds, seeds_key):
+    def _session_depth(self, seeds_key):
         """The fast depth from the kept session: only the changed constraints are re-done,
         and new scribbles keep the session's factorization (it is updated where the
-        segments moved)."""
+        segments moved). The seeds are rasterized only when the scribbles changed, and
+        the session is reseeded only when that changed the seed image."""
         o = self.options
         skey = (self._drawing_key, o.depth_epsilon)
         cache = self._cache
         if cache.session is None or cache.session[0] != skey:
+            seeds = _seeds(self.annotations)
             cache.session = (skey, DepthSession(self.drawing.gray, epsilon=o.depth_epsilon,
-                                                seeds=seeds, incremental=True), {}, seeds_key)
-        _, session, handles, seeded = cache.session
-        if seeded != seeds_key:
-            session.reseed(seeds)
-            cache.session = (skey, session, handles, seeds_key)
+                                                seeds=seeds, incremental=True), {},
+                             (seeds_key, _image_key(seeds)))
+        _, session, handles, (scribbled, seeded) = cache.session
+        if scribbled != seeds_key:
+            seeds = _seeds(self.annotations)
+            if _image_key(seeds) != seeded:
+                session.reseed(seeds)
+            cache.session = (skey, session, handles, (seeds_key, _image_key(seeds)))
         p, q, ineq, labels = depth_constraints(self.annotations)
         wanted = {(int(a), int(b), bool(c), lab) for a, b, c, lab in zip(p, q, ineq, labels)}
         for c in [c for c in handles if c not in wanted]:
@@ -546,11 +551,21 @@ def _digest(*parts):
 
 
 def _scribbles_key(ann):
+    return _digest(_seeds_key(ann), tuple(r.name for r in ann.regions))
+
+
+def _seeds_key(ann):
+    """What the seed image is made of: the scribbles and pixels in region order
+    (not the regions' names), in far less time than rasterizing and hashing it."""
     return _digest(tuple(ann.size), *(
-        (r.name, tuple(np.asarray(s, float) for s in r.scribbles),
+        (tuple(np.asarray(s, float) for s in r.scribbles),
          None if r.pixels is None else np.asarray(r.pixels)) for r in ann.regions),
         tuple(np.asarray(s, float) for s in ann.background),
         None if ann.background_pixels is None else np.asarray(ann.background_pixels))
+
+
+def _image_key(seeds):
+    return None if seeds is None else _digest(seeds)
 
 
 def _entries_key(ann):

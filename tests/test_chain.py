@@ -209,3 +209,34 @@ def test_the_interactive_depth_session_equals_the_one_shot_fast_method():
     assert np.allclose(edited.depth_map.depth, once, atol=1e-8)
     assert np.array_equal(back.depth_map.depth, first)   # undo: from the cache
     assert back.recomputed == []
+
+
+def test_the_interactive_depth_is_reseeded_only_when_the_seed_image_changes(monkeypatch):
+    from dataclasses import replace
+
+    from inkray.chain import ReliefChain
+    from inkray.depthmap.estimation import DepthSession
+
+    reseeded = []
+    original = DepthSession.reseed
+    monkeypatch.setattr(DepthSession, "reseed", lambda self, seeds: (
+        reseeded.append(seeds), original(self, seeds))[1])
+    ann, drawing = _turtle()
+    chain = ReliefChain(ann, drawing).edit(depth_method="fast", interactive=True)
+    first = chain.depth_map.depth
+    # A renamed region seeds the same image: the depth map comes from the cache.
+    renamed = [replace(ann.regions[0], name="renamed")] + list(ann.regions[1:])
+    same = chain.edit(annotations=replace(ann, regions=renamed))
+    assert np.array_equal(same.depth_map.depth, first) and "depth" not in same.recomputed
+    # A scribble nudged by a tenth of a pixel rasterizes the same: solved again, not reseeded.
+    nudged = [replace(ann.regions[0], scribbles=[np.asarray(s, float) + 0.1
+                                                 for s in ann.regions[0].scribbles])]
+    moved = chain.edit(annotations=replace(ann, regions=nudged + list(ann.regions[1:])))
+    assert np.allclose(moved.depth_map.depth, first) and reseeded == []
+    # A scribble fewer: reseeded, and the same as a fresh session's.
+    fewer = [replace(ann.regions[0], scribbles=ann.regions[0].scribbles[:-1])]
+    edited = chain.edit(annotations=replace(ann, regions=fewer + list(ann.regions[1:])))
+    d = edited.depth_map.depth
+    assert len(reseeded) == 1
+    fresh = ReliefChain(edited.annotations, drawing).edit(depth_method="fast").depth_map.depth
+    assert np.allclose(d, fresh, atol=1e-8)
