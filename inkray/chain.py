@@ -471,9 +471,10 @@ class ReliefChain:
         _, session, handles, (scribbled, seeded) = cache.session
         if scribbled != seeds_key:
             seeds = _seeds(self.annotations)
-            if _image_key(seeds) != seeded:
+            image = _image_key(seeds)
+            if image != seeded:
                 session.reseed(seeds)
-            cache.session = (skey, session, handles, (seeds_key, _image_key(seeds)))
+            cache.session = (skey, session, handles, (seeds_key, image))
         p, q, ineq, labels = depth_constraints(self.annotations)
         wanted = {(int(a), int(b), bool(c), lab) for a, b, c, lab in zip(p, q, ineq, labels)}
         for c in [c for c in handles if c not in wanted]:

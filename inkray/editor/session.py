@@ -268,19 +268,17 @@ class EditSession:
             self._segmentation_first()
         elif name == "relief.glb":
             self._depth_first()
-        if exact and name == "depth.png":
-            return self._newest(lambda chain, digest: (self._encoded(
-                (name, "exact", digest), lambda: encode(stage(chain.edit(
-                    depth_method="exact", interactive=False)))), media_type), lock="depth")
-        if draft and name == "depth.png":
+        key, changes = (name,), {}
+        if name == "depth.png" and exact:
+            key, changes = (name, "exact"), dict(depth_method="exact", interactive=False)
+        elif name == "depth.png" and draft:
+            key, changes = (name, "draft"), dict(depth_draft=True)
             # Stored uncompressed: a draft is read once over loopback, and zlib
             # took a third of its time at 1 Mpx.
-            return self._newest(lambda chain, digest: (self._encoded(
-                (name, "draft", digest), lambda: depth_png(stage(chain.edit(
-                    depth_draft=True)).depth, compress_level=0)[0]), media_type), lock="depth")
+            encode = lambda d: depth_png(d.depth, compress_level=0)[0]  # noqa: E731
         return self._newest(lambda chain, digest: (self._encoded(
-            (name, digest), lambda: encode(stage(chain))), media_type),
-            lock="depth" if name == "depth.png" else "relief")
+            key + (digest,), lambda: encode(stage(chain.edit(**changes) if changes else chain))),
+            media_type), lock="depth" if name == "depth.png" else "relief")
 
     def relations(self):
         """The user's and the predicted relations and the warnings of the newest document.

@@ -70,13 +70,7 @@ class HarmonicFill:
 
     def __init__(self, wx, wy, *, incremental=True, progress=None):
         wx, wy = np.asarray(wx, np.float64), np.asarray(wy, np.float64)
-        if wx.ndim != 2 or wy.ndim != 2 or wx.shape[0] != wy.shape[0] + 1 or \
-                wy.shape[1] != wx.shape[1] + 1:
-            raise InputError(f"wx, wy: expected shapes (H, W-1) and (H-1, W), got "
-                             f"{wx.shape} and {wy.shape}")
-        if not (wx > 0).all() or not (wy > 0).all():
-            raise InputError("wx, wy: expected positive edge weights")
-        self.shape = (wy.shape[0] + 1, wx.shape[1] + 1)
+        self.shape = _grid_shape(wx, wy)
         self._weights = wx, wy, grid_degree(wx, wy)
         self._incremental = bool(incremental)
         self._progress = progress
@@ -99,10 +93,7 @@ class HarmonicFill:
         (H, W) float64 array
             ``values`` on the fixed pixels, harmonic elsewhere.
         """
-        fixed = np.asarray(fixed, bool)
-        if fixed.shape != self.shape or np.shape(values) != self.shape:
-            raise InputError(f"fixed, values: expected shape {self.shape}, got "
-                             f"{fixed.shape} and {np.shape(values)}")
+        fixed = _checked(self.shape, fixed, values)
         vals = np.where(fixed, values, 0.0)
         if self._chol is not None and self._incremental:
             added = fixed & ~self._factored
@@ -206,8 +197,9 @@ class DraftFill:
     """
 
     def __init__(self, wx, wy, *, incremental=True, progress=None):
-        self.shape = HarmonicFill(wx, wy, incremental=False).shape  # validates
-        wx, wy = _odd_weights(np.asarray(wx, np.float64), np.asarray(wy, np.float64))
+        wx, wy = np.asarray(wx, np.float64), np.asarray(wy, np.float64)
+        self.shape = _grid_shape(wx, wy)
+        wx, wy = _odd_weights(wx, wy)
         self._wx, self._wy = wx, wy
         # Edges from each coarse pixel to the pixel after it (east, south) and from
         # that pixel on to the next coarse one; their series, doubled (one coarse
@@ -225,10 +217,7 @@ class DraftFill:
     def solve(self, fixed, values):
         """The draft fill for Dirichlet ``values`` on the ``fixed`` pixels (see
         :meth:`HarmonicFill.solve`)."""
-        fixed = np.asarray(fixed, bool)
-        if fixed.shape != self.shape or np.shape(values) != self.shape:
-            raise InputError(f"fixed, values: expected shape {self.shape}, got "
-                             f"{fixed.shape} and {np.shape(values)}")
+        fixed = _checked(self.shape, fixed, values)
         values = np.asarray(values, np.float64)
         # The fixed pixels among the coarse ones and those between them, with values.
         parts = [(f, np.where(f, v, 0.0)) for f, v in zip(_lattice(fixed), _lattice(values))]
@@ -311,6 +300,26 @@ class DraftFill:
         d[1::2, 1::2] = centre[:hf, :wf]
         np.copyto(d, values, where=fixed)
         return d
+
+
+def _grid_shape(wx, wy):
+    """The grid's (H, W) from its edge weights, which must fit it and be positive."""
+    if wx.ndim != 2 or wy.ndim != 2 or wx.shape[0] != wy.shape[0] + 1 or \
+            wy.shape[1] != wx.shape[1] + 1:
+        raise InputError(f"wx, wy: expected shapes (H, W-1) and (H-1, W), got "
+                         f"{wx.shape} and {wy.shape}")
+    if not (wx > 0).all() or not (wy > 0).all():
+        raise InputError("wx, wy: expected positive edge weights")
+    return (wy.shape[0] + 1, wx.shape[1] + 1)
+
+
+def _checked(shape, fixed, values):
+    """``fixed`` as a bool array, once it and ``values`` have the grid's shape."""
+    fixed = np.asarray(fixed, bool)
+    if fixed.shape != shape or np.shape(values) != shape:
+        raise InputError(f"fixed, values: expected shape {shape}, got "
+                         f"{fixed.shape} and {np.shape(values)}")
+    return fixed
 
 
 def _lattice(a):
