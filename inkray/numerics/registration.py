@@ -86,7 +86,7 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
         in the drawing's pixels).
     levels : int, optional
         Pyramid levels (each half the size of the one below); by default as
-        many as keep the coarsest image at least 48 pixels on its short side,
+        many as keep the coarsest image at least 24 pixels on its short side,
         at most 5.
     radius : int, default 3
         Largest shift, in pixels of a level, one block-matching step tries.
@@ -133,7 +133,7 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
     h, w = source.shape
     if levels is None:
         levels = 1
-        while levels < 5 and min(h, w) / 2 ** levels >= 48:
+        while levels < 5 and min(h, w) / 2 ** levels >= 24:
             levels += 1
     if int(levels) != levels or levels < 1:
         raise InputError(f"registration: levels must be a positive integer, got {levels!r}")
@@ -426,8 +426,11 @@ def _confidence(source, target, displacement, *, scale):
     ys, xs = np.mgrid[:h, :w].astype(float)
     warped = ndimage.map_coordinates(target, [ys + displacement[..., 1], xs + displacement[..., 0]],
                                      order=1, mode="constant")
-    a = ndimage.gaussian_filter(source, 1.0)
-    b = ndimage.gaussian_filter(warped, 1.0)
+    # Lines a pixel or two apart (a redrawn stroke) still agree; a missing or
+    # extra stroke does not.
+    blur = scale / 8
+    a = ndimage.gaussian_filter(source, blur)
+    b = ndimage.gaussian_filter(warped, blur)
     sigma = scale / 2
     num = ndimage.gaussian_filter(2 * a * b, sigma)
     den = ndimage.gaussian_filter(a * a + b * b, sigma)
