@@ -11,7 +11,7 @@ same records give the same bytes.
 import json
 import re
 
-__all__ = ["annotation_document", "annotation_text"]
+__all__ = ["annotation_document", "annotation_text", "transfer_report"]
 
 
 def annotation_document(annotations, *, drawing=None):
@@ -103,3 +103,36 @@ def _point(p):
 
 def _points(line):
     return [_point(p) for p in line]
+
+
+def transfer_report(transfer, *, key=None, frame=None):
+    """The report of a carried annotation: the frame's confidence and every entry's match.
+
+    Parameters
+    ----------
+    transfer : inkray.transfer.Transfer
+    key, frame : str, optional
+        The key annotation and the frame's drawing, as the report names them.
+
+    Returns
+    -------
+    dict
+        ``{"format": "inkray-transfer-report", "version": 1, "key", "frame",
+        "confidence", "entries": [{"key", "name", "moved", "match",
+        "check"}], "check": [warning lines]}``; numbers rounded to 3 places.
+
+    Examples
+    --------
+    >>> from inkray.transfer import EntryCheck, Transfer
+    >>> t = Transfer(annotations=None, confidence=0.91234, warnings=["order[0]: check it"],
+    ...              entries=[EntryCheck("order[0]", moved=14.0, match=0.41, flagged=True)])
+    >>> transfer_report(t)["entries"]
+    [{'key': 'order[0]', 'name': None, 'moved': 14.0, 'match': 0.41, 'check': True}]
+    """
+    return {"format": "inkray-transfer-report", "version": 1,
+            "key": None if key is None else str(key), "frame": None if frame is None else str(frame),
+            "confidence": round(float(transfer.confidence), 3),
+            "entries": [{"key": e.key, "name": e.name, "moved": round(float(e.moved), 3),
+                         "match": round(float(e.match), 3), "check": bool(e.flagged)}
+                        for e in transfer.entries],
+            "check": list(transfer.warnings)}
