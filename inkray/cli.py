@@ -436,7 +436,7 @@ def _cmd_batch(args, progress):
 
     try:
         report = run_batch(args.pattern, args.output, jobs=args.jobs, scheduler=args.scheduler,
-                           workers=args.workers, progress=progress)
+                           workers=args.workers, progress=progress, keys=args.key or ())
     except KeyboardInterrupt:
         print(f"inkray: interrupted; finished frames are kept in {args.output}/ and skipped "
               f"when the batch runs again", file=sys.stderr)
@@ -675,7 +675,11 @@ def _parser():
                     help="name entries matching worse than S (0..1) as to check (default: 0.6)")
     b = p["batch"]
     b.add_argument("pattern", metavar="PATTERN",
-                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
+                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json'); with "
+                        "--key the shot's drawings ('shot/*.png')")
+    b.add_argument("--key", action="append", metavar="ANN",
+                   help="a key frame's annotation (repeatable): every frame without one is "
+                        "annotated by carrying the nearest key to it frame by frame")
     b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
                    help="comma-separated jobs per frame: relief, render, layers, maps "
