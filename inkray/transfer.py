@@ -216,20 +216,42 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         out, scores = [], []
         for e in items:
             pa, pb = getattr(e, a), getattr(e, b)
-            pts, mv, mt = carry([pa, pb], [label_at(pa), label_at(pb)])
+            parts = [label_at(pa), label_at(pb)]
+            pts, mv, mt = carry([pa, pb], parts)
             pts = _inside(pts, size)
             if np.allclose(pts[0], pts[1]):  # both into one pixel: keep them apart
                 pts = _inside(warp_points(reg, np.array([pa, pb], float)), size)
-            out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
+            out.append((e, pts, parts, np.array([pa, pb], float)))
             scores.append((mv.mean(), mt.min()))
         return out, scores
 
     order, order_scores = carry_pairs(annotations.order, "front", "back")
     equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
 
-    draft = replace(annotations, size=size, regions=regions, background=background, order=order,
-                    equal=equal, boundaries=[], background_pixels=None, drawing=None, source=None)
+    draft = replace(annotations, size=size, regions=regions, background=background, order=[],
+                    equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
     labels = segment(draft, frame).labels
+    # A point of an order or equal entry goes into its part as the frame is
+    # segmented: where the carried parts and the segmentation differ, the
+    # segmentation is what the relief will use.
+    segmented = _Places(labels, frame.gray >= INK_THRESHOLD, reach)
+
+    def settle(items, scores, a, b):
+        out = []
+        for k, (e, pts, parts, was) in enumerate(items):
+            for j in (0, 1):
+                pts[j], d = segmented.place(pts[j], parts[j])
+                if d > 0:
+                    mv, mt = scores[k]
+                    scores[k] = (mv, mt * np.exp(-(min(d, 1e9) / (2 * spacing)) ** 2))
+            if np.allclose(pts[0], pts[1]):
+                pts = _inside(warp_points(reg, was), size)
+            out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
+        return out
+
+    order = settle(order, order_scores, "front", "back")
+    equal = settle(equal, equal_scores, "a", "b")
+    draft = replace(draft, order=order, equal=equal)
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
         check(f"regions[{i}]", mv, min(mt, _overlap(carried == i, labels == i)), name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
@@ -275,12 +297,14 @@ class _Places:
         return self._nearest[label]
 
     def place(self, q, label):
+        """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
+        part is wide enough), and how far; ``inf`` when none is within reach."""
         h, w = self.carried.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
-        if self.paper[y, x] and self.carried[y, x] == label:
-            return q, 0.0
         for dist, iy, ix in self._table(label):
+            if dist[y, x] == 0:
+                return q, 0.0
             if dist[y, x] <= self.reach:
                 p = np.array([ix[y, x], iy[y, x]], float)
                 return p, float(np.hypot(*(p - q)))

@@ -434,7 +434,9 @@ def _confidence(source, target, displacement, *, scale):
     sigma = scale / 2
     num = ndimage.gaussian_filter(2 * a * b, sigma)
     den = ndimage.gaussian_filter(a * a + b * b, sigma)
-    defined = den > 1e-3 * max(den.max(), 1e-12)
+    # Where the window holds almost no ink the ratio says nothing: take the nearest
+    # window that does.
+    defined = den > 0.02 * max(den.max(), 1e-12)
     conf = np.where(defined, num / np.maximum(den, 1e-12), 0.0)
     if defined.any() and not defined.all():
         _, (iy, ix) = ndimage.distance_transform_edt(~defined, return_indices=True)
