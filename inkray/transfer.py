@@ -277,24 +277,14 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
 # -- helpers -------------------------------------------------------------------
 
 class _Places:
-    """Nearest paper pixel of each carried part, found within ``reach``."""
+    """Nearest paper pixel of each carried part, found within ``reach``.
+
+    Looked for in a window around the point only (a few thousand pixels
+    whatever the drawing's size).
+    """
 
     def __init__(self, carried, paper, reach):
         self.carried, self.paper, self.reach = carried, paper, reach
-        self._nearest = {}
-
-    def _table(self, label):
-        if label not in self._nearest:
-            mask = self.paper & (self.carried == label)
-            # Aim a little inside the part, not onto the pixel next to its line.
-            inner = ndimage.binary_erosion(mask, iterations=2)
-            table = []
-            for m in (inner, mask):
-                if m.any():
-                    dist, (iy, ix) = ndimage.distance_transform_edt(~m, return_indices=True)
-                    table.append((dist, iy, ix))
-            self._nearest[label] = table
-        return self._nearest[label]
 
     def place(self, q, label):
         """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
@@ -302,11 +292,20 @@ class _Places:
         h, w = self.carried.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
-        for dist, iy, ix in self._table(label):
-            if dist[y, x] == 0:
+        r = int(np.ceil(self.reach)) + 3
+        y0, x0 = max(y - r, 0), max(x - r, 0)
+        window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
+        mask = self.paper[window] & (self.carried[window] == label)
+        # Aim a little inside the part, not onto the pixel next to its line.
+        inner = ndimage.binary_erosion(mask, iterations=2, border_value=1)
+        for m in (inner, mask):
+            if not m.any():
+                continue
+            if m[y - y0, x - x0]:
                 return q, 0.0
-            if dist[y, x] <= self.reach:
-                p = np.array([ix[y, x], iy[y, x]], float)
+            dist, (iy, ix) = ndimage.distance_transform_edt(~m, return_indices=True)
+            if dist[y - y0, x - x0] <= self.reach:
+                p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
                 return p, float(np.hypot(*(p - q)))
         return q, np.inf
 
