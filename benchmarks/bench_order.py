@@ -10,8 +10,8 @@ only (``benchmarks/train_order.py``: the model of
 :mod:`inkray.relief.order_model`, and the same four-cue logistic as below
 fitted on the same generated drawings), then test on the real drawings, none
 of them seen in training or in choosing the features: the bundled drawings
-not made for inkray (:data:`REAL`) and any ``*.inkray.json`` under ``--real``
-folders. Per drawing and per confidence bin: right, right at confidence 0.5
+not made for inkray (:data:`REAL`) and the annotations given with ``--real``
+(e.g. the first frames of real shots). Per drawing and per confidence bin: right, right at confidence 0.5
 or more, and the share of relations reaching 0.5, for the learned model, the
 logistic fitted on the generated drawings, and the shipped logistic
 (:data:`inkray.relief.ordering.WEIGHTS`, fitted on all bundled drawings, so
@@ -96,7 +96,7 @@ class _Drawing:
         orders = [r for r in chain.relations if r.kind == "order"]
         self.truth = [r for r in orders if r.place is not None]
         self.apart = len(orders) - len(self.truth)
-        self._seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
+        self.seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
         self._outlines = outline_lengths(self.labels)
         self.ink = ink_style(drawing.gray)
         self._cues = {}
@@ -110,12 +110,12 @@ class _Drawing:
         places = [self.completion.places[r.place] for r in self.truth]
         if radius not in self._cues:
             # Without the ink: the continuation (0 here) is measured apart, once per width.
-            rows = [order_cues(self.completion, p, outlines=self._outlines, seams=self._seams,
+            rows = [order_cues(self.completion, p, outlines=self._outlines, seams=self.seams,
                                junction_radius=radius) for p in places]
             self._cues[radius] = [None if c is None else [c[k] for k in CUES] for c in rows]
         if widths not in self._continuation:
             self._continuation[widths] = [
-                contact_continuation(self.labels, p, ink=self.ink, seams=self._seams,
+                contact_continuation(self.labels, p, ink=self.ink, seams=self.seams,
                                      continuation_widths=widths) for p in places]
         owns = np.array(self._continuation[widths]) * self.ink.clarity(scale)
         column = CUES.index("continuation")
@@ -253,12 +253,9 @@ def bench_resolve():
 
 
 def _real_drawings(extra):
-    """The test drawings: :data:`REAL` and every ``*.inkray.json`` under the ``extra`` folders."""
-    out = [_Drawing(EXAMPLES / n) for n in REAL]
-    for folder in extra:
-        for path in sorted(Path(folder).rglob("*.inkray.json")):
-            out.append(_Drawing(path.parent, annotation=path))
-    return out
+    """The test drawings: :data:`REAL` and the ``extra`` annotation files."""
+    return [_Drawing(EXAMPLES / n) for n in REAL] + [_Drawing(Path(p).parent, annotation=p)
+                                                    for p in extra]
 
 
 def _cue_rows(batch):
@@ -298,12 +295,12 @@ def bench_generated(args):
         pool.append(train_order.generated_samples(seed, cache=args.cache))
     fit, val = train_order.split(pool)
     start = time.perf_counter()
-    model = train_order.train(fit, val)
+    chosen, model = train_order.choose(fit, val, train_order.development_samples())
     took = time.perf_counter() - start
     cues = _fit_rows(*_cue_rows(fit), 1.0)
-    print(f"trained on {len(fit)} generated drawings ({sum(len(s.y) for s in fit)} places, "
-          f"{took:.1f} s), calibrated on {len(val)} ({sum(len(s.y) for s in val)} places): "
-          f"temperature {model.temperature}")
+    print(f"trained on {len(fit)} generated drawings ({sum(len(s.y) for s in fit)} places), "
+          f"calibrated on {len(val)} ({sum(len(s.y) for s in val)} places), every candidate "
+          f"in {took:.1f} s: kept {chosen!r}, temperature {model.temperature}")
     print(f"four-cue logistic fitted on the same generated drawings: {cues}\n")
     default = (40.0, 6.0, 10.0)
     predictors = (("learned", None, model), ("cues, generated", cues, None),
@@ -319,8 +316,9 @@ def bench_generated(args):
         for name, weights, m in predictors:
             s = d.score(weights, default, model=m)
             scored[name] += s
-            acc, sure, reach, _, _ = _summary(s)
-            line += f" | {'':>15}  {acc:>5.0%} {sure:>5.0%} {reach:>6.0%}"
+            acc, sure, reach, _, k = _summary(s)
+            sure = f"{sure:.0%}" if k else "-"
+            line += f" | {'':>15}  {acc:>5.0%} {sure:>5} {reach:>6.0%}"
         print(line)
     line = f"{'all':<14} {len(scored['learned']):>7}"
     for name, _, _ in predictors:
@@ -348,20 +346,23 @@ def bench_generated(args):
              seconds / TARGET_TIME)):
         print(f"{name:<34} {measured:>9} {target:>7} {ratio:>18.2f}")
     if args.styles:
-        bench_styles(pool, drawings)
+        bench_styles(pool, drawings, train_order.CANDIDATES[chosen])
 
 
-def bench_styles(pool, drawings):
+def bench_styles(pool, drawings, candidate):
     """Each generator style left out of training, against as many drawings with every style."""
     import train_order
 
-    real = [train_order.samples(d.annotations, d.drawing, d.name) for d in drawings]
+    real = [train_order.place_samples(d.completion, d.truth, ink=d.ink, seams=d.seams, name=d.name)
+            for d in drawings]
     f = np.concatenate([s.features for s in real])
     y = np.concatenate([s.y for s in real])
 
+    linear, trees = candidate
+
     def scored(batch):
         fit, val = train_order.split(batch)
-        p = train_order.train(fit, val).probability(f)
+        p = train_order.train(fit, val, linear=linear, trees=trees).probability(f)
         conf = np.abs(2 * p - 1)
         return _summary(list(zip(((p > 0.5) == (y > 0.5)).tolist(), conf.tolist())))
 
@@ -374,9 +375,14 @@ def bench_styles(pool, drawings):
             batch, what = pool, "every style, all drawings"
         else:
             batch = [s for s in pool if style not in s.styles]
-            keep = np.sort(rng.choice(len(pool), len(batch), replace=False))
-            acc, sure, reach, _, _ = scored([pool[i] for i in keep])
-            print(f"{'  every style, as many':<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} {reach:>6.1%}")
+            # As many drawings with every style, three random draws, averaged: the spread
+            # between draws is the noise of this table.
+            runs = np.array([scored([pool[i] for i in np.sort(rng.choice(len(pool), len(batch),
+                                                                          replace=False))])[:3]
+                             for _ in range(3)])
+            acc, sure, reach = runs.mean(0)
+            print(f"{'  every style, as many (3x)':<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} "
+                  f"{reach:>6.1%}   right {runs[:, 0].min():.0%}-{runs[:, 0].max():.0%}")
             what = f"without {style}"
         acc, sure, reach, _, _ = scored(batch)
         print(f"{what:<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} {reach:>6.1%}")
@@ -417,7 +423,8 @@ def main(argv=None):
                     "test on the real ones")
     ap.add_argument("--cache", type=Path, help="folder keeping each generated drawing's features")
     ap.add_argument("--real", action="append", default=[], type=Path,
-                    help="a folder of more real annotated drawings (*.inkray.json), repeatable")
+                    help="the annotation of one more real drawing (e.g. a shot's first frame), "
+                         "repeatable")
     ap.add_argument("--styles", action="store_true", help="with --generated: each style left out")
     args = ap.parse_args(argv)
     if args.generated:

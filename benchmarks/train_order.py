@@ -9,22 +9,28 @@ Draws ``--count`` drawings with :func:`order_drawings.generate` (seeds
 scribbles (``inkray.chain.ReliefChain``, predictions off), and measures
 :func:`inkray.relief.order_cues.place_features` at the place of every
 annotated ``order`` entry. The drawings with seeds ``= 4 (mod 5)`` are the
-validation split; the rest train:
+validation split; the rest train. Each of :data:`CANDIDATES` is fitted:
 
-1. an L2-regularized logistic model on all features, then 100
-   gradient-boosted trees of depth 2 from its scores on the logistic loss
-   (Newton steps, each feature cut at 32 quantiles of the training split,
-   plain numpy), fitted on both orientations of every place (``x`` in front:
-   label 1, the swapped row: label 0);
+1. an L2-regularized logistic model on some features (penalty 10 on the
+   standardized weights), then gradient-boosted trees of depth 2 on all
+   features from its scores on the logistic loss (Newton steps, rate 0.1,
+   each feature cut at 32 quantiles of the training split, plain numpy),
+   fitted on both orientations of every place (``x`` in front: label 1, the
+   swapped row: label 0);
 2. a calibration on the validation split: the score ``s = (F(x, y) - F(y,
-   x)) / 2`` of the trees, so the answer does not depend on which region is
-   named first, becomes ``P(x in front) = sigmoid(t * s)`` with the
-   temperature ``t`` of least log-loss (Platt scaling without offset: the
-   two orientations are symmetric).
+   x)) / 2``, so the answer does not depend on which region is named first,
+   becomes ``P(x in front) = sigmoid(t * s)`` with the temperature ``t`` of
+   least log-loss (Platt scaling without offset: the two orientations are
+   symmetric).
 
-The model (``inkray/relief/order_model.json``, a few tens of kB) is read by
-:mod:`inkray.relief.order_model`. No bundled drawing is used here. With the
-same count the file is the same, byte for byte.
+The candidate kept is the one of least log-loss on the bundled drawings made
+for inkray (:data:`DEVELOPMENT`: drawn by this project's authors from
+ellipses, used to check the generator and to choose, never to fit); the
+drawings not made for inkray are the test set of ``benchmarks/bench_order.py
+--generated`` and are not read here. The model
+(``inkray/relief/order_model.json``, a few kB) is read by
+:mod:`inkray.relief.order_model`. With the same count the file is the same,
+byte for byte.
 """
 
 import argparse
@@ -45,11 +51,25 @@ from inkray.errors import InputError  # noqa: E402
 from inkray.input.annotations import parse_annotations  # noqa: E402
 from inkray.input.drawing import drawing_from_array  # noqa: E402
 from inkray.relief.ink_style import ink_style  # noqa: E402
-from inkray.relief.order_cues import FEATURES, outline_lengths, place_features, region_stats  # noqa: E402
+from inkray.input.loading import load_input  # noqa: E402
+from inkray.relief.order_cues import (CUES, FEATURES, outline_lengths, place_features,  # noqa: E402
+                                      region_stats)
 from inkray.relief.order_model import OrderModel  # noqa: E402
 
-MODEL = Path(__file__).resolve().parents[1] / "inkray" / "relief" / "order_model.json"
-TREES, DEPTH, RATE, BINS, L2, LINEAR_L2 = 100, 2, 0.1, 32, 1.0, 10.0
+ROOT = Path(__file__).resolve().parents[1]
+MODEL = ROOT / "inkray" / "relief" / "order_model.json"
+DEPTH, RATE, BINS, L2, LINEAR_L2 = 2, 0.1, 32, 1.0, 10.0
+#: The bundled drawings made for inkray: the choice among the candidates.
+DEVELOPMENT = ("bird", "cards", "cat", "figure", "fish", "rings", "snowman")
+#: ``name: (features of the linear term, number of trees)``.
+CANDIDATES = {
+    "cues": (CUES, 0),
+    "cues, 30 trees": (CUES, 30),
+    "cues, raw continuation": (CUES + ("continuation_raw",), 0),
+    "cues, raw continuation, 30 trees": (CUES + ("continuation_raw",), 30),
+    "all features": (FEATURES, 0),
+    "all features, 100 trees": (FEATURES, 100),
+}
 
 
 @dataclass
@@ -67,13 +87,18 @@ def samples(ann, drawing, name, styles=()):
     """:class:`Samples` of one annotated drawing (entries between regions that do not touch,
     and places without cues, are left out)."""
     chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
-    labels, completion = chain.segmentation.labels, chain.candidates
-    ink = ink_style(drawing.gray)
-    seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
+    return place_samples(chain.candidates, chain.relations, ink=ink_style(drawing.gray),
+                         seams=[b.path for b in ann.boundaries if b.type in ("graft", "stitch")],
+                         name=name, styles=styles)
+
+
+def place_samples(completion, relations, *, ink, seams, name, styles=()):
+    """:class:`Samples` of the places of the user's ``order`` relations."""
+    labels = completion.labels
     outlines, stats = outline_lengths(labels), region_stats(labels)
     rows, ys = [], []
-    for r in chain.relations:
-        if r.kind != "order" or r.place is None:
+    for r in relations:
+        if r.kind != "order" or r.place is None or r.source != "user":
             continue
         place = completion.places[r.place]
         f = place_features(completion, place, outlines=outlines, stats=stats, seams=seams, ink=ink)
@@ -128,7 +153,7 @@ def fit_linear(X, y, *, l2=LINEAR_L2):
     return minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B").x / scale
 
 
-def fit_trees(X, y, *, trees=TREES, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, start=None):
+def fit_trees(X, y, *, trees=30, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, start=None):
     """Gradient-boosted regression trees on the logistic loss, boosted from the scores
     ``start``: ``(feature, threshold, leaf)`` arrays of complete trees in heap order (node
     ``i`` has children ``2i+1``, ``2i+2``)."""
@@ -173,12 +198,17 @@ def fit_trees(X, y, *, trees=TREES, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, st
     return feature, threshold, leaf
 
 
-def train(batch, validation):
+def train(batch, validation, *, linear=FEATURES, trees=100):
     """An :class:`inkray.relief.order_model.OrderModel` fitted on ``batch`` and calibrated on
-    ``validation`` (lists of :class:`Samples`)."""
+    ``validation`` (lists of :class:`Samples`): a logistic term on the features ``linear``,
+    then ``trees`` boosted trees."""
     X, y = _rows(batch)
-    weights = np.round(fit_linear(X, y), 7)
-    feature, threshold, leaf = fit_trees(X, y, start=X @ weights)
+    cols = [FEATURES.index(k) for k in linear]
+    weights = np.zeros(len(FEATURES))
+    weights[cols] = fit_linear(X[:, cols], y)
+    weights = np.round(weights, 7)
+    feature, threshold, leaf = fit_trees(X, y, trees=max(trees, 1), start=X @ weights,
+                                         rate=RATE if trees else 0.0)
     # Rounded as the JSON file keeps them, so the trained and the shipped model agree.
     threshold = np.array([[float(f"{v:.7g}") for v in row] for row in threshold])
     leaf = np.round(leaf, 7)
@@ -194,6 +224,36 @@ def train(batch, validation):
     temperature = float(minimize_scalar(loss, bounds=(0.05, 5.0), method="bounded").x)
     return OrderModel(feature=feature, threshold=threshold, leaf=leaf,
                       temperature=round(temperature, 4), weights=weights)
+
+
+def log_loss(model, batch):
+    """Mean log-loss and share right of ``model`` on the places of ``batch``."""
+    f = np.concatenate([s.features for s in batch])
+    y = np.concatenate([s.y for s in batch])
+    p = np.clip(model.probability(f), 1e-9, 1 - 1e-9)
+    return float(-np.mean(np.log(np.where(y > 0.5, p, 1 - p)))), float(np.mean((p > 0.5) == (y > 0.5)))
+
+
+def choose(fit, val, dev):
+    """The candidate of least log-loss on ``dev``: ``(name, model)``; prints each."""
+    best = None
+    print(f"{'candidate':<36} {'validation':>16} {'development':>16}")
+    for name, (linear, trees) in CANDIDATES.items():
+        model = train(fit, val, linear=linear, trees=trees)
+        (lv, rv), (ld, rd) = log_loss(model, val), log_loss(model, dev)
+        print(f"{name:<36} {lv:>8.3f} {rv:>7.1%} {ld:>8.3f} {rd:>7.1%}")
+        if best is None or ld < best[0]:
+            best = (ld, name, model)
+    return best[1], best[2]
+
+
+def development_samples():
+    """:class:`Samples` of the bundled drawings made for inkray (:data:`DEVELOPMENT`)."""
+    out = []
+    for name in DEVELOPMENT:
+        ann, drawing = load_input(ROOT / "examples" / name / "drawing.inkray.json")
+        out.append(samples(ann, drawing, name))
+    return out
 
 
 def split(pool):
@@ -214,12 +274,10 @@ def main(argv=None):
         if seed % 20 == 19:
             print(f"{seed + 1} drawings, {sum(len(s.y) for s in pool)} places", flush=True)
     fit, val = split(pool)
-    model = train(fit, val)
-    fv = np.concatenate([s.features for s in val])
-    yv = np.concatenate([s.y for s in val])
-    p = model.probability(fv)
-    print(f"validation: {len(yv)} places, {np.mean((p > 0.5) == (yv > 0.5)):.1%} right, "
-          f"temperature {model.temperature}")
+    print(f"{len(fit)} drawings train ({sum(len(s.y) for s in fit)} places), {len(val)} "
+          f"validate ({sum(len(s.y) for s in val)} places); log-loss and right:")
+    name, model = choose(fit, val, development_samples())
+    print(f"kept: {name}, temperature {model.temperature}")
     args.out.write_text(json.dumps(model.to_json(), separators=(",", ":")) + "\n")
     print(f"wrote {args.out}")
 

@@ -466,7 +466,10 @@ def _inside_bend(place, lab, a, b):
 
     if place.contact.sum() < 3:
         return 0.0
-    hull = convex_hull_image(place.contact) & ~place.contact
+    # The hull lies within the contact's bounding box: only that is searched.
+    (box,) = ndimage.find_objects(place.contact.astype(np.int8))
+    contact, lab = place.contact[box], lab[box]
+    hull = convex_hull_image(contact) & ~contact
     na, nb = int((hull & (lab == a)).sum()), int((hull & (lab == b)).sum())
     return (na - nb) / max(na + nb, 1)
 

@@ -140,8 +140,8 @@ def load_order_model():
     Examples
     --------
     >>> m = load_order_model()
-    >>> m.leaf.shape[1]       # leaves per tree: depth-3 trees
-    8
+    >>> m.leaf.shape[1] == 2 * m.feature.shape[1] + 1 - m.feature.shape[1]     # complete trees
+    True
     """
     return OrderModel.from_json(json.loads(MODEL_FILE.read_text(encoding="utf-8")),
                                 where=MODEL_FILE.name)

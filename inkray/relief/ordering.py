@@ -12,23 +12,23 @@ over B at one crossing, B over A at the other) are two consistent local
 relations. Places that touch form a *site*; within a site the relations must
 be acyclic.
 
-Prediction, per place of a pair ``a``/``b``: a model learned from generated
-drawings (:mod:`inkray.relief.order_model`) reads the cues and measures of
-:func:`inkray.relief.order_cues.place_features` (T-junctions, the
-completion's area, how much of each part's outline the contact is, which
-part's outline continues the contact line, the parts' sizes and thickness,
-which part lies inside the bend of the contact, junction patches) and gives
-``p``, the calibrated probability that ``a`` is in front; the front is
-``a`` when ``p > 1/2`` and ``confidence = |2 p - 1|`` (0 for a coin toss,
-towards 1 when sure). ``benchmarks/bench_order.py --generated`` measures it
-on the bundled drawings not made for inkray, none of which it was trained
-on. Given ``weights``, the four cues of
-:func:`inkray.relief.order_cues.order_cues` are combined instead as a
-logistic model, ``score = sum(weights[cue] * cue)``, its sign saying who is
-in front and ``confidence = 2 * sigmoid(|score|) - 1``; :data:`WEIGHTS`,
-:data:`JUNCTION_RADIUS`, :data:`CONTINUATION_WIDTHS` and
-:data:`STROKE_END_SCALE` were fitted on the bundled drawings
-(``benchmarks/bench_order.py`` measures that predictor leave-one-out).
+Prediction, per place of a pair ``a``/``b``: the cues of
+:mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
+of each part's outline the contact is, which part's outline continues the
+contact line, trusted as far as the drawing's lines are clean) are combined as
+a logistic model, ``score = sum(weights[cue] * cue)``; its sign says who is in
+front and ``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss,
+towards 1 when sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`,
+:data:`CONTINUATION_WIDTHS` and :data:`STROKE_END_SCALE` were fitted on the
+bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
+leave-one-out (weights fitted without the drawing scored) and how accuracy
+grows with confidence. Given a ``model``
+(:func:`inkray.relief.order_model.load_order_model`), a model learned from
+generated drawings reads the measures of
+:func:`inkray.relief.order_cues.place_features` instead and gives ``p``, the
+calibrated probability that ``a`` is in front: ``confidence = |2 p - 1|``
+(``benchmarks/bench_order.py --generated`` compares the two on the bundled
+drawings not made for inkray).
 A global consistency step follows: predictions are
 added strongest first, and one that would close a cycle within its site
 (with the user's entries or stronger predictions) is dropped.
@@ -48,14 +48,12 @@ from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
 from inkray.relief.order_cues import (CUES, order_cues, outline_lengths, place_features,
                                       region_stats)
-from inkray.relief.order_model import load_order_model
 
 __all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS",
            "depth_order", "predict_place"]
 
-#: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` for the
-#: logistic predictor (``weights=WEIGHTS``; fitted by ``python
-#: benchmarks/bench_order.py``, logistic on all bundled drawings).
+#: Weights of the cues of :func:`inkray.relief.order_cues.order_cues` (fitted
+#: by ``python benchmarks/bench_order.py``, logistic on all bundled drawings).
 WEIGHTS = {"junction": 4.369, "area": 0.797, "surround": 4.164, "continuation": 4.8}
 #: Largest disk radius around a junction, in pixels (chosen by the same benchmark).
 JUNCTION_RADIUS = 40.0
@@ -139,8 +137,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     predict : bool, default True
         Predict the order of the places the user's entries leave open.
     weights : dict, optional
-        Weight of each cue for the logistic predictor instead of the learned
-        model, see :func:`predict_place`.
+        Weight of each cue (default :data:`WEIGHTS`), see :func:`predict_place`.
     junction_radius : float, optional
         Largest radius in pixels of the disk measured around a junction
         (default :data:`JUNCTION_RADIUS`).
@@ -157,7 +154,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
         same completion, ``seams`` and parameters, and a new arrow costs no
         cue (at 1 Mpx the fox's continuation cues took 0.54 s per call).
     model : inkray.relief.order_model.OrderModel, optional
-        The learned model (default: the shipped one), see :func:`predict_place`.
+        Predict with this learned model instead of the weighted cues, see
+        :func:`predict_place`.
 
     Returns
     -------
@@ -249,9 +247,8 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     place : inkray.relief.completion.Place
     weights : dict, optional
         ``{cue: weight}`` for the cues of
-        :func:`inkray.relief.order_cues.order_cues` (e.g. :data:`WEIGHTS`):
-        the logistic predictor instead of the learned model. The score is the
-        weighted sum; its sign says who is in front and
+        :func:`inkray.relief.order_cues.order_cues` (default :data:`WEIGHTS`).
+        The score is the weighted sum; its sign says who is in front and
         ``2 * sigmoid(|score|) - 1`` is the confidence.
     junction_radius : float, optional
         Largest radius of the disk measured around each junction (default
@@ -273,10 +270,11 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
     model : inkray.relief.order_model.OrderModel, optional
-        The learned model, used when no ``weights`` are given (default
-        :func:`inkray.relief.order_model.load_order_model`): ``p`` the
-        probability that ``place.a`` is in front, ``confidence = |2 p - 1|``.
-        It was trained with the default radii and scale.
+        A learned model (e.g. :func:`inkray.relief.order_model.load_order_model`)
+        used instead of the weighted cues (``weights`` must then be None):
+        ``p`` the probability that ``place.a`` is in front,
+        ``confidence = |2 p - 1|``. It was trained with the default radii and
+        scale.
     stats : tuple, optional
         :func:`inkray.relief.order_cues.region_stats` of the labels, when
         already known.
@@ -298,7 +296,14 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     >>> r = predict_place(c, c.places[0])
     >>> (r.front_name, r.back_name)
     ('eye', 'head')
+    >>> from inkray.relief.order_model import load_order_model
+    >>> learned = predict_place(c, c.places[0], model=load_order_model())
+    >>> (learned.front_name, learned.back_name)
+    ('eye', 'head')
     """
+    if model is not None and weights is not None:
+        raise InputError("weights: give cue weights or a learned model, not both")
+    weights = WEIGHTS if weights is None and model is None else weights
     unknown = sorted(set(weights or ()) - set(CUES))
     if unknown:
         raise InputError(f"weights: unknown cue {unknown[0]!r} (expected {', '.join(CUES)})")
@@ -307,13 +312,12 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         raise InputError(f"junction_radius: expected a positive radius, got {junction_radius!r}")
     widths = CONTINUATION_WIDTHS if continuation_widths is None else float(continuation_widths)
     scale = STROKE_END_SCALE if stroke_end_scale is None else float(stroke_end_scale)
-    if weights is None:
+    if model is not None:
         features = place_features(completion, place, outlines=outlines, stats=stats, seams=seams,
                                   ink=ink, junction_radius=radius, continuation_widths=widths,
                                   stroke_end_scale=scale, seam_distance=seam_distance)
         if features is None:
             return None
-        model = load_order_model() if model is None else model
         score = float(model.score(features[None])[0]) * model.temperature
     else:
         cues = order_cues(completion, place, outlines=outlines, seams=seams,
