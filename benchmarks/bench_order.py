@@ -3,25 +3,29 @@
 Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
-    python benchmarks/bench_order.py --generated 600 [--cache DIR] [--styles]
+    python benchmarks/bench_order.py --generated 330 [--cache DIR] [--styles] [--real A.inkray.json]
 
 ``--generated N`` (the learned model's protocol): train on N generated drawings
 only (``benchmarks/train_order.py``: the model of
-:mod:`inkray.relief.order_model`, and the same four-cue logistic as below
-fitted on the same generated drawings), then test on the real drawings, none
-of them seen in training or in choosing the features: the bundled drawings
-not made for inkray (:data:`REAL`) and the annotations given with ``--real``
-(e.g. the first frames of real shots). Per drawing and per confidence bin: right, right at confidence 0.5
-or more, and the share of relations reaching 0.5, for the learned model, the
+:mod:`inkray.relief.order_model`, the candidate chosen on the drawings made
+for inkray, and the same four-cue logistic as below fitted on the same
+generated drawings), then test on the real drawings, none of them seen in
+training or in choosing: the bundled drawings not made for inkray
+(:data:`REAL`) and the annotations given with ``--real`` (e.g. the first
+frames of real shots). Per drawing and per confidence bin: right, right at
+confidence 0.5 or more, and the share of relations reaching 0.5, for the
+learned model, the
 logistic fitted on the generated drawings, and the shipped logistic
 (:data:`inkray.relief.ordering.WEIGHTS`, fitted on all bundled drawings, so
 not held out: shown for reference); then the prediction time of every
-place at about 1 Mpx (the fox upscaled, the learned model's
-:func:`inkray.relief.ordering.depth_order` with an empty memo). ``--styles``
+place at about 1 Mpx (the fox upscaled,
+:func:`inkray.relief.ordering.depth_order` with an empty memo, the learned
+model and the weighted cues), and each against its target. ``--styles``
 adds what each generator style does: the model trained on the generated
 drawings that do not use the style, against one trained on as many drawings
 drawn with every style, each scored on the real drawings' places (without
-the consistency step).
+the consistency step). The table of the run is in docs/regions.md. ``--cache``
+keeps each generated drawing's features (about 1 s a drawing to make again).
 
 Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
 for each drawing, the predictor is fitted on all the *other* drawings only:
