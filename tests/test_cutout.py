@@ -356,3 +356,16 @@ def test_a_continued_outline_fades_at_its_edge():
     assert continued.sum() >= 4 and drawn.sum() > 100
     share = np.mean(alpha[1:-1, 1:-1][continued] < 255)
     assert share >= 0.5 * np.mean(alpha[1:-1, 1:-1][drawn] < 255) > 0.3
+
+
+def test_split_local_writes_each_split_piece_once_with_unique_names():
+    labels, rgb, completion, rels = _rings()
+    # The same crossing given twice (an entry and a prediction there), and a third ring-like
+    # crossing of the same pair elsewhere: one split layer per pair, every name once.
+    again = [Relation(r.front, r.back, r.front_name, r.back_name, r.where, "predicted", 0.5,
+                      place=r.place) for r in rels]
+    stack = cut_out(completion, rels + again, drawing_from_array(rgb), split_local=True)
+    names = [layer.name for layer in stack.layers]
+    assert len(names) == len(set(names)) == 3, names
+    character = labels >= 0
+    assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf

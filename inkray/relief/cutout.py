@@ -331,8 +331,10 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
         raise InputError(f"pad: expected a whole number of pixels >= 0, got {pad!r}")
     names = completion.names
     order, broken = stack_order(completion.count, relations)
+    # One split per place: a crossing given twice (an entry and a prediction) is one split.
+    once = {(r.front, r.back, r.place): r for r in reversed(broken)}
     splits = [Split(r.front, r.back, names[r.front], names[r.back],
-                    tuple(float(v) for v in r.where), r.place) for r in broken]
+                  tuple(float(v) for v in r.where), r.place) for r in reversed(once.values())]
     strokes = _Strokes(rgb, gray)
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
@@ -367,11 +369,17 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
         layer = _without(shapes[region], np.any(taken, axis=0)) if taken else shapes[region]
         if layer is not None:
             layers.append(layer)
-        for s, piece in cuts:  # a split piece goes just above the part it must cover
+        # The split pieces of a part over this one (one per crossing) go just above it, as
+        # one layer.
+        over = {}
+        for s, piece in cuts:
             if s.under == region:
-                part = _without(shapes[s.region], ~piece, name=f"{s.name} over {s.under_name}")
-                if part is not None:
-                    layers.append(part)
+                over[s.region] = over.get(s.region, False) | piece
+        for front, piece in over.items():
+            part = _without(shapes[front], ~piece, name=f"{names[front]} over {names[region]}")
+            if part is not None:
+                layers.append(part)
+    _unique_names(layers)
     return Cutout(layers=layers, size=(labels.shape[1], labels.shape[0]), splits=splits,
                   split=bool(split_local))
 
@@ -572,6 +580,20 @@ def _harmonic_fill(colours, known, unknown, mean):
     out = np.zeros((h * w, 3))
     out[index] = x
     return out.reshape(h, w, 3)
+
+
+def _unique_names(layers):
+    """Number the second and later layers of one name ("arm 2"): rigs key layers by name."""
+    seen = {layer.name for layer in layers}
+    count = {}
+    for layer in layers:
+        count[layer.name] = count.get(layer.name, 0) + 1
+        if count[layer.name] > 1:
+            k = count[layer.name]
+            while f"{layer.name} {k}" in seen:
+                k += 1
+            seen.add(f"{layer.name} {k}")
+            layer.name = f"{layer.name} {k}"
 
 
 def _piece(completion, layer, split):
