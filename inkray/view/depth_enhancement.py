@@ -115,7 +115,8 @@ def enhance(rgb, depth, *, mask=None, strength=STRENGTH[0], radius=RADIUS[0], sc
         Where there is a surface; default everywhere.
     strength : float, default 1.0
         How dark: 0 leaves the picture as it is; at 10 a step of a tenth of
-        the radius already halves the light behind it. Within 0..10.
+        the radius already darkens its far side to exp(-1/2), 0.6. Within
+        0..10.
     radius : float, default 8.0
         Reach of the darkening behind an edge, in drawing pixels (the
         Gaussian's standard deviation). Within 0.5..100.
