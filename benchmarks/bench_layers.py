@@ -80,15 +80,34 @@ def _straight_cut(edge, drawn_edge):
     return max(best - drawn, 0)
 
 
+def _length(skeleton):
+    """Length of a thin 8-connected curve: its steps, sqrt(2) for a diagonal one that does
+    not cut the corner of a row step and a column step."""
+    ys, xs = np.nonzero(skeleton)
+    on = set(zip(ys.tolist(), xs.tolist()))
+    total = 0.0
+    for y, x in on:
+        total += ((y, x + 1) in on) + ((y + 1, x) in on)
+        for dx in (1, -1):
+            if (y + 1, x + dx) in on and (y, x + dx) not in on and (y + 1, x) not in on:
+                total += np.sqrt(2.0)
+    return total
+
+
 def _stroke(cover, zone):
-    """(coverage-width, skeleton pixels) of the strokes in ``zone`` (coverage >= 0.5 is ink)."""
+    """(coverage-width, skeleton) of the strokes in ``zone`` (coverage >= 0.5 is ink): the
+    coverage of the pixels nearest to the skeleton, away from its ends, over its length."""
     ink = (cover >= 0.5) & zone
     skeleton = skeletonize(ink)
-    length = int(skeleton.sum())
+    count = ndimage.convolve(skeleton.astype(int), np.ones((3, 3), int), mode="constant")
+    ends = skeleton & (count <= 2)
+    inner = skeleton & (ndimage.distance_transform_edt(~ends) > 3)
+    length = _length(inner)
     if length < 5:
         return None, skeleton
-    near = ndimage.binary_dilation(ink, iterations=2) & zone
-    return float(cover[near].sum() / length), skeleton
+    dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
+    near = inner[iy, ix] & (dist <= 5) & ndimage.binary_dilation(ink, iterations=2) & zone
+    return float(cover[near].sum() / length), inner
 
 
 def measure(name):
