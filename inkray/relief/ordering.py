@@ -212,7 +212,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
                 continue
             if place.index not in memo:
                 if outlines is None:
-                    outlines, stats = outline_lengths(labels), region_stats(labels)
+                    outlines = outline_lengths(labels)
+                    stats = region_stats(labels) if model is not None else None
                 memo[place.index] = predict_place(
                     completion, place, weights=weights, junction_radius=junction_radius,
                     seams=paths, outlines=outlines, ink=ink,
