@@ -310,17 +310,25 @@ class _Places:
         return q, np.inf
 
 
-def _pull_back(labels, displacement, iterations=8):
-    """Key labels seen from the frame: label of the key pixel each frame pixel comes from."""
+def _pull_back(labels, displacement, iterations=8, step=4):
+    """Key labels seen from the frame: label of the key pixel each frame pixel comes from.
+
+    The inverse of the (smooth) displacement is solved on every ``step``-th
+    pixel and interpolated in between.
+    """
     h, w = labels.shape
-    ys, xs = np.mgrid[:h, :w].astype(float)
+    ys, xs = np.mgrid[0:h:step, 0:w:step].astype(float)
     px, py = xs.copy(), ys.copy()
     for _ in range(iterations):  # p + u(p) = y, solved by fixed-point iteration
         ux = ndimage.map_coordinates(displacement[..., 0], [py, px], order=1, mode="nearest")
         uy = ndimage.map_coordinates(displacement[..., 1], [py, px], order=1, mode="nearest")
         px, py = xs - ux, ys - uy
-    ix = np.clip(np.rint(px), 0, w - 1).astype(int)
-    iy = np.clip(np.rint(py), 0, h - 1).astype(int)
+    fy, fx = np.mgrid[:h, :w].astype(float)
+    coarse = [fy / step, fx / step]
+    vx = ndimage.map_coordinates(px - xs, coarse, order=1, mode="nearest")
+    vy = ndimage.map_coordinates(py - ys, coarse, order=1, mode="nearest")
+    ix = np.clip(np.rint(fx + vx), 0, w - 1).astype(int)
+    iy = np.clip(np.rint(fy + vy), 0, h - 1).astype(int)
     return labels[iy, ix]
 
 

@@ -89,7 +89,8 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
         many as keep the coarsest image at least 24 pixels on its short side,
         at most 5.
     radius : int, default 3
-        Largest shift, in pixels of a level, one block-matching step tries.
+        Largest shift, in pixels of a level, one block-matching step tries (one
+        less on the finest level, which refines what the coarser ones found).
     iterations : int, default 3
         Block-matching and regularization rounds per level (twice as many on
         the coarsest).
@@ -149,7 +150,9 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
              else field.sample(lattice.rest * f) / f)
         rounds = iterations * 2 if field is None else iterations
         for _ in range(rounds):
-            proposal, score, active = _match_blocks(src, tgt, blocks, u, radius, stiffness)
+            # The finest level only refines what the coarser ones found: a smaller search.
+            reach = radius if level > 0 else max(1, radius - 1)
+            proposal, score, active = _match_blocks(src, tgt, blocks, u, reach, stiffness)
             weight = np.where(active & (score >= trim), score ** 2, 0.0)
             u, placed = _regularize(lattice, u, proposal, weight)
             u = _fill(u, placed)
