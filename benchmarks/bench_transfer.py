@@ -114,11 +114,12 @@ def run_shot(label, key_ann, frames, truths, rows, reliefs=None):
     """Carry ``key_ann`` through ``frames`` (frames[0] the key); a row per frame with a truth."""
     key_names = _names(key_ann, frames[0])
     relations = _relations(key_ann, key_names)
-    ann, labels, prev = key_ann, None, frames[0]
+    ann, labels, prev, prior = key_ann, None, frames[0], None
     carried_seq = [key_ann]
     for t in range(1, len(frames)):
         start = time.process_time()
-        tr = transfer_annotations(ann, prev, frames[t], key_labels=labels)
+        tr = transfer_annotations(ann, prev, frames[t], key_labels=labels, prior=prior)
+        prior = {e.key: e.match for e in tr.entries}
         cpu = time.process_time() - start
         carried_seq.append(tr.annotations)
         ann, labels, prev = tr.annotations, tr.labels, frames[t]
@@ -139,7 +140,7 @@ def run_shot(label, key_ann, frames, truths, rows, reliefs=None):
                             len(relations)),
             wrong=len(wrong), flagged=len(flagged), caught=len(wrong & flagged), cpu=cpu))
     if reliefs is not None:
-        reliefs.append((label, frames, carried_seq, key_ann))
+        reliefs.append((label, frames, carried_seq, key_ann, truths))
 
 
 def _print_rows(rows):
@@ -216,15 +217,17 @@ def _heights(ann, drawing):
 def _flicker(reliefs):
     print()
     print("flicker: per part and pair of consecutive frames, |change| of mean and peak height "
-          "(drawing px), next to how far the part moved (px); medians over parts")
-    print(f"{'shot':<22} {'frames':>7} {'moved':>6} {'d mean':>7} {'d peak':>7} "
-          f"{'unchanged d mean':>16} {'d peak':>7}")
-    for label, frames, carried, key_ann in reliefs:
+          "(drawing px), next to how far the part moved (px); medians over parts; the truth's "
+          "own annotations where both frames have one")
+    print(f"{'shot':<26} {'frames':>7} {'moved':>6} {'d mean':>7} {'d peak':>7} "
+          f"{'unchanged':>10} {'d peak':>7} {'truth':>7} {'d peak':>7}")
+    for label, frames, carried, key_ann, truths in reliefs:
         got = [_heights(a, f) for a, f in zip(carried, frames)]
         base = [_heights(key_ann, f) for f in frames]
+        true = [None if a is None else _heights(a, f) for a, f in zip(truths, frames)]
         for t in range(1, len(frames)):
             row = []
-            for seq in (got, base):
+            for seq in (got, base, true):
                 a, b = seq[t - 1], seq[t]
                 if a is None or b is None:
                     row.append(None)
@@ -233,10 +236,11 @@ def _flicker(reliefs):
                 row.append((np.median([np.linalg.norm(b[n][2] - a[n][2]) for n in names]),
                             np.median([abs(b[n][0] - a[n][0]) for n in names]),
                             np.median([abs(b[n][1] - a[n][1]) for n in names])))
-            c, u = row
+            c, u, r = row
             cs = "   fails" if c is None else f"{c[0]:>6.1f} {c[1]:>7.2f} {c[2]:>7.2f}"
-            us = "           fails" if u is None else f"{u[1]:>16.2f} {u[2]:>7.2f}"
-            print(f"{label:<22} {t:>3}-{t + 1:<3} {cs} {us}")
+            us = "     fails" if u is None else f"{u[1]:>10.2f} {u[2]:>7.2f}"
+            rs = "       -" if r is None else f"{r[1]:>7.2f} {r[2]:>7.2f}"
+            print(f"{label:<26} {t:>3}-{t + 1:<3} {cs} {us} {rs}")
 
 
 def main():

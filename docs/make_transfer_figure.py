@@ -62,13 +62,14 @@ def main():
     parser.add_argument("--frames", type=int, default=4)
     args = parser.parse_args()
     ann, drawing = load_input(SHOT / "0001.inkray.json")
-    labels, prev = None, drawing
+    labels, prev, prior = None, drawing, None
     top, bottom = [], []
     for n in range(1, args.frames + 1):
         if n > 1:
             _, frame = load_input(SHOT / "0001.inkray.json", drawing=SHOT / f"{n:04d}.png")
-            t = transfer_annotations(ann, prev, frame, key_labels=labels)
+            t = transfer_annotations(ann, prev, frame, key_labels=labels, prior=prior)
             ann, labels, prev = t.annotations, t.labels, frame
+            prior = {e.key: e.match for e in t.entries}
             print(f"frame {n}: match {t.confidence:.2f}, {len(t.warnings)} entries to check")
         chain = ReliefChain(ann, prev)
         top.append(_annotated(ann, prev, chain))

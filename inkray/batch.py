@@ -538,8 +538,10 @@ def carry_state(previous, drawing_path):
     start, cpu = time.perf_counter(), time.process_time()
     try:
         frame = load_drawing(drawing_path)
+        prior = None if previous["transfer"] is None else \
+            {e["key"]: e["match"] for e in previous["transfer"]["entries"]}
         t = transfer_annotations(previous["annotations"], previous["drawing"], frame,
-                                 key_labels=previous["labels"])
+                                 key_labels=previous["labels"], prior=prior)
     except InkrayError as e:
         return {"error": f"carrying to {drawing_path}: {_one_line(e)}"}
     t.annotations.drawing = Path(drawing_path)

@@ -18,9 +18,9 @@ the annotation moves with the registration:
 Names, inflation and profile are kept. Each entry gets a match score: how
 well the drawings agree around its points after registration, lowered where a
 point had to move far to find its part, and for a region by how much of the
-part carried from the key the frame's segmentation gives it. Entries scoring
-below a threshold are named in warnings, ``"order[3]: moved 14 px, match
-0.41: check it"``.
+part carried from the key the frame's segmentation gives it; along a chain
+of frames the scores multiply. Entries scoring below a threshold are named
+in warnings, ``"order[3]: moved 14 px, match 0.41: check it"``.
 """
 
 from dataclasses import dataclass, field, replace
@@ -95,7 +95,7 @@ class Transfer:
 
 
 def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=CHECK,
-                         spacing=8, reach=None):
+                         spacing=8, reach=None, prior=None):
     """Carry the annotation of a key frame onto another frame of the shot.
 
     Parameters
@@ -113,6 +113,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     reach : float, optional
         How far (pixels) a point may move to reach its part; by default four
         lattice spacings.
+    prior : dict, optional
+        The key's own match per entry key (``{"order[3]": 0.4}``) when the key
+        was itself carried: matches multiply along a chain of frames, so an
+        entry that went wrong stays flagged on the frames carried after it.
 
     Returns
     -------
@@ -182,8 +186,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
 
     entries, warnings = [], []
 
+    prior = {} if prior is None else prior
+
     def check(key_path, moved, match, name=None):
-        match = float(np.clip(match, 0, 1))
+        match = float(np.clip(match, 0, 1)) * float(prior.get(key_path, 1.0))
         flagged = match < threshold
         entries.append(EntryCheck(key=key_path, moved=float(moved), match=match, flagged=flagged,
                                   name=name))
