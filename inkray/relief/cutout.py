@@ -103,7 +103,7 @@ class Split:
         x, y = self.where
         return (f"region {self.name!r} must be split: it is over {self.under_name!r} near "
                 f"({x:.0f}, {y:.0f}) but under it elsewhere, which no single layer stack holds "
-                f"(--split-local splits it)")
+                f"(split_local splits it)")
 
 
 @dataclass
