@@ -503,11 +503,14 @@ def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
     if hidden.any():
         # The continued outline's edge: pixels whose nearest pixel of the part is hidden, beyond
         # the part only under the parts in front; the padding's own edge only there.
-        for part in (shp, grw):
+        padded = not np.array_equal(grw, shp)
+        for part in (shp, grw) if padded else (shp,):
             d = _signed_distance(part)
+            if part is shp:
+                d_shape = d
             _, (iy, ix) = ndimage.distance_transform_edt(~part, return_indices=True)
             mine = (part & ~vis) | (~part & below & (part & ~vis)[iy, ix] & (d > -1.5))
-            if part is grw:
+            if part is not shp:
                 mine &= below
             edge |= mine
             sd = np.where(mine, d, sd)
@@ -526,7 +529,7 @@ def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
         inset = _inset(alpha, drawn)
         a = np.clip(sd + 0.5 - inset, 0.0, 1.0)
         # The stroke lies within ``width`` of the completed silhouette (not of the padding).
-        ss = _signed_distance(shp) - inset
+        ss = d_shape - inset
         cover = np.clip(np.minimum(ss + 0.5, width) - np.maximum(ss - 0.5, 0.0), 0.0, 1.0)
         k = np.divide(cover, a, out=np.zeros_like(a), where=a > 0).clip(0.0, 1.0)[..., None]
         out = np.where(edge[..., None], out * (1 - k) + colour * k, out)
