@@ -734,7 +734,16 @@ function zoomTo_(s, x, y) {
   S.view = { s: next, tx: x - ((x - tx) * next) / s0, ty: y - ((y - ty) * next) / s0 };
   applyView();
 }
-S.setZoom = (s) => zoomTo_(s);
+// For scripts and tests: scale ``s`` (screen pixels per drawing pixel), centred on drawing
+// point ``at`` when given.
+S.setZoom = (s, at) => {
+  zoomTo_(s);
+  if (!at) return;
+  const vp = $("viewport").getBoundingClientRect();
+  S.view.tx = vp.width / 2 - (at[0] + 0.5) * S.view.s;
+  S.view.ty = vp.height / 2 - (at[1] + 0.5) * S.view.s;
+  applyView();
+};
 
 function zoomAt(e, factor) {
   const [x, y] = viewportPoint(e);
