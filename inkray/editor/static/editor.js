@@ -282,12 +282,28 @@ function refresh() {
   render();
 }
 
-function setImage(kind, blob) {
+async function setImage(kind, blob) {
   const url = URL.createObjectURL(blob);
   if (S.urls[kind]) URL.revokeObjectURL(S.urls[kind]);
   S.urls[kind] = url;
   $(kind).src = url;
   $(kind).parentElement.classList.remove("stale");
+  if (kind === "depth") {
+    await $(kind).decode().catch(() => {});
+    S.depthFlat = isFlat($(kind));
+  }
+}
+
+// Whether an image has one value everywhere (a depth map nothing orders yet).
+function isFlat(img) {
+  const c = document.createElement("canvas");
+  c.width = Math.min(img.naturalWidth, 128);
+  c.height = Math.min(img.naturalHeight, 128);
+  const g = c.getContext("2d");
+  g.drawImage(img, 0, 0, c.width, c.height);
+  const d = g.getImageData(0, 0, c.width, c.height).data;
+  for (let i = 4; i < d.length; i += 4) if (d[i] !== d[0]) return false;
+  return true;
 }
 
 function markStale(kind, generation) {
@@ -638,7 +654,7 @@ function renderMessages() {
     if (!e || seen.has(e.error)) continue;
     seen.add(e.error);
     const words = e.plain ? `${e.plain.charAt(0).toUpperCase()}${e.plain.slice(1)}.` : e.error;
-    const prefix = kind === "document" || kind === "save" ? "" : `${kind}: `;
+    const prefix = kind === "document" || kind === "save" || e.plain ? "" : `${kind}: `;
     out += `<button class="message" data-paths="${escapeHtml(JSON.stringify(e.paths || []))}">` +
       `${escapeHtml(prefix + words)}${e.plain ? `<br><span class="detail">${escapeHtml(e.error)}</span>` : ""}</button>`;
   }
@@ -653,6 +669,10 @@ function renderPreviewNotes() {
   let depth = "";
   if (!hasEntries(doc)) depth = "No depth map yet: scribble inside the parts of the character (R), or draw an order arrow (O).";
   else if (depthError && !$("depth").getAttribute("src")) depth = `No depth map: ${depthError.plain || depthError.error}`;
+  else if (S.depthFlat && $("depth").getAttribute("src")) {
+    depth = "One depth everywhere: nothing says yet which part is in front. Draw an order arrow (O) " +
+      "from a part in front to the part behind it.";
+  }
   $("depth-note").textContent = depth;
   let relief = "";
   const model = S.reliefView && S.reliefView.model;
