@@ -288,8 +288,9 @@ class EditSession:
 
         A part of the drawing is an area of paper enclosed by ink; a scribble
         extends the region that already has a scribble in the part under
-        most of its pixels (``current`` first when several do), and starts a
-        new region in a part no region holds.
+        most of its pixels (``current`` first when several do, then the one
+        the segmentation gives most of its pixels to), and starts a new
+        region in a part no region holds.
 
         Parameters
         ----------
@@ -307,11 +308,20 @@ class EditSession:
             return None
         with self._state:
             regions = self._doc.get("regions", [])
+            chain = self._chain
         holders = [i for i, r in enumerate(regions)
                    if any(_majority(parts, line, every=True) & {part} for line in r["scribbles"])]
+        if not holders:
+            return None
         if current in holders:
             return current
-        return holders[0] if holders else None
+        if len(holders) > 1 and chain.segmented:
+            # parts joined through a gap in the ink: the region the segmentation gives the
+            # scribble's pixels to
+            rows, cols = polyline_pixels(np.asarray(points, float).reshape(-1, 2), parts.shape)
+            votes = np.bincount(chain.segmentation.labels[rows, cols] + 1, minlength=len(regions) + 1)
+            return max(holders, key=lambda i: votes[i + 1])
+        return holders[0]
 
     def outline_path(self, start, end):
         """A boundary path from ``start`` to ``end`` along the nearest region outline.
