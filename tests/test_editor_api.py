@@ -582,9 +582,14 @@ def test_scribble_region_is_the_part_under_the_scribble(turtle):
             return _json(call(url + "/api/scribble-region", "POST",
                               {"points": points, "current": current}))[1]["region"]
 
+        edge = _json(call(url + "/api/scribble-region", "POST",
+                          {"points": [[30, 30], [40, 40]]}))[1]["edge"]
+        inner = _json(call(url + "/api/scribble-region", "POST",
+                           {"points": [[300, 250], [320, 260]]}))[1]["edge"]
         shell = region([[300, 250], [320, 260]])
         head = region([[110, 265], [120, 270]])
         paper = region([[30, 30], [40, 40]])
         bad = call(url + "/api/scribble-region", "POST", {"points": "here"})
     assert names[shell] == "shell" and names[head] == "head" and paper is None
+    assert edge and not inner
     assert bad[0] == 422 and b"[x, y] points" in bad[2]

@@ -164,6 +164,8 @@ def test_fields_refused_edit_move_delete_and_a_contradiction(page, tmp_path):
         _drag(page, [first["back"], first["front"]])
         _wait_previews(page, 4)
         assert "contradict" in page.text_content("#error")
+        assert page.get_attribute("#relief", "data-last-good") == "true"  # the last good relief
+        assert "last good relief" in page.text_content("#relief-badge")
         bad = page.eval_on_selector_all("#marks .entry.bad", "els => els.map((e) => e.dataset.key)")
     assert set(bad) == {"order[0]", f"order[{len(doc['order']) - 1}]"}
 

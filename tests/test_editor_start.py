@@ -45,8 +45,14 @@ def test_the_first_five_minutes_on_a_new_drawing(page, tmp_path):
         assert "needs at least one region" in page.text_content("#relief-note")
         assert "No depth map yet" in page.text_content("#depth-note")
 
-        # a scribble per part, each named at once
+        # a region scribble on the paper around the fish: said to be background, not kept
         page.keyboard.press("r")
+        drag(page, [[20, 20], [40, 30]])
+        page.wait_for_selector("#error:not([hidden])")
+        assert "Background (B)" in page.text_content("#error")
+        assert page.evaluate("window.inkray.doc.regions.length") == 0 and session.generation == 0
+
+        # a scribble per part, each named at once
         parts = [("body", [[150, 150], [200, 165]]), ("tail", [[55, 150], [70, 165]]),
                  ("fin_top", [[235, 75], [260, 80]]), ("fin_bottom", [[250, 240], [265, 248]]),
                  ("fin_side", [[255, 160], [275, 170]]), ("eye", [[368, 138], [372, 142]])]
@@ -54,7 +60,7 @@ def test_the_first_five_minutes_on_a_new_drawing(page, tmp_path):
             drag(page, scribble)
             _name_new_region(page, name)
             wait_previews(page, 2 * g + 2)  # the scribble, then the name
-        assert "unsaved" in page.text_content("#status")
+        assert "unsaved" in page.text_content("#status") and page.is_hidden("#error")
         # a second scribble in the body extends it
         drag(page, [[320, 190], [340, 180]])
         wait_previews(page, 13)

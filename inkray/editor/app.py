@@ -152,11 +152,12 @@ def editor_app(session, *, allowed_hosts=None):
             (points,), body = await points_of(request, ("points",))
             current = body.get("current")
             current = current if isinstance(current, int) else None
-            region = await anyio.to_thread.run_sync(
-                lambda: session.scribble_region(points, current=current))
+            region, edge = await anyio.to_thread.run_sync(
+                lambda: (session.scribble_region(points, current=current),
+                         session.on_edge(points)))
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
-        return JSONResponse({"region": region}, headers=_NO_STORE)
+        return JSONResponse({"region": region, "edge": edge}, headers=_NO_STORE)
 
     async def preview(request):
         name = request.path_params["name"]

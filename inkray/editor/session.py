@@ -323,6 +323,14 @@ class EditSession:
             return max(holders, key=lambda i: votes[i + 1])
         return holders[0]
 
+    def on_edge(self, points):
+        """Whether the paper part under most of the polyline ``points`` touches the
+        drawing's edge (the paper around the character, mostly)."""
+        parts = self._paper_parts()
+        part = _majority(parts, points)
+        edge = np.concatenate([parts[0], parts[-1], parts[:, 0], parts[:, -1]])
+        return part is not None and bool((edge == part).any())
+
     def outline_path(self, start, end):
         """A boundary path from ``start`` to ``end`` along the nearest region outline.
 

@@ -910,9 +910,18 @@ async function regionScribble(doc, pts, shift) {
   const regions = list(doc, "regions");
   let i = null;
   if (shift && S.region >= 0 && S.region < regions.length) i = S.region;
-  else if (!S.newRegion && regions.length) {
+  else {
     const { ok, answer } = await postJSON("/api/scribble-region", { points: pts, current: S.region });
-    if (ok) i = answer.region;
+    if (ok && answer.edge && !(doc.background || []).length) {
+      // Without a background scribble the drawing's edge is background: a region in the
+      // paper around the character would keep little more than its own scribble.
+      S.errors.document = { error: "This scribble lies on the paper around the character, which " +
+        "the drawing's edge makes background: scribble it with Background (B), or add a " +
+        "background scribble first.", paths: [] };
+      render();
+      return;
+    }
+    if (ok && !S.newRegion && regions.length) i = answer.region;
   }
   const fresh = i === null || i === undefined;
   if (fresh) {
