@@ -165,6 +165,10 @@ def test_a_problem_row_selects_its_entry_and_repeats_are_folded(page, tmp_path):
         warnings = page.evaluate("window.inkray.warnings")
         unscribbled = [w for w in warnings if w.startswith("unscribbled area")]
         assert len(unscribbled) >= 2
+        # the toolbar says how many, one click from the list
+        assert page.text_content("#problems-button").startswith(f"⚠ {len(warnings)} problem")
+        page.click("#problems-button")
+        assert page.locator("#warnings").is_visible()
         # one row for them all, which opens to each
         assert page.locator("#warnings > li > details").count() == 1
         assert page.locator("#warnings details li").count() == len(unscribbled)

@@ -584,6 +584,8 @@ function renderWarnings() {
   if (ul.dataset.shown === shown) return;
   ul.dataset.shown = shown;
   $("problem-count").textContent = all.length ? `(${all.length})` : "";
+  $("problems-button").hidden = !all.length;
+  $("problems-button").textContent = `⚠ ${all.length} problem${all.length === 1 ? "" : "s"}`;
   const groups = new Map();
   for (const w of all) {
     const g = warningGroup(w);
@@ -1115,6 +1117,12 @@ async function start() {
   $("zoom-out").addEventListener("click", () => zoomTo_(S.view.s / 1.5));
   $("zoom-level").addEventListener("click", () => zoomTo_(1));
   $("save").addEventListener("click", save);
+  $("problems-button").addEventListener("click", () => {
+    $("problems-panel").open = true;
+    $("problems-panel").scrollIntoView({ block: "start" });
+    const first = $("warnings").querySelector("button, summary");
+    if (first) first.focus();
+  });
   $("add-region").addEventListener("click", newRegion);
   $("guide-close").addEventListener("click", () => { S.guideClosed = true; render(); });
   $("autosave-keep").addEventListener("click", () => { $("autosave-banner").hidden = true; });
