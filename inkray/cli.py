@@ -510,7 +510,16 @@ def _cmd_edit(args, progress):
     from inkray.editor.server import serve
     from inkray.editor.session import EditSession
 
-    session = EditSession(args.annotation, drawing=args.drawing)
+    if Path(args.annotation).suffix.lower() in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp",
+                                                ".webp"):
+        from inkray.editor.shot import open_shot
+
+        if args.drawing is not None:
+            raise InputError(f"--drawing: {args.annotation} is a frame of a shot, whose "
+                             f"annotation is carried from its keys; leave --drawing out")
+        session = open_shot(args.annotation)
+    else:
+        session = EditSession(args.annotation, drawing=args.drawing)
     if session.restored:
         print(f"inkray edit: restored unsaved changes from {session.autosave} "
               f"({args.annotation} is unchanged until you save)", file=sys.stderr)
@@ -707,7 +716,9 @@ def _parser():
                            help="samples per pixel of the GI render, denoised (default: 4)")
     ed = p["edit"]
     ed.add_argument("annotation", metavar="ANN",
-                    help="annotation file (.inkray.json); a new one is started when missing")
+                    help="annotation file (.inkray.json); a new one is started when missing. "
+                         "A drawing (FRAME.png) opens a frame of a shot: its folder's frames, "
+                         "the annotation carried from the nearest key (FRAME.inkray.json)")
     ed.add_argument("--drawing", metavar="PATH",
                     help="drawing file (needed for a new annotation; overrides the 'drawing' key)")
     ed.add_argument("--host", default="127.0.0.1",

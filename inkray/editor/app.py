@@ -19,7 +19,11 @@ Endpoints (a public contract, see ``docs/editor.md``):
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
   at half resolution (the first answer after an edit);
-- ``GET /api/relations`` the user's and predicted relations and the warnings.
+- ``GET /api/relations`` the user's and predicted relations and the warnings;
+- ``GET /api/shot`` the shot being stepped through (``inkray edit FRAME.png``):
+  its frames, keys, the current frame and its entries to check (404 when the
+  session edits one file); ``POST /api/shot/open`` ``{"frame"}`` edits that
+  frame instead (see :mod:`inkray.editor.shot`).
 """
 
 import io
@@ -75,7 +79,7 @@ def editor_app(session, *, allowed_hosts=None):
     >>> [route.path for route in editor_app(s).routes][:4]
     ['/', '/api/info', '/api/drawing.png', '/api/annotations']
     """
-    drawing_png = _png(session.drawing.rgb)
+    drawing_png = {}  # the drawing's PNG, made again when a shot's next frame is opened
 
     async def page(request):
         return FileResponse(STATIC / "index.html", headers=_NO_STORE)
@@ -89,7 +93,10 @@ def editor_app(session, *, allowed_hosts=None):
                             headers=_NO_STORE)
 
     async def drawing(request):
-        return Response(drawing_png, media_type="image/png")
+        shown = session.drawing
+        if drawing_png.get("of") is not shown:
+            drawing_png.update(of=shown, png=_png(shown.rgb))
+        return Response(drawing_png["png"], media_type="image/png", headers=_NO_STORE)
 
     async def annotations(request):
         if request.method == "PUT":
@@ -202,6 +209,7 @@ def editor_app(session, *, allowed_hosts=None):
         Route("/api/scribble-region", scribble_region, methods=["POST"]),
         Route("/api/preview/{name}", preview),
         Route("/api/relations", relations),
+        *_shot_routes(session),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []
@@ -254,3 +262,34 @@ def _png(rgb):
     buf = io.BytesIO()
     Image.fromarray(rgb).save(buf, format="PNG")
     return buf.getvalue()
+
+
+def _shot_routes(session):
+    """``GET /api/shot`` and ``POST /api/shot/open`` (:mod:`inkray.editor.shot`)."""
+
+    async def shot(request):
+        if session.shot is None:
+            return _error(404, "not editing a shot (open a frame's drawing: inkray edit FRAME.png)")
+        try:
+            value = await anyio.to_thread.run_sync(session.shot.describe)
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return JSONResponse(dict(value, generation=session.generation), headers=_NO_STORE)
+
+    async def open_frame(request):
+        if session.shot is None:
+            return _error(404, "not editing a shot (open a frame's drawing: inkray edit FRAME.png)")
+        raw = await _body(request, _MAX_POINTS_BODY)
+        try:
+            frame = json.loads(raw or b"null")["frame"]
+            if not isinstance(frame, str):
+                raise TypeError
+        except (ValueError, TypeError, KeyError):
+            return _error(400, 'expected a JSON object {"frame": NAME}')
+        try:
+            value = await anyio.to_thread.run_sync(session.shot.open, session, frame)
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return JSONResponse(dict(value, generation=session.generation), headers=_NO_STORE)
+
+    return [Route("/api/shot", shot), Route("/api/shot/open", open_frame, methods=["POST"])]

@@ -120,6 +120,10 @@ class EditSession:
     drawing : str or pathlib.Path, optional
         The drawing; needed when ``path`` does not exist or has no
         ``drawing`` key.
+    document : dict, optional
+        The document to start from when ``path`` does not exist (its
+        ``drawing`` key the drawing's path relative to ``path``), e.g. a
+        frame's annotation carried from a key; default an empty annotation.
 
     Attributes
     ----------
@@ -143,7 +147,10 @@ class EditSession:
     ([512, 512], 0, False)
     """
 
-    def __init__(self, path, *, drawing=None):
+    #: The :class:`inkray.editor.shot.Shot` whose frames this session steps through, if any.
+    shot = None
+
+    def __init__(self, path, *, drawing=None, document=None):
         self.path = Path(path)
         self.autosave = autosave_path(self.path)
         self.restored = False
@@ -161,7 +168,9 @@ class EditSession:
             image_path = Path(drawing)
             doc = None
         self.drawing = load_drawing(image_path)
-        if doc is None:
+        if doc is None and document is not None:
+            doc = document
+        elif doc is None:
             w, h = self.drawing.size
             rel = Path(_relative(image_path, self.path.parent)).as_posix()
             doc = {"format": FORMAT, "version": VERSION, "drawing": rel, "size": [w, h],
@@ -360,6 +369,34 @@ class EditSession:
             return {"path": path, "region": seg.names[region]}
 
         return self._newest(compute, lock="relief", wrap=False)
+
+    def switch(self, path, *, drawing=None, document=None):
+        """Edit another annotation file in this session (the next frame of a shot).
+
+        The parameters are those of :class:`EditSession`. The generation goes
+        on from the current one, so no answer for the previous file is taken
+        for one of the new; work under way for it stops at its next stage.
+
+        Returns
+        -------
+        int
+            The new generation.
+
+        Raises
+        ------
+        InputError
+            As :class:`EditSession`; nothing changes.
+        """
+        fresh = EditSession(path, drawing=drawing, document=document)
+        kept = ("_locks", "_state", "_autosave_lock", "_files_lock", "generation", "_closed")
+        with self._state:
+            for name, value in vars(fresh).items():
+                if name not in kept:
+                    setattr(self, name, value)
+            self.generation += 1
+            generation = self.generation
+        self._set(self._doc)  # the chain's progress answers to this session
+        return generation
 
     def close(self):
         """Stop the work under way (at its next stage) and refuse new previews."""

@@ -2,6 +2,7 @@
 // Everything goes through the HTTP API (docs/editor.md); the page keeps the document it
 // shows in step with the server's: an edit the server refuses is taken back.
 import { ReliefView } from "/static/relief.js";
+import { startShot } from "/static/shot.js";
 
 const $ = (id) => document.getElementById(id);
 const NAME = /^[A-Za-z0-9_-]+$/;
@@ -19,7 +20,7 @@ const S = {
   selectedRelation: null, hover: null, relations: [], warnings: [], errors: {}, plain: {},
   view: { s: 1, tx: 0, ty: 0 }, draft: null, drag: null, pending: null, spot: null,
   space: false, controller: null, busy: new Set(), reliefView: null, urls: {}, path: "",
-  fitScale: 1,
+  fitScale: 1, checks: [], shot: null,
 };
 window.inkray = S;  // for scripts and tests: the document and state the page shows
 
@@ -388,7 +389,7 @@ const ENTRY = /\b(regions|background|order|equal|boundaries)\[(\d+)\](\.scribble
 
 function warningPaths() {
   const out = [];
-  for (const w of S.warnings || []) for (const m of w.matchAll(ENTRY)) out.push(m[0]);
+  for (const w of [...(S.warnings || []), ...S.checks]) for (const m of w.matchAll(ENTRY)) out.push(m[0]);
   return out;
 }
 
@@ -579,7 +580,7 @@ function renderWarnings() {
   const ul = $("warnings");
   const problems = [];
   for (const [kind, e] of Object.entries(S.errors)) if (e && kind !== "document" && kind !== "save") problems.push(e.error);
-  const all = [...new Set(problems), ...(S.warnings || [])];
+  const all = [...new Set(problems), ...S.checks, ...(S.warnings || [])];
   const shown = JSON.stringify([all, S.selection]);
   if (ul.dataset.shown === shown) return;
   ul.dataset.shown = shown;
@@ -1162,6 +1163,7 @@ async function start() {
   setTool("select");
   fit();
   refresh();
+  startShot(S, { render, save, dirty, setStatus });
 }
 
 start();
