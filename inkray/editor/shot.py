@@ -110,13 +110,12 @@ class Shot:
         step = plan[name]
         if step["source"] is None:
             return None, None
-        key = step["key"]
-        stat = os.stat(key)
-        signature = (key, stat.st_mtime_ns, stat.st_size)
+        signature = _signature(step["key"])
         with self._lock:
-            # States of a key that changed or is no longer the key are stale.
-            self._states = {k: v for k, v in self._states.items() if k[1:] == signature
-                            or plan.get(k[0], {}).get("key") == k[1]}
+            # States carried from a key that changed, or from what is no longer the frame's
+            # key (a frame saved between them), are stale.
+            self._states = {k: v for k, v in self._states.items()
+                            if plan.get(k[0], {}).get("key") == k[1] and k[1:] == _signature(k[1])}
             state = None
             for frame in _chain_of(plan, name):
                 cached = self._states.get((frame,) + signature)
@@ -216,3 +215,12 @@ def open_shot(frame):
                           document=document)
     session.shot = shot
     return session
+
+
+def _signature(key):
+    """The key file as its carried states depend on it: path, time written and size."""
+    try:
+        stat = os.stat(key)
+    except OSError as e:
+        raise InputError(f"{key}: cannot read the key ({e.strerror or e})") from None
+    return (key, stat.st_mtime_ns, stat.st_size)
