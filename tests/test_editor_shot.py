@@ -13,8 +13,9 @@ import re
 import numpy as np
 import pytest
 
-from _editor import browser_or_skip, call, open_page, running
+from _editor import browser_or_skip, call, drag, open_page, running
 
+from inkray.cli import main
 from inkray.editor.shot import Shot, open_shot
 from inkray.errors import InputError
 
@@ -125,19 +126,32 @@ def test_a_folder_without_a_key_is_refused(shot):
         Shot(shot / "0042.png")
 
 
+def test_the_command_line_refuses_a_frame_without_a_key(shot, capsys):
+    (shot / "0001.inkray.json").unlink()
+    assert main(["edit", str(shot / "0002.png"), "--no-browser", "--port", "0"]) == 2
+    assert "no key frame" in capsys.readouterr().err
+    assert main(["edit", str(shot / "0002.png"), "--drawing", str(shot / "0001.png"),
+                 "--no-browser"]) == 2
+    assert "--drawing" in capsys.readouterr().err
+    assert sorted(p.name for p in shot.iterdir()) == [f"{n}.png" for n in FRAMES]
+
+
+def _frame_shown(page, name):
+    page.wait_for_function(f"document.body.dataset.frame === '{name}' && "
+                           "document.getElementById('drawing').complete")
+
+
 def test_the_page_steps_to_the_next_frame(shot):
     sync_api = browser_or_skip()
     session = open_shot(shot / "0003.png")
     with running(session) as base, open_page(sync_api) as page:
         page.goto(base + "/")
-        page.wait_for_function("document.body.dataset.frame === '0003' && "
-                               "document.getElementById('drawing').complete")
+        _frame_shown(page, "0003")
         before = _drawing_digest(page)
         assert page.locator("#marks g.entry.warn").count() == 0
         assert page.locator("#shot-frame").text_content() == "frame 0003 (3/4)"
         page.click("#shot-next")
-        page.wait_for_function("document.body.dataset.frame === '0004' && "
-                               "document.getElementById('drawing').complete")
+        _frame_shown(page, "0004")
         page.wait_for_selector("#marks g.entry.warn")
         warned = page.eval_on_selector_all("#marks g.entry.warn", "gs => gs.map((g) => g.dataset.key)")
         assert "order[0]" in warned and "regions[1].scribbles[0]" in warned
@@ -145,6 +159,19 @@ def test_the_page_steps_to_the_next_frame(shot):
         assert page.locator("#warnings").text_content().count("check it") >= 2
         assert _drawing_digest(page) != before
         assert not (shot / "0003.inkray.json").exists()  # nothing edited: nothing saved
+
+        # An edit (a background scribble), then the previous frame by its key: the edited
+        # frame is saved first, and it is a key when the page comes back to it.
+        page.keyboard.press("b")
+        drag(page, [[8, 112], [60, 114]])
+        page.wait_for_function("document.body.dataset.dirty === 'true'")
+        page.keyboard.press(",")
+        _frame_shown(page, "0003")
+        saved = json.loads((shot / "0004.inkray.json").read_text())
+        assert len(saved["background"]) == 2 and saved["drawing"] == "0004.png"
+        page.click("#shot-next")
+        _frame_shown(page, "0004")
+        assert page.locator("#shot-source").text_content() == "key frame"
 
 
 def _drawing_digest(page):
