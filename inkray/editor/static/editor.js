@@ -721,7 +721,8 @@ function setStatus(text) {
   const el = $("status");
   const d = dirty();
   el.classList.toggle("dirty", d);
-  const state = d ? "unsaved changes" : S.saved || S.baseText !== S.loadedText ? "saved" : "new file, nothing to save yet";
+  const state = d ? "unsaved changes" : S.saved || S.baseText !== S.loadedText ? "saved" :
+    S.shot && S.shot.key !== null ? "carried, not saved (saving makes it a key)" : "new file, nothing to save yet";
   el.textContent = text || [state, S.busy.size ? "computing previews…" : ""].filter(Boolean).join(" · ");
   document.body.dataset.busy = String(S.busy.size > 0);
   document.body.dataset.dirty = String(d);
