@@ -1,0 +1,246 @@
+"""Pictures of a posed relief: the drawing carried by its deformed triangles, front part on top.
+
+A posed relief (:mod:`inkray.relief.posing`) has the rest relief's parts,
+faces and heights with moved ``(x, y)``. Drawing it follows the front view of
+Ink-and-Ray (Sýkora et al., TOG 2014, section 6) and the layered deformation
+of Igarashi et al. ("As-rigid-as-possible shape manipulation", SIGGRAPH
+2005): every output pixel shows the part whose surface is highest there (a
+z-buffer over the relief's heights, so local order such as interlocking
+rings holds pixel by pixel), and its colour is the part's completed cut-out
+layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
+through the barycentric coordinates of the triangle that covers it. Where the
+layer does not reach (the outer edge of a contour stroke the mesh covers),
+the drawing shows. The silhouette's edge is anti-aliased by the signed
+distance of the pixel centre to the posed outline.
+"""
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from inkray.errors import InputError
+from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
+from inkray.relief.model import Relief
+from inkray.relief.posing import Posing, rig_relief
+from inkray.view.rasterization import rasterize
+
+__all__ = ["PosedDrawing", "posed_image", "posed_layers"]
+
+
+class PosedDrawing:
+    """An annotated drawing ready to pose: its rig, its cut-out layers and one set of handles.
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    completion : inkray.relief.completion.Completion
+        The ordered completion of the relief.
+    relations : list of inkray.relief.ordering.Relation
+    drawing : inkray.input.drawing.Drawing
+    handles : (k, 2) float array
+        Points on the drawing.
+    boundaries : list of inkray.input.annotations.Boundary, optional
+
+    Attributes
+    ----------
+    rig : inkray.relief.posing.Rig
+    posing : inkray.relief.posing.Posing
+    cutout : inkray.relief.cutout.Cutout
+        The rest layers (their colours are what the posed parts carry).
+    """
+
+    def __init__(self, relief, completion, relations, drawing, handles, *, boundaries=()):
+        self.rig = rig_relief(relief, completion, boundaries=boundaries)
+        self.posing = Posing(self.rig, handles)
+        self.cutout = cut_out(completion, relations, drawing)
+        self.drawing = drawing
+
+    def positions(self, targets, *, iterations=4):
+        """Rig vertex positions with the handles at ``targets`` (warm-started, no folds)."""
+        return self.posing.pose(targets, iterations=iterations)[0]
+
+    def relief(self, positions):
+        """The posed relief (the rest relief's parts, vertices and faces, moved)."""
+        return self.rig.posed_relief(positions)
+
+    def image(self, positions, *, antialias=True):
+        """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`)."""
+        return posed_image(self.relief(positions), self.rig.relief, self.cutout,
+                           self.drawing.rgb, antialias=antialias)[0]
+
+    def layers(self, positions):
+        """The posed cut-out stack (see :func:`posed_layers`)."""
+        return posed_layers(self.relief(positions), self.rig.relief, self.cutout,
+                            self.drawing.rgb)
+
+
+def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
+    """The posed drawing as RGBA: the character opaque, the rest transparent.
+
+    Parameters
+    ----------
+    posed, rest : inkray.relief.model.Relief
+        The same parts and faces; ``posed`` moved.
+    layers : inkray.relief.cutout.Cutout
+        The rest cut-out stack (one layer per region, named after it).
+    drawing_rgb : (H, W, 3) uint8 array
+    antialias : bool, default True
+        Partial alpha along the silhouette.
+
+    Returns
+    -------
+    rgba : (H, W, 4) uint8 array
+    part : (H, W) int array
+        The part each pixel shows, -1 where empty.
+
+    Examples
+    --------
+    >>> from inkray.relief.model import Part
+    >>> v = np.array([[0, 0, 1], [4, 0, 1], [4, 4, 1], [0, 4, 1]], float) - [0.5, 0.5, 0]
+    >>> sq = Relief([Part("sq", v, np.array([[0, 3, 2], [0, 2, 1]]))], size=(8, 4))
+    >>> moved = Relief([Part("sq", v + [4, 0, 0], sq.parts[0].faces)], size=(8, 4))
+    >>> rgb = np.zeros((4, 8, 3), np.uint8); rgb[:, :4] = 200
+    >>> img, part = posed_image(moved, sq, Cutout([], (8, 4)), rgb)
+    >>> img[0, :, 0].tolist(), img[0, :, 3].tolist()
+    ([0, 0, 0, 0, 200, 200, 200, 200], [0, 0, 0, 0, 255, 255, 255, 255])
+    """
+    _check(posed, rest)
+    w, h = rest.size
+    rgb = np.asarray(drawing_rgb)
+    if rgb.shape[:2] != (h, w):
+        raise InputError(f"drawing: {rgb.shape[1]}x{rgb.shape[0]} differs from the relief's "
+                         f"{w}x{h}")
+    by_name = {layer.name: layer for layer in layers.layers if layer.region is None
+               or layer.region >= 0}
+    raster = rasterize(posed)
+    colour, alpha = _colours(raster, rest, by_name, rgb)
+    if antialias:
+        colour, alpha = _antialias(posed, raster.mask, colour, alpha)
+    out = np.zeros((h, w, 4), np.uint8)
+    out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
+    out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
+    return out, raster.part
+
+
+def posed_layers(posed, rest, layers, drawing_rgb):
+    """The cut-out stack with every part's layer carried by its posed triangles.
+
+    Parameters
+    ----------
+    posed, rest : inkray.relief.model.Relief
+    layers : inkray.relief.cutout.Cutout
+        The rest stack; its order (back to front) and names are kept. A
+        layer whose part the relief lacks (the background) is left out.
+    drawing_rgb : (H, W, 3) uint8 array
+
+    Returns
+    -------
+    inkray.relief.cutout.Cutout
+    """
+    _check(posed, rest)
+    names = [p.name for p in rest.parts]
+    out = []
+    for layer in layers.layers:
+        base = layer.name.split(" over ")[0]
+        if base not in names:
+            continue
+        i = names.index(base)
+        one = Relief([posed.parts[i]], size=posed.size)
+        img, part = posed_image(one, Relief([rest.parts[i]], size=rest.size),
+                                Cutout([layer], layers.size), drawing_rgb)
+        keep = img[..., 3] > 0
+        if not keep.any():
+            continue
+        rows, cols = np.flatnonzero(keep.any(axis=1)), np.flatnonzero(keep.any(axis=0))
+        win = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+        out.append(CutoutLayer(name=layer.name, region=layer.region, top=int(rows[0]),
+                               left=int(cols[0]), rgba=img[win],
+                               hidden=np.zeros(img[win].shape[:2], bool)))
+    return Cutout(layers=out, size=layers.size, splits=list(layers.splits), split=layers.split)
+
+
+def _check(posed, rest):
+    if not (isinstance(posed, Relief) and isinstance(rest, Relief)):
+        raise InputError("posed, rest: expected inkray.relief.model.Relief objects")
+    if len(posed.parts) != len(rest.parts) or any(
+            len(a.vertices) != len(b.vertices) or np.shape(a.faces) != np.shape(b.faces)
+            for a, b in zip(posed.parts, rest.parts)):
+        raise InputError("posed: its parts, vertices and faces differ from the rest relief's")
+
+
+def _colours(raster, rest, layers, rgb):
+    """Per pixel: the colour at the rest position of the visible surface point, and coverage."""
+    h, w = raster.part.shape
+    colour = np.zeros((h, w, 3))
+    alpha = raster.mask.astype(float)
+    for i, part in enumerate(rest.parts):
+        sel = raster.part == i
+        if not sel.any():
+            continue
+        f = np.asarray(part.faces)[raster.face[sel]]
+        xy = np.einsum("nk,nkc->nc", raster.bary[sel], np.asarray(part.vertices)[f][..., :2])
+        base = _bilinear(rgb.astype(float), xy)
+        layer = layers.get(part.name)
+        if layer is not None:
+            a = _bilinear(layer.rgba[..., 3:4].astype(float) / 255.0, xy - [layer.left, layer.top],
+                          outside=0.0)
+            premult = _bilinear(layer.rgba[..., :3] * (layer.rgba[..., 3:4] / 255.0),
+                                xy - [layer.left, layer.top], outside=0.0)
+            base = premult + (1.0 - a) * base
+        colour[sel] = base
+    return colour, alpha
+
+
+def _bilinear(image, xy, *, outside=None):
+    """``image`` (h, w, c) at points ``xy`` (x column, y row); clamped, or ``outside`` beyond."""
+    h, w = image.shape[:2]
+    x, y = xy[:, 0], xy[:, 1]
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    out = 0.0
+    for dy, wy in ((0, 1 - fy), (1, fy)):
+        for dx, wx in ((0, 1 - fx), (1, fx)):
+            cx, cy = x0 + dx, y0 + dy
+            v = image[np.clip(cy, 0, h - 1), np.clip(cx, 0, w - 1)]
+            if outside is not None:
+                off = (cx < 0) | (cx >= w) | (cy < 0) | (cy >= h)
+                v = np.where(off[:, None], outside, v)
+            out = out + wx * wy * v
+    return out
+
+
+def _antialias(posed, mask, colour, alpha):
+    """Silhouette alpha from the pixel centres' signed distance to the posed outline."""
+    inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
+    outer = ~mask & ndimage.binary_dilation(mask, structure=np.ones((3, 3)))
+    ring = inner | outer
+    if not ring.any():
+        return colour, alpha
+    segments = []
+    for p in posed.parts:
+        f = np.asarray(p.faces, np.int64).reshape(-1, 3)
+        e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+        edges, count = np.unique(e, axis=0, return_counts=True)
+        edges = edges[count == 1]
+        v = np.asarray(p.vertices, float)[:, :2]
+        segments.append(np.stack([v[edges[:, 0]], v[edges[:, 1]]], axis=1))
+    seg = np.concatenate(segments)
+    rows, cols = np.nonzero(ring)
+    pts = np.column_stack([cols, rows]).astype(float)
+    tree = cKDTree(seg.mean(axis=1))
+    _, near = tree.query(pts, k=min(8, len(seg)))
+    near = near.reshape(len(pts), -1)
+    a, b = seg[near, 0], seg[near, 1]
+    d = b - a
+    t = np.clip(np.einsum("nkc,nkc->nk", pts[:, None] - a, d) / np.maximum(
+        np.einsum("nkc,nkc->nk", d, d), 1e-12), 0, 1)
+    dist = np.min(np.linalg.norm(pts[:, None] - (a + t[..., None] * d), axis=2), axis=1)
+    inside = mask[rows, cols]
+    alpha = alpha.copy()
+    alpha[rows, cols] = np.where(inside, np.clip(0.5 + dist, 0.5, 1.0), np.clip(0.5 - dist, 0, 0.5))
+    # A pixel outside takes the colour of the nearest pixel inside.
+    _, (ir, ic) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    colour = colour.copy()
+    orow, ocol = np.nonzero(outer)
+    colour[orow, ocol] = colour[ir[orow, ocol], ic[orow, ocol]]
+    return colour, alpha
