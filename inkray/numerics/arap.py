@@ -29,9 +29,10 @@ drag). A drag warm-starts from the previous pose, so a few iterations suffice.
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
-__all__ = ["Arap", "arap", "arap_energy", "signed_areas", "cotangent_weights"]
+__all__ = ["Arap", "arap", "arap_energy", "signed_areas", "cotangent_weights", "pieces"]
 
 
 def signed_areas(vertices, faces):
@@ -158,6 +159,10 @@ class Arap:
         self._K = self._Q[self._free][:, self._fixed]
         Cf = C[:, self._free].tocsr()
         self._Ck = C[:, self._fixed].tocsr()
+        loose = _unheld(f, G, C, mask)
+        if loose is not None:
+            raise ValueError(f"handles: the piece of the mesh holding vertex {loose} has no handle "
+                             f"and is not fixed")
         k = C.shape[0]
         kkt = sp.bmat([[self._Q[self._free][:, self._free], Cf.T], [Cf, None]], format="csc")
         if k and sp.linalg.norm(Cf) == 0 and len(self._free):
@@ -178,6 +183,11 @@ class Arap:
             vals += [-self._weights[:, k], self._weights[:, k]]
         self._B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                                 shape=(n, 3 * m))
+
+    def reset(self):
+        """Forget the last pose: the next solve starts cold (from the rigid fit of the handles)."""
+        self.pose = self.rest.copy()
+        self._cold = True
 
     def rotations(self, x):
         """Per face, the rotation angle that best fits ``x``'s edges to the rest edges (local step).
@@ -314,6 +324,51 @@ def arap_energy(rest, faces, x, *, weights=None, angles=None):
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     re = np.stack([c * e[..., 0] - s * e[..., 1], s * e[..., 0] + c * e[..., 1]], -1)
     return float(0.5 * np.sum(w * np.sum((d - re) ** 2, axis=-1)))
+
+
+def pieces(n, faces, glue=None):
+    """Connected pieces of a mesh whose vertices faces and glue rows connect.
+
+    Parameters
+    ----------
+    n : int
+        Number of vertices.
+    faces : (m, 3) int array
+    glue : (g, n) sparse matrix, optional
+        Each row connects the vertices it involves.
+
+    Returns
+    -------
+    (n,) int array
+        The piece of every vertex.
+
+    Examples
+    --------
+    >>> pieces(7, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
+    [0, 0, 0, 1, 1, 1, 2]
+    """
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    i = [f[:, 0], f[:, 1], f[:, 2]]
+    j = [f[:, 1], f[:, 2], f[:, 0]]
+    if glue is not None:
+        g = sp.csr_matrix(glue).tocoo()
+        touch = sp.csr_matrix((np.ones(g.nnz), (g.row, g.col)), shape=g.shape)
+        links = (touch.T @ touch).tocoo()
+        i.append(links.row)
+        j.append(links.col)
+    i, j = np.concatenate(i), np.concatenate(j)
+    graph = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _unheld(faces, glue, handles, fixed):
+    """A vertex of a connected piece that no handle or fixed vertex holds, or None."""
+    piece = pieces(len(fixed), faces, glue)
+    held = np.zeros(piece.max() + 1 if len(piece) else 0, bool)
+    held[piece[fixed]] = True
+    held[piece[handles.tocoo().col]] = True
+    free = np.flatnonzero(~held[piece])
+    return int(free[0]) if free.size else None
 
 
 def _rigid_fit(src, dst, points):

@@ -33,10 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
-from scipy.sparse.csgraph import connected_components
 
 from inkray.errors import InputError
-from inkray.numerics.arap import Arap, signed_areas
+from inkray.numerics.arap import Arap, pieces, signed_areas
 from inkray.relief.model import Part, Relief
 
 __all__ = ["Rig", "Join", "Posing", "rig_relief", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
@@ -153,7 +152,9 @@ class Rig:
         for p, idx in zip(self.relief.parts, self.index):
             v = np.array(p.vertices, float)
             v[:, :2] = positions[idx]
-            parts.append(Part(name=p.name, vertices=v, faces=p.faces, closed=p.closed))
+            rest = np.asarray(p.vertices, float)[:, :2] if p.texcoords is None else p.texcoords
+            parts.append(Part(name=p.name, vertices=v, faces=p.faces, closed=p.closed,
+                              texcoords=rest))
         return Relief(parts=parts, size=self.relief.size, texture=self.relief.texture,
                       warnings=list(self.relief.warnings))
 
@@ -194,14 +195,7 @@ class Posing:
         self.parts = part
         n = len(rig.vertices)
         # Pieces (faces and glue connect vertices) without a handle stay where they are.
-        f = rig.faces
-        edges = [f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]
-        g = rig.glue.tocoo()
-        pair = sp.csr_matrix((np.ones(g.nnz), (g.row, g.col)), shape=g.shape)
-        links = (pair.T @ pair).tocoo()
-        e = np.concatenate(edges + [np.column_stack([links.row, links.col])])
-        graph = sp.csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
-        _, piece = connected_components(graph, directed=False)
+        piece = pieces(n, rig.faces, rig.glue)
         held = np.unique(piece[rows.tocoo().col])
         fixed = ~np.isin(piece, held)
         self.fixed = [rig.names[i] for i in range(len(rig.names))

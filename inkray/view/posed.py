@@ -59,6 +59,25 @@ class PosedDrawing:
         """Rig vertex positions with the handles at ``targets`` (warm-started, no folds)."""
         return self.posing.pose(targets, iterations=iterations)[0]
 
+    def frames(self, pose, *, iterations=4):
+        """Rig positions at every frame of ``pose``, each solve warm-started from the one before.
+
+        Parameters
+        ----------
+        pose : inkray.input.pose.Pose
+            Its handles must be this drawing's.
+        iterations : int, default 4
+
+        Returns
+        -------
+        list of (int, (n, 2) float array)
+            ``(frame, positions)`` from the first key's frame to the last's.
+        """
+        if not np.allclose(pose.handles, self.posing.handles):
+            raise InputError("pose: its handles differ from the ones this drawing was prepared for")
+        self.posing.solver.reset()
+        return [(f, self.positions(pose.at(f), iterations=iterations)) for f in pose.frames]
+
     def relief(self, positions):
         """The posed relief (the rest relief's parts, vertices and faces, moved)."""
         return self.rig.posed_relief(positions)
