@@ -411,6 +411,36 @@ def _cmd_layers(args, progress):
     return 0
 
 
+def _cmd_pose(args, progress):
+    from inkray.artefacts import ARTEFACTS
+    from inkray.formats.atomic import check_targets
+    from inkray.input.pose import load_pose
+
+    suffix = Path(args.output).suffix.lower()
+    name = ("posed-animation" if not suffix else "posed" if suffix == ".png" else
+            "posed-layers" if suffix in (".psd", ".ora") else "posed-relief")
+    pose = load_pose(args.pose, limits=_limits(args))
+    single = name != "posed-animation"
+    if not single and args.frame is not None:
+        raise InputError(f"--frame {args.frame}: a folder gets every frame; give a file name "
+                         f"(.png, .psd, ...) for one frame")
+    write = {} if single else dict(frames=pose.frames, fps=args.fps)
+    try:
+        files = ARTEFACTS[name].files(args.output, **write)
+    except InputError as e:
+        raise InputError(f"-o {e}") from None
+    check_targets(files, inputs=[args.pose])
+    _, value, written = _produce(args, progress, name, args.output,
+                                 options=dict(predict=not args.no_predict),
+                                 params=dict(pose=pose, **(dict(frame=args.frame) if single else {})),
+                                 write=write, warn=lambda chain, value: chain.warnings,
+                                 stage="pose")
+    what = f"{len(pose.frames)} frames and {written[-1].name}" if not single else \
+        f"{len(pose.handles)} handles, frame {args.frame if args.frame is not None else pose.keys[0].frame}"
+    print(f"{args.output}: posed ({what})")
+    return 0
+
+
 def _cmd_batch(args, progress):
     from inkray.batch import run_batch
 
@@ -505,6 +535,7 @@ _COMMANDS = {
     "check": (_cmd_check, "mesh-quality report"),
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "pose": (_cmd_pose, "pose the drawing by moving handles (PNG, PSD/ORA, GLB/OBJ/PLY or frames)"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
     "edit": (_cmd_edit, "annotate in the browser with live depth and relief previews"),
@@ -531,7 +562,7 @@ def _parser():
     p = {}
     for name, (_, help_) in _COMMANDS.items():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
-    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps"):
+    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps", "pose"):
         _add_input(p[name])
     p["validate"].add_argument("--json", action="store_true",
                                help="print the result as JSON on stdout (problems with "
@@ -638,6 +669,17 @@ def _parser():
     ly.add_argument("--no-predict", action="store_true",
                     help="use only the annotation's order entries, predict nothing")
     p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    po = p["pose"]
+    po.add_argument("pose", metavar="POSE", help="pose file (.pose.json)")
+    po.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="posed picture (.png), layers (.psd, .ora), relief (.glb, .obj, .ply), "
+                         "or a folder: one PNG per frame and preview.gif")
+    po.add_argument("--frame", type=int, metavar="N",
+                    help="the frame of a single-file output (default: the first key's)")
+    po.add_argument("--fps", type=int, default=12, metavar="N",
+                    help="frame rate of the folder's preview.gif (default: 12)")
+    po.add_argument("--no-predict", action="store_true",
+                    help="use only the annotated depth order (no predicted relations)")
     p["maps"].add_argument("--convention", choices=("opengl", "directx"), default="opengl",
                            help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
                                 "or directx y down (Unreal) (default: opengl)")

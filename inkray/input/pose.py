@@ -29,7 +29,7 @@ from inkray.input.annotations import (_check_keys, _expect, _finite, _is_int, _i
 from inkray.input.files import read_bytes
 from inkray.input.limits import DEFAULT_LIMITS
 
-__all__ = ["Pose", "Key", "load_pose", "parse_pose", "MAX_FRAMES", "MAX_HANDLES"]
+__all__ = ["Pose", "Key", "load_pose", "parse_pose", "pose_path", "MAX_FRAMES", "MAX_HANDLES"]
 
 FORMAT = "inkray-pose"
 VERSION = 1
@@ -108,6 +108,25 @@ class Pose:
         h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
         return (h00 * points[i] + h10 * h * tangents[i] + h01 * points[i + 1]
                 + h11 * h * tangents[i + 1])
+
+
+def pose_path(annotation):
+    """The pose file beside an annotation file: ``X.inkray.json`` -> ``X.pose.json``.
+
+    Examples
+    --------
+    >>> pose_path("shots/a/frame12.inkray.json").as_posix()
+    'shots/a/frame12.pose.json'
+    >>> pose_path("b.json").name
+    'b.pose.json'
+    """
+    path = Path(annotation)
+    name = path.name
+    for suffix in (".inkray.json", ".json"):
+        if name.endswith(suffix):
+            name = name[:-len(suffix)]
+            break
+    return path.with_name(f"{name}.pose.json")
 
 
 def load_pose(path, *, size=None, limits=DEFAULT_LIMITS):

@@ -78,6 +78,22 @@ class PosedDrawing:
         self.posing.solver.reset()
         return [(f, self.positions(pose.at(f), iterations=iterations)) for f in pose.frames]
 
+    def at(self, pose, frame=None, *, iterations=4):
+        """Rig positions at one frame of ``pose`` (default its first key's), as in the animation.
+
+        The frames before it warm-start the solve, so the frame is the same as
+        in :meth:`frames`.
+        """
+        first, last = pose.keys[0].frame, pose.keys[-1].frame
+        f = first if frame is None else frame
+        if not (isinstance(f, (int, np.integer)) and first <= f <= last):
+            raise InputError(f"frame: {f!r} is not a frame of the pose ({first}..{last})")
+        self.posing.solver.reset()
+        x = None
+        for g in range(first, int(f) + 1):
+            x = self.positions(pose.at(g), iterations=iterations)
+        return x
+
     def relief(self, positions):
         """The posed relief (the rest relief's parts, vertices and faces, moved)."""
         return self.rig.posed_relief(positions)
