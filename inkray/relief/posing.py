@@ -52,6 +52,7 @@ JOINT_AREA = 0.1
 _SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
 _LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
 _GLUE_WEIGHT = 10.0
+_RELEASE_REACH = 6.0  # px: glue released around a face that still folds
 
 
 @dataclass
@@ -160,9 +161,13 @@ class Rig:
 
     def folds(self, positions):
         """Number of faces whose orientation flipped against the rest shape."""
+        return len(self.folded(positions))
+
+    def folded(self, positions):
+        """Indices of the faces whose orientation flipped against the rest shape."""
         rest = signed_areas(self.vertices, self.faces)
         now = signed_areas(positions, self.faces)
-        return int(np.sum(np.sign(rest) * now <= 0))
+        return np.flatnonzero(np.sign(rest) * now <= 0)
 
 
 class Posing:
@@ -200,11 +205,8 @@ class Posing:
         fixed = ~np.isin(piece, held)
         self.fixed = [rig.names[i] for i in range(len(rig.names))
                       if fixed[rig.offsets[i]:rig.offsets[i + 1]].all()]
-        try:
-            self.solver = Arap(rig.vertices, rig.faces, handles=rows, glue=rig.glue,
-                               glue_weight=_GLUE_WEIGHT, fixed=np.flatnonzero(fixed))
-        except ValueError as e:
-            raise InputError(f"handles: {e}") from None
+        self._rows, self._fixed, self._glue = rows, np.flatnonzero(fixed), rig.glue.tocsc()
+        self.solver = self._arap(self._glue)
 
     def solve(self, targets, *, iterations=4, initial=None):
         """Rig vertex positions with the handles at ``targets``.
@@ -226,7 +228,12 @@ class Posing:
         return self.solver.solve(t, iterations=iterations, initial=initial)
 
     def pose(self, targets, *, iterations=4, max_iterations=64):
-        """Like :meth:`solve`, but iterates further until no face folds (or ``max_iterations``).
+        """Like :meth:`solve`, but iterates further until no face folds.
+
+        Where a face still folds after ``max_iterations`` rounds, it lies
+        where a glued area meets a free one and the glue pulls it over: the
+        glue rows at its vertices are released (the system factored again
+        without them) and the rounds go on, at most three times.
 
         Returns
         -------
@@ -234,12 +241,35 @@ class Posing:
         iterations : int
             Rounds spent.
         """
-        x = self.solve(targets, iterations=iterations)
+        t = np.asarray(targets, float).reshape(-1, 2)
+        x = self.solve(t, iterations=iterations)
         spent = iterations
-        while self.rig.folds(x) and spent < max_iterations:
-            x = self.solve(targets, iterations=iterations)
-            spent += iterations
+        for _ in range(4):
+            budget = spent + max_iterations
+            while self.rig.folds(x) and spent < budget:
+                x = self.solve(t, iterations=iterations)
+                spent += iterations
+            folded = self.rig.folded(x)
+            if not folded.size or self._glue.shape[0] == 0:
+                break
+            centres = self.rig.vertices[self.rig.faces[folded]].mean(axis=1)
+            d = np.min(np.hypot(*(self.rig.vertices[:, None] - centres[None]).transpose(2, 0, 1)),
+                       axis=1)
+            near = np.flatnonzero(d <= _RELEASE_REACH)
+            touches = np.asarray(abs(self._glue[:, near]).sum(axis=1)).ravel() > 0
+            if not touches.any():
+                break
+            self._glue = self._glue[~touches]
+            self.solver = self._arap(self._glue)
+            self.solver.pose, self.solver._cold = x, False
         return x, spent
+
+    def _arap(self, glue):
+        try:
+            return Arap(self.rig.vertices, self.rig.faces, handles=self._rows, glue=glue,
+                        glue_weight=_GLUE_WEIGHT, fixed=self._fixed)
+        except ValueError as e:
+            raise InputError(f"handles: {e}") from None
 
 
 def rig_relief(relief, completion, *, boundaries=()):
@@ -353,7 +383,7 @@ def _joined_areas(completion):
             mask[grown] = piece
             if cuts == 1 and share < ROOT_CONTACT and area[b] < area[a]:
                 out.append((b, a, "rooted", mask))
-            elif area[a] < area[b] and (share >= ON_TOP_CONTACT
+            elif cuts == 1 and area[a] < area[b] and (share >= ON_TOP_CONTACT
                                         or piece.sum() <= JOINT_AREA * area[a]):
                 out.append((a, b, "on top", mask))
     return out
