@@ -121,3 +121,22 @@ def test_interlocking_rings_pulled_apart_stay_interlocked(rings):
     assert top.sum() > 20 and bottom.sum() > 20            # still overlapping at both crossings
     # ring_a over ring_b at the top crossing, ring_b over ring_a at the bottom one
     assert np.mean(part[top] == a) > 0.8 and np.mean(part[bottom] == b) > 0.8
+
+
+def test_cli_pose_writes_a_picture_and_refuses_a_bad_pose(tmp_path, capsys):
+    from PIL import Image
+
+    from inkray import cli
+
+    ann = str(EXAMPLES / "man" / "drawing.inkray.json")
+    pose = str(EXAMPLES / "man" / "raise-arm.pose.json")
+    out = tmp_path / "posed.png"
+    assert cli.main(["pose", ann, pose, "-o", str(out), "--frame", "6", "--quiet"]) == 0
+    rgba = np.asarray(Image.open(out))
+    assert rgba.shape == (540, 304, 4) and rgba[0, 0, 3] == 0 and (rgba[..., 3] == 255).sum() > 1000
+    bad = tmp_path / "bad.pose.json"
+    bad.write_text('{"format": "inkray-pose", "version": 1, "handles": [[1, 1]], "keys": [{"frame": 0}]}')
+    assert cli.main(["pose", ann, str(bad), "-o", str(tmp_path / "x.png"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "keys[0].to: missing required key" in err[0]
+    assert not (tmp_path / "x.png").exists()
