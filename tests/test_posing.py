@@ -56,7 +56,7 @@ def test_limb_swung_down_meets_handles_without_folds(man):
     glued = np.unique(rig.glue.tocoo().col)
     glued = glued[(glued >= rig.offsets[arm]) & (glued < rig.offsets[arm + 1])]
     shoulder = rig.vertices[glued].mean(axis=0)
-    for degrees in (-30, -60):
+    for degrees in (60, -60):
         a = np.radians(degrees)
         turn = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
         target = np.vstack([pins, shoulder + turn @ (tip - shoulder)])

@@ -32,6 +32,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
+from inkray.numerics.spd import spd_factor
+
 __all__ = ["Arap", "arap", "arap_energy", "signed_areas", "cotangent_weights", "pieces"]
 
 
@@ -110,6 +112,9 @@ class Arap:
         Weight of the glue rows against the (area-scaled) ARAP energy.
     fixed : (n,) bool array or int array, optional
         Vertices held at their rest positions (e.g. pieces no handle reaches).
+    stiffness : (m,) float array, optional
+        Per face, a factor on its energy (default 1): stiffer faces keep
+        their shape at the expense of softer ones.
 
     Attributes
     ----------
@@ -129,7 +134,8 @@ class Arap:
     [[0.0, 0.0], [0.0, 5.0], [0.0, 10.0], [-1.0, 0.0]]
     """
 
-    def __init__(self, vertices, faces, *, handles, glue=None, glue_weight=10.0, fixed=None):
+    def __init__(self, vertices, faces, *, handles, glue=None, glue_weight=10.0, fixed=None,
+                 stiffness=None):
         p = np.asarray(vertices, float)
         f = np.asarray(faces, np.int64)
         if p.ndim != 2 or p.shape[1] != 2 or not np.all(np.isfinite(p)):
@@ -149,40 +155,98 @@ class Arap:
         self.handles = C
         self.pose = p.copy()
         self._cold = True
-        self._weights = cotangent_weights(p, f)
+        self._cot = cotangent_weights(p, f)
+        k = np.ones(len(f)) if stiffness is None else np.asarray(stiffness, float).reshape(-1)
+        if k.shape != (len(f),) or not np.all(np.isfinite(k) & (k > 0)):
+            raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
+        self._weights = self._cot * k[:, None]
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
         self._edges = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
         L = _cotmatrix(f, self._weights, n)
         self._Q = (L + glue_weight * (G.T @ G)).tocsr()
-        self._fixed = np.flatnonzero(mask)
-        self._free = np.flatnonzero(~mask)
-        self._K = self._Q[self._free][:, self._fixed]
-        Cf = C[:, self._free].tocsr()
-        self._Ck = C[:, self._fixed].tocsr()
         loose = _unheld(f, G, C, mask)
         if loose is not None:
             raise ValueError(f"handles: the piece of the mesh holding vertex {loose} has no handle "
                              f"and is not fixed")
-        k = C.shape[0]
-        kkt = sp.bmat([[self._Q[self._free][:, self._free], Cf.T], [Cf, None]], format="csc")
-        if k and sp.linalg.norm(Cf) == 0 and len(self._free):
-            raise ValueError("handles: every handle lies on fixed vertices")
-        try:
-            self._factor = splu(kkt) if kkt.shape[0] else None
-        except RuntimeError:
-            raise ValueError("handles: the system is singular (a piece of the mesh has no handle "
-                             "and is not fixed, or two handles pin the same point)") from None
-        # B maps per-face rotated rest edges to the Laplacian's right-hand side.
-        rows, cols, vals = [], [], []
+        self._fixed = np.flatnonzero(mask)
+        self._eliminate(C, mask)
+        # The global step's right-hand side b = sum over face edges of R_t w e, into the
+        # edge's head (+) and tail (-): b_x = M0 cos - M1 sin, b_y = M0 sin + M1 cos.
         m = len(f)
-        for k in range(3):
-            i, j = f[:, (k + 1) % 3], f[:, (k + 2) % 3]
-            # d/dx_i of w (x_i - x_j - R e)^2 / 2 ... rhs_i -= w R e, rhs_j += w R e
-            rows += [i, j]
-            cols += [np.arange(m) * 3 + k] * 2
-            vals += [-self._weights[:, k], self._weights[:, k]]
-        self._B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                shape=(n, 3 * m))
+        self._tail = np.concatenate([f[:, (k + 1) % 3] for k in range(3)])
+        self._head = np.concatenate([f[:, (k + 2) % 3] for k in range(3)])
+        w = np.concatenate([self._weights[:, k] for k in range(3)])
+        edges = np.concatenate([self._edges[:, k] for k in range(3)])
+        self._we0 = w * edges[:, 0]  # edge k of every face, then k + 1, ...
+        self._we1 = w * edges[:, 1]
+        face = np.tile(np.arange(m), 3)
+        rows = np.concatenate([self._head, self._tail])
+        M = [sp.csr_matrix((np.concatenate([v, -v]), (rows, np.concatenate([face, face]))),
+                           shape=(n, m)) for v in (self._we0, self._we1)]
+        if not self._kkt:
+            M = [self._P.T @ Mi for Mi in M]
+        self._M0, self._M1 = (Mi.tocsr() for Mi in M)
+
+    def _eliminate(self, C, mask):
+        """Factor the global step with the handle rows met exactly.
+
+        Each handle row ``c . x = t`` is solved for one of its vertices (the
+        pivot, its largest weight) where pivots can be chosen apart (no pivot
+        in another row): ``x = P y + D t + H x_fixed`` over the remaining
+        vertices ``y``, and ``P^T Q P`` is symmetric positive definite.
+        Otherwise (handles sharing all their vertices) the rows are Lagrange
+        rows of a KKT system.
+        """
+        n = C.shape[1]
+        Ccsr = C.tocsr()
+        used = np.zeros(n, int)
+        np.add.at(used, C.tocoo().col, 1)
+        pivots = []
+        for j in range(C.shape[0]):
+            cols = Ccsr.indices[Ccsr.indptr[j]:Ccsr.indptr[j + 1]]
+            vals = Ccsr.data[Ccsr.indptr[j]:Ccsr.indptr[j + 1]]
+            ok = (used[cols] == 1) & ~mask[cols] & (np.abs(vals) > 1e-3)
+            pivots.append(int(cols[ok][np.argmax(np.abs(vals[ok]))]) if ok.any() else -1)
+        Q = self._Q
+        if all(p >= 0 for p in pivots) and len(set(pivots)) == len(pivots):
+            piv = np.array(pivots, np.int64)
+            free = np.setdiff1d(np.flatnonzero(~mask), piv)
+            k = len(piv)
+            cp = np.asarray(Ccsr[np.arange(k), piv]).ravel()
+            scaled = sp.diags(1.0 / cp) @ Ccsr
+            # pivot rows of x: t / c_p - sum over the other columns of c / c_p
+            S = sp.csr_matrix((np.ones(k), (piv, np.arange(k))), shape=(n, k))
+            rest = scaled.tolil()
+            rest[np.arange(k), piv] = 0.0
+            rest = rest.tocsr()
+            E = sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))),
+                              shape=(n, len(free)))
+            Fx = sp.csr_matrix((np.ones(len(self._fixed)), (self._fixed, np.arange(len(self._fixed)))),
+                               shape=(n, len(self._fixed)))
+            self._P = (E - S @ (rest @ E)).tocsr()
+            self._D = (S @ sp.diags(1.0 / cp)).tocsr()
+            self._H = (Fx - S @ (rest @ Fx)).tocsr()
+            PtQ = (self._P.T @ Q).tocsr()
+            A = PtQ @ self._P
+            self._PtQD = (PtQ @ self._D).toarray()
+            self._PtQH = (PtQ @ self._H).tocsr()
+            self._factor = spd_factor(A) if A.shape[0] else None
+            self._kkt = False
+        else:
+            free = np.flatnonzero(~mask)
+            Cf = C[:, free].tocsr()
+            if C.shape[0] and sp.linalg.norm(Cf) == 0 and len(free):
+                raise ValueError("handles: every handle lies on fixed vertices")
+            self._K = Q[free][:, self._fixed]
+            self._Ck = C[:, self._fixed].tocsr()
+            kkt = sp.bmat([[Q[free][:, free], Cf.T], [Cf, None]], format="csc")
+            try:
+                self._factor = splu(kkt) if kkt.shape[0] else None
+            except RuntimeError:
+                raise ValueError("handles: the system is singular (two handles pin the same "
+                                 "point)") from None
+            self._kkt = True
+        self._free = free
 
     def reset(self):
         """Forget the last pose: the next solve starts cold (from the rigid fit of the handles)."""
@@ -201,12 +265,13 @@ class Arap:
         (m,) float array
             Angles in radians (counter-clockwise in ``(x, y)``).
         """
-        f = self.faces
-        d = np.stack([x[f[:, (k + 2) % 3]] - x[f[:, (k + 1) % 3]] for k in range(3)], 1)
-        w = self._weights[..., None]
-        # S = sum_k w_k e_k d_k^T; the best rotation maximizes tr(R S).
-        S = np.einsum("mki,mkj->mij", w * self._edges, d)
-        return np.arctan2(S[:, 0, 1] - S[:, 1, 0], S[:, 0, 0] + S[:, 1, 1])
+        xs, ys = np.ascontiguousarray(x[:, 0]), np.ascontiguousarray(x[:, 1])
+        d0 = xs[self._head] - xs[self._tail]
+        d1 = ys[self._head] - ys[self._tail]
+        # S = sum_k w_k e_k d_k^T; the best rotation maximizes tr(R S) = c (S00 + S11) + s (S01 - S10).
+        sin = (self._we0 * d1 - self._we1 * d0).reshape(3, -1).sum(axis=0)
+        cos = (self._we0 * d0 + self._we1 * d1).reshape(3, -1).sum(axis=0)
+        return np.arctan2(sin, cos)
 
     def solve(self, targets, *, initial=None, iterations=4):
         """Deform so that the handles reach ``targets``.
@@ -245,25 +310,28 @@ class Arap:
         return x
 
     def energy(self, x):
-        """The ARAP energy of ``x`` with its best-fitting rotations (0 for a rigid motion)."""
-        return arap_energy(self.rest, self.faces, x, weights=self._weights,
+        """The ARAP energy of ``x`` with its best-fitting rotations (0 for a rigid motion).
+
+        Without the stiffness factors: comparable between solvers of one mesh.
+        """
+        return arap_energy(self.rest, self.faces, x, weights=self._cot,
                            angles=self.rotations(np.asarray(x, float)))
 
     def _global(self, angles, x, targets):
         c, s = np.cos(angles), np.sin(angles)
-        e = self._edges
-        # R e for every face edge, flattened to match _B's columns.
-        re = np.stack([c[:, None] * e[..., 0] - s[:, None] * e[..., 1],
-                       s[:, None] * e[..., 0] + c[:, None] * e[..., 1]], -1).reshape(-1, 2)
-        b = self._B @ re
+        a, b = self._M0 @ c, self._M1 @ s
+        e, g = self._M0 @ s, self._M1 @ c
+        rhs = np.column_stack([a - b, e + g])
         out = x.copy()
         if self._factor is None:
             return out
         xk = x[self._fixed]
-        rhs = np.concatenate([b[self._free] - self._K @ xk, targets - self._Ck @ xk])
-        sol = self._factor.solve(rhs)
-        out[self._free] = sol[:len(self._free)]
-        return out
+        if self._kkt:
+            rhs = np.concatenate([rhs[self._free] - self._K @ xk, targets - self._Ck @ xk])
+            out[self._free] = self._factor.solve(rhs)[:len(self._free)]
+            return out
+        y = self._factor.solve(rhs - self._PtQD @ targets - self._PtQH @ xk)
+        return self._P @ y + self._D @ targets + self._H @ xk
 
 
 def arap(vertices, faces, handles, targets, *, iterations=20):

@@ -52,7 +52,9 @@ JOINT_AREA = 0.1
 _SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
 _LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
 _GLUE_WEIGHT = 10.0
-_RELEASE_REACH = 6.0  # px: glue released around a face that still folds
+_REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and glue released
+_STIFFER = 10.0
+_REPAIRS = 3
 
 
 @dataclass
@@ -206,7 +208,8 @@ class Posing:
         self.fixed = [rig.names[i] for i in range(len(rig.names))
                       if fixed[rig.offsets[i]:rig.offsets[i + 1]].all()]
         self._rows, self._fixed, self._glue = rows, np.flatnonzero(fixed), rig.glue.tocsc()
-        self.solver = self._arap(self._glue)
+        self._stiffness = np.ones(len(rig.faces))
+        self.solver = self._arap()
 
     def solve(self, targets, *, iterations=4, initial=None):
         """Rig vertex positions with the handles at ``targets``.
@@ -230,10 +233,12 @@ class Posing:
     def pose(self, targets, *, iterations=4, max_iterations=64):
         """Like :meth:`solve`, but iterates further until no face folds.
 
-        Where a face still folds after ``max_iterations`` rounds, it lies
-        where a glued area meets a free one and the glue pulls it over: the
-        glue rows at its vertices are released (the system factored again
-        without them) and the rounds go on, at most three times.
+        Where faces still fold after ``max_iterations`` rounds (a thin
+        protrusion dragged by its tip, a glued area meeting a free one), the
+        faces within ``_REPAIR_REACH`` of them are made ``_STIFFER`` times
+        stiffer and the glue rows there released, the system factored again
+        and the rounds go on, at most ``_REPAIRS`` times. The next drag keeps
+        the repaired system.
 
         Returns
         -------
@@ -244,32 +249,38 @@ class Posing:
         t = np.asarray(targets, float).reshape(-1, 2)
         x = self.solve(t, iterations=iterations)
         spent = iterations
-        for _ in range(4):
+        for repair in range(_REPAIRS + 1):
             budget = spent + max_iterations
             while self.rig.folds(x) and spent < budget:
                 x = self.solve(t, iterations=iterations)
                 spent += iterations
             folded = self.rig.folded(x)
-            if not folded.size or self._glue.shape[0] == 0:
+            if not folded.size or repair == _REPAIRS:
                 break
-            centres = self.rig.vertices[self.rig.faces[folded]].mean(axis=1)
-            d = np.min(np.hypot(*(self.rig.vertices[:, None] - centres[None]).transpose(2, 0, 1)),
-                       axis=1)
-            near = np.flatnonzero(d <= _RELEASE_REACH)
-            touches = np.asarray(abs(self._glue[:, near]).sum(axis=1)).ravel() > 0
-            if not touches.any():
-                break
-            self._glue = self._glue[~touches]
-            self.solver = self._arap(self._glue)
-            self.solver.pose, self.solver._cold = x, False
+            centres = x[self.rig.faces[folded]].mean(axis=1)
+            near = _within(x, centres, _REPAIR_REACH)
+            self._stiffness[np.any(near[self.rig.faces], axis=1)] *= _STIFFER
+            if self._glue.shape[0]:
+                touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
+                self._glue = self._glue[touches == 0]
+            self.solver = self._arap()
+            x = self.solve(t, iterations=iterations, initial=x)
+            spent += iterations
         return x, spent
 
-    def _arap(self, glue):
+    def _arap(self):
         try:
-            return Arap(self.rig.vertices, self.rig.faces, handles=self._rows, glue=glue,
-                        glue_weight=_GLUE_WEIGHT, fixed=self._fixed)
+            return Arap(self.rig.vertices, self.rig.faces, handles=self._rows, glue=self._glue,
+                        glue_weight=_GLUE_WEIGHT, fixed=self._fixed, stiffness=self._stiffness)
         except ValueError as e:
             raise InputError(f"handles: {e}") from None
+
+
+def _within(points, centres, reach):
+    """Which points lie within ``reach`` of any centre."""
+    from scipy.spatial import cKDTree
+
+    return np.isfinite(cKDTree(centres).query(points, distance_upper_bound=reach)[0])
 
 
 def rig_relief(relief, completion, *, boundaries=()):
