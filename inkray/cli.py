@@ -690,8 +690,8 @@ def _parser():
                    help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
     b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
-                   help="comma-separated jobs per frame: relief, render, layers, maps "
-                        "(default: all)")
+                   help="comma-separated jobs per frame: relief, render, layers, maps, pose "
+                        "(X.pose.json beside X.inkray.json) (default: relief,render,layers,maps)")
     b.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
     b.add_argument("--workers", type=int, metavar="N",

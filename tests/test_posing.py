@@ -140,3 +140,23 @@ def test_cli_pose_writes_a_picture_and_refuses_a_bad_pose(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "keys[0].to: missing required key" in err[0]
     assert not (tmp_path / "x.png").exists()
+
+
+def test_batch_pose_job_reads_the_pose_file_beside_each_frame(tmp_path):
+    import shutil
+
+    from PIL import Image
+
+    from inkray.batch import run_frame
+
+    src = EXAMPLES / "man"
+    shutil.copy(src / "drawing.jpg", tmp_path / "drawing.jpg")
+    shutil.copy(src / "drawing.inkray.json", tmp_path / "a.inkray.json")
+    missing = run_frame(str(tmp_path / "a.inkray.json"), ("pose",))
+    assert missing["status"] == "failed" and "a.pose.json" in missing["error"]
+    shutil.copy(src / "raise-arm.pose.json", tmp_path / "a.pose.json")
+    done = run_frame(str(tmp_path / "a.inkray.json"), ("pose",))
+    assert done["status"] == "done", done["error"]
+    import io
+    rgba = np.asarray(Image.open(io.BytesIO(done["files"]["posed.png"])))
+    assert rgba.shape == (540, 304, 4)

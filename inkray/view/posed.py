@@ -54,6 +54,7 @@ class PosedDrawing:
         self.posing = Posing(self.rig, handles)
         self.cutout = cut_out(completion, relations, drawing)
         self.drawing = drawing
+        self._sources = _Sources(relief, self.cutout, drawing.rgb)
 
     def positions(self, targets, *, iterations=4):
         """Rig vertex positions with the handles at ``targets`` (warm-started, no folds)."""
@@ -101,7 +102,7 @@ class PosedDrawing:
     def image(self, positions, *, antialias=True):
         """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`)."""
         return posed_image(self.relief(positions), self.rig.relief, self.cutout,
-                           self.drawing.rgb, antialias=antialias)[0]
+                           self.drawing.rgb, antialias=antialias, _sources=self._sources)[0]
 
     def layers(self, positions):
         """The posed cut-out stack (see :func:`posed_layers`)."""
@@ -109,7 +110,7 @@ class PosedDrawing:
                             self.drawing.rgb)
 
 
-def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
+def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True, _sources=None):
     """The posed drawing as RGBA: the character opaque, the rest transparent.
 
     Parameters
@@ -145,12 +146,11 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     if rgb.shape[:2] != (h, w):
         raise InputError(f"drawing: {rgb.shape[1]}x{rgb.shape[0]} differs from the relief's "
                          f"{w}x{h}")
-    by_name = {layer.name: layer for layer in layers.layers if layer.region is None
-               or layer.region >= 0}
+    sources = _Sources(rest, layers, rgb) if _sources is None else _sources
     raster = rasterize(posed)
-    colour, alpha = _colours(raster, rest, by_name, rgb)
+    colour, alpha = _colours(raster, rest, sources)
     if antialias:
-        colour, alpha = _antialias(posed, raster.mask, colour, alpha)
+        colour, alpha = _antialias(posed, sources.outline, raster.mask, colour, alpha)
     out = np.zeros((h, w, 4), np.uint8)
     out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
     out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
@@ -203,10 +203,45 @@ def _check(posed, rest):
         raise InputError("posed: its parts, vertices and faces differ from the rest relief's")
 
 
-def _colours(raster, rest, layers, rgb):
+class _Sources:
+    """What a posed picture samples, prepared once per drawing.
+
+    Per part: the colours it carries over its rest box (its cut-out layer,
+    premultiplied, over the drawing where the layer does not reach), and its
+    outline edges (topology does not change with the pose).
+    """
+
+    def __init__(self, rest, layers, rgb):
+        by_name = {layer.name: layer for layer in layers.layers
+                   if layer.region is None or layer.region >= 0}
+        h, w = rgb.shape[:2]
+        self.textures, self.outline = [], []
+        for part in rest.parts:
+            v = np.asarray(part.vertices, float)[:, :2]
+            x0, y0 = (max(int(np.floor(c)) - 2, 0) for c in v.min(axis=0))
+            x1, y1 = (int(np.ceil(c)) + 3 for c in v.max(axis=0))
+            x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
+            tex = rgb[y0:y1, x0:x1].astype(np.float32)
+            layer = by_name.get(part.name)
+            if layer is not None:
+                ly0, ly1, lx0, lx1 = layer.box
+                cy0, cy1, cx0, cx1 = max(ly0, y0), min(ly1, y1), max(lx0, x0), min(lx1, x1)
+                if cy0 < cy1 and cx0 < cx1:
+                    src = layer.rgba[cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0].astype(np.float32)
+                    a = src[..., 3:] / 255.0
+                    dst = tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+                    dst[...] = src[..., :3] * a + (1.0 - a) * dst
+            self.textures.append((x0, y0, tex))
+            f = np.asarray(part.faces, np.int64).reshape(-1, 3)
+            e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+            edges, count = np.unique(e, axis=0, return_counts=True)
+            self.outline.append(edges[count == 1])
+
+
+def _colours(raster, rest, sources):
     """Per pixel: the colour at the rest position of the visible surface point, and coverage."""
     h, w = raster.part.shape
-    colour = np.zeros((h, w, 3))
+    colour = np.zeros((h, w, 3), np.float32)
     alpha = raster.mask.astype(float)
     for i, part in enumerate(rest.parts):
         sel = raster.part == i
@@ -214,37 +249,26 @@ def _colours(raster, rest, layers, rgb):
             continue
         f = np.asarray(part.faces)[raster.face[sel]]
         xy = np.einsum("nk,nkc->nc", raster.bary[sel], np.asarray(part.vertices)[f][..., :2])
-        base = _bilinear(rgb.astype(float), xy)
-        layer = layers.get(part.name)
-        if layer is not None:
-            a = _bilinear(layer.rgba[..., 3:4].astype(float) / 255.0, xy - [layer.left, layer.top],
-                          outside=0.0)
-            premult = _bilinear(layer.rgba[..., :3] * (layer.rgba[..., 3:4] / 255.0),
-                                xy - [layer.left, layer.top], outside=0.0)
-            base = premult + (1.0 - a) * base
-        colour[sel] = base
+        x0, y0, tex = sources.textures[i]
+        colour[sel] = _bilinear(tex, xy - [x0, y0])
     return colour, alpha
 
 
-def _bilinear(image, xy, *, outside=None):
-    """``image`` (h, w, c) at points ``xy`` (x column, y row); clamped, or ``outside`` beyond."""
+def _bilinear(image, xy):
+    """``image`` (h, w, c) at points ``xy`` (x column, y row), clamped to its edge."""
     h, w = image.shape[:2]
-    x, y = xy[:, 0], xy[:, 1]
-    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    out = 0.0
-    for dy, wy in ((0, 1 - fy), (1, fy)):
-        for dx, wx in ((0, 1 - fx), (1, fx)):
-            cx, cy = x0 + dx, y0 + dy
-            v = image[np.clip(cy, 0, h - 1), np.clip(cx, 0, w - 1)]
-            if outside is not None:
-                off = (cx < 0) | (cx >= w) | (cy < 0) | (cy >= h)
-                v = np.where(off[:, None], outside, v)
-            out = out + wx * wy * v
-    return out
+    x = np.clip(xy[:, 0], 0, w - 1)
+    y = np.clip(xy[:, 1], 0, h - 1)
+    x0 = np.minimum(x.astype(np.int64), max(w - 2, 0))
+    y0 = np.minimum(y.astype(np.int64), max(h - 2, 0))
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    fx, fy = (x - x0).astype(np.float32)[:, None], (y - y0).astype(np.float32)[:, None]
+    top = image[y0, x0] + fx * (image[y0, x1] - image[y0, x0])
+    bottom = image[y1, x0] + fx * (image[y1, x1] - image[y1, x0])
+    return top + fy * (bottom - top)
 
 
-def _antialias(posed, mask, colour, alpha):
+def _antialias(posed, outline, mask, colour, alpha):
     """Silhouette alpha from the pixel centres' signed distance to the posed outline."""
     inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
     outer = ~mask & ndimage.binary_dilation(mask, structure=np.ones((3, 3)))
@@ -252,11 +276,7 @@ def _antialias(posed, mask, colour, alpha):
     if not ring.any():
         return colour, alpha
     segments = []
-    for p in posed.parts:
-        f = np.asarray(p.faces, np.int64).reshape(-1, 3)
-        e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-        edges, count = np.unique(e, axis=0, return_counts=True)
-        edges = edges[count == 1]
+    for p, edges in zip(posed.parts, outline):
         v = np.asarray(p.vertices, float)[:, :2]
         segments.append(np.stack([v[edges[:, 0]], v[edges[:, 1]]], axis=1))
     seg = np.concatenate(segments)
@@ -273,9 +293,17 @@ def _antialias(posed, mask, colour, alpha):
     inside = mask[rows, cols]
     alpha = alpha.copy()
     alpha[rows, cols] = np.where(inside, np.clip(0.5 + dist, 0.5, 1.0), np.clip(0.5 - dist, 0, 0.5))
-    # A pixel outside takes the colour of the nearest pixel inside.
-    _, (ir, ic) = ndimage.distance_transform_edt(~mask, return_indices=True)
-    colour = colour.copy()
+    # A pixel outside takes the mean colour of its neighbours inside.
     orow, ocol = np.nonzero(outer)
-    colour[orow, ocol] = colour[ir[orow, ocol], ic[orow, ocol]]
+    h, w = mask.shape
+    total = np.zeros((len(orow), colour.shape[2]), np.float32)
+    count = np.zeros((len(orow), 1), np.float32)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            r, c = np.clip(orow + dy, 0, h - 1), np.clip(ocol + dx, 0, w - 1)
+            inside = mask[r, c][:, None]
+            total += np.where(inside, colour[r, c], 0)
+            count += inside
+    colour = colour.copy()
+    colour[orow, ocol] = total / np.maximum(count, 1)
     return colour, alpha
