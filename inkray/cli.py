@@ -441,6 +441,39 @@ def _cmd_pose(args, progress):
     return 0
 
 
+def _cmd_compose(args, progress):
+    from inkray.composition import compose
+    from inkray.formats.atomic import atomic_outputs, check_targets
+    from inkray.formats.images import write_renderings
+    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
+    from inkray.input.scene import load_scene
+    from inkray.view.rendering import Rendering
+
+    _check_output(args.output, (".png",) + tuple(LAYER_SUFFIXES))
+    try:
+        limits = Limits(pixels=args.max_pixels)
+    except InputError:
+        raise InputError(f"--max-pixels {args.max_pixels}: expected a positive integer") from None
+    scene = load_scene(args.scene, limits=limits)
+    inputs = [args.scene] + [p for d in scene.drawings for p in (d.annotation, d.pose) if p]
+    check_targets([args.output], inputs=inputs)
+    composition = compose(scene, progress=progress)
+    with progress.stage("compose"):
+        if Path(args.output).suffix.lower() == ".png":
+            rgba = composition.image()
+            value = Rendering("compose", rgba, rgba[..., 3] > 0)
+        else:
+            value = composition.layers()
+    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
+        if isinstance(value, Rendering):
+            write_renderings(value, args.output, outputs=group)
+        else:
+            write_layers(value, args.output, outputs=group)
+    progress.summary()
+    print(f"{args.output}: {len(scene.drawings)} drawings composed")
+    return 0
+
+
 def _cmd_batch(args, progress):
     from inkray.batch import run_batch
 
@@ -535,6 +568,8 @@ _COMMANDS = {
     "check": (_cmd_check, "mesh-quality report"),
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "compose": (_cmd_compose, "several annotated drawings, placed and posed, in one picture "
+                              "(PNG) or layer stack (PSD/ORA)"),
     "pose": (_cmd_pose, "pose the drawing by moving handles (PNG, PSD/ORA, GLB/OBJ/PLY or frames)"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
@@ -669,6 +704,12 @@ def _parser():
     ly.add_argument("--no-predict", action="store_true",
                     help="use only the annotation's order entries, predict nothing")
     p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    co = p["compose"]
+    co.add_argument("scene", metavar="SCENE", help="scene file (.scene.json)")
+    co.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="the scene as a picture (.png) or layers (.psd, .ora)")
+    co.add_argument("--max-pixels", type=int, default=DEFAULT_LIMITS.pixels, metavar="N",
+                    help=f"largest scene and drawing in pixels (default: {DEFAULT_LIMITS.pixels})")
     po = p["pose"]
     po.add_argument("pose", metavar="POSE", help="pose file (.pose.json)")
     po.add_argument("-o", "--output", required=True, metavar="PATH",

@@ -29,7 +29,7 @@ from inkray.input.annotations import (_check_keys, _expect, _finite, _is_int, _i
 from inkray.input.files import read_bytes
 from inkray.input.limits import DEFAULT_LIMITS
 
-__all__ = ["Pose", "Key", "load_pose", "parse_pose", "pose_path", "MAX_FRAMES", "MAX_HANDLES"]
+__all__ = ["Pose", "Key", "load_pose", "parse_pose", "pose_path", "read_document", "check_header", "MAX_FRAMES", "MAX_HANDLES"]
 
 FORMAT = "inkray-pose"
 VERSION = 1
@@ -149,14 +149,56 @@ def load_pose(path, *, size=None, limits=DEFAULT_LIMITS):
         Naming the file and the key path.
     """
     path = Path(path)
-    raw = read_bytes(path, "pose file", limit=limits.file_bytes)
-    data = decode_annotations(raw, where=str(path), limits=limits)
-    try:
-        pose = parse_pose(data, size=size)
-    except InputError as e:
-        raise InputError(f"{path}: {e}") from None
+    pose = read_document(path, "pose file", lambda data: parse_pose(data, size=size),
+                         limits=limits)
     pose.source = path
     return pose
+
+
+def check_header(data, fmt, version, keys):
+    """Check a document's top level: an object with only ``keys`` (all required), ``fmt``, ``version``.
+
+    Examples
+    --------
+    >>> check_header({"format": "x", "version": 2}, "x", 1, ("format", "version"))
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: version: unsupported version 2 (this reads version 1)
+    """
+    _expect(isinstance(data, dict), "(top level)", f"expected an object, got {_kind(data)}")
+    _check_keys(data, keys, "")
+    for key in keys:
+        if key not in data:
+            raise InputError(f"{key}: missing required key")
+    _expect(isinstance(data["format"], str) and data["format"] == fmt, "format",
+            f"expected {fmt!r}, got {_show(data['format'])}")
+    _expect(_is_int(data["version"]) and data["version"] == version, "version",
+            f"unsupported version {_show(data['version'])} (this reads version {version})")
+
+
+def read_document(path, what, parse, *, limits=DEFAULT_LIMITS):
+    """Read a JSON document of the toolkit and ``parse`` it; errors start with the file's path.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+    what : str
+        Names the kind of file in messages (``"pose file"``).
+    parse : callable
+        ``parse(decoded JSON)``.
+    limits : inkray.input.limits.Limits, optional
+
+    Returns
+    -------
+    object
+        What ``parse`` returns.
+    """
+    raw = read_bytes(path, what, limit=limits.file_bytes)
+    data = decode_annotations(raw, where=str(path), limits=limits)
+    try:
+        return parse(data)
+    except InputError as e:
+        raise InputError(f"{path}: {e}") from None
 
 
 def parse_pose(data, *, size=None):
@@ -185,15 +227,7 @@ def parse_pose(data, *, size=None):
     ...
     inkray.errors.InputError: keys[0].to: expected 1 point (one per handle), got 2
     """
-    _expect(isinstance(data, dict), "(top level)", f"expected an object, got {_kind(data)}")
-    _check_keys(data, _TOP_KEYS, "")
-    for key in _TOP_KEYS:
-        if key not in data:
-            raise InputError(f"{key}: missing required key")
-    _expect(isinstance(data["format"], str) and data["format"] == FORMAT, "format",
-            f"expected {FORMAT!r}, got {_show(data['format'])}")
-    _expect(_is_int(data["version"]) and data["version"] == VERSION, "version",
-            f"unsupported version {_show(data['version'])} (this reads version {VERSION})")
+    check_header(data, FORMAT, VERSION, _TOP_KEYS)
     handles = _points(data["handles"], "handles", size=size)
     _expect(len(handles) > 0, "handles", "a pose needs at least one handle")
     for j in range(1, len(handles)):

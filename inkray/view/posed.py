@@ -101,8 +101,8 @@ class PosedDrawing:
 
     def image(self, positions, *, antialias=True):
         """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`)."""
-        return posed_image(self.relief(positions), self.rig.relief, self.cutout,
-                           self.drawing.rgb, antialias=antialias, _sources=self._sources)[0]
+        return _draw(self.relief(positions), self.rig.relief, self._sources,
+                     antialias=antialias)[0]
 
     def layers(self, positions):
         """The posed cut-out stack (see :func:`posed_layers`)."""
@@ -110,7 +110,7 @@ class PosedDrawing:
                             self.drawing.rgb)
 
 
-def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True, _sources=None):
+def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     """The posed drawing as RGBA: the character opaque, the rest transparent.
 
     Parameters
@@ -146,12 +146,16 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True, _sources=No
     if rgb.shape[:2] != (h, w):
         raise InputError(f"drawing: {rgb.shape[1]}x{rgb.shape[0]} differs from the relief's "
                          f"{w}x{h}")
-    sources = _Sources(rest, layers, rgb) if _sources is None else _sources
+    return _draw(posed, rest, _Sources(rest, layers, rgb), antialias=antialias)
+
+
+def _draw(posed, rest, sources, *, antialias=True):
+    """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts."""
     raster = rasterize(posed)
     colour, alpha = _colours(raster, rest, sources)
     if antialias:
         colour, alpha = _antialias(posed, sources.outline, raster.mask, colour, alpha)
-    out = np.zeros((h, w, 4), np.uint8)
+    out = np.zeros(raster.part.shape + (4,), np.uint8)
     out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
     out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
     return out, raster.part
@@ -210,6 +214,14 @@ class _Sources:
     premultiplied, over the drawing where the layer does not reach), and its
     outline edges (topology does not change with the pose).
     """
+
+    @classmethod
+    def join(cls, sources):
+        """The sources of several reliefs' parts, one after the other."""
+        out = cls.__new__(cls)
+        out.textures = [t for s in sources for t in s.textures]
+        out.outline = [e for s in sources for e in s.outline]
+        return out
 
     def __init__(self, rest, layers, rgb):
         by_name = {layer.name: layer for layer in layers.layers
