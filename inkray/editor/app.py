@@ -13,7 +13,11 @@ Endpoints (a public contract, see ``docs/editor.md``):
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
   at half resolution (the first answer after an edit);
-- ``GET /api/relations`` the user's and predicted relations and the warnings.
+- ``GET /api/relations`` the user's and predicted relations and the warnings;
+- ``POST /api/pose`` ``{"handles": [[x, y], ...], "to": [[x, y], ...]}``: the
+  posed drawing as PNG (Pose mode), with ``X-Inkray-Compute-Ms``; ``POST
+  /api/pose/save`` a pose file's JSON: written as ``<name>.pose.json`` beside
+  the annotation, ``{"path": ...}``.
 """
 
 import io
@@ -28,6 +32,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from inkray.editor.posing import PoseSession
 from inkray.editor.session import PREVIEWS, entry_paths
 from inkray.errors import InkrayError, InputError
 
@@ -66,6 +71,7 @@ def editor_app(session, *, allowed_hosts=None):
     ['/', '/api/info', '/api/drawing.png', '/api/annotations']
     """
     drawing_png = _png(session.drawing.rgb)
+    posing = PoseSession(session)
 
     async def page(request):
         return FileResponse(STATIC / "index.html", headers=_NO_STORE)
@@ -133,6 +139,28 @@ def editor_app(session, *, allowed_hosts=None):
             "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
             "X-Inkray-Generation": str(value["generation"])}))
 
+    async def pose(request):
+        body = await _json(request)
+        if not isinstance(body, dict) or set(body) != {"handles", "to"}:
+            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...]}")
+        try:
+            png, ms, generation = await anyio.to_thread.run_sync(
+                posing.picture, body["handles"], body["to"])
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return Response(png, media_type="image/png", headers=dict(_NO_STORE, **{
+            "X-Inkray-Compute-Ms": f"{ms:.1f}", "X-Inkray-Generation": str(generation)}))
+
+    async def pose_save(request):
+        body = await _json(request)
+        try:
+            path = await anyio.to_thread.run_sync(posing.save, body)
+        except InputError as e:
+            return _error(400, str(e))
+        except OSError as e:
+            return _error(500, f"cannot write the pose file ({e.strerror or e})")
+        return JSONResponse({"path": str(path)})
+
     routes = [
         Route("/", page),
         Route("/api/info", info),
@@ -141,6 +169,8 @@ def editor_app(session, *, allowed_hosts=None):
         Route("/api/save", save, methods=["POST"]),
         Route("/api/preview/{name}", preview),
         Route("/api/relations", relations),
+        Route("/api/pose", pose, methods=["POST"]),
+        Route("/api/pose/save", pose_save, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []
@@ -155,6 +185,18 @@ _NO_STORE = {"Cache-Control": "no-store"}
 def _error(status, message):
     return JSONResponse({"error": message, "paths": entry_paths(message)}, status_code=status,
                         headers=_NO_STORE)
+
+
+async def _json(request):
+    import json
+
+    raw = await request.body()
+    if len(raw) > _MAX_BODY:
+        return None
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return None
 
 
 def _failure(e):
