@@ -22,7 +22,7 @@ from inkray.errors import InputError
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 from inkray.relief.model import Relief
 from inkray.relief.posing import Posing, rig_relief
-from inkray.view.rasterization import rasterize
+from inkray.view.rasterization import zbuffer
 
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
@@ -101,8 +101,7 @@ class PosedDrawing:
 
     def image(self, positions, *, antialias=True):
         """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`)."""
-        return _draw(self.relief(positions), self.rig.relief, self._sources,
-                     antialias=antialias)[0]
+        return _draw(self.relief(positions), self._sources, antialias=antialias)[0]
 
     def layers(self, positions):
         """The posed cut-out stack (see :func:`posed_layers`)."""
@@ -146,19 +145,46 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     if rgb.shape[:2] != (h, w):
         raise InputError(f"drawing: {rgb.shape[1]}x{rgb.shape[0]} differs from the relief's "
                          f"{w}x{h}")
-    return _draw(posed, rest, _Sources(rest, layers, rgb), antialias=antialias)
+    return _draw(posed, _Sources(rest, layers, rgb), antialias=antialias)
 
 
-def _draw(posed, rest, sources, *, antialias=True):
+def _draw(posed, sources, *, antialias=True):
     """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts."""
-    raster = rasterize(posed)
-    colour, alpha = _colours(raster, rest, sources)
+    w, h = posed.size
+    verts = np.concatenate([np.asarray(p.vertices, float) for p in posed.parts])
+    tri = zbuffer(verts[:, :2] + 0.5, verts[:, 2], sources.faces, (w, h)).ravel()
+    pix = np.flatnonzero(tri >= 0)
+    t = tri[pix]
+    f = sources.faces[t]
+    corners = verts[f, :2]
+    cx, cy = (pix % w).astype(float), (pix // w).astype(float)
+    (x0, y0), (x1, y1), (x2, y2) = (corners[:, k].T for k in range(3))
+    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    b1 = ((y2 - y0) * (cx - x0) - (x2 - x0) * (cy - y0)) / det
+    b2 = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / det
+    bary = np.clip(np.column_stack([1.0 - b1 - b2, b1, b2]), 0.0, None)
+    bary /= bary.sum(axis=1, keepdims=True)
+    # the surface point's rest position: where on its part's texture it takes its colour
+    xy = np.einsum("nk,nkc->nc", bary, sources.rest[f])
+    part = sources.tri_part[t]
+    colour = np.zeros((h * w, 3), np.float32)
+    for i in np.unique(part):
+        sel = part == i
+        x0i, y0i, tex = sources.textures[i]
+        colour[pix[sel]] = _bilinear(tex, xy[sel] - [x0i, y0i])
+    mask = np.zeros(h * w, bool)
+    mask[pix] = True
+    mask = mask.reshape(h, w)
+    colour = colour.reshape(h, w, 3)
+    alpha = mask.astype(float)
     if antialias:
-        colour, alpha = _antialias(posed, sources.outline, raster.mask, colour, alpha)
-    out = np.zeros(raster.part.shape + (4,), np.uint8)
+        colour, alpha = _antialias(posed, sources.outline, mask, colour, alpha)
+    out = np.zeros((h, w, 4), np.uint8)
     out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
     out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
-    return out, raster.part
+    shown = np.full(h * w, -1, np.int32)
+    shown[pix] = part
+    return out, shown.reshape(h, w)
 
 
 def posed_layers(posed, rest, layers, drawing_rgb):
@@ -221,7 +247,18 @@ class _Sources:
         out = cls.__new__(cls)
         out.textures = [t for s in sources for t in s.textures]
         out.outline = [e for s in sources for e in s.outline]
+        out._topology([s.rest for s in sources], [s.part_faces for s in sources])
         return out
+
+    def _topology(self, rests, faces):
+        """All parts' faces in one array (into ``rest``), and the part of each face."""
+        self.rest = np.concatenate(rests) if rests else np.zeros((0, 2))
+        starts = np.cumsum([0] + [len(r) for r in rests])
+        self.part_faces = [f + base for group, base in zip(faces, starts) for f in group]
+        self.faces = (np.concatenate(self.part_faces) if self.part_faces
+                      else np.zeros((0, 3), np.int64))
+        self.tri_part = np.repeat(np.arange(len(self.part_faces)),
+                                  [len(f) for f in self.part_faces]).astype(np.int32)
 
     def __init__(self, rest, layers, rgb):
         by_name = {layer.name: layer for layer in layers.layers
@@ -248,22 +285,13 @@ class _Sources:
             e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
             edges, count = np.unique(e, axis=0, return_counts=True)
             self.outline.append(edges[count == 1])
-
-
-def _colours(raster, rest, sources):
-    """Per pixel: the colour at the rest position of the visible surface point, and coverage."""
-    h, w = raster.part.shape
-    colour = np.zeros((h, w, 3), np.float32)
-    alpha = raster.mask.astype(float)
-    for i, part in enumerate(rest.parts):
-        sel = raster.part == i
-        if not sel.any():
-            continue
-        f = np.asarray(part.faces)[raster.face[sel]]
-        xy = np.einsum("nk,nkc->nc", raster.bary[sel], np.asarray(part.vertices)[f][..., :2])
-        x0, y0, tex = sources.textures[i]
-        colour[sel] = _bilinear(tex, xy - [x0, y0])
-    return colour, alpha
+        rest_xy, faces, base = [], [], 0
+        for part in rest.parts:
+            v = np.asarray(part.vertices, float)[:, :2]
+            rest_xy.append(v if part.texcoords is None else np.asarray(part.texcoords, float))
+            faces.append(np.asarray(part.faces, np.int64).reshape(-1, 3) + base)
+            base += len(v)
+        self._topology([np.concatenate(rest_xy) if rest_xy else np.zeros((0, 2))], [faces])
 
 
 def _bilinear(image, xy):

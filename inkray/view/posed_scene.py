@@ -148,9 +148,8 @@ def scene_image(placed, size):
     depths = scene_depths(placed)
     posed = [place(p, size, d) for p, d in zip(placed, depths)]
     scene = Relief([q for r in posed for q in r.parts], size=tuple(size))
-    rest = Relief([q for p in placed for q in p.rest.parts], size=tuple(size))
     sources = _Sources.join([_Sources(p.rest, p.cutout, p.rgb) for p in placed])
-    return _draw(scene, rest, sources)[0]
+    return _draw(scene, sources)[0]
 
 
 def scene_layers(placed, size):
