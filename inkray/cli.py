@@ -446,10 +446,12 @@ def _cmd_compose(args, progress):
     from inkray.formats.atomic import atomic_outputs, check_targets
     from inkray.formats.images import write_renderings
     from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
+    from inkray.formats.meshes import FORMATS as MESH_SUFFIXES
+    from inkray.formats.meshes import export_relief
     from inkray.input.scene import load_scene
     from inkray.view.rendering import Rendering
 
-    _check_output(args.output, (".png",) + tuple(LAYER_SUFFIXES))
+    _check_output(args.output, (".png",) + tuple(LAYER_SUFFIXES) + tuple(MESH_SUFFIXES))
     try:
         limits = Limits(pixels=args.max_pixels)
     except InputError:
@@ -458,17 +460,22 @@ def _cmd_compose(args, progress):
     inputs = [args.scene] + [p for d in scene.drawings for p in (d.annotation, d.pose) if p]
     check_targets([args.output], inputs=inputs)
     composition = compose(scene, progress=progress)
+    suffix = Path(args.output).suffix.lower()
     with progress.stage("compose"):
-        if Path(args.output).suffix.lower() == ".png":
+        if suffix == ".png":
             rgba = composition.image()
             value = Rendering("compose", rgba, rgba[..., 3] > 0)
-        else:
+        elif suffix in LAYER_SUFFIXES:
             value = composition.layers()
-    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
-        if isinstance(value, Rendering):
-            write_renderings(value, args.output, outputs=group)
         else:
+            value = composition.relief()
+    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
+        if suffix == ".png":
+            write_renderings(value, args.output, outputs=group)
+        elif suffix in LAYER_SUFFIXES:
             write_layers(value, args.output, outputs=group)
+        else:  # vertices in scene pixels: the scene's top-left corner at the origin
+            export_relief(value, args.output, anchor="top-left", outputs=group)
     progress.summary()
     print(f"{args.output}: {len(scene.drawings)} drawings composed")
     return 0
@@ -569,7 +576,7 @@ _COMMANDS = {
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
     "compose": (_cmd_compose, "several annotated drawings, placed and posed, in one picture "
-                              "(PNG) or layer stack (PSD/ORA)"),
+                              "(PNG), layer stack (PSD/ORA) or relief (GLB/OBJ/PLY)"),
     "pose": (_cmd_pose, "pose the drawing by moving handles (PNG, PSD/ORA, GLB/OBJ/PLY or frames)"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
@@ -707,7 +714,8 @@ def _parser():
     co = p["compose"]
     co.add_argument("scene", metavar="SCENE", help="scene file (.scene.json)")
     co.add_argument("-o", "--output", required=True, metavar="PATH",
-                    help="the scene as a picture (.png) or layers (.psd, .ora)")
+                    help="the scene as a picture (.png), layers (.psd, .ora) or a relief "
+                         "(.glb, .obj, .ply)")
     co.add_argument("--max-pixels", type=int, default=DEFAULT_LIMITS.pixels, metavar="N",
                     help=f"largest scene and drawing in pixels (default: {DEFAULT_LIMITS.pixels})")
     po = p["pose"]

@@ -15,7 +15,7 @@ from inkray.input.loading import load_input
 from inkray.input.pose import load_pose
 from inkray.relief.cutout import cut_out
 from inkray.view.posed import PosedDrawing
-from inkray.view.posed_scene import Placed, scene_image, scene_layers
+from inkray.view.posed_scene import Placed, scene_image, scene_layers, scene_relief
 
 __all__ = ["Composition", "compose"]
 
@@ -34,6 +34,10 @@ class Composition:
     def layers(self):
         """The scene's layers (:class:`~inkray.relief.cutout.Cutout`), back drawings first."""
         return scene_layers(self.placed, self.size)
+
+    def relief(self):
+        """The scene's relief, textured from an atlas (see :func:`scene_relief`)."""
+        return scene_relief(self.placed, self.size)
 
 
 def compose(scene, *, progress=None):

@@ -89,3 +89,26 @@ def test_compose_refuses_a_missing_drawing_with_its_entry(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "drawings[0]:" in err[0]
     assert load_scene(scene).drawings[0].annotation == tmp_path / "nowhere.inkray.json"
+
+
+def test_scene_relief_has_every_drawing_s_parts_textured_from_the_atlas(tmp_path):
+    import trimesh
+
+    scene = scene_file(tmp_path, [{"annotation": str(RINGS), "at": [159.5, 99.5]},
+                                  {"annotation": str(RINGS), "at": [479.5, 99.5]}])
+    out = tmp_path / "two.glb"
+    assert cli.main(["compose", str(scene), "-o", str(out), "--quiet"]) == 0
+    glb = trimesh.load(out, force="scene")
+    names = sorted(glb.geometry)
+    assert names == ["d0-ring_a", "d0-ring_b", "d1-ring_a", "d1-ring_b"]
+    for part in ("ring_a", "ring_b"):
+        a, b = (glb.geometry[f"d{k}-{part}"] for k in (0, 1))
+        assert np.array_equal(a.faces, b.faces)
+        ta = glb.graph.get(f"d0-{part}")[0]
+        tb = glb.graph.get(f"d1-{part}")[0]
+        wa = trimesh.transform_points(a.vertices, ta)
+        wb = trimesh.transform_points(b.vertices, tb)
+        shift = (wb - wa).mean(axis=0)
+        assert np.allclose(wb - wa, shift, atol=1e-6) and shift[0] > 0 and abs(shift[1]) < 1e-6
+        # the second copy's texture is the lower half of the atlas
+        assert a.visual.uv[:, 1].min() >= 0.5 - 1e-6 and b.visual.uv[:, 1].max() <= 0.5 + 1e-6

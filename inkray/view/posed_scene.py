@@ -20,7 +20,7 @@ from inkray.relief.cutout import Cutout
 from inkray.relief.model import Part, Relief
 from inkray.view.posed import _draw, _Sources, posed_layers
 
-__all__ = ["Placed", "place", "scene_depths", "scene_image", "scene_layers"]
+__all__ = ["Placed", "place", "scene_depths", "scene_image", "scene_layers", "scene_relief"]
 
 _GAP = 1.0  # scene px between a drawing and the one in front of it by order
 
@@ -173,3 +173,45 @@ def scene_layers(placed, size):
             layer.name = f"{p.name}-{layer.name}"
             layers.append(layer)
     return Cutout(layers=layers, size=tuple(size))
+
+
+def scene_relief(placed, size):
+    """The scene as one relief: every drawing's parts placed, textured from an atlas of the drawings.
+
+    The texture is the drawings stacked top to bottom (left-aligned, white
+    elsewhere); texture coordinates point into it, so :attr:`Relief.size
+    <inkray.relief.model.Relief.size>` is the atlas's. Vertices are in scene
+    pixels: export with ``anchor="top-left"`` to keep them.
+
+    Parameters
+    ----------
+    placed : list of Placed
+    size : (int, int)
+        The scene's ``(W, H)``.
+
+    Returns
+    -------
+    inkray.relief.model.Relief
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0, 1], [3, 0, 1], [0, 3, 1]])
+    >>> r = Relief([Part("a", v, np.array([[0, 2, 1]]))], size=(4, 4))
+    >>> p = Placed(r, r, Cutout([], (4, 4)), np.zeros((4, 4, 3), np.uint8), at=(5.5, 1.5))
+    >>> s = scene_relief([p, p], (20, 10))
+    >>> s.size, [q.name for q in s.parts], s.parts[1].texcoords[2].tolist()
+    ((4, 8), ['d0-a', 'd0-a'], [0.0, 7.0])
+    """
+    depths = scene_depths(placed)
+    width = max(p.rgb.shape[1] for p in placed)
+    height = sum(p.rgb.shape[0] for p in placed)
+    atlas = np.full((height, width, 3), 255, np.uint8)
+    parts, top = [], 0
+    for p, d in zip(placed, depths):
+        h, w = p.rgb.shape[:2]
+        atlas[top:top + h, :w] = p.rgb
+        for q in place(p, size, d).parts:
+            parts.append(Part(q.name, q.vertices, q.faces, closed=q.closed,
+                              texcoords=np.asarray(q.texcoords, float) + [0.0, top]))
+        top += h
+    return Relief(parts=parts, size=(width, height), texture=atlas)
