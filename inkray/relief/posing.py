@@ -187,6 +187,20 @@ class Posing:
         The part each handle holds (the front-most under it).
     fixed : list of str
         Parts that no handle reaches (through the glue): they stay at rest.
+
+    Examples
+    --------
+    >>> from inkray.relief.completion import complete_regions
+    >>> from inkray.relief.inflation import inflate_region
+    >>> from inkray.relief.stitching import stitch
+    >>> from inkray.relief.assembly import assemble
+    >>> labels = np.full((40, 60), -1, np.int32); labels[10:30, 5:55] = 0
+    >>> relief = assemble(stitch([inflate_region(labels == 0, name="bar")], [], None), size=(60, 40))
+    >>> posing = Posing(rig_relief(relief, complete_regions(labels, names=["bar"])),
+    ...                 [[10.0, 20.0], [50.0, 20.0]])
+    >>> x, _ = posing.pose([[10.0, 20.0], [38.28, 48.28]], iterations=8)   # turned 45 degrees
+    >>> np.round(posing.solver.handles @ x, 6).tolist(), posing.rig.folds(x)
+    ([[10.0, 20.0], [38.28, 48.28]], 0)
     """
 
     def __init__(self, rig, handles):
