@@ -35,6 +35,9 @@ def test_pose_route_answers_a_drag_and_saves(tmp_path):
         status, headers, body = call(url + "/api/pose", "POST", {"handles": handles, "to": raised})
         assert status == 200 and float(headers["X-Inkray-Compute-Ms"]) > 0
         assert rest.shape == (540, 304, 4) and (_png(body) != rest).any()
+        status, _, body = call(url + "/api/pose", "POST", {"handles": handles, "to": raised,
+                                                          "scale": 0.5})
+        assert status == 200 and _png(body).shape == (270, 152, 4)
         status, _, body = call(url + "/api/pose", "POST", {"handles": [[2, 2]], "to": [[3, 3]]})
         assert status == 422 and "handles[0]" in json.loads(body)["error"]
         doc = {"format": "inkray-pose", "version": 1, "handles": handles,

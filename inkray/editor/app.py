@@ -14,8 +14,9 @@ Endpoints (a public contract, see ``docs/editor.md``):
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
   at half resolution (the first answer after an edit);
 - ``GET /api/relations`` the user's and predicted relations and the warnings;
-- ``POST /api/pose`` ``{"handles": [[x, y], ...], "to": [[x, y], ...]}``: the
-  posed drawing as PNG (Pose mode), with ``X-Inkray-Compute-Ms``; ``POST
+- ``POST /api/pose`` ``{"handles": [[x, y], ...], "to": [[x, y], ...], "scale": s}``:
+  the posed drawing as PNG (Pose mode; ``scale`` optional, 0.05..1, a smaller
+  picture while dragging), with ``X-Inkray-Compute-Ms``; ``POST
   /api/pose/save`` a pose file's JSON: written as ``<name>.pose.json`` beside
   the annotation, ``{"path": ...}``.
 """
@@ -141,11 +142,13 @@ def editor_app(session, *, allowed_hosts=None):
 
     async def pose(request):
         body = await _json(request)
-        if not isinstance(body, dict) or set(body) != {"handles", "to"}:
-            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...]}")
+        if not isinstance(body, dict) or not {"handles", "to"} <= set(body) <= {
+                "handles", "to", "scale"}:
+            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...], "
+                               "\"scale\": s (optional)}")
         try:
-            png, ms, generation = await anyio.to_thread.run_sync(
-                posing.picture, body["handles"], body["to"])
+            png, ms, generation = await anyio.to_thread.run_sync(lambda: posing.picture(
+                body["handles"], body["to"], scale=body.get("scale", 1.0)))
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
         return Response(png, media_type="image/png", headers=dict(_NO_STORE, **{

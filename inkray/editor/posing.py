@@ -32,12 +32,15 @@ class PoseSession:
         self._lock = threading.Lock()
         self._posed = None  # (generation, handles key, PosedDrawing)
 
-    def picture(self, handles, targets):
+    def picture(self, handles, targets, *, scale=1.0):
         """The posed drawing of the newest document as PNG bytes.
 
         Parameters
         ----------
         handles, targets : list of [x, y]
+        scale : float, default 1
+            Output pixels per drawing pixel: the page asks for a smaller
+            picture while a handle moves and the full one when it stops.
 
         Returns
         -------
@@ -50,6 +53,9 @@ class PoseSession:
         InputError
             Bad points, a handle on no part, or a document without regions.
         """
+        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool)
+                and 0.05 <= scale <= 1):
+            raise InputError(f"scale: expected a number within 0.05..1, got {scale!r}")
         doc = parse_pose({"format": "inkray-pose", "version": 1, "handles": handles,
                           "keys": [{"frame": 0, "to": targets}]},
                          size=tuple(self.session.drawing.size))
@@ -70,7 +76,7 @@ class PoseSession:
                                          boundaries=chain.annotations.boundaries)
                     self._posed = cached = (digest, key, posed)
                 posed = cached[2]
-                rgba = posed.image(posed.positions(doc.keys[0].to))
+                rgba = posed.image(posed.positions(doc.keys[0].to), scale=scale)
             buf = io.BytesIO()
             Image.fromarray(rgba).save(buf, format="PNG", compress_level=1)
             return buf.getvalue(), "image/png"

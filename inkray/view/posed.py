@@ -99,9 +99,13 @@ class PosedDrawing:
         """The posed relief (the rest relief's parts, vertices and faces, moved)."""
         return self.rig.posed_relief(positions)
 
-    def image(self, positions, *, antialias=True):
-        """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`)."""
-        return _draw(self.relief(positions), self._sources, antialias=antialias)[0]
+    def image(self, positions, *, antialias=True, scale=1.0):
+        """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`).
+
+        ``scale`` < 1 draws a smaller picture of the same pose (a quick
+        preview while dragging).
+        """
+        return _draw(self.relief(positions), self._sources, antialias=antialias, scale=scale)[0]
 
     def layers(self, positions):
         """The posed cut-out stack (see :func:`posed_layers`)."""
@@ -148,15 +152,23 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     return _draw(posed, _Sources(rest, layers, rgb), antialias=antialias)
 
 
-def _draw(posed, sources, *, antialias=True):
-    """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts."""
-    w, h = posed.size
+def _draw(posed, sources, *, antialias=True, scale=1.0):
+    """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts.
+
+    At ``scale`` (output pixels per drawing pixel) the output is
+    ``round(W * scale) x round(H * scale)``.
+    """
+    if not (np.isfinite(scale) and 0.01 <= scale <= 16):
+        raise InputError(f"scale: expected a number within 0.01..16, got {scale!r}")
+    w, h = (max(1, round(v * scale)) for v in posed.size)
     verts = np.concatenate([np.asarray(p.vertices, float) for p in posed.parts])
-    tri = zbuffer(verts[:, :2] + 0.5, verts[:, 2], sources.faces, (w, h)).ravel()
+    # output pixel centres at integer coordinates, as the drawing's
+    xy_out = (verts[:, :2] + 0.5) * scale - 0.5
+    tri = zbuffer(xy_out + 0.5, verts[:, 2], sources.faces, (w, h)).ravel()
     pix = np.flatnonzero(tri >= 0)
     t = tri[pix]
     f = sources.faces[t]
-    corners = verts[f, :2]
+    corners = xy_out[f]
     cx, cy = (pix % w).astype(float), (pix // w).astype(float)
     (x0, y0), (x1, y1), (x2, y2) = (corners[:, k].T for k in range(3))
     det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
@@ -178,7 +190,9 @@ def _draw(posed, sources, *, antialias=True):
     colour = colour.reshape(h, w, 3)
     alpha = mask.astype(float)
     if antialias:
-        colour, alpha = _antialias(posed, sources.outline, mask, colour, alpha)
+        starts = np.cumsum([0] + [len(p.vertices) for p in posed.parts])
+        colour, alpha = _antialias([xy_out[a:b] for a, b in zip(starts, starts[1:])],
+                                   sources.outline, mask, colour, alpha)
     out = np.zeros((h, w, 4), np.uint8)
     out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
     out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
@@ -308,16 +322,18 @@ def _bilinear(image, xy):
     return top + fy * (bottom - top)
 
 
-def _antialias(posed, outline, mask, colour, alpha):
-    """Silhouette alpha from the pixel centres' signed distance to the posed outline."""
+def _antialias(vertices, outline, mask, colour, alpha):
+    """Silhouette alpha from the pixel centres' signed distance to the posed outline.
+
+    ``vertices``: per part, its 2D vertices in output pixels (centres at integers).
+    """
     inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
     outer = ~mask & ndimage.binary_dilation(mask, structure=np.ones((3, 3)))
     ring = inner | outer
     if not ring.any():
         return colour, alpha
     segments = []
-    for p, edges in zip(posed.parts, outline):
-        v = np.asarray(p.vertices, float)[:, :2]
+    for v, edges in zip(vertices, outline):
         segments.append(np.stack([v[edges[:, 0]], v[edges[:, 1]]], axis=1))
     seg = np.concatenate(segments)
     rows, cols = np.nonzero(ring)

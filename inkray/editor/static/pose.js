@@ -28,14 +28,21 @@ function renderHandles() {
   $("pose-info").textContent = `${P.handles.length} handles · ${P.keys.length} keys`;
 }
 
+function dragScale() {
+  // while a handle moves: a picture of at most a quarter megapixel, in full when it stops
+  const [w, h] = window.inkray.size;
+  return Math.min(1, Math.sqrt(250000 / (w * h)));
+}
+
 async function request() {
   // one request in flight; a drag during it sends the newest targets when it returns
   if (P.busy) { P.queued = true; return; }
   if (!P.handles.length) return;
   P.busy = true;
+  const scale = P.drag >= 0 ? dragScale() : 1;
   try {
     const r = await fetch("/api/pose", { method: "POST", headers: { "Content-Type": "application/json" },
-                                         body: JSON.stringify({ handles: P.handles, to: P.to }) });
+                                         body: JSON.stringify({ handles: P.handles, to: P.to, scale }) });
     if (r.ok) {
       if (P.url) URL.revokeObjectURL(P.url);
       P.url = URL.createObjectURL(await r.blob());
@@ -93,8 +100,10 @@ function onMove(e) {
 function onUp(e) {
   if (!P.on) return;
   e.stopPropagation();
+  const moved = P.drag >= 0;
   P.drag = -1;
   renderHandles();
+  if (moved) request();  // the full picture of where the handle stopped
 }
 
 // Cubic Hermite with Catmull-Rom tangents, zero at the ends (as the pose file's frames).
@@ -158,6 +167,8 @@ function start() {
   const layer = $("pose-layer");
   layer.style.width = `${w}px`;
   layer.style.height = `${h}px`;
+  $("posed").style.width = `${w}px`;   // a smaller picture while dragging shows at full size
+  $("posed").style.height = `${h}px`;
   $("pose-handles").setAttribute("width", w);
   $("pose-handles").setAttribute("height", h);
   layer.addEventListener("pointerdown", onDown);
