@@ -70,7 +70,7 @@ def write_animation(frames, directory, *, fps=12, outputs=None):
     if not frames:
         raise InputError(f"{directory}: no frames to write")
     if not (isinstance(fps, int) and 1 <= fps <= 100):
-        raise InputError(f"fps: expected a whole number within 1..100, got {fps!r}")
+        raise InputError(f"fps: expected a whole number within 1..100, got {fps!r}", option="fps")
     if outputs is None:
         with atomic_outputs() as group:
             return write_animation(frames, directory, fps=fps, outputs=group)

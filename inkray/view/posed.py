@@ -88,7 +88,8 @@ class PosedDrawing:
         first, last = pose.keys[0].frame, pose.keys[-1].frame
         f = first if frame is None else frame
         if not (isinstance(f, (int, np.integer)) and first <= f <= last):
-            raise InputError(f"frame: {f!r} is not a frame of the pose ({first}..{last})")
+            raise InputError(f"frame: {f!r} is not a frame of the pose ({first}..{last})",
+                             option="frame")
         self.posing.solver.reset()
         x = None
         for g in range(first, int(f) + 1):
