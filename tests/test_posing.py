@@ -79,14 +79,15 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     chain, rig = man
     posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
                          [[150.0, 330.0], [150.0, 250.0]])
-    relief = posed.relief(rig.vertices)
-    img, part = posed_image(relief, chain.relief, posed.cutout, chain.drawing.rgb)
-    labels = chain.completion.labels
-    region = np.array([chain.completion.names.index(n) for n in rig.names])
-    shown = np.where(part >= 0, region[np.maximum(part, 0)], -2)
-    visible = (shown == labels) & (img[..., 3] == 255)
-    assert visible.sum() > 0.9 * (labels >= 0).sum()
-    assert np.array_equal(img[visible][:, :3], chain.drawing.rgb[visible])
+    img = posed.image(rig.vertices)
+    opaque = img[..., 3] == 255
+    assert opaque.sum() > 0.85 * (chain.completion.labels >= 0).sum()
+    same = np.all(img[..., :3] == chain.drawing.rgb, axis=2)
+    # the relief's order and the layers' agree but where three surfaces meet at an outline
+    assert same[opaque].mean() > 0.997
+    # soft edges as the layers have them: the picture is the flattened layer stack
+    flat = posed.cutout.flatten()
+    assert np.mean(np.all(img == flat, axis=2)[flat[..., 3] > 0]) > 0.99
 
 
 def test_posed_relief_keeps_parts_vertices_faces_and_heights(man):

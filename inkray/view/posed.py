@@ -8,15 +8,13 @@ of Igarashi et al. ("As-rigid-as-possible shape manipulation", SIGGRAPH
 z-buffer over the relief's heights, so local order such as interlocking
 rings holds pixel by pixel), and its colour is the part's completed cut-out
 layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
-through the barycentric coordinates of the triangle that covers it. Where the
-layer does not reach (the outer edge of a contour stroke the mesh covers),
-the drawing shows. The silhouette's edge is anti-aliased by the signed
-distance of the pixel centre to the posed outline.
+through the barycentric coordinates of the triangle that covers it. The
+layers' soft edges are kept: per pixel the two highest surfaces are
+composited, so the edge of a part shows the part under it, or nothing at the
+silhouette (transparent as the layer is there).
 """
 
 import numpy as np
-from scipy import ndimage
-from scipy.spatial import cKDTree
 
 from inkray.errors import InputError
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
@@ -100,13 +98,13 @@ class PosedDrawing:
         """The posed relief (the rest relief's parts, vertices and faces, moved)."""
         return self.rig.posed_relief(positions)
 
-    def image(self, positions, *, antialias=True, scale=1.0):
+    def image(self, positions, *, scale=1.0):
         """The posed picture, (H, W, 4) uint8 RGBA (see :func:`posed_image`).
 
         ``scale`` < 1 draws a smaller picture of the same pose (a quick
         preview while dragging).
         """
-        return _draw(self.relief(positions), self._sources, antialias=antialias, scale=scale)[0]
+        return _draw(self.relief(positions), self._sources, scale=scale)[0]
 
     def layers(self, positions):
         """The posed cut-out stack (see :func:`posed_layers`)."""
@@ -114,7 +112,7 @@ class PosedDrawing:
                             self.drawing.rgb)
 
 
-def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
+def posed_image(posed, rest, layers, drawing_rgb):
     """The posed drawing as RGBA: the character opaque, the rest transparent.
 
     Parameters
@@ -124,8 +122,6 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     layers : inkray.relief.cutout.Cutout
         The rest cut-out stack (one layer per region, named after it).
     drawing_rgb : (H, W, 3) uint8 array
-    antialias : bool, default True
-        Partial alpha along the silhouette.
 
     Returns
     -------
@@ -150,13 +146,16 @@ def posed_image(posed, rest, layers, drawing_rgb, *, antialias=True):
     if rgb.shape[:2] != (h, w):
         raise InputError(f"drawing: {rgb.shape[1]}x{rgb.shape[0]} differs from the relief's "
                          f"{w}x{h}")
-    return _draw(posed, _Sources(rest, layers, rgb), antialias=antialias)
+    return _draw(posed, _Sources(rest, layers, rgb))
 
 
-def _draw(posed, sources, *, antialias=True, scale=1.0):
+def _draw(posed, sources, *, scale=1.0):
     """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts.
 
-    At ``scale`` (output pixels per drawing pixel) the output is
+    Every part is rasterized on its own; per pixel the two highest surfaces
+    are kept and composited, the upper over the lower, with their layers'
+    alpha (a soft edge of the upper part shows the part under it). At
+    ``scale`` (output pixels per drawing pixel) the output is
     ``round(W * scale) x round(H * scale)``.
     """
     if not (np.isfinite(scale) and 0.01 <= scale <= 16):
@@ -165,41 +164,66 @@ def _draw(posed, sources, *, antialias=True, scale=1.0):
     verts = np.concatenate([np.asarray(p.vertices, float) for p in posed.parts])
     # output pixel centres at integer coordinates, as the drawing's
     xy_out = (verts[:, :2] + 0.5) * scale - 0.5
-    tri = zbuffer(xy_out + 0.5, verts[:, 2], sources.faces, (w, h)).ravel()
-    pix = np.flatnonzero(tri >= 0)
-    t = tri[pix]
-    f = sources.faces[t]
-    corners = xy_out[f]
-    cx, cy = (pix % w).astype(float), (pix // w).astype(float)
-    (x0, y0), (x1, y1), (x2, y2) = (corners[:, k].T for k in range(3))
-    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    b1 = ((y2 - y0) * (cx - x0) - (x2 - x0) * (cy - y0)) / det
-    b2 = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / det
-    bary = np.clip(np.column_stack([1.0 - b1 - b2, b1, b2]), 0.0, None)
-    bary /= bary.sum(axis=1, keepdims=True)
-    # the surface point's rest position: where on its part's texture it takes its colour
-    xy = np.einsum("nk,nkc->nc", bary, sources.rest[f])
-    part = sources.tri_part[t]
-    colour = np.zeros((h * w, 3), np.float32)
-    for i in np.unique(part):
-        sel = part == i
-        x0i, y0i, tex = sources.textures[i]
-        colour[pix[sel]] = _bilinear(tex, xy[sel] - [x0i, y0i])
-    mask = np.zeros(h * w, bool)
-    mask[pix] = True
-    mask = mask.reshape(h, w)
-    colour = colour.reshape(h, w, 3)
-    alpha = mask.astype(float)
-    if antialias:
-        starts = np.cumsum([0] + [len(p.vertices) for p in posed.parts])
-        colour, alpha = _antialias([xy_out[a:b] for a, b in zip(starts, starts[1:])],
-                                   sources.outline, mask, colour, alpha)
+    z1 = np.full((h, w), -np.inf)
+    z2 = np.full((h, w), -np.inf)
+    c1 = np.zeros((h, w, 4), np.float32)
+    c2 = np.zeros((h, w, 4), np.float32)
+    shown = np.full((h, w), -1, np.int32)
+    for i, faces in enumerate(sources.part_faces):
+        got = _part_surface(xy_out, verts[:, 2], faces, sources, i, (w, h))
+        if got is None:
+            continue
+        (r0, c0), z, rgba = got
+        win = (slice(r0, r0 + z.shape[0]), slice(c0, c0 + z.shape[1]))
+        top, second = z > z1[win], (z <= z1[win]) & (z > z2[win])
+        z2[win] = np.where(top, z1[win], np.where(second, z, z2[win]))
+        c2[win] = np.where(top[..., None], c1[win], np.where(second[..., None], rgba, c2[win]))
+        z1[win] = np.where(top, z, z1[win])
+        c1[win] = np.where(top[..., None], rgba, c1[win])
+        shown[win] = np.where(top, i, shown[win])
+    a1 = c1[..., 3:] / 255.0
+    premult = c1 + (1.0 - a1) * c2   # both premultiplied: rgb * alpha, alpha in 0..255
+    alpha = premult[..., 3:] / 255.0
+    colour = np.divide(premult[..., :3], alpha, out=np.zeros_like(premult[..., :3]),
+                       where=alpha > 0)
     out = np.zeros((h, w, 4), np.uint8)
-    out[..., 3] = np.clip(np.rint(alpha * 255), 0, 255)
+    out[..., 3] = np.clip(np.rint(alpha[..., 0] * 255), 0, 255)
     out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
-    shown = np.full(h * w, -1, np.int32)
-    shown[pix] = part
-    return out, shown.reshape(h, w)
+    return out, shown
+
+
+def _part_surface(xy, z, faces, sources, part, size):
+    """One part's surface over its box: ``((row, col) of the box, height, premultiplied RGBA)``."""
+    w, h = size
+    if not len(faces):
+        return None
+    used = np.unique(faces)
+    lo = np.maximum(np.floor(xy[used].min(axis=0)).astype(int) - 1, 0)
+    hi = np.minimum(np.ceil(xy[used].max(axis=0)).astype(int) + 2, [w, h])
+    if (hi <= lo).any():
+        return None
+    bw, bh = hi - lo
+    local = xy - lo
+    tri = zbuffer(local + 0.5, z, faces, (bw, bh)).ravel()
+    pix = np.flatnonzero(tri >= 0)
+    height = np.full(bw * bh, -np.inf)
+    rgba = np.zeros((bw * bh, 4), np.float32)
+    if pix.size:
+        f = faces[tri[pix]]
+        corners = local[f]
+        cx, cy = (pix % bw).astype(float), (pix // bw).astype(float)
+        (x0, y0), (x1, y1), (x2, y2) = (corners[:, k].T for k in range(3))
+        det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        b1 = ((y2 - y0) * (cx - x0) - (x2 - x0) * (cy - y0)) / det
+        b2 = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / det
+        bary = np.clip(np.column_stack([1.0 - b1 - b2, b1, b2]), 0.0, None)
+        bary /= bary.sum(axis=1, keepdims=True)
+        height[pix] = np.einsum("nk,nk->n", bary, z[f])
+        # the surface point's rest position: where on the part's layer it takes its colour
+        rest = np.einsum("nk,nkc->nc", bary, sources.rest[f])
+        tx, ty, tex = sources.textures[part]
+        rgba[pix] = _bilinear(tex, rest - [tx, ty])
+    return (int(lo[1]), int(lo[0])), height.reshape(bh, bw), rgba.reshape(bh, bw, 4)
 
 
 def posed_layers(posed, rest, layers, drawing_rgb):
@@ -252,8 +276,8 @@ class _Sources:
     """What a posed picture samples, prepared once per drawing.
 
     Per part: the colours it carries over its rest box (its cut-out layer,
-    premultiplied, over the drawing where the layer does not reach), and its
-    outline edges (topology does not change with the pose).
+    premultiplied RGBA; the drawing, opaque, for a part without a layer), and
+    all parts' faces and rest positions in one array each.
     """
 
     @classmethod
@@ -261,7 +285,6 @@ class _Sources:
         """The sources of several reliefs' parts, one after the other."""
         out = cls.__new__(cls)
         out.textures = [t for s in sources for t in s.textures]
-        out.outline = [e for s in sources for e in s.outline]
         out._topology([s.rest for s in sources], [s.part_faces for s in sources])
         return out
 
@@ -279,27 +302,26 @@ class _Sources:
         by_name = {layer.name: layer for layer in layers.layers
                    if layer.region is None or layer.region >= 0}
         h, w = rgb.shape[:2]
-        self.textures, self.outline = [], []
+        self.textures = []
         for part in rest.parts:
             v = np.asarray(part.vertices, float)[:, :2]
             x0, y0 = (max(int(np.floor(c)) - 2, 0) for c in v.min(axis=0))
             x1, y1 = (int(np.ceil(c)) + 3 for c in v.max(axis=0))
             x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
-            tex = rgb[y0:y1, x0:x1].astype(np.float32)
             layer = by_name.get(part.name)
-            if layer is not None:
+            if layer is None:  # no layer: the drawing, opaque
+                tex = np.dstack([rgb[y0:y1, x0:x1], np.full((y1 - y0, x1 - x0), 255)])
+                tex = tex.astype(np.float32)
+            else:
+                tex = np.zeros((y1 - y0, x1 - x0, 4), np.float32)
                 ly0, ly1, lx0, lx1 = layer.box
                 cy0, cy1, cx0, cx1 = max(ly0, y0), min(ly1, y1), max(lx0, x0), min(lx1, x1)
                 if cy0 < cy1 and cx0 < cx1:
-                    src = layer.rgba[cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0].astype(np.float32)
-                    a = src[..., 3:] / 255.0
-                    dst = tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
-                    dst[...] = src[..., :3] * a + (1.0 - a) * dst
+                    tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = layer.rgba[
+                        cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0]
+            # premultiplied, so that bilinear sampling does not bleed the colour of nothing
+            tex[..., :3] *= tex[..., 3:] / 255.0
             self.textures.append((x0, y0, tex))
-            f = np.asarray(part.faces, np.int64).reshape(-1, 3)
-            e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-            edges, count = np.unique(e, axis=0, return_counts=True)
-            self.outline.append(edges[count == 1])
         rest_xy, faces, base = [], [], 0
         for part in rest.parts:
             v = np.asarray(part.vertices, float)[:, :2]
@@ -321,46 +343,3 @@ def _bilinear(image, xy):
     top = image[y0, x0] + fx * (image[y0, x1] - image[y0, x0])
     bottom = image[y1, x0] + fx * (image[y1, x1] - image[y1, x0])
     return top + fy * (bottom - top)
-
-
-def _antialias(vertices, outline, mask, colour, alpha):
-    """Silhouette alpha from the pixel centres' signed distance to the posed outline.
-
-    ``vertices``: per part, its 2D vertices in output pixels (centres at integers).
-    """
-    inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
-    outer = ~mask & ndimage.binary_dilation(mask, structure=np.ones((3, 3)))
-    ring = inner | outer
-    if not ring.any():
-        return colour, alpha
-    segments = []
-    for v, edges in zip(vertices, outline):
-        segments.append(np.stack([v[edges[:, 0]], v[edges[:, 1]]], axis=1))
-    seg = np.concatenate(segments)
-    rows, cols = np.nonzero(ring)
-    pts = np.column_stack([cols, rows]).astype(float)
-    tree = cKDTree(seg.mean(axis=1))
-    _, near = tree.query(pts, k=min(8, len(seg)))
-    near = near.reshape(len(pts), -1)
-    a, b = seg[near, 0], seg[near, 1]
-    d = b - a
-    t = np.clip(np.einsum("nkc,nkc->nk", pts[:, None] - a, d) / np.maximum(
-        np.einsum("nkc,nkc->nk", d, d), 1e-12), 0, 1)
-    dist = np.min(np.linalg.norm(pts[:, None] - (a + t[..., None] * d), axis=2), axis=1)
-    inside = mask[rows, cols]
-    alpha = alpha.copy()
-    alpha[rows, cols] = np.where(inside, np.clip(0.5 + dist, 0.5, 1.0), np.clip(0.5 - dist, 0, 0.5))
-    # A pixel outside takes the mean colour of its neighbours inside.
-    orow, ocol = np.nonzero(outer)
-    h, w = mask.shape
-    total = np.zeros((len(orow), colour.shape[2]), np.float32)
-    count = np.zeros((len(orow), 1), np.float32)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            r, c = np.clip(orow + dy, 0, h - 1), np.clip(ocol + dx, 0, w - 1)
-            inside = mask[r, c][:, None]
-            total += np.where(inside, colour[r, c], 0)
-            count += inside
-    colour = colour.copy()
-    colour[orow, ocol] = total / np.maximum(count, 1)
-    return colour, alpha
