@@ -158,6 +158,7 @@ function toggle() {
   P.on = !P.on;
   $("pose-mode").classList.toggle("active", P.on);
   $("pose-layer").hidden = !P.on;
+  $("marks").style.visibility = P.on ? "hidden" : "";  // the annotation's marks are not posed
   if (P.on) request();
   renderHandles();
 }
