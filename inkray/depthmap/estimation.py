@@ -51,6 +51,11 @@ _SEED_STRENGTH = 5.0
 #: A draft (:meth:`DepthSession.solve`) solves the fill at half resolution
 #: only above this many pixels; below, a full solve is fast enough.
 DRAFT_ABOVE = 300_000
+#: The background's label in a segmentation of scribbles.
+BACKGROUND = -1
+#: Pieces (4-connected areas of one label) smaller than this many pixels get no
+#: implicit order in the exact method: slivers along outlines, not parts.
+_MIN_PIECE = 30
 
 
 @dataclass
@@ -185,11 +190,15 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         y, x = divmod(int(p[same[0]]), w)
         raise InputError(f"{labels[same[0]]}: front and back round to the same pixel ({x}, {y})")
     check_constraints(p, q, ineq, labels)
+    # With regions, the segments are the relief's (inkray.segmentation.segment).
+    seg = _segments(annotations, drawing, progress) if annotations.regions else None
     if method == "exact":
+        if seg is not None:
+            p, q, ineq, labels = _with_background_behind(seg, p, q, ineq, labels)
         return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
-    session = DepthSession(gray, epsilon=epsilon, seeds=_scribble_seeds(annotations),
-                           incremental=False,
-                           progress=progress)
+    session = DepthSession(gray, epsilon=epsilon,
+                           seeds=None if seg is not None else _scribble_seeds(annotations),
+                           labels=seg, incremental=False, progress=progress)
     for i in range(len(p)):
         session.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i])
     if progress is not None:
@@ -237,6 +246,67 @@ def _scribble_seeds(annotations):
     return seed_image(annotations)
 
 
+def _segments(annotations, drawing, progress):
+    from inkray.segmentation import segment
+
+    return segment(annotations, drawing, progress=progress).labels
+
+
+def _on_background(labels):
+    """The region labels 4-adjacent to the background, sorted."""
+    out = set()
+    for a, b in ((labels[:, :-1], labels[:, 1:]), (labels[:-1], labels[1:])):
+        edge = (a == BACKGROUND) != (b == BACKGROUND)
+        out.update(np.unique(np.where(a[edge] == BACKGROUND, b[edge], a[edge])).tolist())
+    return sorted(out)
+
+
+def _with_background_behind(lab, p, q, ineq, labels):
+    """The constraints, with the background behind every region touching it when no
+    entry has a point on the background: for each region piece (4-connected area of
+    one label) and background piece that touch, an order from the piece's deepest
+    pixel (farthest from another label) to the background piece's. ``lab`` is the
+    segmentation of the scribbles."""
+    if (lab.flat[np.concatenate([p, q])] == BACKGROUND).any():
+        return p, q, ineq, labels
+    piece = np.zeros(lab.shape, np.int64)
+    n = 0
+    for v in range(BACKGROUND, int(lab.max()) + 1):
+        comp, k = ndimage.label(lab == v)
+        np.add(comp, n, out=piece, where=comp > 0)
+        n += k
+    size = np.bincount(piece.ravel(), minlength=n + 1)
+    region = np.zeros(n + 1, np.int64)  # piece -> its label
+    region[piece.ravel()] = lab.ravel()
+    border = np.zeros(lab.shape, bool)
+    pairs = []
+    for a, b, ba, bb in ((piece[:, :-1], piece[:, 1:], border[:, :-1], border[:, 1:]),
+                         (piece[:-1], piece[1:], border[:-1], border[1:])):
+        edge = a != b
+        ba |= edge
+        bb |= edge
+        fa, fb = a[edge], b[edge]
+        on = (region[fa] == BACKGROUND) != (region[fb] == BACKGROUND)
+        front = np.where(region[fa[on]] == BACKGROUND, fb[on], fa[on])
+        back = np.where(region[fa[on]] == BACKGROUND, fa[on], fb[on])
+        pairs.append(front * (n + 1) + back)
+    pairs = np.unique(np.concatenate(pairs))
+    front, back = np.divmod(pairs, n + 1)
+    keep = (size[front] >= _MIN_PIECE) & (size[back] >= _MIN_PIECE)
+    front, back = front[keep], back[keep]
+    if not len(front):
+        return p, q, ineq, labels
+    used = np.unique(np.concatenate([front, back]))
+    inside = ndimage.distance_transform_edt(~border)
+    deepest = np.zeros(n + 1, np.int64)
+    w = lab.shape[1]
+    for k, (y, x) in zip(used, ndimage.maximum_position(inside, piece, used)):
+        deepest[k] = y * w + x
+    names = [f"background behind regions[{region[k]}]" for k in front]
+    return (np.concatenate([p, deepest[front]]), np.concatenate([q, deepest[back]]),
+            np.concatenate([ineq, np.ones(len(front), bool)]), list(labels) + names)
+
+
 class DepthSession:
     """Interactive depth from (in)equalities: the fast method with caches.
 
@@ -262,7 +332,13 @@ class DepthSession:
     seeds : (H, W) int array, optional
         Region scribbles ``0..R-1`` and background ``-1`` (``-2`` elsewhere),
         as :func:`inkray.input.scribbles.seed_image` makes. When given, they alone
-        define the regions.
+        define the regions, and unless an entry has a point on the background
+        (label ``-1``) every region touching it lies in front of it: the
+        background is one more node of the region graph, below each of them.
+    labels : (H, W) int array, optional
+        Instead of ``seeds``, their segmentation, when the caller has it
+        (:func:`inkray.segmentation.segment`'s, the relief's: regions
+        ``0..R-1``, background ``-1``).
     incremental : bool, default True
         Keep what a re-solve reuses: the fill's update matrices (about
         0.4 GB for a 512x512 drawing, 2 GB at 1024x1024). Without it every
@@ -283,7 +359,8 @@ class DepthSession:
     0.0
     """
 
-    def __init__(self, gray, *, epsilon=1.0, seeds=None, incremental=True, progress=None):
+    def __init__(self, gray, *, epsilon=1.0, seeds=None, labels=None, incremental=True,
+                 progress=None):
         self.gray = np.asarray(gray, np.float64)
         if self.gray.ndim != 2:
             raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
@@ -291,12 +368,13 @@ class DepthSession:
             raise InputError(f"epsilon: expected a positive depth step, got {epsilon}")
         self.epsilon = float(epsilon)
         h, w = self.shape = self.gray.shape
-        self._scribbles = self._checked(seeds)
+        self._scribbles, self._given = self._checked(seeds, labels)
         self._constraints = {}  # handle -> (p, q, inequality, label)
         self._next = 0
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
+        self._on_background = []  # the region labels touching the background, with scribbles
         self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
         self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
@@ -309,26 +387,33 @@ class DepthSession:
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
 
-    def reseed(self, seeds):
-        """Replace the region and background scribbles (``seeds`` as for the constructor).
+    def reseed(self, seeds=None, *, labels=None):
+        """Replace the region and background scribbles (``seeds`` or their ``labels``,
+        as for the constructor).
 
         The next :meth:`solve` segments afresh; the fill's factorization is
         kept and updated, so it refactors only the fronts where the fixed
         pixels moved (where the segments changed), not the whole grid.
         """
-        self._scribbles = self._checked(seeds)
+        self._scribbles, self._given = self._checked(seeds, labels)
         self.labels = None
         self._split_cache = {}
         self._dirty = set()
 
-    def _checked(self, seeds):
-        """The scribbles as an int32 image, or None when there are none."""
+    def _checked(self, seeds, labels):
+        """The scribbles as an int32 image (None when there are none; the labels when
+        given) and the given labels."""
+        for name, a in (("seeds", seeds), ("labels", labels)):
+            if a is not None and np.shape(a) != self.shape:
+                raise InputError(f"{name}: shape {np.shape(a)} differs from the drawing's "
+                                 f"{self.shape}")
+        if labels is not None:
+            labels = np.asarray(labels, np.int32)
+            return labels, labels
         if seeds is None:
-            return None
+            return None, None
         seeds = np.asarray(seeds, np.int32)
-        if seeds.shape != self.shape:
-            raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {self.shape}")
-        return seeds if (seeds != -2).any() else None
+        return (seeds if (seeds != -2).any() else None), None
 
     # -- constraints ------------------------------------------------------------
 
@@ -436,7 +521,11 @@ class DepthSession:
         self._segment()
         self.timings["segment"] = time.perf_counter() - t
         t = time.perf_counter()
-        groups, level = _local_levels(p, q, ineq, self.labels)
+        behind = []
+        if self._scribbles is not None and \
+                not (self.labels.flat[np.concatenate([p, q])] == BACKGROUND).any():
+            behind = self._on_background  # no entry mentions the background
+        groups, level = _local_levels(p, q, ineq, self.labels, behind=behind)
         lab = self._split(groups)
         self.parts = lab
         self.region_levels = {int(lab.flat[g[0]]): level[g[0]]
@@ -470,7 +559,9 @@ class DepthSession:
         self._split_cache = {}
         if self._scribbles is not None:
             if self.labels is None:
-                self.labels = lazybrush(self.gray, self._scribbles, frame_background=False)
+                self.labels = self._given if self._given is not None else lazybrush(
+                    self.gray, self._scribbles, frame_background=False)
+                self._on_background = _on_background(self.labels)
             self._dirty = set()
             return
         if self.labels is None:
@@ -627,7 +718,7 @@ class DepthSession:
         return d
 
 
-def _local_levels(p, q, ineq, labels):
+def _local_levels(p, q, ineq, labels, *, behind=()):
     """Levels of the endpoints, and how each segment's endpoints group.
 
     The endpoints of one segment share a level (the segment is one node of
@@ -636,6 +727,9 @@ def _local_levels(p, q, ineq, labels):
     the segment with its own level. Two rings that cross twice, or an entry
     with both points in one segment, so give a segment two parts. Only a
     cycle of the entries themselves (checked before) is a contradiction.
+    Every part of the segments ``behind`` lies in front of the background
+    (:data:`BACKGROUND`, which no endpoint may lie in); a segment or the
+    background without endpoints is then one group of its first pixel.
 
     Returns
     -------
@@ -670,6 +764,13 @@ def _local_levels(p, q, ineq, labels):
                     _link(adjacent, part[0], v, False)
         edges += [(part[0], v, False) for part in parts for v in part[1:]]
         groups[seg] = parts
+    if len(behind):
+        flat = labels.ravel()
+        back = int(np.argmax(flat == BACKGROUND))
+        groups[BACKGROUND] = [[back]]
+        for seg in behind:
+            parts = groups.setdefault(seg, [[int(np.argmax(flat == seg))]])
+            edges += [(part[0], back, True) for part in parts]
     return groups, _graph(edges).levels()
 
 
