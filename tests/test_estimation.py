@@ -541,7 +541,7 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     from inkray.depthmap import estimation
 
     monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
-    gray, seeds = _three_boxes()
+    gray, seeds = _three_boxes(gap=True)
     s = DepthSession(gray, seeds=seeds)
     s.add((30, 25), (90, 25))
     s.solve(draft=True)
@@ -559,6 +559,24 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     assert np.abs(s.solve(draft=True) - draft).max() < 1e-9  # both fills kept as they were
     assert np.abs(s.solve() - full).max() < 1e-9
     assert s.refactored_fronts == 0
+
+
+def test_a_cold_draft_is_the_full_fill_when_the_fixed_values_settle_most_pixels(monkeypatch):
+    # Closed boxes: every free component's fixed neighbours share one value, so
+    # nothing is factored, and the first draft already is the exact fill.
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    gray, seeds = _three_boxes()
+    s = DepthSession(gray, seeds=seeds)
+    s.add((30, 25), (90, 25))
+    draft = s.solve(draft=True)
+    full = s.solve()
+    assert set(s._fills) == {False} and s._fills[False].box is None  # no draft, no factor
+    fresh = DepthSession(gray, seeds=seeds, incremental=False)
+    fresh.add((30, 25), (90, 25))
+    assert np.abs(fresh.solve() - draft).max() < 1e-9
+    assert np.array_equal(draft, full)
 
 
 # -- the background behind the parts -------------------------------------------------

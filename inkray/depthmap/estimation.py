@@ -376,6 +376,7 @@ class DepthSession:
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
         self._on_background = []  # the region labels touching the background, with scribbles
         self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
+        self._answer = None     # (fixed, their values, fill) of the last full fill
         self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
         self._progress = progress
@@ -703,18 +704,31 @@ class DepthSession:
 
     def _fill(self, fixed, vals, draft):
         """The harmonic fill for ``vals`` on ``fixed``, by the kept fill of the full grid
-        or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one."""
-        draft = draft and self.gray.size > DRAFT_ABOVE
+        or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one.
+
+        A draft before the full fill was ever factored is the full fill when the
+        fixed values leave at most :data:`DRAFT_ABOVE` pixels' box to factor
+        (as fast, and exact); the full solve that follows is then that answer."""
+        if self._weights is None:
+            self._weights = edge_weights(self.gray)[:2]
+        full = self._fills.get(False)
+        if self._answer is not None and not draft and np.array_equal(fixed, self._answer[0]) \
+                and np.array_equal(vals[fixed], self._answer[1]):
+            self.refactored_fronts = 0
+            return self._answer[2].copy()
+        self._answer = None
+        draft = draft and self.gray.size > DRAFT_ABOVE and not (
+            (full is None or full.box is None)
+            and HarmonicFill.pending(fixed, vals) <= DRAFT_ABOVE)
         if draft not in self._fills:
-            if self._weights is None:
-                self._weights = edge_weights(self.gray)[:2]
-            wx, wy = self._weights
             kind = DraftFill if draft else HarmonicFill
-            self._fills[draft] = kind(wx, wy, incremental=self._incremental,
+            self._fills[draft] = kind(*self._weights, incremental=self._incremental,
                                       progress=self._progress)
         fill = self._fills[draft]
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts
+        if not draft:
+            self._answer = fixed, vals[fixed], d.copy()
         return d
 
 

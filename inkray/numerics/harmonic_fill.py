@@ -149,6 +149,26 @@ class HarmonicFill:
         out[crop] = np.where(known, out[crop], x)
         return out
 
+    @staticmethod
+    def pending(fixed, values):
+        """The pixels of the box a fresh :meth:`solve` would factor for these fixed values
+        (0 when they settle every pixel).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> fixed = np.zeros((5, 9), bool); fixed[:, 0] = fixed[:, -1] = True
+        >>> HarmonicFill.pending(fixed, np.where(fixed, np.arange(9.0), 0.0))
+        35
+        >>> HarmonicFill.pending(fixed, np.ones((5, 9)))
+        0
+        """
+        _, free = _settled(np.asarray(fixed, bool), values)
+        if not free.any():
+            return 0
+        r0, r1, c0, c1 = _bounds(free)
+        return (r1 - r0) * (c1 - c0)
+
     def _system(self, known, box):
         """The box's operator ``diag, east, south``: free pixels keep their edges to
         free neighbours, known pixels are identity rows."""
