@@ -39,7 +39,6 @@ import json
 import os
 import resource
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,10 +48,17 @@ from inkray.errors import InkrayError, InputError
 from inkray.formats.atomic import atomic_outputs, write_text
 from inkray.progress import Progress
 
-__all__ = ["JOBS", "Frame", "find_frames", "run_batch", "run_frame"]
+__all__ = ["JOBS", "JOB_FILES", "Frame", "find_frames", "run_batch", "run_frame"]
 
-#: The jobs a batch can run per frame, in the order they are done.
-JOBS = ("relief", "render", "layers", "maps")
+#: The jobs a batch can run per frame, in the order they are done: the artefacts
+#: (:data:`inkray.artefacts.ARTEFACTS`) each writes, and where in the frame's folder.
+JOB_FILES = {
+    "relief": (("relief", "relief.glb"),),
+    "render": (("shaded", "shaded.png"),),
+    "layers": (("layers", "parts.psd"), ("layers", "parts.ora")),
+    "maps": (("maps", "maps"),),
+}
+JOBS = tuple(JOB_FILES)
 MANIFEST = "batch-manifest.json"
 REPORT = "batch-report.json"
 _SUFFIXES = (".inkray.json", ".json")
@@ -234,89 +240,24 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
 
 def _frame_files(annotation, jobs):
     """The bytes of every output of ``jobs``, each made as its single command makes it."""
+    from inkray.artefacts import ARTEFACTS, artefact_files
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.input.loading import load_input
 
     ann, drawing = load_input(annotation)
-    if not ann.regions:
-        raise InputError(f"{annotation}: regions: a relief needs at least one region")
+    made = [(ARTEFACTS[name], target) for job in jobs for name, target in JOB_FILES[job]]
+    for artefact, _ in made:
+        try:
+            artefact.check(ann)
+        except InputError as e:
+            raise InputError(f"{annotation}: {e}") from None
     chain = ReliefChain(ann, drawing, options=ChainOptions())
-    files = {}
-    collect = _Collect()
-    try:
-        if "relief" in jobs or "render" in jobs:
-            from inkray.formats.meshes import glb_bytes
-
-            glb = glb_bytes(chain.relief)
-            if "relief" in jobs:
-                files["relief.glb"] = glb
-            if "render" in jobs:
-                files["shaded.png"] = _shaded(glb, collect)
-        if "layers" in jobs:
-            from inkray.formats.openraster import ora_bytes
-            from inkray.formats.psd import psd_bytes
-            from inkray.relief.cutout import cut_out
-
-            stack = cut_out(chain.completion, chain.relations, drawing)
-            files["parts.psd"] = psd_bytes(stack)
-            files["parts.ora"] = ora_bytes(stack)
-        if "maps" in jobs:
-            from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
-
-            seg = chain.segmentation
-            write_sprite_maps(sprite_maps(chain.relief, seg.labels, seg.names), "maps",
-                              outputs=collect)
-            files.update(collect.files())
-    finally:
-        collect.close()
+    files, values = {}, {}
+    for artefact, target in made:
+        if artefact.name not in values:
+            values[artefact.name] = artefact.make(chain)
+        files.update(artefact_files(artefact, values[artefact.name], target, chain=chain))
     return files
-
-
-def _shaded(glb, collect):
-    """``inkray render relief.glb -o shaded.png``: the relief as read back from its GLB."""
-    from inkray.formats.images import write_renderings
-    from inkray.formats.meshes import read_relief
-    from inkray.view.rendering import output_size, render
-
-    path = collect.scratch("relief.glb")
-    path.write_bytes(glb)
-    relief = read_relief(path)
-    image = render(relief, mode="shade", size=output_size(relief.size), ambient=0.3)
-    write_renderings(image, "shaded.png", outputs=collect)
-    return collect.files().pop("shaded.png")
-
-
-class _Collect:
-    """An outputs group (as :func:`atomic_outputs` yields) that keeps the bytes in memory."""
-
-    def __init__(self):
-        self._dir = None
-        self._paths = {}
-
-    def scratch(self, name):
-        if self._dir is None:
-            self._dir = tempfile.TemporaryDirectory(prefix="inkray-batch-")
-        return Path(self._dir.name) / f"{len(self._paths)}-{Path(name).name}"
-
-    def path(self, target):
-        tmp = self.scratch(target)
-        self._paths[Path(target).as_posix()] = tmp
-        return tmp
-
-    def write_bytes(self, target, data):
-        self.path(target).write_bytes(data)
-
-    def write_text(self, target, text):
-        self.write_bytes(target, text.encode("utf-8"))
-
-    def files(self):
-        out = {name: tmp.read_bytes() for name, tmp in self._paths.items()}
-        self._paths = {}
-        return out
-
-    def close(self):
-        if self._dir is not None:
-            self._dir.cleanup()
 
 
 def _reset_peak_memory():

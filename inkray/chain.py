@@ -96,7 +96,8 @@ class ChainOptions:
 
     def __post_init__(self):
         if self.union and not self.closed:
-            raise InputError("--union needs --closed (the union of open surfaces is not a solid)")
+            raise InputError("union: the union of open surfaces is not a solid", option="union",
+                             fix=("add {}", "closed"))
         if self.epsilon is not None and not (np.isfinite(self.epsilon) and self.epsilon > 0):
             raise InputError(f"epsilon: expected a positive depth step in px, got {self.epsilon!r}")
         if self.depth_method not in METHODS:

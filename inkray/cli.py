@@ -123,7 +123,7 @@ def _cmd_validate(args, progress):
     except InputError as e:
         if not args.json:
             raise
-        problems = [Problem.from_message("error", _one_line(e))]
+        problems = [Problem.from_message("error", _one_line(e.worded(_flag)))]
         ann = None
     else:
         chain = ReliefChain(ann, drawing, options=ChainOptions(), progress=progress)
@@ -171,48 +171,61 @@ def _print_predictions(relations):
         print(f"  {line}")
 
 
-def _cmd_segment(args, progress):
-    from inkray.formats.labels import label_files, write_labels
+def _produce(args, progress, name, target, *, options=None, params=None, write=None,
+             warn=None, stage=None, before=None):
+    """Make the artefact ``name`` of the command's input and write it at ``target``.
 
-    _check_output(args.output, (".png",))
+    The CLI's adapter over :data:`inkray.artefacts.ARTEFACTS`: the output's
+    type and every target are checked before any work, the chain is built
+    with ``options``, the value computed with ``params``, ``warn(chain,
+    value)``'s warnings printed, and the files written together with
+    ``write``. Returns ``(chain, value, written paths)``.
+    """
+    from inkray.artefacts import ARTEFACTS
+
+    artefact = ARTEFACTS[name]
+    try:
+        files = artefact.files(target, **(write or {}))
+    except InputError as e:
+        raise InputError(f"-o {e}") from None
+    chain = _chain(args, progress, targets=files, **(options or {}))
+    artefact.check(chain.annotations)
+    if before is not None:
+        before(chain)
+    with progress.stage(stage) if stage else contextlib.nullcontext():
+        value = artefact.make(chain, **(params or {}))
+    if warn is not None:
+        _warn(warn(chain, value))
+    with progress.stage("write"), _group(args, chain) as group:
+        written = artefact.write(value, target, chain=chain, outputs=group, **(write or {}))
+    progress.summary()
+    return chain, value, written
+
+
+def _cmd_segment(args, progress):
     if args.npy is not None and Path(args.npy).suffix.lower() != ".npy":
         raise InputError(f"--npy {args.npy}: expected a .npy file")
-    chain = _chain(args, progress, targets=[*label_files(args.output), args.npy])
-    seg = chain.segmentation
-    _warn(seg.warnings)
-    with _group(args, chain) as group:
-        written = write_labels(seg, args.output, npy=args.npy, outputs=group)
-    progress.summary()
+    _, seg, written = _produce(args, progress, "labels", args.output, write=dict(npy=args.npy),
+                               warn=lambda chain, seg: seg.warnings)
     extra = f" and {args.npy}" if args.npy is not None else ""
     print(f"{written[0]}: {len(seg.names)} regions and background (legend {written[1]}{extra}), "
           f"{len(seg.warnings)} warnings")
     return 0
 
 
-def _regions_report(chain, masks=None):
-    from inkray.formats.regions_report import regions_report
-
-    return regions_report(chain.segmentation, chain.candidates, chain.completion, chain.relations,
-                          predict=chain.options.predict, warnings=chain.warnings, masks=masks)
-
-
 def _cmd_regions(args, progress):
-    from inkray.formats.regions_report import write_regions_report
-
-    _check_output(args.output, (".json",))
-    masks = None if args.masks is None else Path(args.masks) / "region.png"
-    chain = _chain(args, progress, targets=[args.output, masks], predict=not args.no_predict)
-    if masks is not None:
+    def check_names(chain):
+        if args.masks is None:
+            return
         for i, region in enumerate(chain.annotations.regions):
             if len(f"{region.name}.png".encode()) > 255:
                 raise InputError(f"regions[{i}].name: {len(region.name)} characters are too many "
                                  f"for a file name in --masks (at most 251)")
-    report = _regions_report(chain, masks=args.masks)
-    _warn(report["warnings"])
-    with _group(args, chain) as group:
-        write_regions_report(report, args.output, completion=chain.completion, masks=args.masks,
-                             outputs=group)
-    progress.summary()
+
+    chain, report, _ = _produce(args, progress, "regions", args.output,
+                                options=dict(predict=not args.no_predict),
+                                params=dict(masks=args.masks), write=dict(masks=args.masks),
+                                warn=lambda chain, report: report["warnings"], before=check_names)
     predicted = sum(r["source"] == "predicted" for r in report["relations"])
     print(f"{args.output}: {len(report['regions'])} regions, {len(report['relations'])} order "
           f"relations ({predicted} predicted), {len(report['warnings'])} warnings"
@@ -222,22 +235,16 @@ def _cmd_regions(args, progress):
 
 
 def _cmd_depth(args, progress):
-    from inkray.formats.depth_png import depth_files, write_depth_outputs
-
     _check_output(args.output, (".png",))
     for flag, path, allowed in (("--npy", args.npy, (".npy",)), ("--normals", args.normals, (".png",)),
                                 ("--shading", args.shading, (".png",))):
         if path is not None and Path(path).suffix.lower() not in allowed:
             raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
-    targets = [*depth_files(args.output), args.npy, args.normals, args.shading]
     _in_range("--epsilon", args.epsilon, 1e-9, 1e9, "depth step")
-    chain = _chain(args, progress, targets=targets, depth_method=args.method,
-                   depth_epsilon=args.epsilon)
-    result = chain.depth_map
-    with _group(args, chain) as group:
-        written = write_depth_outputs(result, args.output, npy=args.npy, normals=args.normals,
-                                      shading=args.shading, drawing=chain.drawing, outputs=group)
-    progress.summary()
+    chain, result, written = _produce(
+        args, progress, "depth", args.output,
+        options=dict(depth_method=args.method, depth_epsilon=args.epsilon),
+        write=dict(npy=args.npy, normals=args.normals, shading=args.shading))
     d = result.depth
     ann = chain.annotations
     print(f"{args.output}: {args.method} depth of {len(ann.order)} order and {len(ann.equal)} equal "
@@ -247,13 +254,6 @@ def _cmd_depth(args, progress):
 
 
 def _cmd_relief(args, progress):
-    from inkray.formats.images import write_renderings
-    from inkray.formats.meshes import export_files, export_relief
-    from dataclasses import replace
-
-    from inkray.relief.backing import depth_scaled
-    from inkray.view.rendering import render
-
     _check_output(args.output, (".glb", ".obj", ".ply"))
     _in_range("--units-per-pixel", args.units_per_pixel, 1e-9, 1e6, "scene units per pixel")
     _in_range("--max-area", args.max_area, 1e-3, 1e8, "triangle area in px^2")
@@ -271,25 +271,14 @@ def _cmd_relief(args, progress):
             target = Path(value) if isinstance(value, str) else out.with_name(f"{out.stem}-{mode}.png")
             _check_output(target, (".png",))
             images[mode] = target
-    chain = _chain(args, progress, targets=[*export_files(out), *images.values()],
-                   predict=not args.no_predict, max_area=args.max_area,
-                   epsilon=args.epsilon, closed=args.closed, union=args.union)
-    if not chain.annotations.regions:
-        raise InputError("regions: a relief needs at least one region")
-    relief = chain.relief
-    if args.depth_scale != 1.0:
-        relief = depth_scaled(relief, args.depth_scale)
-    if args.union:  # one object: named after the file, so imports of several don't collide
-        relief = replace(relief, parts=[replace(p, name=out.stem) for p in relief.parts])
-    _warn(chain.warnings)
-    with progress.stage("export"):
-        with _group(args, chain) as group:
-            written = export_relief(relief, out, units_per_pixel=args.units_per_pixel,
-                                    anchor=args.anchor, back=args.back, up=up, outputs=group)
-            for mode, target in images.items():
-                write_renderings(render(relief, mode=mode), target, outputs=group)
-                written.append(target)
-    progress.summary()
+    _, relief, written = _produce(
+        args, progress, "relief", out,
+        options=dict(predict=not args.no_predict, max_area=args.max_area, epsilon=args.epsilon,
+                     closed=args.closed, union=args.union),
+        params=dict(depth_scale=args.depth_scale, name=out.stem if args.union else None),
+        write=dict(units_per_pixel=args.units_per_pixel, anchor=args.anchor, back=args.back,
+                   up=up, images=images),
+        warn=lambda chain, relief: chain.warnings)
     parts = relief.parts
     print(f"{out}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices, "
           f"{sum(len(p.faces) for p in parts)} faces ({', '.join(str(w) for w in written[1:]) or 'no extra files'})")
@@ -362,15 +351,11 @@ def _cmd_check(args, progress):
 
 
 def _cmd_demo(args, progress):
-    import json
-
+    from inkray.artefacts import ARTEFACTS
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.examples import example_path
     from inkray.formats.atomic import atomic_outputs
-    from inkray.formats.depth_png import write_depth_outputs
     from inkray.formats.images import write_renderings
-    from inkray.formats.labels import write_labels
-    from inkray.formats.meshes import export_relief
     from inkray.input.loading import load_input
     from inkray.view.rendering import GI_MAX_SIDE, has_mitsuba, output_size, render
 
@@ -382,12 +367,12 @@ def _cmd_demo(args, progress):
     w, h = ann.size
     print(f"{path}: ok: {w}x{h} drawing {drawing.path}, {len(ann.regions)} regions, "
           f"{len(ann.order)} order, {len(ann.equal)} equal, {len(ann.boundaries)} boundaries")
-    depth_map = _beside(lambda: chain.edit(progress=Progress(quiet=True)).depth_map)
-    report = _regions_report(chain)
-    relief = chain.relief
+    depth = _beside(lambda: ARTEFACTS["depth"].make(chain.edit(progress=Progress(quiet=True))))
+    made = {name: ARTEFACTS[name].make(chain) for name in ("regions", "labels", "relief")}
+    relief = made["relief"]
     _warn(chain.warnings)
     with progress.stage("depth"):
-        depth = depth_map()
+        made["depth"] = depth()
     with progress.stage("render shade"):
         shaded = render(relief, mode="shade")
     gi = None
@@ -398,37 +383,28 @@ def _cmd_demo(args, progress):
     else:
         print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
     with atomic_outputs() as group:
-        written = write_labels(chain.segmentation, out / "labels.png", outputs=group)
-        written += write_depth_outputs(depth, out / "depth.png", drawing=drawing, outputs=group)
-        group.write_text(out / "regions.json", json.dumps(report, indent=2, ensure_ascii=False) + "\n")
-        written += export_relief(relief, out / "relief.glb", outputs=group)
+        written = []
+        for name, file in (("labels", "labels.png"), ("depth", "depth.png"),
+                           ("regions", "regions.json"), ("relief", "relief.glb")):
+            written += ARTEFACTS[name].write(made[name], out / file, chain=chain, outputs=group)
         written += write_renderings(shaded, out / "shaded.png", outputs=group)
         if gi is not None:
             written += write_renderings(gi, out / "gi.png", outputs=group)
     progress.summary()
-    print(f"demo: done; {len(written) + 1} files in {out}/: "
-          f"{', '.join(sorted({p.name for p in written} | {'regions.json'}))}")
+    print(f"demo: done; {len(written)} files in {out}/: "
+          f"{', '.join(sorted({p.name for p in written}))}")
     return 0
 
 
 def _cmd_layers(args, progress):
-    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
-    from inkray.relief.cutout import cut_out
-
-    _check_output(args.output, LAYER_SUFFIXES)
     if args.pad < 0:
         raise InputError(f"--pad {args.pad}: expected a whole number of pixels >= 0")
-    chain = _chain(args, progress, targets=[args.output], predict=not args.no_predict)
-    if not chain.annotations.regions:
-        raise InputError("regions: a layer stack needs at least one region")
-    completion, relations = chain.completion, chain.relations
-    with progress.stage("layers"):
-        stack = cut_out(completion, relations, chain.drawing, pad=args.pad,
-                        split_local=args.split_local, background=args.background)
-    _warn(chain.warnings + stack.warnings)
-    with progress.stage("write"), _group(args, chain) as group:
-        write_layers(stack, args.output, outputs=group)
-    progress.summary()
+    _, stack, _ = _produce(args, progress, "layers", args.output,
+                           options=dict(predict=not args.no_predict),
+                           params=dict(pad=args.pad, split_local=args.split_local,
+                                       background=args.background),
+                           warn=lambda chain, stack: chain.warnings + stack.warnings,
+                           stage="layers")
     split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
     print(f"{args.output}: {len(stack.layers)} layers back to front: "
           f"{', '.join(layer.name for layer in stack.layers)}{split}")
@@ -452,27 +428,16 @@ def _cmd_batch(args, progress):
 
 
 def _cmd_maps(args, progress):
-    from inkray.formats.sprite_maps import sprite_maps, write_sprite_maps
-
     if args.ao_radius is not None and not args.ao_radius >= 1:
         raise InputError(f"--ao-radius {args.ao_radius}: expected at least 1 pixel")
     out = Path(args.output)
     if out.suffix:
         raise InputError(f"-o {out}: expected a folder (no suffix)")
-    chain = _chain(args, progress, targets=[out / "maps.json"])
-    if not chain.annotations.regions:
-        raise InputError("regions: sprite maps need at least one region")
-    relief = chain.relief
-    _warn(chain.warnings)
-    seg = chain.segmentation
-    with progress.stage("maps"):
-        maps = sprite_maps(relief, seg.labels, seg.names, convention=args.convention,
-                           ao_radius=args.ao_radius)
-        with _group(args, chain) as group:
-            written = write_sprite_maps(maps, out, outputs=group)
-    progress.summary()
+    _, maps, written = _produce(args, progress, "maps", out,
+                                params=dict(convention=args.convention, ao_radius=args.ao_radius),
+                                warn=lambda chain, maps: chain.warnings, stage="maps")
     print(f"{out}/: {args.convention} normals, height, ambient occlusion and part IDs of "
-          f"{len(seg.names)} regions ({', '.join(p.name for p in written)})")
+          f"{len(maps.names)} regions ({', '.join(p.name for p in written)})")
     return 0
 
 
@@ -741,7 +706,8 @@ def main(argv=None):
     except InkrayError as e:
         if debug:
             traceback.print_exc()
-        print(f"inkray: error: {_one_line(e)}", file=sys.stderr)
+        text = e.worded(_flag) if isinstance(e, InputError) else e
+        print(f"inkray: error: {_one_line(text)}", file=sys.stderr)
         return e.exit_code
     except _Terminated as e:
         print(f"inkray: terminated; nothing was written", file=sys.stderr)
@@ -784,6 +750,15 @@ def _terminate_as_interrupt():
     finally:
         for n, h in previous.items():
             signal.signal(n, h)
+
+
+#: Library parameters whose flag is not their name with dashes.
+_FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points"}
+
+
+def _flag(parameter):
+    """The flag of a library parameter an error names (``split_local`` -> ``--split-local``)."""
+    return _FLAGS.get(parameter, "--" + parameter.replace("_", "-"))
 
 
 def _one_line(e):

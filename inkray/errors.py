@@ -13,9 +13,52 @@ class InkrayError(Exception):
 
 
 class InputError(InkrayError, ValueError):
-    """Bad input: the message names what is wrong and where (key path, pixel)."""
+    """Bad input: the message names what is wrong and where (key path, pixel).
+
+    Parameters
+    ----------
+    message : str
+    option : str, optional
+        The keyword parameter whose value is wrong, when the message starts
+        with it as its key (``"size: ..."``).
+    fix : (str, str), optional
+        A remedy naming a parameter: a template with ``{}`` where the
+        parameter goes, and the parameter (``("raise it with {}",
+        "limits.pixels")``), appended in parentheses.
+
+    Front ends name those parameters their own way (the command line as its
+    flags) with :meth:`worded`; ``str()`` names them as the library does.
+
+    Examples
+    --------
+    >>> e = InputError("size: give either a size or a width and height", option="size",
+    ...                fix=("drop {}", "size"))
+    >>> str(e)
+    'size: give either a size or a width and height (drop size)'
+    >>> e.worded(lambda name: "--" + name)
+    '--size: give either a size or a width and height (drop --size)'
+    """
 
     exit_code = 2
+
+    def __init__(self, message, *, option=None, fix=None):
+        super().__init__(message)
+        self.message = message
+        self.option = option
+        self.fix = fix
+
+    def worded(self, name):
+        """The message with every parameter it names as ``name(parameter)``."""
+        message = self.message
+        if self.option is not None and message.startswith(f"{self.option}:"):
+            message = name(self.option) + message[len(self.option):]
+        if self.fix is not None:
+            template, parameter = self.fix
+            message = f"{message} ({template.format(name(parameter))})"
+        return message
+
+    def __str__(self):
+        return self.worded(lambda parameter: parameter)
 
 
 class StageError(InkrayError, RuntimeError):

@@ -122,7 +122,7 @@ def test_size_is_checked_from_the_header_before_decoding(tmp_path):
 
     (tmp_path / "large.png").write_bytes(_png(9000, 9000))
     with pytest.raises(InputError, match=r"large.png: 9000x9000 = 81000000 pixels exceeds "
-                                         r"the limit of 16777216 \(raise it with --max-pixels\)"):
+                                         r"the limit of 16777216 \(raise it with limits.pixels\)"):
         load_drawing(tmp_path / "large.png")
     (tmp_path / "huge.png").write_bytes(_png(60000, 60000))
     with pytest.raises(InputError, match=r"huge.png: 3600000000 pixels exceeds the limit"):

@@ -1,5 +1,6 @@
 """The editor's HTTP API on a real server: every endpoint, bad documents, save, previews, concurrency."""
 
+import dataclasses
 import io
 import json
 import os
@@ -260,19 +261,19 @@ def test_an_edit_during_a_preview_supersedes_it(turtle, monkeypatch):
     session = EditSession(turtle)
     doc = json.loads(turtle.read_text())
     edited = dict(doc, order=doc["order"][:-1])
-    stage, encode, media_type = session_module._PREVIEW["depth.png"]
+    depth = session_module._PREVIEW["depth.png"]
     seen = []
 
-    def depth_with_an_edit(chain):
+    def depth_with_an_edit(chain, **params):
         seen.append(len(chain.annotations.order))
         if len(seen) == 1:  # an edit arrives while the first preview is computing
             threading.Thread(target=session.replace, args=(json.dumps(edited),)).start()
             while session.generation == 0:
                 pass
-        return stage(chain)
+        return depth.compute(chain, **params)
 
-    monkeypatch.setitem(session_module._PREVIEW, "depth.png", (depth_with_an_edit, encode,
-                                                                media_type))
+    monkeypatch.setitem(session_module._PREVIEW, "depth.png",
+                        dataclasses.replace(depth, compute=depth_with_an_edit))
     preview = session.preview("depth.png")
     assert preview.generation == 1 == session.generation
     assert seen == [len(doc["order"]), len(doc["order"]) - 1]
@@ -326,8 +327,9 @@ def test_a_failing_stage_is_one_line(turtle, monkeypatch, capsys):
     def broken(chain):
         raise RuntimeError("boom\nsecond line")
 
-    stage, encode, media_type = session_module._PREVIEW["relief.glb"]
-    monkeypatch.setitem(session_module._PREVIEW, "relief.glb", (broken, encode, media_type))
+    relief = session_module._PREVIEW["relief.glb"]
+    monkeypatch.setitem(session_module._PREVIEW, "relief.glb",
+                        dataclasses.replace(relief, compute=broken))
     with running(EditSession(turtle)) as url:
         status, answer = _json(call(url + "/api/preview/relief.glb"))
     assert status == 500 and answer["error"] == "internal error: RuntimeError: boom second line"
@@ -407,14 +409,15 @@ def test_the_page_needs_nothing_from_elsewhere(turtle):
 def test_the_depth_map_starts_after_the_segmentation(turtle, monkeypatch):
     """The page asks for both after a scribble: the segmentation is computed first, alone."""
     session = EditSession(turtle)
-    stage, encode, media_type = session_module._PREVIEW["depth.png"]
+    depth = session_module._PREVIEW["depth.png"]
     segmented = []
 
-    def depth_after(chain):
+    def depth_after(chain, **params):
         segmented.append(chain.segmented)
-        return stage(chain)
+        return depth.compute(chain, **params)
 
-    monkeypatch.setitem(session_module._PREVIEW, "depth.png", (depth_after, encode, media_type))
+    monkeypatch.setitem(session_module._PREVIEW, "depth.png",
+                        dataclasses.replace(depth, compute=depth_after))
     assert not session._chain.segmented
     session.preview("depth.png")
     assert segmented == [True]

@@ -379,8 +379,10 @@ def test_cli_missing_mesh_exits_2(tmp_path, capsys):
 def test_output_size_keeps_the_aspect_and_refuses_conflicts():
     assert output_size((80, 60), height=30) == (40, 30)
     assert output_size((80, 60)) == (80, 60)
-    with pytest.raises(InputError, match="--width"):
+    with pytest.raises(InputError, match="^width: expected an integer"):
         output_size((80, 60), width=0)
+    with pytest.raises(InputError, match="^size: give either a size or a width and height"):
+        output_size((80, 60), size=(10, 10), width=5)
 
 
 @pytest.mark.parametrize("kwargs, match", [

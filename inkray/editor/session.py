@@ -26,12 +26,11 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from inkray.artefacts import ARTEFACTS
 from inkray.chain import ChainOptions, ReliefChain
 from inkray.errors import InkrayError, InputError
 from inkray.formats.atomic import write_text
-from inkray.formats.depth_png import depth_png
-from inkray.formats.labels import label_palette, labels_png
-from inkray.formats.meshes import glb_bytes
+from inkray.formats.labels import label_palette
 from inkray.input.annotations import FORMAT, VERSION, decode_annotations, parse_annotations
 from inkray.input.drawing import load_drawing
 from inkray.input.files import read_bytes
@@ -263,22 +262,20 @@ class EditSession:
         """
         if name not in PREVIEWS:
             raise KeyError(name)
-        stage, encode, media_type = _PREVIEW[name]
+        artefact = _PREVIEW[name]
         if name == "depth.png":
             self._segmentation_first()
         elif name == "relief.glb":
             self._depth_first()
-        key, changes = (name,), {}
+        params = {}
         if name == "depth.png" and exact:
-            key, changes = (name, "exact"), dict(depth_method="exact", interactive=False)
+            params = dict(method="exact")
         elif name == "depth.png" and draft:
-            key, changes = (name, "draft"), dict(depth_draft=True)
-            # Stored uncompressed: a draft is read once over loopback, and zlib
-            # took a third of its time at 1 Mpx.
-            encode = lambda d: depth_png(d.depth, compress_level=0)[0]  # noqa: E731
+            params = dict(draft=True)
+        key = (name, *sorted(params.items()))
         return self._newest(lambda chain, digest: (self._encoded(
-            key + (digest,), lambda: encode(stage(chain.edit(**changes) if changes else chain))),
-            media_type), lock="depth" if name == "depth.png" else "relief")
+            (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
+            lock="depth" if name == "depth.png" else "relief")
 
     def relations(self):
         """The user's and the predicted relations and the warnings of the newest document.
@@ -450,20 +447,9 @@ class _Watch(Progress):
             yield self
 
 
-def _relief(chain):
-    if not chain.annotations.regions:
-        raise InputError("regions: a relief needs at least one region")
-    return chain.relief
-
-
-# preview -> (its stage's result from a chain, the file bytes of that result, media type)
-_PREVIEW = {
-    "labels.png": (lambda chain: chain.segmentation, labels_png, "image/png"),
-    # zlib level 1: half the encoding time of a 1 Mpx preview, the same decoded depths
-    "depth.png": (lambda chain: chain.depth_map, lambda d: depth_png(d.depth, compress_level=1)[0],
-                  "image/png"),
-    "relief.glb": (_relief, glb_bytes, "model/gltf-binary"),
-}
+#: preview -> the artefact it shows (:data:`inkray.artefacts.ARTEFACTS`)
+_PREVIEW = {"labels.png": ARTEFACTS["labels"], "depth.png": ARTEFACTS["depth"],
+            "relief.glb": ARTEFACTS["relief"]}
 
 
 def _relation(r, labels):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from inkray.errors import InputError
 
-__all__ = ["atomic_outputs", "check_targets", "write_bytes", "write_text"]
+__all__ = ["atomic_outputs", "check_targets", "memory_outputs", "write_bytes", "write_text"]
 
 
 def _same(a, b):
@@ -181,6 +181,39 @@ def atomic_outputs(*, inputs=()):
     out = _Outputs(inputs)
     yield out
     out._commit()
+
+
+class _MemoryOutputs(_Outputs):
+    def __init__(self):
+        super().__init__(())
+
+    def write_bytes(self, target, data):
+        """Add ``target`` with contents ``data`` to the group."""
+        target = Path(target)
+        if target in self._pending:
+            raise InputError(f"{target}: written twice by this command")
+        self._pending[target] = bytes(data)
+
+    def files(self):
+        """The files added so far, ``{posix path: bytes}``, in the order written."""
+        return {target.as_posix(): data for target, data in self._pending.items()}
+
+
+@contextlib.contextmanager
+def memory_outputs():
+    """An output group like :func:`atomic_outputs` whose files stay in memory.
+
+    For outputs sent elsewhere (a batch task returns its files' bytes to the
+    process that writes them): the same writers give the same bytes.
+
+    Examples
+    --------
+    >>> with memory_outputs() as out:
+    ...     out.write_text("maps/a.txt", "hello")
+    >>> out.files()
+    {'maps/a.txt': b'hello'}
+    """
+    yield _MemoryOutputs()
 
 
 def write_bytes(target, data):

@@ -289,12 +289,13 @@ def parse_requirements(requirements):
             except ValueError:
                 bound = float("nan")
             if not np.isfinite(bound) or bound < 0:
-                raise InputError(f"--require: {key} needs a bound, e.g. {key}="
-                                 f"{'10' if key == 'min-angle' else '1'}; got {name!r}")
+                raise InputError(f"require: {key} needs a bound, e.g. {key}="
+                                 f"{'10' if key == 'min-angle' else '1'}; got {name!r}",
+                                 option="require")
         elif name not in REQUIREMENTS:
-            raise InputError(f"--require: unknown requirement {name!r} "
+            raise InputError(f"require: unknown requirement {name!r} "
                              f"(expected {', '.join(REQUIREMENTS)}, or "
-                             f"{', '.join(k + '=N' for k in BOUNDS)})")
+                             f"{', '.join(k + '=N' for k in BOUNDS)})", option="require")
     return names
 
 

@@ -527,11 +527,11 @@ class _Budget:
     def polyline(self, n, where):
         if n > self.limits.points:
             raise InputError(f"{where}: {n} points exceeds the limit of {self.limits.points} "
-                             f"per polyline (raise it with --max-points)")
+                             f"per polyline", fix=("raise it with {}", "limits.points"))
         self.points += n
         if self.points > self.limits.total_points:
             raise InputError(f"{where}: the file holds more than {self.limits.total_points} "
-                             f"points (raise the limit with --max-points)")
+                             f"points", fix=("raise the limit with {}", "limits.points"))
 
 
 def _point(p, where, size):

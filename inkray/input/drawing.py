@@ -190,7 +190,7 @@ def _decode_raster(path, limits):
     except Image.DecompressionBombError as e:  # Pillow's own bound, met before ours
         n = re.search(r"\((\d+) pixels\)", str(e))
         raise InputError(f"{path}: {n.group(1) if n else 'too many'} pixels exceeds the limit of "
-                         f"{limits.pixels} (raise it with --max-pixels)") from None
+                         f"{limits.pixels}", fix=("raise it with {}", "limits.pixels")) from None
     except Exception as e:  # Pillow raises many types on corrupt or hostile files
         raise InputError(f"{path}: not a readable image ({type(e).__name__}: "
                          f"{str(e) or 'corrupt data'})") from None

@@ -33,7 +33,7 @@ class Limits:
     >>> Limits(pixels=1000).check_pixels((40, 40), "d.png")
     Traceback (most recent call last):
     ...
-    inkray.errors.InputError: d.png: 40x40 = 1600 pixels exceeds the limit of 1000 (raise it with --max-pixels)
+    inkray.errors.InputError: d.png: 40x40 = 1600 pixels exceeds the limit of 1000 (raise it with limits.pixels)
     """
 
     pixels: int = 4096 * 4096
@@ -56,7 +56,7 @@ class Limits:
         w, h = (int(v) for v in size)
         if w * h > self.pixels:
             raise InputError(f"{where}: {w}x{h} = {w * h} pixels exceeds the limit of "
-                             f"{self.pixels} (raise it with --max-pixels)")
+                             f"{self.pixels}", fix=("raise it with {}", "limits.pixels"))
 
     def check_bytes(self, n, where):
         """Raise when a file of ``n`` bytes exceeds :attr:`file_bytes`."""

@@ -52,13 +52,14 @@ def load_input(annotation, *, drawing=None, rescale=False, scribble_layer=None, 
     ann = load_annotations(annotation, limits=limits)
     path = Path(drawing) if drawing is not None else ann.drawing
     if path is None:
-        raise InputError(f"{annotation}: drawing: no drawing given (add a \"drawing\" key or pass --drawing)")
+        raise InputError(f"{annotation}: drawing: no drawing given",
+                         fix=("add a \"drawing\" key or pass {}", "drawing"))
     image = load_drawing(path, normalize=normalize, limits=limits)
     if image.size != ann.size:
         if not rescale:
             raise InputError(
                 f"size: the annotation is for a {ann.size[0]}x{ann.size[1]} drawing but {path} is "
-                f"{image.size[0]}x{image.size[1]} (pass --rescale to scale the annotation)")
+                f"{image.size[0]}x{image.size[1]}", fix=("pass {} to scale the annotation", "rescale"))
         ann = rescale_annotations(ann, image.size)
     ann.drawing = path
     if scribble_layer is not None:

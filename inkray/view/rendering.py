@@ -137,10 +137,11 @@ def output_size(drawing_size, *, size=None, width=None, height=None, max_side=No
     dw, dh = (int(v) for v in drawing_size)
     for name, v in (("width", width), ("height", height)):
         if v is not None and not (isinstance(v, (int, np.integer)) and 1 <= v <= 16384):
-            raise InputError(f"--{name}: expected an integer in 1..16384, got {v!r}")
+            raise InputError(f"{name}: expected an integer in 1..16384, got {v!r}", option=name)
     if size is not None:
         if width is not None or height is not None:
-            raise InputError("--size: give either --size or --width/--height, not both")
+            raise InputError("size: give either a size or a width and height, not both",
+                             option="size")
         return int(size[0]), int(size[1])
     if width is not None and height is not None:
         return int(width), int(height)
