@@ -46,7 +46,9 @@ class HarmonicFill:
     fixed pixels (at most :data:`PINNED`) refactors nothing: the factored
     system pins them by point sources (:meth:`GridCholesky.solve_pinned`),
     one solve. Components that outgrow the box make a new factorization
-    over the union of both boxes.
+    over the union of both boxes. The first factorization keeps no update
+    matrices (a cold solve takes about half the time); the first change that
+    pinning cannot follow factors afresh, keeping them from then on.
 
     Parameters
     ----------
@@ -55,9 +57,10 @@ class HarmonicFill:
     wy : (H-1, W) float array
         Positive weights between ``(y, x)`` and ``(y+1, x)``.
     incremental : bool, default True
-        Keep what an update reuses (the factorization's update matrices,
-        about three times the factor: 0.4 GB for a 512x512 box, 2 GB at
-        1024x1024); without it every :meth:`solve` factors afresh.
+        Keep the factorization between solves, and from the second one on
+        what an update reuses (its update matrices, about three times the
+        factor: 0.4 GB for a 512x512 box, 2 GB at 1024x1024); without it
+        every :meth:`solve` factors afresh.
     progress : inkray.progress.Progress, optional
         Its ``update(done, total)`` while the fill is factored afresh.
 
@@ -115,16 +118,16 @@ class HarmonicFill:
         if not free.any():
             return out
         box = _bounds(free)
-        keep = self._chol is not None and self._incremental
-        if keep and not _inside(box, self.box):
-            keep = False
+        kept = self._chol is not None and self._incremental
+        if kept and not _inside(box, self.box):
+            kept = False
             box = _union(box, self.box)
-        elif keep:
+        elif kept:
             box = self.box
         r0, r1, c0, c1 = box
         crop = np.s_[r0:r1, c0:c1]
         known = ~free[crop]
-        if keep:
+        if kept:
             added = known & ~self._factored
             if not (self._factored & ~known).any() and np.count_nonzero(added) <= PINNED:
                 pins = np.flatnonzero(added)
@@ -135,12 +138,17 @@ class HarmonicFill:
                                             out[crop].flat[pins])
                 out[crop] = np.where(free[crop], x.reshape(known.shape), out[crop])
                 return out
+        if kept and self._chol.updatable:
             rows = known ^ self._factored
             self._rewrite(known, rows, box)
             self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
         else:
+            # The first factorization keeps no update matrices (half the time and a
+            # third of the memory; pinning needs none); the first change that pinning
+            # cannot follow makes one that keeps them.
             self._operator = self._system(known, box)
-            self._chol = GridCholesky(*self._operator, updatable=self._incremental,
+            self._chol = GridCholesky(*self._operator,
+                                      updatable=self._incremental and self._chol is not None,
                                       progress=self._progress)
             self.refactored_fronts = self._chol.fronts
             self.box = box
