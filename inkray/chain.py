@@ -348,9 +348,10 @@ class ReliefChain:
         if o.depth_method == "fast" and o.interactive:
             return self._stage("depth", key, lambda: self._session_depth(segments_key))
         # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
-        return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
-                                                        epsilon=o.depth_epsilon,
-                                                        progress=self.progress), timed=False)
+        return self._stage("depth", key, lambda: depth(
+            ann, self.drawing, method=o.depth_method, epsilon=o.depth_epsilon,
+            segmentation=self.segmentation.labels if ann.regions else None,
+            progress=self.progress), timed=False)
 
     @property
     def warnings(self):

@@ -131,7 +131,7 @@ def depth_constraints(annotations):
 
 
 def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
-          weight_floor=WEIGHT_FLOOR, progress=None):
+          weight_floor=WEIGHT_FLOOR, segmentation=None, progress=None):
     """Depth map of a drawing from its annotation's ``order`` and ``equal`` entries.
 
     Parameters
@@ -150,6 +150,11 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         squared contrast of the image's edges, see :func:`inkray.numerics.grid.edge_weights`.
     weight_floor : float, default :data:`inkray.numerics.grid.WEIGHT_FLOOR`
         Smallest edge weight (exact method).
+    segmentation : (H, W) int array, optional
+        With regions: :func:`inkray.segmentation.segment`'s labels of this
+        annotation, when the caller has them (computed otherwise). Both
+        methods read the background and the regions from it, the fast
+        method also its segments.
     progress : inkray.progress.Progress, optional
 
     Returns
@@ -191,7 +196,10 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         raise InputError(f"{labels[same[0]]}: front and back round to the same pixel ({x}, {y})")
     check_constraints(p, q, ineq, labels)
     # With regions, the segments are the relief's (inkray.segmentation.segment).
-    seg = _segments(annotations, drawing, progress) if annotations.regions else None
+    seg = None
+    if annotations.regions:
+        seg = segmentation if segmentation is not None else _segments(annotations, drawing,
+                                                                        progress)
     if method == "exact":
         if seg is not None:
             p, q, ineq, labels = _with_background_behind(seg, p, q, ineq, labels)
