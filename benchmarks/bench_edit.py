@@ -7,16 +7,16 @@ Three tables (``--tables open,edits,methods``, default all three):
   labels, the relations and then the relief); each preview's time is from the
   page's first request to the end of that preview's answer. Targets at ~1 Mpx:
   the full depth map <= 2 s, the relief <= 3 s after it.
-- **edits**: the after-edit table below.
+- **edits**: how soon each preview is ready after an edit (below).
 - **methods**: the fast depth method's cold solve against the exact method's:
   in process (``inkray.depth`` with the grid factorization's symbolic plans
-  cleared first) and whole process (``python -m inkray depth ANN --method M``),
-  each the median of ``--repeats`` runs (at least 3), fast and exact
-  alternating; the ratio is fast / exact (target: below 1 on every drawing).
+  cleared first; the loading of the input not counted) and whole process
+  (``python -m inkray depth ANN --method M``), each the median of
+  ``--repeats`` runs (at least 3), fast and exact alternating; the ratio is
+  the median of the pairwise fast / exact ratios (target: below 1 on every
+  drawing).
 
-The edits table, through HTTP:
-
-For each bundled drawing, at its own size and upscaled to about 1 Mpx, a fresh
+The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
 page drives it: ``PUT /api/annotations``, then ``GET`` depth.png?quality=draft
 and depth.png beside labels.png followed by relief.glb (the server computes
@@ -259,7 +259,8 @@ def _methods(name, megapixels, repeats):
                 times.setdefault(("in process", method), []).append(time.perf_counter() - start)
                 start = time.perf_counter()
                 subprocess.run([sys.executable, "-m", "inkray", "--quiet", "depth", str(ann_path),
-                                "-o", str(out), "--method", method], check=True, env=env)
+                                "-o", str(out), "--method", method], check=True, env=env,
+                               stdout=subprocess.DEVNULL)
                 times.setdefault(("process", method), []).append(time.perf_counter() - start)
                 out.unlink()
                 out.with_suffix(".json").unlink()
