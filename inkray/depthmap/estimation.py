@@ -506,7 +506,9 @@ class DepthSession:
             about a third of the time at 1 Mpx; the levels and the fixed
             pixels stay exact). Draft and full fills keep their own
             factorizations (the draft's about a quarter of the full one's
-            memory).
+            memory). When the full fill works on a box of at most
+            :data:`DRAFT_ABOVE` pixels (its fixed values settle the rest), the
+            draft is the full fill.
 
         Returns
         -------
@@ -716,24 +718,24 @@ class DepthSession:
         """The harmonic fill for ``vals`` on ``fixed``, by the kept fill of the full grid
         or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one.
 
-        A draft before the full fill was ever factored is the full fill when the
-        fixed values leave at most :data:`DRAFT_ABOVE` pixels' box to factor
-        (as fast, and exact); the full solve that follows is then that answer."""
-        if self._weights is None:
-            self._weights = edge_weights(self.gray)[:2]
-        full = self._fills.get(False)
+        A draft is the full fill when that works on a box of at most
+        :data:`DRAFT_ABOVE` pixels (as fast, and exact); the full solve that
+        follows is then that answer."""
         if self._answer is not None and not draft and np.array_equal(fixed, self._answer[0]) \
                 and np.array_equal(vals[fixed], self._answer[1]):
             self.refactored_fronts = 0
             return self._answer[2].copy()
         self._answer = None
-        draft = draft and self.gray.size > DRAFT_ABOVE and not (
-            (full is None or full.box is None)
-            and HarmonicFill.pending(fixed, vals) <= DRAFT_ABOVE)
+        if self._weights is None:
+            self._weights = edge_weights(self.gray)[:2]
+        if False not in self._fills:
+            self._fills[False] = HarmonicFill(*self._weights, incremental=self._incremental,
+                                              progress=self._progress)
+        draft = draft and self.gray.size > DRAFT_ABOVE and \
+            self._fills[False].pending(fixed, vals) > DRAFT_ABOVE
         if draft not in self._fills:
-            kind = DraftFill if draft else HarmonicFill
-            self._fills[draft] = kind(*self._weights, incremental=self._incremental,
-                                      progress=self._progress)
+            self._fills[draft] = DraftFill(*self._weights, incremental=self._incremental,
+                                           progress=self._progress)
         fill = self._fills[draft]
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts

@@ -157,24 +157,28 @@ class HarmonicFill:
         out[crop] = np.where(known, out[crop], x)
         return out
 
-    @staticmethod
-    def pending(fixed, values):
-        """The pixels of the box a fresh :meth:`solve` would factor for these fixed values
-        (0 when they settle every pixel).
+    def pending(self, fixed, values):
+        """The pixels of the box the next :meth:`solve` works on for these fixed values
+        (0 when they settle every pixel): the box of the pixels they leave, joined
+        with the kept factorization's.
 
         Examples
         --------
         >>> import numpy as np
+        >>> fill = HarmonicFill(np.ones((5, 8)), np.ones((4, 9)))
         >>> fixed = np.zeros((5, 9), bool); fixed[:, 0] = fixed[:, -1] = True
-        >>> HarmonicFill.pending(fixed, np.where(fixed, np.arange(9.0), 0.0))
+        >>> fill.pending(fixed, np.where(fixed, np.arange(9.0), 0.0))
         35
-        >>> HarmonicFill.pending(fixed, np.ones((5, 9)))
+        >>> fill.pending(fixed, np.ones((5, 9)))
         0
         """
-        _, free = _settled(np.asarray(fixed, bool), values)
+        _, free = _settled(_checked(self.shape, fixed, values), values)
         if not free.any():
             return 0
-        r0, r1, c0, c1 = _bounds(free)
+        box = _bounds(free)
+        if self.box is not None and self._incremental:
+            box = _union(box, self.box)
+        r0, r1, c0, c1 = box
         return (r1 - r0) * (c1 - c0)
 
     def _system(self, known, box):
