@@ -13,7 +13,10 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
   group of its endpoints that can (order is local: two rings that cross
   twice, an entry with both points in one region); equalities merge nodes,
   inequalities are directed edges, Kahn's topological sort gives each node a
-  level (longest chain of inequalities below it); (3) every endpoint pixel,
+  level (longest chain of inequalities below it); with regions and no entry
+  on the background, the background is a node below every region touching
+  it (in the exact method, an order from each region piece to each
+  background piece it touches); (3) every endpoint pixel,
   and every pixel of an endpoint's segment (or part) that touches another
   segment across ink, is fixed at its node's level times epsilon; (4) the
   Laplace equation fills in the rest, so steps stay at ink lines and the
@@ -402,7 +405,8 @@ class DepthSession:
         """Replace the region and background scribbles (``seeds`` or their ``labels``,
         as for the constructor).
 
-        The next :meth:`solve` segments afresh; the fill's factorization is
+        The next :meth:`solve` segments afresh (or takes the given labels); the
+        fill's factorization is
         kept and updated, so it refactors only the fronts where the fixed
         pixels moved (where the segments changed), not the whole grid.
         """
