@@ -238,6 +238,14 @@ class GridCholesky:
         array shaped like ``rhs``
         """
         b = self._rhs(rhs)
+        if b.shape[1] == 1 and not self.updatable:
+            nz = np.flatnonzero(b[:, 0])
+            if len(nz) < self.n // 8:
+                # Few sources (a Dirichlet fill's outlines): the forward substitution
+                # visits only the fronts above them (at 1 Mpx a third of the time).
+                fw = self.forward(sp.csr_matrix((b[nz, 0], (nz, np.zeros(len(nz), np.int64))),
+                                                shape=(self.n, 1)))
+                return self.backward(fw, [1.0]).reshape(np.shape(rhs))
         with one_blas_thread():
             x = self._backward(self._forward(b), b.shape[1])
         return x.reshape(np.shape(rhs))
