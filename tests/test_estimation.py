@@ -611,7 +611,8 @@ def test_background_is_behind_every_part_when_no_entry_mentions_it(method, backg
     paper[20:61, 10:101] = False
     a, b, c = d[50, 15:45], d[25:55, 65:95], d[35:42, 25:36]
     assert d[paper].max() < min(a.min(), b.min(), c.min())
-    assert d[paper].max() <= b.min() - 0.5
+    if method == "fast":  # one level below b, the lowest part
+        assert np.abs(d[paper] - (b.min() - 1)).max() < 1e-9
 
 
 @pytest.mark.parametrize("method", ["exact", "fast"])

@@ -16,7 +16,7 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
   level (longest chain of inequalities below it); with regions and no entry
   on the background, the background is a node below every region touching
   it (in the exact method, an order from each region piece to each
-  background piece it touches); (3) every endpoint pixel,
+  background piece it touches, spread along their contact); (3) every endpoint pixel,
   and every pixel of an endpoint's segment (or part) that touches another
   segment across ink, is fixed at its node's level times epsilon; (4) the
   Laplace equation fills in the rest, so steps stay at ink lines and the
@@ -274,12 +274,14 @@ def _on_background(labels):
 
 def _with_background_behind(lab, p, q, ineq, labels):
     """The constraints, with the background behind every region touching it when no
-    entry has a point on the background: for each region piece (4-connected area of
-    one label) and background piece that touch, an order from the piece's deepest
-    pixel (farthest from another label) to the background piece's. ``lab`` is the
-    segmentation of the scribbles."""
+    entry has a point on the background: along the contact of each region piece
+    (4-connected area of one label) with each background piece, one order per
+    cell of a grid of :func:`_contact_spacing` pixels, from a pixel of the piece
+    to its background neighbour, and those background pixels held equal. ``lab``
+    is the segmentation of the scribbles."""
     if (lab.flat[np.concatenate([p, q])] == BACKGROUND).any():
         return p, q, ineq, labels
+    h, w = lab.shape
     piece = np.zeros(lab.shape, np.int64)
     n = 0
     for v in range(BACKGROUND, int(lab.max()) + 1):
@@ -287,35 +289,39 @@ def _with_background_behind(lab, p, q, ineq, labels):
         np.add(comp, n, out=piece, where=comp > 0)
         n += k
     size = np.bincount(piece.ravel(), minlength=n + 1)
-    region = np.zeros(n + 1, np.int64)  # piece -> its label
-    region[piece.ravel()] = lab.ravel()
-    border = np.zeros(lab.shape, bool)
-    pairs = []
-    for a, b, ba, bb in ((piece[:, :-1], piece[:, 1:], border[:, :-1], border[:, 1:]),
-                         (piece[:-1], piece[1:], border[:-1], border[1:])):
-        edge = a != b
-        ba |= edge
-        bb |= edge
-        fa, fb = a[edge], b[edge]
-        on = (region[fa] == BACKGROUND) != (region[fb] == BACKGROUND)
-        front = np.where(region[fa[on]] == BACKGROUND, fb[on], fa[on])
-        back = np.where(region[fa[on]] == BACKGROUND, fa[on], fb[on])
-        pairs.append(front * (n + 1) + back)
-    pairs = np.unique(np.concatenate(pairs))
-    front, back = np.divmod(pairs, n + 1)
-    keep = (size[front] >= _MIN_PIECE) & (size[back] >= _MIN_PIECE)
-    front, back = front[keep], back[keep]
+    flat = np.arange(h * w).reshape(h, w)
+    front, back = [], []
+    for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1], np.s_[1:])):
+        la, lb = lab[a], lab[b]
+        on = ((la == BACKGROUND) != (lb == BACKGROUND)) & \
+            (size[piece[a]] >= _MIN_PIECE) & (size[piece[b]] >= _MIN_PIECE)
+        fa, fb = flat[a][on], flat[b][on]
+        bg = lab.flat[fa] == BACKGROUND
+        front.append(np.where(bg, fb, fa))
+        back.append(np.where(bg, fa, fb))
+    front, back = np.concatenate(front), np.concatenate(back)
     if not len(front):
         return p, q, ineq, labels
-    used = np.unique(np.concatenate([front, back]))
-    inside = ndimage.distance_transform_edt(~border)
-    deepest = np.zeros(n + 1, np.int64)
-    w = lab.shape[1]
-    for k, (y, x) in zip(used, ndimage.maximum_position(inside, piece, used)):
-        deepest[k] = y * w + x
-    names = [f"background behind regions[{region[k]}]" for k in front]
-    return (np.concatenate([p, deepest[front]]), np.concatenate([q, deepest[back]]),
-            np.concatenate([ineq, np.ones(len(front), bool)]), list(labels) + names)
+    s = _contact_spacing(lab.shape)
+    y, x = np.divmod(front, w)
+    cell = (y // s) * (w // s + 1) + x // s
+    key = (piece.flat[front] * (n + 1) + piece.flat[back]) * ((h // s + 1) * (w // s + 1)) + cell
+    _, first = np.unique(key, return_index=True)
+    front, back = front[first], back[first]
+    # The background is one level, as in the fast method: its pixels in the orders
+    # are held equal (a chain), so no part can sink below the paper elsewhere.
+    ground = np.unique(back)
+    names = [f"background behind regions[{lab.flat[v]}]" for v in front]
+    names += ["the background's one level"] * (len(ground) - 1)
+    return (np.concatenate([p, front, ground[1:]]), np.concatenate([q, back, ground[:-1]]),
+            np.concatenate([ineq, np.ones(len(front), bool), np.zeros(len(ground) - 1, bool)]),
+            list(labels) + names)
+
+
+def _contact_spacing(shape):
+    """Pixels between the exact method's implicit orders along a contact: 5 % of the
+    longer side, at least 16."""
+    return max(16, int(0.05 * max(shape)))
 
 
 class DepthSession:
