@@ -406,7 +406,10 @@ def _cmd_layers(args, progress):
                            options=dict(predict=not args.no_predict),
                            params=dict(pad=args.pad, split_local=args.split_local,
                                        background=args.background),
-                           warn=lambda chain, stack: chain.warnings + stack.warnings,
+                           warn=lambda chain, stack: chain.warnings + [
+                               w.replace("(split_local splits it)", f"({_flag('split_local')} "
+                                                                    f"splits it)")
+                               for w in stack.warnings],
                            stage="layers")
     split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
     print(f"{args.output}: {len(stack.layers)} layers back to front: "
