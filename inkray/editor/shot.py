@@ -63,6 +63,7 @@ class Shot:
         self.current = frame.name[:-len(frame.suffix)]
         self._states = {}  # (frame, key, key's stat) -> carried state, as batch makes it
         self._lock = threading.Lock()
+        self._opening = threading.Lock()
         self.plan()  # fails early on a folder without a key
 
     def plan(self):
@@ -166,12 +167,13 @@ class Shot:
         dict
             :meth:`describe` of the frame opened.
         """
-        document, _ = self.carry(name)
-        plan = self.plan()
-        session.switch(self.annotation_path(name), drawing=plan[name]["drawing"],
-                       document=document)
-        self.current = name
-        return self.describe()
+        with self._opening:  # one frame after the other: the session and ``current`` agree
+            document, _ = self.carry(name)
+            plan = self.plan()
+            session.switch(self.annotation_path(name), drawing=plan[name]["drawing"],
+                           document=document)
+            self.current = name
+            return self.describe()
 
 
 def open_shot(frame):
