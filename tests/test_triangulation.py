@@ -144,3 +144,100 @@ def test_narrow_parts_get_shorter_edges():
         lengths = np.array([np.linalg.norm(s[1] - s[0]) for s in mid])
         assert lengths.max() <= longest + 1e-6
     assert lengths.max() > 0.9 * edge_length(50.0)  # across=0: the plain spacing
+
+
+# -- regions too small or thin to mesh: bounded, in a child process -----------------
+# Triangle runs in C and cannot be interrupted: a degenerate outline loop (one vertex, a
+# segment from a vertex to itself) makes it allocate without end. Each case runs in a
+# child with a time and memory limit, so that a regression fails instead of hanging.
+
+_LIMITED = """
+import json, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+import numpy as np
+from inkray.errors import InputError
+from inkray.relief.outline import MeshOptions, region_outline
+from inkray.relief.triangulation import mesh_region, triangulate_outline
+"""
+
+
+def _bounded(code, timeout=60):
+    import json
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-c", _LIMITED + code], capture_output=True, text=True,
+                          timeout=timeout)
+    assert proc.returncode == 0, proc.stderr[-2000:] + proc.stdout[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+_SMALL = {
+    "pixel": "m[20, 30] = True",
+    "corner pixel": "m[0, 0] = True",
+    "diagonal line": "i = np.arange(30); m[5 + i, 10 + i] = True",
+    "isolated pixels": "m[5, 5] = m[20, 30] = m[30, 50] = True",
+    "scribble": "t = np.linspace(0, 5, 300); m[np.rint(20 + 12 * np.sin(t)).astype(int), "
+                "np.rint(5 + 10 * t).astype(int)] = True",
+    "2 px strip": "m[20:22, 5:55] = True",
+}
+
+
+@pytest.mark.parametrize("case", sorted(_SMALL))
+def test_tiny_and_thin_regions_are_meshed(case):
+    out = _bounded(f"""
+m = np.zeros((40, 60), bool)
+{_SMALL[case]}
+mesh = mesh_region(m, options=MeshOptions(max_area=50.0))
+print(json.dumps(dict(v=mesh.vertices.tolist(), f=mesh.faces.tolist(), w=mesh.warnings,
+                      px=np.argwhere(m)[:, ::-1].tolist())))
+""")
+    v, f, px = np.array(out["v"]), np.array(out["f"]), np.array(out["px"], float)
+    area = _signed_area(v, f)
+    assert len(f) and np.all(area < 0) and out["w"] == []
+    # The pixel contour (marching squares at 0.5) of n pixels encloses n less its cut
+    # corners (n / 4 for a pixel in the image's corner); the smoothed outline strays
+    # from it by under a pixel.
+    assert 0.25 * len(px) - 1e-6 <= -area.sum() <= 1.1 * len(px) + 1
+    # Every pixel centre of the region is on the mesh or within the smoothing's band of it.
+    mesh = SimpleNamespace(vertices=v, faces=f)
+    p = v[f]
+    d = p[None] - px[:, None, None, :]
+    cross = d[..., 0] * np.roll(d, -1, axis=2)[..., 1] - d[..., 1] * np.roll(d, -1, axis=2)[..., 0]
+    inside = np.any(np.all(cross <= 1e-9, axis=2), axis=1)
+    near = cKDTree(_dense(_boundary_curves(mesh), step=0.05)).query(px)[0] < 0.75
+    # The level set's smoothing still loses short diagonal runs of a one-pixel scribble
+    # (a fidelity limit of the outline, not of the triangulation).
+    assert np.mean(inside | near) >= (0.85 if case == "scribble" else 1.0)
+
+
+def test_loops_that_enclose_no_area_are_left_out_with_a_warning():
+    out = _bounded("""
+from dataclasses import replace
+yy, xx = np.mgrid[:60, :80]
+o = region_outline((xx - 40) ** 2 + (yy - 30) ** 2 <= 20 ** 2, name="ball")
+n = len(o.points)
+extra = np.array([[40.0, 30.0], [70.0, 50.0], [72.0, 50.0]])  # a pinhole, a two-vertex stub
+def grow(a, fill):
+    return np.r_[a, np.full(3, fill, a.dtype)]
+o = replace(o, points=np.r_[o.points, extra], loop=np.r_[o.loop, 1, 2, 2],
+            hole=np.r_[o.hole, True, False], kind=grow(o.kind, 1),
+            boundary_index=grow(o.boundary_index, -1), station=grow(o.station, -1),
+            neighbour=grow(o.neighbour, -1), hole_points=np.array([[40.005, 30.0]]))
+mesh = triangulate_outline(o, max_area=30.0)
+try:
+    triangulate_outline(replace(o, points=o.points[n:], loop=np.array([0, 1, 1]), hole=o.hole[1:],
+                                kind=o.kind[n:], boundary_index=o.boundary_index[n:],
+                                station=o.station[n:], neighbour=o.neighbour[n:]))
+    err = ""
+except InputError as e:
+    err = str(e)
+centre = int(np.flatnonzero(np.all(mesh.vertices == [40.0, 30.0], axis=1))[0])
+print(json.dumps(dict(w=mesh.warnings, err=err, n=len(mesh.faces), kind=int(mesh.kind[centre]),
+                      used=bool(np.isin(centre, mesh.faces)),
+                      far=bool((mesh.vertices[:, 0] > 65).any()))))
+""")
+    assert len(out["w"]) == 2 and all(w.startswith("region ball: ") for w in out["w"])
+    assert "hole at pixel (40, 30)" in out["w"][0] and "piece at pixel (71, 50)" in out["w"][1]
+    # The pinhole is filled (its point an interior vertex, its hole point gone), the stub dropped.
+    assert out["n"] > 40 and out["kind"] == INTERIOR and out["used"] and not out["far"]
+    assert out["err"].startswith("region ball: too small or thin to mesh at pixel (")
