@@ -241,3 +241,45 @@ print(json.dumps(dict(w=mesh.warnings, err=err, n=len(mesh.faces), kind=int(mesh
     # The pinhole is filled (its point an interior vertex, its hole point gone), the stub dropped.
     assert out["n"] > 40 and out["kind"] == INTERIOR and out["used"] and not out["far"]
     assert out["err"].startswith("region ball: too small or thin to mesh at pixel (")
+
+
+_OUTLINE = """
+from inkray.relief.outline import INKED, RegionOutline
+def outline(loops, name="r"):
+    pts = np.vstack(loops).astype(float)
+    n = len(pts)
+    return RegionOutline(name=name, points=pts, loop=np.repeat(np.arange(len(loops)), [len(p) for p in loops]),
+                         hole=np.zeros(len(loops), bool), kind=np.full(n, INKED, np.int8),
+                         boundary_index=np.full(n, -1), station=np.full(n, -1),
+                         neighbour=np.full(n, -1), hole_points=np.zeros((0, 2)))
+"""
+
+
+@pytest.mark.parametrize("loop, area", [
+    # Two triangles touching at a point, the point listed twice.
+    ([[0, 0], [10, 0], [5, 5], [10, 10], [0, 10], [5, 5]], 50.0),
+    # A square with a spike: an edge walked there and back (a one-pixel whisker).
+    ([[0, 0], [10, 0], [10, 10], [5, 10], [5, 20], [5, 10], [0, 10]], 100.0),
+])
+def test_self_touching_outlines_are_meshed(loop, area):
+    out = _bounded(_OUTLINE + f"""
+mesh = triangulate_outline(outline([np.array({loop})]), max_area=1.0)
+print(json.dumps(dict(v=mesh.vertices.tolist(), f=mesh.faces.tolist())))
+""")
+    v, f = np.array(out["v"]), np.array(out["f"])
+    a = _signed_area(v, f)
+    assert np.all(a < 0) and abs(-a.sum() - area) < 1e-6 and -a.min() <= 1.0 + 1e-9
+
+
+def test_steiner_points_are_capped():
+    out = _bounded(_OUTLINE + """
+import inkray.relief.triangulation as T
+T._STEINER_FACTOR, T._STEINER_SLACK = 0, 25
+square = outline([np.array([[0, 0], [0, 30], [30, 30], [30, 0]])], name="sq")
+mesh = triangulate_outline(square, max_area=1.0)
+print(json.dumps(dict(n=len(mesh.vertices), w=mesh.warnings)))
+""")
+    # 2 * 4 outline vertices + 25 allowed, where the area bound alone asks for hundreds.
+    assert out["n"] <= 4 + 8 + 25
+    assert out["w"] == ["region sq: the mesh reached its limit of 33 added vertices; "
+                        "some of its triangles may be sharper than asked"]

@@ -160,10 +160,11 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
     n = len(outline.points)
     seg = outline.segments()
     kept, holes, warnings = _meshable(outline)
+    use, graph = _planar_graph(outline.points, seg, kept)
     pslg = {"vertices": outline.points,
             "vertex_markers": (np.arange(n) + 2)[:, None],
-            "segments": seg[kept],
-            "segment_markers": (np.flatnonzero(kept) + 2)[:, None]}
+            "segments": graph,
+            "segment_markers": (use + 2)[:, None]}
     if len(holes):
         pslg["holes"] = holes
     area = sum(abs(_area(outline.points[outline.loop == lp])) for lp in np.unique(outline.loop[kept]))
@@ -241,6 +242,19 @@ def _meshable(outline):
         far = point_polyline_distance(holes, np.vstack([p, p[:1]])) > 0.1
         holes = holes[far]
     return kept, holes, warnings
+
+
+def _planar_graph(points, seg, kept):
+    """The kept segments (their indices, and their vertex pairs) with every
+    position's first vertex for its copies, less the segments that shrink to a
+    point or repeat another: Triangle fails on a segment whose ends coincide and
+    crashes on some whose end is a copy of an earlier vertex."""
+    _, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
+    pairs = first[inverse.ravel()][seg]
+    use = np.flatnonzero(kept & (pairs[:, 0] != pairs[:, 1]))
+    _, once = np.unique(np.sort(pairs[use], axis=1), axis=0, return_index=True)
+    use = use[np.sort(once)]
+    return use, pairs[use]
 
 
 def _area(p):
