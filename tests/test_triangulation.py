@@ -283,3 +283,25 @@ print(json.dumps(dict(n=len(mesh.vertices), w=mesh.warnings)))
     assert out["n"] <= 4 + 8 + 25
     assert out["w"] == ["region sq: the mesh reached its limit of 33 added vertices; "
                         "some of its triangles may be sharper than asked"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scribble", [[[30, 30]], [[20, 20], [60, 60]]])
+def test_region_scribbled_on_paper_without_background(scribble):
+    # A region scribbled on the paper around the fish, no background scribble: the image
+    # frame takes the paper and the region is its one-pixel scribble.
+    out = _bounded(f"""
+from inkray.chain import ReliefChain
+from inkray.examples import example_path
+from inkray.input.annotations import parse_annotations
+from inkray.input.drawing import load_drawing
+path = example_path("fish")
+raw = json.loads(path.read_text())
+raw.pop("background")
+raw["regions"].append({{"name": "paper", "scribbles": [{scribble}]}})
+chain = ReliefChain(parse_annotations(raw), load_drawing(path.parent / raw["drawing"]))
+print(json.dumps({{r.mesh.name: [len(r.mesh.faces), int(chain.completion.completed(i).sum())]
+                  for i, r in enumerate(chain.meshes)}}))
+""", timeout=240)
+    assert out["paper"][0] > 0 and out["paper"][1] <= 60  # meshed, and only its scribble
+    assert set(out) == {"tail", "fin_top", "fin_bottom", "body", "fin_side", "eye", "paper"}
