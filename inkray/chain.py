@@ -366,8 +366,10 @@ class ReliefChain:
         if "assemble" in self._memo:
             out += self._memo["assemble"].warnings
         if "meshes" in self._memo:
+            meshes = self._memo["meshes"]
             out += [f"region {r.name!r}: no pixels after segmentation; left out"
-                    for r, m in zip(self.annotations.regions, self._memo["meshes"]) if m is None]
+                    for r, m in zip(self.annotations.regions, meshes) if m is None]
+            out += [w for m in meshes if m is not None for w in m.mesh.warnings]
         return out
 
     def result(self):

@@ -242,3 +242,26 @@ def test_the_interactive_depth_is_reseeded_only_when_its_segmentation_changes(mo
     assert len(reseeded) == 1
     fresh = ReliefChain(edited.annotations, drawing).edit(depth_method="fast").depth_map.depth
     assert np.allclose(d, fresh, atol=1e-8)
+
+
+def test_a_region_meshs_warnings_reach_the_chains(monkeypatch):
+    """A loop left out of a region's mesh (too small to mesh) is said, not silent."""
+    from dataclasses import replace
+
+    from inkray import chain as chain_module
+    from inkray.examples import example_path
+    from inkray.input.loading import load_input
+
+    inflate = chain_module.inflate_region
+
+    def with_a_warning(mask, **kwargs):
+        inflated = inflate(mask, **kwargs)
+        return replace(inflated, mesh=replace(inflated.mesh, warnings=[
+            f"region {kwargs['name']!r}: an outline piece at pixel (1, 1) encloses no area; "
+            f"left out of the mesh"]))
+
+    monkeypatch.setattr(chain_module, "inflate_region", with_a_warning)
+    chain = chain_module.ReliefChain(*load_input(example_path("turtle")))
+    chain.meshes
+    said = [w for w in chain.warnings if "encloses no area" in w]
+    assert len(said) == len(chain.annotations.regions)
