@@ -33,12 +33,15 @@ CPU its worker process used), ``peak_memory`` (bytes of resident memory of
 its worker process while it ran) and ``error`` (one line). A failed frame does not stop the others; the batch then exits 1.
 """
 
+import contextlib
 import glob
 import hashlib
 import json
 import os
 import resource
+import shutil
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +63,8 @@ JOB_FILES = {
 }
 JOBS = tuple(JOB_FILES)
 MANIFEST = "batch-manifest.json"
+#: Seconds a scheduler has to answer as Dask's does.
+CONNECT_TIMEOUT = 10.0
 REPORT = "batch-report.json"
 _SUFFIXES = (".inkray.json", ".json")
 
@@ -97,13 +102,16 @@ class _Outcome:
                 "error": self.error, "outputs": self.outputs}
 
 
-def find_frames(pattern):
+def find_frames(pattern, *, exclude=()):
     """The frames of a glob pattern (``**`` spans folders), sorted by name.
 
     Parameters
     ----------
     pattern : str
         E.g. ``"shots/**/*.inkray.json"``; a plain file name is one frame.
+    exclude : iterable of path, optional
+        Files, and folders with everything in them, that are not frames (a
+        batch's own outputs).
 
     Returns
     -------
@@ -120,8 +128,12 @@ def find_frames(pattern):
     ['turtle/drawing']
     """
     matches = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
-    if not matches:
-        raise InputError(f"{pattern}: no annotation file matches")
+    excluded = [Path(e).resolve() for e in exclude]
+    kept = [m for m in matches if not any(_within(Path(m).resolve(), e) for e in excluded)]
+    if not kept:
+        own = (f" ({len(matches)} matched, all this batch's own outputs)" if matches else "")
+        raise InputError(f"{pattern}: no annotation file matches{own}")
+    matches = kept
     parts = Path(pattern).parts
     fixed = [p for p in parts[:next((i for i, p in enumerate(parts) if glob.has_magic(p)),
                                     len(parts) - 1)]]
@@ -135,6 +147,10 @@ def find_frames(pattern):
         seen[name] = match
         frames.append(Frame(annotation=str(match), name=name))
     return sorted(frames, key=lambda f: f.name)
+
+
+def _within(path, folder):
+    return path == folder or folder in path.parents
 
 
 def run_frame(annotation, jobs):
@@ -203,13 +219,17 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
     if workers is not None and (int(workers) != workers or workers < 1):
         raise InputError(f"--workers {workers}: expected a whole number >= 1")
     progress = progress if progress is not None else Progress(quiet=True)
-    frames = find_frames(pattern)
     out = Path(output)
     if out.exists() and not out.is_dir():
         raise InputError(f"-o {out}: exists and is not a folder")
-    inputs = {str(Path(f.annotation).resolve()) for f in frames}
     manifest = _read_manifest(out)
-    keys = {f.name: _frame_key(f.annotation, jobs) for f in frames}
+    # This batch's outputs from an earlier run are not frames.
+    frames = find_frames(pattern, exclude=[out / REPORT, out / MANIFEST,
+                                           *(out / name for name in manifest)])
+    sources = {f.name: _frame_inputs(f.annotation) for f in frames}
+    _check_outputs(out, frames, jobs, sources)
+    inputs = {str(p.resolve()) for paths in sources.values() for p in paths}
+    keys = {f.name: _frame_key(sources[f.name], jobs) for f in frames}
     outcomes, todo = {}, []
     for f in frames:
         if _unchanged(out / f.name, manifest.get(f.name), keys[f.name]):
@@ -219,12 +239,14 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
     with progress.stage(f"batch: {len(todo)} of {len(frames)} frames"):
         progress.update(len(frames) - len(todo), len(frames))
         try:
-            for frame, result in _dask_results(todo, jobs, scheduler, workers):
-                outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
-                if outcomes[frame.name].status == "failed" and not progress.quiet:
-                    print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
-                          file=progress.stream)
-                progress.update(len(outcomes), len(frames))
+            results = contextlib.closing(_dask_results(todo, jobs, scheduler, workers))
+            with results as finished:
+                for frame, result in finished:
+                    outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
+                    if outcomes[frame.name].status == "failed" and not progress.quiet:
+                        print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
+                              file=progress.stream)
+                    progress.update(len(outcomes), len(frames))
         except KeyboardInterrupt:
             for f in frames:
                 outcomes.setdefault(f.name, _Outcome("interrupted"))
@@ -290,22 +312,28 @@ def _dask_results(frames, jobs, scheduler, workers):
     import dask
     from distributed import Client, LocalCluster, as_completed
 
-    cluster = None
+    cluster = scratch = None
     if scheduler is None:
         n = workers or os.cpu_count() or 1
         # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers so that they hand freed
         # memory back at once; glibc then maps every large numpy array afresh,
         # which made a frame about 30 % slower here. None unsets it.
         unset = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-        with dask.config.set(unset):
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0")
-        client = Client(cluster)
-    else:
+        # The workers' scratch space goes in a folder of this run's, removed at the end
+        # (by default Dask leaves dask-scratch-space in the system's temp folder).
+        scratch = tempfile.mkdtemp(prefix="inkray-dask-")
         try:
-            client = Client(scheduler, timeout=10)
-        except (OSError, ValueError) as e:
-            raise InputError(f"--scheduler {scheduler}: cannot connect ({_one_line(e)})") from None
+            with dask.config.set(unset):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       dashboard_address=":0", local_directory=scratch)
+            client = Client(cluster)
+        except BaseException:
+            if cluster is not None:
+                cluster.close()
+            shutil.rmtree(scratch, ignore_errors=True)
+            raise
+    else:
+        client = _connect(Client, scheduler)
     futures = {}
     try:
         for f in frames:
@@ -323,10 +351,48 @@ def _dask_results(frames, jobs, scheduler, workers):
             future.release()
             yield futures[future], result
     finally:
-        client.cancel(list(futures))
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        try:
+            client.cancel(list(futures))
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _connect(client_type, scheduler, timeout=CONNECT_TIMEOUT):
+    """A client of the Dask scheduler at ``scheduler``, or a one-line error within ``timeout``.
+
+    Dask's own timeout covers opening the connection, not a service that
+    accepts it and never answers (or answers something else): the handshake
+    runs in a thread that is given up on after ``timeout`` seconds.
+    """
+    import threading
+
+    done = {}
+
+    def connect():
+        try:
+            done["client"] = client_type(scheduler, timeout=timeout)
+        except BaseException as e:  # anything, even MemoryError: the answer was not Dask's
+            done["error"] = e
+
+    thread = threading.Thread(target=connect, daemon=True, name="inkray-connect")
+    thread.start()
+    thread.join(timeout + 5)  # Dask's own timeout first, when it applies
+    if thread.is_alive():
+        raise InputError(f"--scheduler {scheduler}: no answer from a Dask scheduler within "
+                         f"{timeout + 5:g} s (is it one?)")
+    if "error" in done:
+        e = done["error"]
+        if isinstance(e, KeyboardInterrupt):
+            raise e
+        what = ("cannot connect" if isinstance(e, (OSError, ValueError))
+                else "not a Dask scheduler's answer")
+        raise InputError(f"--scheduler {scheduler}: {what} "
+                         f"({type(e).__name__}: {_one_line(e) or 'no detail'})") from None
+    return done["client"]
 
 
 def _finish(out, frame, result, inputs, manifest, keys):
@@ -366,17 +432,41 @@ def _unchanged(folder, record, key):
     return True
 
 
-def _frame_key(annotation, jobs):
-    """Hash of what a frame's outputs depend on: inkray, the jobs, the input files' bytes."""
+def _frame_inputs(annotation):
+    """The files a frame reads: its annotation and, when the annotation names it, its drawing."""
     from inkray.input.annotations import load_annotations
 
     try:
         drawing = load_annotations(annotation).drawing
     except InkrayError:
         drawing = None  # the task reports the problem
+    return [Path(annotation)] + ([drawing] if drawing is not None else [])
+
+
+def _check_outputs(out, frames, jobs, sources):
+    """Refuse, before any work, a batch that would write over a file one of its frames reads."""
+    planned = [(out / REPORT, None), (out / MANIFEST, None)]
+    for f in frames:
+        for job in jobs:
+            for _, target in JOB_FILES[job]:
+                path = out / f.name / target
+                # a folder output (maps/) may hold any file
+                planned.append((path, path if Path(target).suffix == "" else None))
+    for f in frames:
+        for source in sources[f.name]:
+            source = source.resolve()
+            for target, folder in planned:
+                if source == target.resolve() or (folder is not None
+                                                  and _within(source, folder.resolve())):
+                    raise InputError(f"{target}: would overwrite {source}, read by "
+                                     f"{f.annotation}; choose another output folder")
+
+
+def _frame_key(inputs, jobs):
+    """Hash of what a frame's outputs depend on: inkray, the jobs, the input files' bytes."""
     h = hashlib.blake2b(digest_size=16)
     h.update(json.dumps({"inkray": __version__, "jobs": list(jobs)}).encode())
-    for path in [annotation] + ([drawing] if drawing is not None else []):
+    for path in inputs:
         try:
             data = Path(path).read_bytes()
         except OSError:

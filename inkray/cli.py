@@ -287,9 +287,10 @@ def _cmd_relief(args, progress):
 
 def _cmd_render(args, progress):
     from inkray.formats.atomic import atomic_outputs, check_targets
-    from inkray.formats.images import write_renderings
+    from inkray.formats.images import rendering_files, write_renderings
     from inkray.formats.meshes import read_relief
-    from inkray.view.rendering import GI_MAX_SIDE, output_size, render, render_turntable
+    from inkray.view.rendering import (GI_MAX_SIDE, GI_QUALITY, check_turntable, output_size,
+                                       render, render_turntable)
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
 
@@ -302,15 +303,25 @@ def _cmd_render(args, progress):
         if len(size) != 2:
             raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels "
                              f"(e.g. 800x600)")
-    if args.turntable is not None and args.turntable < 1:
-        raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
+    if args.turntable is not None:
+        check_turntable(frames=args.turntable, angle=args.angle)
+    if args.quality is not None and args.mode != "gi":
+        raise InputError(f"--quality {args.quality}: only for --mode gi")
+    quality = args.quality or ("draft" if args.turntable is not None else "final")
+    spp = args.spp if args.spp is not None else GI_QUALITY[quality]
     check_targets([args.output], inputs=[args.mesh])
+    inputs = []
     with progress.stage("read"):
-        relief = read_relief(args.mesh)
+        relief = read_relief(args.mesh, inputs=inputs)
+    _warn(relief.warnings)
     size = output_size(relief.size, size=size, width=args.width, height=args.height,
                        max_side=GI_MAX_SIDE if args.mode == "gi" else None)
+    if args.turntable is not None:
+        check_turntable(frames=args.turntable, angle=args.angle, size=size)
+    check_targets(rendering_files(args.output, frames=args.turntable, mode=args.mode),
+                  inputs=inputs)
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
-                   flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
+                   flat_colors=args.flat_colors, disparity=args.disparity, spp=spp,
                    backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
                    progress=progress)
     if args.light is not None:
@@ -321,7 +332,7 @@ def _cmd_render(args, progress):
                                       **options)
         else:
             frames = render(relief, **options)
-    with progress.stage("write"), atomic_outputs(inputs=[args.mesh]) as group:
+    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
         written = write_renderings(frames, args.output, outputs=group)
     progress.summary()
     print(f"{args.mesh}: {args.mode} -> {', '.join(str(p) for p in written)}")
@@ -428,8 +439,10 @@ def _cmd_batch(args, progress):
 
 
 def _cmd_maps(args, progress):
-    if args.ao_radius is not None and not args.ao_radius >= 1:
-        raise InputError(f"--ao-radius {args.ao_radius}: expected at least 1 pixel")
+    from inkray.view.ambient_occlusion import MAX_RADIUS
+
+    if args.ao_radius is not None:
+        _in_range("--ao-radius", args.ao_radius, 1, MAX_RADIUS, "radius in pixels")
     out = Path(args.output)
     if out.suffix:
         raise InputError(f"-o {out}: expected a folder (no suffix)")
@@ -603,7 +616,11 @@ def _parser():
                    help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
     r.add_argument("--flat-colors", action="store_true",
                    help="one colour per part instead of the drawing's colours")
-    r.add_argument("--spp", type=int, default=8, help="gi: samples per pixel (default: 8)")
+    r.add_argument("--quality", choices=("draft", "final"),
+                   help="gi: draft (4 samples per pixel, denoised: a preview) or final (64, "
+                        "denoised: converged, no blotches on smooth surfaces) (default: final; "
+                        "with --turntable draft)")
+    r.add_argument("--spp", type=int, help="gi: samples per pixel (default: the --quality's)")
     r.add_argument("--no-backdrop", action="store_true",
                    help="gi: no backdrop behind the relief (transparent background)")
     r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
@@ -642,7 +659,7 @@ def _parser():
                            help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
                                 "or directx y down (Unreal) (default: opengl)")
     p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
-                           help="ambient occlusion radius (default: 3%% of the longer side)")
+                           help="ambient occlusion radius, 1..1e6 (default: 3%% of the longer side)")
     b = p["batch"]
     b.add_argument("pattern", metavar="PATTERN",
                    help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
@@ -753,7 +770,8 @@ def _terminate_as_interrupt():
 
 
 #: Library parameters whose flag is not their name with dashes.
-_FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points"}
+_FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points",
+          "frames": "--turntable"}
 
 
 def _flag(parameter):

@@ -1,23 +1,23 @@
 """Validating an annotation against its drawing: every problem a run would meet.
 
 Parsing (:mod:`inkray.input.annotations`) checks the file's form; this module
-checks what only the drawing can tell, up to the depth order: a blank or
-all-ink drawing, scribbles lying on ink, regions that segment to almost
-nothing, boundary paths far from every region outline, and order entries
-that contradict each other. It runs the chain's cheap stages (segmentation,
-completion and the depth order: LazyBrush, Sýkora et al. 2009; Ink-and-Ray,
-Sýkora et al. 2014, section 4) and none of the heavy ones (meshing,
-inflation, stitching, the depth-map QP), and reports all problems of a file
-at once, each with its key path.
+checks what only the drawing can tell: a blank or all-ink drawing, scribbles
+lying on ink, regions that segment to almost nothing, order entries that
+contradict each other, boundary paths that snap to no region outline or mark
+a stretch another already marks. It runs the relief's stages up to the
+stitching (segmentation, completion, the depth order, the meshes and their
+stitching: LazyBrush, Sýkora et al. 2009; Ink-and-Ray, Sýkora et al. 2014,
+sections 4-5), so that it says exactly what ``relief`` says, errors and
+warnings alike; it skips the assembly, the export and the depth-map QP.
+Problems found before the depth order are all reported at once, each with
+its key path; the first of the later stages' errors ends the run, as it ends
+``relief``'s.
 """
 
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import ndimage
-
 from inkray.errors import InputError
-from inkray.relief.outline import DEFAULT_SNAP
 from inkray.segmentation import INK_THRESHOLD, scribbles_on_ink
 
 __all__ = ["Problem", "validate"]
@@ -60,8 +60,8 @@ def validate(chain):
     Parameters
     ----------
     chain : inkray.chain.ReliefChain
-        Its segmentation, completion and depth order are computed (and kept
-        in its cache) as far as the input allows.
+        Its stages up to the stitching are computed (and kept in its cache)
+        as far as the input allows.
 
     Returns
     -------
@@ -100,39 +100,13 @@ def validate(chain):
     except InputError as e:
         return [_problem("error", str(e))]
     warnings += [_problem("warning", w) for w in seg.warnings]
-    errors += _far_boundaries(seg.labels, ann.boundaries)
-    if not errors:
-        try:
-            chain.relations
-        except InputError as e:
-            errors.append(_problem("error", str(e)))
-        else:
-            warnings += [_problem("warning", w) for w in chain.warnings
-                         if w not in {p.message for p in warnings}]
+    try:
+        # The relief's own stages decide: a boundary path must snap to a completed
+        # region's outline within the snap distance, and two paths must not mark one
+        # stretch (inkray.relief.outline), then the parts are stitched in depth order.
+        chain.layers
+    except InputError as e:
+        errors.append(_problem("error", str(e)))
+    warnings += [_problem("warning", w) for w in chain.warnings
+                 if w not in {p.message for p in warnings}]
     return errors + warnings
-
-
-def _far_boundaries(labels, boundaries):
-    """Boundary paths whose points lie mostly farther than the snap distance from any outline."""
-    if not boundaries:
-        return []
-    edges = np.zeros(labels.shape, bool)
-    edges[:, 1:] |= labels[:, 1:] != labels[:, :-1]
-    edges[1:, :] |= labels[1:, :] != labels[:-1, :]
-    if not edges.any():
-        distance = np.full(labels.shape, np.inf)
-    else:
-        distance = ndimage.distance_transform_edt(~edges)
-    h, w = labels.shape
-    out = []
-    for b in boundaries:
-        path = np.asarray(b.path, float)
-        cols = np.clip(np.rint(path[:, 0]).astype(int), 0, w - 1)
-        rows = np.clip(np.rint(path[:, 1]).astype(int), 0, h - 1)
-        near = float(np.median(distance[rows, cols]))
-        if near > DEFAULT_SNAP:
-            out.append(_problem("error", f"boundaries[{b.index}]: no region outline within "
-                                         f"{DEFAULT_SNAP:g} px of the {b.type} path starting at "
-                                         f"({path[0, 0]:g}, {path[0, 1]:g}) (the nearest is "
-                                         f"{near:.1f} px away)"))
-    return out
