@@ -675,7 +675,8 @@ def _parser():
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
     p["demo"].add_argument("--spp", type=int, default=4,
-                           help="samples per pixel of the GI render, denoised (default: 4)")
+                           help="samples per pixel of the GI render, denoised (default: 4, "
+                                "render's --quality draft)")
     ed = p["edit"]
     ed.add_argument("annotation", metavar="ANN",
                     help="annotation file (.inkray.json); a new one is started when missing")

@@ -4,20 +4,23 @@ Parsing (:mod:`inkray.input.annotations`) checks the file's form; this module
 checks what only the drawing can tell: a blank or all-ink drawing, scribbles
 lying on ink, regions that segment to almost nothing, order entries that
 contradict each other, boundary paths that snap to no region outline or mark
-a stretch another already marks. It runs the relief's stages up to the
-stitching (segmentation, completion, the depth order, the meshes and their
-stitching: LazyBrush, Sýkora et al. 2009; Ink-and-Ray, Sýkora et al. 2014,
-sections 4-5), so that it says exactly what ``relief`` says, errors and
-warnings alike; it skips the assembly, the export and the depth-map QP.
-Problems found before the depth order are all reported at once, each with
-its key path; the first of the later stages' errors ends the run, as it ends
-``relief``'s.
+a stretch another already marks. It runs the chain's stages up to the depth
+order (segmentation, completion, order: LazyBrush, Sýkora et al. 2009;
+Ink-and-Ray, Sýkora et al. 2014, section 4) and takes every region's outline
+as its mesh does, so that boundary paths are judged by the relief's own rule
+(:func:`inkray.relief.outline.boundary_problems`); it skips triangulation,
+inflation, stitching and the depth-map QP. Every error it reports, ``relief``
+refuses, and every file ``relief`` refuses for its annotation it reports; the
+stitching's warnings (an ``order`` entry giving way to a graft) come only
+from the commands that stitch. All problems of a file are reported at once,
+each with its key path.
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from inkray.errors import InputError
+from inkray.relief.outline import boundary_problems, edge_length, region_outline
 from inkray.segmentation import INK_THRESHOLD, scribbles_on_ink
 
 __all__ = ["Problem", "validate"]
@@ -60,8 +63,8 @@ def validate(chain):
     Parameters
     ----------
     chain : inkray.chain.ReliefChain
-        Its stages up to the stitching are computed (and kept in its cache)
-        as far as the input allows.
+        Its stages up to the depth order are computed (and kept in its
+        cache) as far as the input allows.
 
     Returns
     -------
@@ -101,12 +104,35 @@ def validate(chain):
         return [_problem("error", str(e))]
     warnings += [_problem("warning", w) for w in seg.warnings]
     try:
-        # The relief's own stages decide: a boundary path must snap to a completed
-        # region's outline within the snap distance, and two paths must not mark one
-        # stretch (inkray.relief.outline), then the parts are stitched in depth order.
-        chain.layers
+        chain.relations
     except InputError as e:
-        errors.append(_problem("error", str(e)))
+        return errors + [_problem("error", str(e))] + warnings
+    errors += [_problem("error", m) for m in _boundary_problems(chain)]
     warnings += [_problem("warning", w) for w in chain.warnings
                  if w not in {p.message for p in warnings}]
     return errors + warnings
+
+
+def _boundary_problems(chain):
+    """The relief's own rule on ``boundaries``: each region's outline as its mesh takes it."""
+    ann = chain.annotations
+    if not ann.boundaries:
+        return []
+    labels, completion, o = chain.silhouettes, chain.completion, chain.options.mesh
+    outlines, out = [], []
+    for i, region in enumerate(ann.regions):
+        mask = completion.completed(i) | (labels == i)
+        if not mask.any():
+            continue
+        # the options inkray.relief.triangulation.mesh_region gives region_outline
+        area = min(o.max_area, float(np.count_nonzero(mask)) / o.min_triangles) or o.max_area
+        spacing = o.station_spacing if o.station_spacing is not None else edge_length(o.max_area)
+        try:
+            outlines.append(region_outline(
+                mask, visible=labels == i, labels=labels, region=i, name=region.name,
+                boundaries=ann.boundaries,
+                options=replace(o, max_area=area, station_spacing=spacing)))
+        except InputError as e:  # two paths marking one stretch
+            out.append(str(e))
+    # with an outline missing, which paths it would have taken is unknown
+    return out or boundary_problems(outlines, ann.boundaries, snap=o.snap)
