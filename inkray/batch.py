@@ -63,6 +63,8 @@ JOB_FILES = {
 }
 JOBS = tuple(JOB_FILES)
 MANIFEST = "batch-manifest.json"
+#: Most local worker processes per core (each holds a frame's chain in memory).
+MAX_WORKERS_PER_CORE = 4
 #: Seconds a scheduler has to answer as Dask's does.
 CONNECT_TIMEOUT = 10.0
 REPORT = "batch-report.json"
@@ -216,8 +218,10 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
         After writing the report and the manifest of the frames finished.
     """
     jobs = _check_jobs(jobs)
-    if workers is not None and (int(workers) != workers or workers < 1):
-        raise InputError(f"--workers {workers}: expected a whole number >= 1")
+    most = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and (int(workers) != workers or not 1 <= workers <= most):
+        raise InputError(f"--workers {workers}: expected a whole number within 1..{most} "
+                         f"({MAX_WORKERS_PER_CORE} per core)")
     progress = progress if progress is not None else Progress(quiet=True)
     out = Path(output)
     if out.exists() and not out.is_dir():

@@ -37,7 +37,7 @@ from inkray.relief.model import Relief
 from inkray.view.rasterization import fit_view, rasterize, vertex_normals
 from inkray.view.shading import over_white
 
-__all__ = ["GI_MAX_SIDE", "GI_QUALITY", "MODES", "TURNTABLE_MAX_FRAMES", "TURNTABLE_MAX_PIXELS",
+__all__ = ["GI_MAX_SIDE", "GI_QUALITY", "MAX_PIXELS", "MODES", "TURNTABLE_MAX_FRAMES", "TURNTABLE_MAX_PIXELS",
            "Rendering", "check_turntable", "has_mitsuba", "output_size", "render",
            "render_turntable"]
 
@@ -64,6 +64,8 @@ GI_QUALITY = {"draft": 4, "final": 64}
 #: Most frames of a turntable, and most pixels of all its frames together (the
 #: frames are held in memory until they are written: 4 bytes a pixel).
 TURNTABLE_MAX_FRAMES = 360
+#: Most pixels of one image (a drawing's bound: 4096 x 4096).
+MAX_PIXELS = 1 << 24
 TURNTABLE_MAX_PIXELS = 1 << 28
 _BACKDROP = np.array([0.8, 0.8, 0.78])  # linear reflectance of the gi backdrop
 _MIN_ALBEDO = 0.02  # gi denoising: irradiance = radiance / albedo, kept finite on black
@@ -346,6 +348,9 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
     if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
             or not all(1 <= s <= 16384 for s in size)):
         raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
+    if int(size[0]) * int(size[1]) > MAX_PIXELS:
+        raise InputError(f"size: {size[0]}x{size[1]} is more than {MAX_PIXELS} pixels",
+                         option="size")
     light = np.asarray(light, float)
     if light.shape != (3,) or not np.all(np.isfinite(light)) or not np.linalg.norm(light) > 0:
         shown = " ".join(f"{v:g}" for v in light.ravel()[:6])
