@@ -289,6 +289,7 @@ def _cmd_render(args, progress):
     from inkray.formats.atomic import atomic_outputs, check_targets
     from inkray.formats.images import rendering_files, write_renderings
     from inkray.formats.meshes import read_relief
+    from inkray.view.depth_enhancement import check_enhancement
     from inkray.view.rendering import (GI_MAX_SIDE, GI_QUALITY, check_turntable, output_size,
                                        render, render_turntable)
 
@@ -305,6 +306,7 @@ def _cmd_render(args, progress):
                              f"(e.g. 800x600)")
     if args.turntable is not None:
         check_turntable(frames=args.turntable, angle=args.angle)
+    check_enhancement(args.enhance_strength, args.enhance_radius, prefix="enhance_")
     if args.quality is not None and args.mode != "gi":
         raise InputError(f"--quality {args.quality}: only for --mode gi")
     quality = args.quality or ("draft" if args.turntable is not None else "final")
@@ -323,7 +325,8 @@ def _cmd_render(args, progress):
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=spp,
                    backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
-                   progress=progress)
+                   progress=progress, enhance_strength=args.enhance_strength,
+                   enhance_radius=args.enhance_radius)
     if args.light is not None:
         options["light"] = args.light
     with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
@@ -603,7 +606,7 @@ def _parser():
     r.add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
     r.add_argument("-o", "--output", required=True, metavar="PNG",
                    help="output image (.png; with --turntable also .gif)")
-    r.add_argument("--mode", choices=("shade", "normals", "depth", "stereo", "gi"),
+    r.add_argument("--mode", choices=("shade", "normals", "depth", "stereo", "gi", "enhance"),
                    default="shade", help="what to render (default: shade)")
     r.add_argument("--size", metavar="WxH", help="image size (default: the drawing's; "
                    "gi: shrunk to fit 800)")
@@ -630,6 +633,12 @@ def _parser():
     r.add_argument("--disparity", type=float, metavar="PX",
                    help="stereo: disparity of the highest point in pixels (default: 2%% of "
                         "the width)")
+    r.add_argument("--enhance-strength", type=float, default=1.0, metavar="S",
+                   help="enhance: how dark surfaces get behind occluding edges, 0..10 "
+                        "(default: 1)")
+    r.add_argument("--enhance-radius", type=float, default=8.0, metavar="PX",
+                   help="enhance: reach of the darkening behind an edge in drawing pixels, "
+                        "0.5..100 (default: 8)")
     r.add_argument("--turntable", type=int, metavar="N",
                    help="N frames swinging around the vertical axis: X-000.png ... or a GIF")
     r.add_argument("--angle", type=float, default=15.0,
