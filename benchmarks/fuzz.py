@@ -48,16 +48,20 @@ def _run(argv, timeout, cwd):
     proc = subprocess.Popen([sys.executable, "-m", "inkray", "--quiet", *argv], cwd=cwd,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + timeout
+    # The child's own high-water mark, read while it runs: wait4's ru_maxrss keeps
+    # the parent's size at fork when the child stays smaller.
+    peak = 0.0
     while True:
         pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
         if pid:
             err = proc.stderr.read()
             code = os.waitstatus_to_exitcode(status)
-            return code, err, usage.ru_maxrss / 1024
+            return code, err, peak or usage.ru_maxrss / 1024
+        peak = max(peak, _peak_rss(proc.pid))
         if time.monotonic() > deadline:
             proc.kill()
             _, _, usage = os.wait4(proc.pid, 0)
-            return "hang", proc.stderr.read(), usage.ru_maxrss / 1024
+            return "hang", proc.stderr.read(), peak or usage.ru_maxrss / 1024
         time.sleep(0.01)
 
 
@@ -97,24 +101,32 @@ _MIB = 1 << 20
 
 
 def _inflating(work, base):
-    """Annotation files just under the 64 MiB limit (and a 10 MB one) that inflate memory."""
+    """Annotation files just under the 64 MiB limit (and a 10 MB one) that inflate memory.
+
+    Written a piece at a time, so that this process stays small.
+    """
     doc = json.loads(base.read_text())
     head = json.dumps(doc)[:-1] + ', "_note": '
     size = 63 * _MIB
-    bodies = {
-        "string-10MB": '"' + "a" * 10_000_000 + '"',
-        "string-63MiB": '"' + "a" * size + '"',
-        "astral-63MiB": '"\U0001F600' + "a" * (size - 8) + '"',
-        "escapes-63MiB": '"' + "\\\\" * (size // 2) + '"',
-        "quotes-63MiB": '"' + '\\"' * (size // 2) + '"',
-        "objects-63MiB": "[" + ",".join(["{}"] * (size // 3)) + "]",
-        "floats-63MiB": "[" + ",".join(["1.5"] * (size // 4)) + "]",
-        "keys-3M": "{" + ",".join(f'"{i}":0' for i in range(3_000_000)) + "}",
-        "unterminated-63MiB": '"' + "a" * size,
+    pieces = {  # (opening, repeated piece, count, closing)
+        "string-10MB": ('"', "a" * 1000, 10_000, '"'),
+        "string-63MiB": ('"', "a" * 1024, size // 1024, '"'),
+        "astral-63MiB": ('"\U0001F600', "a" * 1024, size // 1024 - 1, '"'),
+        "escapes-63MiB": ('"', "\\\\" * 512, size // 1024, '"'),
+        "quotes-63MiB": ('"', '\\"' * 512, size // 1024, '"'),
+        "objects-63MiB": ("[{}", ",{}" * 341, size // 1023, "]"),
+        "floats-63MiB": ("[1.5", ",1.5" * 256, size // 1024, "]"),
+        "keys-3M": ('{"k":0', "".join(f',"{i}":0' for i in range(1000)), 3000, "}"),
+        "unterminated-63MiB": ('"', "a" * 1024, size // 1024, ""),
     }
-    for name, body in bodies.items():
+    for name, (first, piece, count, last) in pieces.items():
         path = work / f"inflate-{name}.inkray.json"
-        path.write_text(head + body + "}", encoding="utf-8")
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(head + first)
+            for k in range(count):
+                # keys must differ: a running prefix per thousand
+                fh.write(piece.replace(',"', f',"{k}_') if name == "keys-3M" else piece)
+            fh.write(last + "}")
         yield name, path
 
 

@@ -327,7 +327,7 @@ def _dask_results(frames, jobs, scheduler, workers):
         # (by default Dask leaves dask-scratch-space in the system's temp folder).
         scratch = tempfile.mkdtemp(prefix="inkray-dask-")
         try:
-            with dask.config.set(unset):
+            with dask.config.set({**unset, "temporary-directory": scratch}):
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                        dashboard_address=":0", local_directory=scratch)
             client = Client(cluster)
