@@ -371,7 +371,7 @@ def _cmd_demo(args, progress):
     from inkray.formats.atomic import atomic_outputs
     from inkray.formats.images import write_renderings
     from inkray.input.loading import load_input
-    from inkray.view.rendering import GI_MAX_SIDE, has_mitsuba, output_size, render
+    from inkray.view.rendering import GI_MAX_SIDE, GI_QUALITY, has_mitsuba, output_size, render
 
     path = example_path(args.example)
     out = Path(args.output)
@@ -393,7 +393,8 @@ def _cmd_demo(args, progress):
     if has_mitsuba():
         size = output_size(relief.size, max_side=GI_MAX_SIDE)
         with progress.stage(f"render gi {size[0]}x{size[1]}"):
-            gi = render(relief, mode="gi", size=size, spp=args.spp, progress=progress)
+            spp = args.spp if args.spp is not None else GI_QUALITY["draft"]
+            gi = render(relief, mode="gi", size=size, spp=spp, progress=progress)
     else:
         print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
     with atomic_outputs() as group:
@@ -683,9 +684,9 @@ def _parser():
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
-    p["demo"].add_argument("--spp", type=int, default=4,
-                           help="samples per pixel of the GI render, denoised (default: 4, "
-                                "render's --quality draft)")
+    p["demo"].add_argument("--spp", type=int,
+                           help="samples per pixel of the GI render, denoised (default: render's "
+                                "--quality draft, 4)")
     ed = p["edit"]
     ed.add_argument("annotation", metavar="ANN",
                     help="annotation file (.inkray.json); a new one is started when missing")

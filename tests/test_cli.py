@@ -114,6 +114,7 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
 
     code, out, err = _run(capsys, "--quiet", "demo", "-o", str(tmp_path / "demo"), "--spp", "2")
     assert code == 0, err
+    assert "warning" not in err  # the showcase is clean
     assert "turtle" in out and "ok:" in out and "demo: done" in out
     written = {p.name for p in (tmp_path / "demo").iterdir()}
     expected = {"labels.png", "labels.json", "depth.png", "depth.json", "regions.json",
