@@ -194,7 +194,9 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         relief's highest point (zero at height 0). Default: 2% of the width.
     spp : int, optional
         ``gi``: samples per pixel. Denoised, 8 are as close to a converged
-        render as 64 without (``benchmarks/bench_gi.py``).
+        render as 64 without (``benchmarks/bench_gi.py``), but keep blotches
+        on smooth surfaces; :data:`GI_QUALITY` holds the presets (``final``:
+        64, converged, ``benchmarks/bench_gi_quality.py``).
     backdrop : bool, optional
         ``gi``: put a matte backdrop behind the relief to catch its shadows.
         Without it the background is transparent.
