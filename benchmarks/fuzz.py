@@ -8,10 +8,19 @@ hangs, messages that are not one line, files left behind and the largest
 peak memory. The generators are in ``tests/_hostile.py`` (the test suite
 runs a small sample of them in-process).
 
+Then the limits: annotation files whose strings, escapes, lists, objects or
+keys inflate memory (through ``validate``; the bound on peak memory is 12
+times the file's size plus 700 MiB, see docs/errors.md), outputs aimed at every
+kind of input of every command and of ``batch`` (an input whose bytes change
+counts as overwritten), the documented extreme values of every option
+(within the range: they must finish in time; outside: refused with exit 2),
+and chunked request bodies to the editor server (peak memory of the server).
+
 Usage::
 
     python benchmarks/fuzz.py [--annotations 1000] [--images 100] [--meshes 100]
                               [--reliefs 20] [--kills 20] [--seed 0] [--timeout 60]
+                              [--no-limits]
 """
 
 import argparse
@@ -39,16 +48,20 @@ def _run(argv, timeout, cwd):
     proc = subprocess.Popen([sys.executable, "-m", "inkray", "--quiet", *argv], cwd=cwd,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + timeout
+    # The child's own high-water mark, read while it runs: wait4's ru_maxrss keeps
+    # the parent's size at fork when the child stays smaller.
+    peak = 0.0
     while True:
         pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
         if pid:
             err = proc.stderr.read()
             code = os.waitstatus_to_exitcode(status)
-            return code, err, usage.ru_maxrss / 1024
+            return code, err, peak or usage.ru_maxrss / 1024
+        peak = max(peak, _peak_rss(proc.pid))
         if time.monotonic() > deadline:
             proc.kill()
             _, _, usage = os.wait4(proc.pid, 0)
-            return "hang", proc.stderr.read(), usage.ru_maxrss / 1024
+            return "hang", proc.stderr.read(), peak or usage.ru_maxrss / 1024
         time.sleep(0.01)
 
 
@@ -84,6 +97,200 @@ class Tally:
                 f"{self.peak:.0f} |")
 
 
+_MIB = 1 << 20
+
+
+def _inflating(work, base):
+    """Annotation files just under the 64 MiB limit (and a 10 MB one) that inflate memory.
+
+    Written a piece at a time, so that this process stays small.
+    """
+    doc = json.loads(base.read_text())
+    head = json.dumps(doc)[:-1] + ', "_note": '
+    size = 63 * _MIB
+    pieces = {  # (opening, repeated piece, count, closing)
+        "string-10MB": ('"', "a" * 1000, 10_000, '"'),
+        "string-63MiB": ('"', "a" * 1024, size // 1024, '"'),
+        "astral-63MiB": ('"\U0001F600', "a" * 1024, size // 1024 - 1, '"'),
+        "escapes-63MiB": ('"', "\\\\" * 512, size // 1024, '"'),
+        "quotes-63MiB": ('"', '\\"' * 512, size // 1024, '"'),
+        "objects-63MiB": ("[{}", ",{}" * 341, size // 1023, "]"),
+        "floats-63MiB": ("[1.5", ",1.5" * 256, size // 1024, "]"),
+        "keys-3M": ('{"k":0', "".join(f',"{i}":0' for i in range(1000)), 3000, "}"),
+        "unterminated-63MiB": ('"', "a" * 1024, size // 1024, ""),
+    }
+    for name, (first, piece, count, last) in pieces.items():
+        path = work / f"inflate-{name}.inkray.json"
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(head + first)
+            for k in range(count):
+                # keys must differ: a running prefix per thousand
+                fh.write(piece.replace(',"', f',"{k}_') if name == "keys-3M" else piece)
+            fh.write(last + "}")
+        yield name, path
+
+
+def _inputs_unchanged(paths, before):
+    return [p.name for p in paths if p.read_bytes() != before[p]]
+
+
+def _onto_inputs(work, base, timeout):
+    """Every command with an output aimed at one of its inputs: exit 2, no input changed."""
+    t = Tally("outputs onto inputs")
+    over = 0
+    case = work / "onto"
+    case.mkdir()
+    for f in (work / "drawing.png", base):
+        shutil.copy(f, case / f.name)
+    ann, drawing = case / base.name, case / "drawing.png"
+    layer = case / "layer.png"
+    from PIL import Image
+    Image.new("RGBA", (512, 512)).save(layer)
+    (case / "legend.json").write_text("{}")
+    _run(["relief", ann.name, "-o", "scene.obj"], 300, case)
+    scene = [case / "scene.obj", case / "scene.mtl", case / "scene_drawing.png"]
+    runs = [["segment", ann.name, "-o", "drawing.png"], ["depth", ann.name, "-o", "drawing.png"],
+            ["depth", ann.name, "-o", "d.png", "--normals", "drawing.png"],
+            ["segment", ann.name, "-o", "s.png", "--scribbles", "layer.png", "--legend",
+             "legend.json", "--npy", "legend.json"],
+            ["relief", ann.name, "-o", "r.glb", "--depth-png", "drawing.png"],
+            ["relief", ann.name, "-o", "r2.glb", "--scribbles", "layer.png",
+             "--normals-png", "layer.png"],
+            ["regions", ann.name, "-o", base.name],
+            ["layers", ann.name, "-o", "p.psd", "--scribbles", "layer.png"],
+            ["render", "scene.obj", "-o", "scene_drawing.png"],
+            ["render", "scene.obj", "-o", "scene.png", "--mode", "stereo"],
+            ["check", "scene.obj", "-o", "scene.mtl"]]
+    # maps into a folder whose normal.png is the drawing; batch over its own report
+    maps = case / "m"
+    maps.mkdir()
+    shutil.copy(drawing, maps / "normal.png")
+    mdoc = json.loads(ann.read_text())
+    mdoc["drawing"] = "m/normal.png"
+    (case / "mm.inkray.json").write_text(json.dumps(mdoc))
+    runs.append(["maps", "mm.inkray.json", "-o", "m"])
+    frame = case / "batch"
+    (frame / "f").mkdir(parents=True)
+    shutil.copy(drawing, frame / "f" / "shaded.png")
+    bdoc = dict(mdoc, drawing="f/shaded.png")
+    (frame / "f.inkray.json").write_text(json.dumps(bdoc))
+    (frame / "batch-report.json").write_text(json.dumps(bdoc))
+    runs += [["batch", "batch/*.inkray.json", "-o", "batch", "--jobs", "relief,render"],
+             ["batch", "batch/batch-report.json", "-o", "batch"]]
+    for argv in runs:
+        files = [p for p in case.rglob("*") if p.is_file()]
+        before = {p: p.read_bytes() for p in files}
+        res = _run(argv, timeout, case)
+        changed = _inputs_unchanged(files, before)
+        if changed:
+            over += 1
+        t.add(argv, ("overwrote " + ",".join(changed) if changed else res[0], res[1], res[2]))
+    return t, over
+
+
+def _extremes(work, base, timeout):
+    """The documented extreme values of every option: in range finishes, out of range exit 2."""
+    t = Tally("option extremes")
+    a = base.name
+    glb = "ext.glb"
+    _run(["relief", a, "-o", glb], 300, work)
+    inside = [["relief", a, "-o", "x.glb", "--max-area", "1e8"],
+              ["relief", a, "-o", "x.glb", "--epsilon", "1e5"],
+              ["relief", a, "-o", "x.glb", "--epsilon", "1e-6"],
+              ["relief", a, "-o", "x.glb", "--units-per-pixel", "1e-9"],
+              ["relief", a, "-o", "x.glb", "--units-per-pixel", "1e6"],
+              ["relief", a, "-o", "x.glb", "--depth-scale", "0.001"],
+              ["relief", a, "-o", "x.glb", "--depth-scale", "10"],
+              ["depth", a, "-o", "x.png", "--epsilon", "1e5"],
+              ["depth", a, "-o", "x.png", "--epsilon", "1e-9"],
+              ["maps", a, "-o", "xm", "--ao-radius", "1e6"],
+              ["maps", a, "-o", "xm", "--ao-radius", "1"],
+              ["layers", a, "-o", "x.psd", "--pad", "1000000000"],
+              ["render", glb, "-o", "x.gif", "--turntable", "360", "--size", "16x16"],
+              ["render", glb, "-o", "x.png", "--turntable", "3", "--angle", "60"],
+              ["render", glb, "-o", "x.png", "--size", "16384x1"],
+              ["render", glb, "-o", "x.png", "--mode", "gi", "--size", "4x4", "--spp", "65536"],
+              ["render", glb, "-o", "x.png", "--light", "1e300", "0", "0"],
+              ["render", glb, "-o", "x.png", "--mode", "stereo", "--disparity", "512"],
+              ["validate", a, "--max-pixels", "1", "--max-points", "1"]]
+    outside = [["relief", a, "-o", "x.glb", "--max-area", "1e9"],
+               ["relief", a, "-o", "x.glb", "--epsilon", "inf"],
+               ["relief", a, "-o", "x.glb", "--depth-scale", "nan"],
+               ["depth", a, "-o", "x.png", "--epsilon", "1e6"],
+               ["maps", a, "-o", "xm", "--ao-radius", "1e9"],
+               ["maps", a, "-o", "xm", "--ao-radius", "inf"],
+               ["layers", a, "-o", "x.psd", "--pad", "-1"],
+               ["render", glb, "-o", "x.gif", "--turntable", "100000"],
+               ["render", glb, "-o", "x.png", "--turntable", "300", "--size", "4000x4000"],
+               ["render", glb, "-o", "x.png", "--size", "16384x16384"],
+               ["render", glb, "-o", "x.png", "--angle", "inf", "--turntable", "2"],
+               ["render", glb, "-o", "x.png", "--mode", "gi", "--spp", "65537"],
+               ["render", glb, "-o", "x.png", "--ambient", "inf"],
+               ["render", glb, "-o", "x.png", "--light", "0", "0", "0"],
+               ["validate", a, "--max-pixels", "0"],
+               ["batch", a, "-o", "xb", "--workers", "100000"],
+               ["batch", a, "-o", "xb", "--jobs", ""]]
+    for argv in inside:
+        t.add(argv, _run(argv, timeout, work))
+    for argv in outside:
+        code, err, peak = _run(argv, timeout, work)
+        t.add(argv, (code if code == 2 else f"accepted ({code})", err, peak))
+    return t
+
+
+def _editor_bodies(work, base, timeout):
+    """Chunked and oversized PUTs to the editor server: its peak memory, and its answers."""
+    import http.client
+    import re
+
+    t = Tally("editor: chunked bodies")
+    proc = subprocess.Popen([sys.executable, "-m", "inkray", "edit", base.name, "--no-browser",
+                             "--port", "0"], cwd=work, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        port = None
+        deadline = time.monotonic() + 120
+        while port is None and time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            m = re.search(r"127\.0\.0\.1:(\d+)", line)
+            port = int(m.group(1)) if m else None
+        if port is None:
+            t.add(["edit"], ("hang", "no address printed", 0.0))
+            return t
+        for name, mib in (("chunked 100 MiB", 100), ("chunked 1000 MiB", 1000)):
+            conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
+            status, err = None, ""
+            try:
+                conn.putrequest("PUT", "/api/annotations")
+                conn.putheader("Transfer-Encoding", "chunked")
+                conn.putheader("Content-Type", "application/json")
+                conn.endheaders()
+                chunk = b"[" + b"1," * (_MIB // 2 - 1) + b"1"
+                for _ in range(mib):
+                    conn.send(b"%x\r\n%s\r\n" % (len(chunk), chunk))
+                conn.send(b"0\r\n\r\n")
+                status = conn.getresponse().status
+            except (OSError, http.client.HTTPException) as e:
+                err = f"{type(e).__name__}: {e}"  # the server may close early: fine
+            finally:
+                conn.close()
+            peak = _peak_rss(proc.pid)
+            bad = status is not None and status >= 500
+            t.add([name], ("server error" if bad else 0, err if bad else "", peak))
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    return t
+
+
+def _peak_rss(pid):
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            return next(int(line.split()[1]) / 1024 for line in fh if line.startswith("VmHWM"))
+    except (OSError, StopIteration):
+        return 0.0
+
+
 def _leftovers(folder, before):
     return sorted(set(p.name for p in folder.iterdir()) - before)
 
@@ -98,6 +305,9 @@ def main(argv=None):
     parser.add_argument("--kills", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--timeout", type=float, default=60.0)
+    parser.add_argument("--no-limits", dest="limits", action="store_false",
+                        help="skip the limits: inflating files, outputs onto inputs, option "
+                             "extremes, chunked bodies to the editor")
     args = parser.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     work = Path(tempfile.mkdtemp(prefix="inkray-fuzz-"))
@@ -167,6 +377,23 @@ def main(argv=None):
             for p in out.iterdir():
                 p.unlink()
         tallies.append(k)
+
+        if args.limits:
+            bound = Tally("annotations: inflating memory")
+            over_bound = []
+            for name, path in _inflating(work, base):
+                res = _run(["validate", path.name], args.timeout * 5, work)
+                limit = (12 * path.stat().st_size + 700 * _MIB) / _MIB
+                if res[2] > limit:
+                    over_bound.append(name)
+                bound.add([name], ("over the bound" if res[2] > limit else res[0], *res[1:]))
+                print(f"  {name}: {path.stat().st_size / _MIB:.1f} MiB file, exit {res[0]}, "
+                      f"peak {res[2]:.0f} MiB (bound {limit:.0f})", flush=True)
+                path.unlink()
+            onto, overwritten = _onto_inputs(work, base, args.timeout)
+            tallies += [bound, onto, _extremes(work, base, args.timeout),
+                        _editor_bodies(work, base, args.timeout)]
+            print(f"inputs overwritten: {overwritten}; over the memory bound: {len(over_bound)}")
 
         print("| runs | n | exit 0 | exit 2 | internal errors | hangs | other exits | "
               "not one line | left files | peak MiB |")

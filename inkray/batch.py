@@ -53,7 +53,9 @@ import hashlib
 import json
 import os
 import resource
+import shutil
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,6 +79,10 @@ JOB_FILES = {
 #: The jobs run when none are named; ``pose`` needs ``X.pose.json`` beside ``X.inkray.json``.
 JOBS = ("relief", "render", "layers", "maps")
 MANIFEST = "batch-manifest.json"
+#: Most local worker processes per core (each holds a frame's chain in memory).
+MAX_WORKERS_PER_CORE = 4
+#: Seconds a scheduler has to answer as Dask's does.
+CONNECT_TIMEOUT = 10.0
 REPORT = "batch-report.json"
 _SUFFIXES = (".inkray.json", ".json")
 _IMAGES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".svg")
@@ -118,13 +124,16 @@ class _Outcome:
                 "error": self.error, "outputs": self.outputs, **(self.shot or {})}
 
 
-def find_frames(pattern):
+def find_frames(pattern, *, exclude=()):
     """The frames of a glob pattern (``**`` spans folders), sorted by name.
 
     Parameters
     ----------
     pattern : str
         E.g. ``"shots/**/*.inkray.json"``; a plain file name is one frame.
+    exclude : iterable of path, optional
+        Files, and folders with everything in them, that are not frames (a
+        batch's own outputs).
 
     Returns
     -------
@@ -141,8 +150,12 @@ def find_frames(pattern):
     ['turtle/drawing']
     """
     matches = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
-    if not matches:
-        raise InputError(f"{pattern}: no annotation file matches")
+    excluded = [Path(e).resolve() for e in exclude]
+    kept = [m for m in matches if not any(_within(Path(m).resolve(), e) for e in excluded)]
+    if not kept:
+        own = (f" ({len(matches)} matched, all this batch's own outputs)" if matches else "")
+        raise InputError(f"{pattern}: no annotation file matches{own}")
+    matches = kept
     parts = Path(pattern).parts
     fixed = [p for p in parts[:next((i for i, p in enumerate(parts) if glob.has_magic(p)),
                                     len(parts) - 1)]]
@@ -156,6 +169,10 @@ def find_frames(pattern):
         seen[name] = match
         frames.append(Frame(annotation=str(match), name=name))
     return sorted(frames, key=lambda f: f.name)
+
+
+def _within(path, folder):
+    return path == folder or folder in path.parents
 
 
 def run_frame(annotation, jobs):
@@ -225,21 +242,28 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
         After writing the report and the manifest of the frames finished.
     """
     jobs = _check_jobs(jobs)
-    if workers is not None and (int(workers) != workers or workers < 1):
-        raise InputError(f"--workers {workers}: expected a whole number >= 1")
+    most = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and (int(workers) != workers or not 1 <= workers <= most):
+        raise InputError(f"--workers {workers}: expected a whole number within 1..{most} "
+                         f"({MAX_WORKERS_PER_CORE} per core)")
     progress = progress if progress is not None else Progress(quiet=True)
-    frames = find_frames(pattern)
     out = Path(output)
     if out.exists() and not out.is_dir():
         raise InputError(f"-o {out}: exists and is not a folder")
+    manifest = _read_manifest(out)
+    # This batch's outputs from an earlier run are not frames.
+    frames = find_frames(pattern, exclude=[out / REPORT, out / MANIFEST,
+                                           *(out / name for name in manifest)])
     plan = plan_shot(frames, keys) if keys else None
     if plan is not None:
         frames = [Frame(annotation=step["annotation"] or step["drawing"], name=name)
                   for name, step in plan.items()]
-    inputs = {str(Path(f.annotation).resolve()) for f in frames}
-    if plan is not None:
-        inputs |= {str(Path(step["drawing"]).resolve()) for step in plan.values()}
-    manifest = _read_manifest(out)
+        sources = {name: [Path(p) for p in {step["drawing"], step["key"], step["annotation"]}
+                          if p is not None] for name, step in plan.items()}
+    else:
+        sources = {f.name: _frame_inputs(f.annotation) for f in frames}
+    _check_outputs(out, frames, jobs, sources)
+    inputs = {str(p.resolve()) for paths in sources.values() for p in paths}
     keys = ({f.name: _frame_key(f.annotation, jobs) for f in frames} if plan is None
             else {name: _shot_key(plan, name, jobs) for name in plan})
     outcomes, todo = {}, []
@@ -255,15 +279,16 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
     with progress.stage(f"batch: {len(todo)} of {len(frames)} frames"):
         progress.update(len(frames) - len(todo), len(frames))
         try:
-            for frame, result in results:
-                outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
-                if plan is not None:
-                    outcomes[frame.name].shot = _shot_record(plan, frame.name,
-                                                             result.get("transfer"))
-                if outcomes[frame.name].status == "failed" and not progress.quiet:
-                    print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
-                          file=progress.stream)
-                progress.update(len(outcomes), len(frames))
+            with contextlib.closing(results) as finished:
+                for frame, result in finished:
+                    outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
+                    if plan is not None:
+                        outcomes[frame.name].shot = _shot_record(plan, frame.name,
+                                                                 result.get("transfer"))
+                    if outcomes[frame.name].status == "failed" and not progress.quiet:
+                        print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
+                              file=progress.stream)
+                    progress.update(len(outcomes), len(frames))
         except KeyboardInterrupt:
             for f in frames:
                 outcomes.setdefault(f.name, _Outcome("interrupted"))
@@ -333,28 +358,74 @@ def _client(scheduler, workers):
     import dask
     from distributed import Client, LocalCluster
 
-    cluster = None
+    cluster = scratch = None
     if scheduler is None:
         n = workers or os.cpu_count() or 1
         # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers so that they hand freed
         # memory back at once; glibc then maps every large numpy array afresh,
         # which made a frame about 30 % slower here. None unsets it.
         unset = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-        with dask.config.set(unset):
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0")
-        client = Client(cluster)
-    else:
+        # The cluster's scratch space goes in a folder of this run's, removed at the end
+        # (by default Dask leaves dask-scratch-space in the system's temp folder).
+        scratch = tempfile.mkdtemp(prefix="inkray-dask-")
         try:
-            client = Client(scheduler, timeout=10)
-        except (OSError, ValueError) as e:
-            raise InputError(f"--scheduler {scheduler}: cannot connect ({_one_line(e)})") from None
+            with dask.config.set({**unset, "temporary-directory": scratch}):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       dashboard_address=":0", local_directory=scratch)
+            client = Client(cluster)
+        except BaseException:
+            if cluster is not None:
+                cluster.close()
+            shutil.rmtree(scratch, ignore_errors=True)
+            raise
+    else:
+        client = _connect(Client, scheduler)
     try:
         yield client
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        try:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _connect(client_type, scheduler, timeout=None):
+    """A client of the Dask scheduler at ``scheduler``, or a one-line error within ``timeout``.
+
+    Dask's own timeout covers opening the connection, not a service that
+    accepts it and never answers (or answers something else): the handshake
+    runs in a thread that is given up on after ``timeout`` seconds (default
+    :data:`CONNECT_TIMEOUT`) and five more.
+    """
+    import threading
+
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    done = {}
+
+    def connect():
+        try:
+            done["client"] = client_type(scheduler, timeout=timeout)
+        except BaseException as e:  # anything, even MemoryError: the answer was not Dask's
+            done["error"] = e
+
+    thread = threading.Thread(target=connect, daemon=True, name="inkray-connect")
+    thread.start()
+    thread.join(timeout + 5)  # Dask's own timeout first, when it applies
+    if thread.is_alive():
+        raise InputError(f"--scheduler {scheduler}: no answer from a Dask scheduler within "
+                         f"{timeout + 5:g} s (is it one?)")
+    if "error" in done:
+        e = done["error"]
+        if isinstance(e, KeyboardInterrupt):
+            raise e
+        what = ("cannot connect" if isinstance(e, (OSError, ValueError))
+                else "not a Dask scheduler's answer")
+        raise InputError(f"--scheduler {scheduler}: {what} "
+                         f"({type(e).__name__}: {_one_line(e) or 'no detail'})") from None
+    return done["client"]
 
 
 def _task_key(what, path):
@@ -617,6 +688,36 @@ def _unchanged(folder, record, key):
         except OSError:
             return False
     return True
+
+
+def _frame_inputs(annotation):
+    """The files a frame reads: its annotation and, when the annotation names it, its drawing."""
+    from inkray.input.annotations import load_annotations
+
+    try:
+        drawing = load_annotations(annotation).drawing
+    except InkrayError:
+        drawing = None  # the task reports the problem
+    return [Path(annotation)] + ([Path(drawing)] if drawing is not None else [])
+
+
+def _check_outputs(out, frames, jobs, sources):
+    """Refuse, before any work, a batch that would write over a file one of its frames reads."""
+    planned = [(out / REPORT, None), (out / MANIFEST, None)]
+    for f in frames:
+        for job in jobs:
+            for _, target in JOB_FILES[job]:
+                path = out / f.name / target
+                # a folder output (maps/) may hold any file
+                planned.append((path, path if Path(target).suffix == "" else None))
+    for f in frames:
+        for source in sources[f.name]:
+            source = source.resolve()
+            for target, folder in planned:
+                if source == target.resolve() or (folder is not None
+                                                  and _within(source, folder.resolve())):
+                    raise InputError(f"{target}: would overwrite {source}, read by "
+                                     f"{f.annotation}; choose another output folder")
 
 
 def _frame_key(annotation, jobs):

@@ -281,14 +281,20 @@ class ReliefChain:
         return self._ordered()[1]
 
     @property
+    def silhouettes(self):
+        """The completion's labels grown over their contour strokes: what the meshes outline."""
+        completion = self.completion
+        # The parts reach the outer edge of their contour strokes (the outline on the mesh).
+        return self._stage("silhouettes", ("silhouettes", self._segment_key()),
+                           lambda: _silhouettes(completion.labels, self.drawing.gray), timed=False)
+
+    @property
     def meshes(self):
         """Per region, its :class:`~inkray.relief.inflation.InflatedRegion` (None when empty)."""
         if "meshes" in self._memo:
             return self._memo["meshes"]
         completion = self.completion
-        # The parts reach the outer edge of their contour strokes (the outline on the mesh).
-        labels = self._stage("silhouettes", ("silhouettes", self._segment_key()),
-                             lambda: _silhouettes(completion.labels, self.drawing.gray), timed=False)
+        labels = self.silhouettes
         regions = self.annotations.regions
         seams = self.annotations.boundaries
         out, keys = [], []

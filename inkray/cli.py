@@ -240,7 +240,8 @@ def _cmd_depth(args, progress):
                                 ("--shading", args.shading, (".png",))):
         if path is not None and Path(path).suffix.lower() not in allowed:
             raise InputError(f"{flag} {path}: unsupported output type (expected {allowed[0]})")
-    _in_range("--epsilon", args.epsilon, 1e-9, 1e9, "depth step")
+    # beyond 1e5 the QP's KKT residual no longer meets its tolerance (measured on the turtle)
+    _in_range("--epsilon", args.epsilon, 1e-9, 1e5, "depth step")
     chain, result, written = _produce(
         args, progress, "depth", args.output,
         options=dict(depth_method=args.method, depth_epsilon=args.epsilon),
@@ -287,10 +288,11 @@ def _cmd_relief(args, progress):
 
 def _cmd_render(args, progress):
     from inkray.formats.atomic import atomic_outputs, check_targets
-    from inkray.formats.images import write_renderings
+    from inkray.formats.images import rendering_files, write_renderings
     from inkray.formats.meshes import read_relief
     from inkray.view.depth_enhancement import check_enhancement
-    from inkray.view.rendering import GI_MAX_SIDE, output_size, render, render_turntable
+    from inkray.view.rendering import (GI_MAX_SIDE, GI_QUALITY, check_turntable, output_size,
+                                       render, render_turntable)
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
 
@@ -303,16 +305,26 @@ def _cmd_render(args, progress):
         if len(size) != 2:
             raise InputError(f"--size {args.size}: expected WIDTHxHEIGHT in whole pixels "
                              f"(e.g. 800x600)")
-    if args.turntable is not None and args.turntable < 1:
-        raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
+    if args.turntable is not None:
+        check_turntable(frames=args.turntable, angle=args.angle)
     check_enhancement(args.enhance_strength, args.enhance_radius, prefix="enhance_")
+    if args.quality is not None and args.mode != "gi":
+        raise InputError(f"--quality {args.quality}: only for --mode gi")
+    quality = args.quality or ("draft" if args.turntable is not None else "final")
+    spp = args.spp if args.spp is not None else GI_QUALITY[quality]
     check_targets([args.output], inputs=[args.mesh])
+    inputs = []
     with progress.stage("read"):
-        relief = read_relief(args.mesh)
+        relief = read_relief(args.mesh, inputs=inputs)
+    _warn(relief.warnings)
     size = output_size(relief.size, size=size, width=args.width, height=args.height,
                        max_side=GI_MAX_SIDE if args.mode == "gi" else None)
+    if args.turntable is not None:
+        check_turntable(frames=args.turntable, angle=args.angle, size=size)
+    check_targets(rendering_files(args.output, frames=args.turntable, mode=args.mode),
+                  inputs=inputs)
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
-                   flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
+                   flat_colors=args.flat_colors, disparity=args.disparity, spp=spp,
                    backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
                    progress=progress, enhance_strength=args.enhance_strength,
                    enhance_radius=args.enhance_radius)
@@ -324,7 +336,7 @@ def _cmd_render(args, progress):
                                       **options)
         else:
             frames = render(relief, **options)
-    with progress.stage("write"), atomic_outputs(inputs=[args.mesh]) as group:
+    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
         written = write_renderings(frames, args.output, outputs=group)
     progress.summary()
     print(f"{args.mesh}: {args.mode} -> {', '.join(str(p) for p in written)}")
@@ -360,7 +372,7 @@ def _cmd_demo(args, progress):
     from inkray.formats.atomic import atomic_outputs
     from inkray.formats.images import write_renderings
     from inkray.input.loading import load_input
-    from inkray.view.rendering import GI_MAX_SIDE, has_mitsuba, output_size, render
+    from inkray.view.rendering import GI_MAX_SIDE, GI_QUALITY, has_mitsuba, output_size, render
 
     path = example_path(args.example)
     out = Path(args.output)
@@ -382,7 +394,8 @@ def _cmd_demo(args, progress):
     if has_mitsuba():
         size = output_size(relief.size, max_side=GI_MAX_SIDE)
         with progress.stage(f"render gi {size[0]}x{size[1]}"):
-            gi = render(relief, mode="gi", size=size, spp=args.spp, progress=progress)
+            spp = args.spp if args.spp is not None else GI_QUALITY["draft"]
+            gi = render(relief, mode="gi", size=size, spp=spp, progress=progress)
     else:
         print("demo: Mitsuba 3 is not installed, so no GI render (pip install 'inkray[render]')")
     with atomic_outputs() as group:
@@ -524,8 +537,10 @@ def _cmd_batch(args, progress):
 
 
 def _cmd_maps(args, progress):
-    if args.ao_radius is not None and not args.ao_radius >= 1:
-        raise InputError(f"--ao-radius {args.ao_radius}: expected at least 1 pixel")
+    from inkray.view.ambient_occlusion import MAX_RADIUS
+
+    if args.ao_radius is not None:
+        _in_range("--ao-radius", args.ao_radius, 1, MAX_RADIUS, "radius in pixels")
     out = Path(args.output)
     if out.suffix:
         raise InputError(f"-o {out}: expected a folder (no suffix)")
@@ -712,7 +727,11 @@ def _parser():
                    help="shade/stereo: light on surfaces facing away, 0..1 (default: 0.3)")
     r.add_argument("--flat-colors", action="store_true",
                    help="one colour per part instead of the drawing's colours")
-    r.add_argument("--spp", type=int, default=8, help="gi: samples per pixel (default: 8)")
+    r.add_argument("--quality", choices=("draft", "final"),
+                   help="gi: draft (4 samples per pixel, denoised: a preview) or final (64, "
+                        "denoised: converged, no blotches on smooth surfaces) (default: final; "
+                        "with --turntable draft)")
+    r.add_argument("--spp", type=int, help="gi: samples per pixel (default: the --quality's)")
     r.add_argument("--no-backdrop", action="store_true",
                    help="gi: no backdrop behind the relief (transparent background)")
     r.add_argument("--seed", type=int, default=0, help="gi: sampler seed (default: 0)")
@@ -775,7 +794,7 @@ def _parser():
                            help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
                                 "or directx y down (Unreal) (default: opengl)")
     p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
-                           help="ambient occlusion radius (default: 3%% of the longer side)")
+                           help="ambient occlusion radius, 1..1e6 (default: 3%% of the longer side)")
     tr = p["transfer"]
     _add_input(tr)
     tr.add_argument("frame_drawing", metavar="FRAME", help="the frame's drawing (same size as the key's)")
@@ -803,8 +822,9 @@ def _parser():
     p["demo"].add_argument("-o", "--output", default="inkray-demo", metavar="DIR",
                            help="output folder (default: inkray-demo)")
     p["demo"].add_argument("--example", default="turtle", help="bundled example (default: turtle)")
-    p["demo"].add_argument("--spp", type=int, default=4,
-                           help="samples per pixel of the GI render, denoised (default: 4)")
+    p["demo"].add_argument("--spp", type=int,
+                           help="samples per pixel of the GI render, denoised (default: render's "
+                                "--quality draft, 4)")
     ed = p["edit"]
     ed.add_argument("annotation", metavar="ANN",
                     help="annotation file (.inkray.json); a new one is started when missing. "
@@ -901,7 +921,8 @@ def _terminate_as_interrupt():
 
 
 #: Library parameters whose flag is not their name with dashes.
-_FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points"}
+_FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points",
+          "frames": "--turntable"}
 
 
 def _flag(parameter):

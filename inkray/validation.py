@@ -1,23 +1,26 @@
 """Validating an annotation against its drawing: every problem a run would meet.
 
 Parsing (:mod:`inkray.input.annotations`) checks the file's form; this module
-checks what only the drawing can tell, up to the depth order: a blank or
-all-ink drawing, scribbles lying on ink, regions that segment to almost
-nothing, boundary paths far from every region outline, and order entries
-that contradict each other. It runs the chain's cheap stages (segmentation,
-completion and the depth order: LazyBrush, Sýkora et al. 2009; Ink-and-Ray,
-Sýkora et al. 2014, section 4) and none of the heavy ones (meshing,
-inflation, stitching, the depth-map QP), and reports all problems of a file
-at once, each with its key path.
+checks what only the drawing can tell: a blank or all-ink drawing, scribbles
+lying on ink, regions that segment to almost nothing, order entries that
+contradict each other, boundary paths that snap to no region outline or mark
+a stretch another already marks. It runs the chain's stages up to the depth
+order (segmentation, completion, order: LazyBrush, Sýkora et al. 2009;
+Ink-and-Ray, Sýkora et al. 2014, section 4) and takes every region's outline
+as its mesh does, so that boundary paths are judged by the relief's own rule
+(:func:`inkray.relief.outline.boundary_problems`); it skips triangulation,
+inflation, stitching and the depth-map QP. Every error it reports, ``relief``
+refuses, and every file ``relief`` refuses for its annotation it reports; the
+stitching's warnings (an ``order`` entry giving way to a graft) come only
+from the commands that stitch. All problems of a file are reported at once,
+each with its key path.
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from scipy import ndimage
-
 from inkray.errors import InputError
-from inkray.relief.outline import DEFAULT_SNAP
+from inkray.relief.outline import boundary_problems, edge_length, region_outline
 from inkray.segmentation import INK_THRESHOLD, scribbles_on_ink
 
 __all__ = ["Problem", "validate"]
@@ -60,8 +63,8 @@ def validate(chain):
     Parameters
     ----------
     chain : inkray.chain.ReliefChain
-        Its segmentation, completion and depth order are computed (and kept
-        in its cache) as far as the input allows.
+        Its stages up to the depth order are computed (and kept in its
+        cache) as far as the input allows.
 
     Returns
     -------
@@ -100,39 +103,36 @@ def validate(chain):
     except InputError as e:
         return [_problem("error", str(e))]
     warnings += [_problem("warning", w) for w in seg.warnings]
-    errors += _far_boundaries(seg.labels, ann.boundaries)
-    if not errors:
-        try:
-            chain.relations
-        except InputError as e:
-            errors.append(_problem("error", str(e)))
-        else:
-            warnings += [_problem("warning", w) for w in chain.warnings
-                         if w not in {p.message for p in warnings}]
+    try:
+        chain.relations
+    except InputError as e:
+        return errors + [_problem("error", str(e))] + warnings
+    errors += [_problem("error", m) for m in _boundary_problems(chain)]
+    warnings += [_problem("warning", w) for w in chain.warnings
+                 if w not in {p.message for p in warnings}]
     return errors + warnings
 
 
-def _far_boundaries(labels, boundaries):
-    """Boundary paths whose points lie mostly farther than the snap distance from any outline."""
-    if not boundaries:
+def _boundary_problems(chain):
+    """The relief's own rule on ``boundaries``: each region's outline as its mesh takes it."""
+    ann = chain.annotations
+    if not ann.boundaries:
         return []
-    edges = np.zeros(labels.shape, bool)
-    edges[:, 1:] |= labels[:, 1:] != labels[:, :-1]
-    edges[1:, :] |= labels[1:, :] != labels[:-1, :]
-    if not edges.any():
-        distance = np.full(labels.shape, np.inf)
-    else:
-        distance = ndimage.distance_transform_edt(~edges)
-    h, w = labels.shape
-    out = []
-    for b in boundaries:
-        path = np.asarray(b.path, float)
-        cols = np.clip(np.rint(path[:, 0]).astype(int), 0, w - 1)
-        rows = np.clip(np.rint(path[:, 1]).astype(int), 0, h - 1)
-        near = float(np.median(distance[rows, cols]))
-        if near > DEFAULT_SNAP:
-            out.append(_problem("error", f"boundaries[{b.index}]: no region outline within "
-                                         f"{DEFAULT_SNAP:g} px of the {b.type} path starting at "
-                                         f"({path[0, 0]:g}, {path[0, 1]:g}) (the nearest is "
-                                         f"{near:.1f} px away)"))
-    return out
+    labels, completion, o = chain.silhouettes, chain.completion, chain.options.mesh
+    outlines, out = [], []
+    for i, region in enumerate(ann.regions):
+        mask = completion.completed(i) | (labels == i)
+        if not mask.any():
+            continue
+        # the options inkray.relief.triangulation.mesh_region gives region_outline
+        area = min(o.max_area, float(np.count_nonzero(mask)) / o.min_triangles) or o.max_area
+        spacing = o.station_spacing if o.station_spacing is not None else edge_length(o.max_area)
+        try:
+            outlines.append(region_outline(
+                mask, visible=labels == i, labels=labels, region=i, name=region.name,
+                boundaries=ann.boundaries,
+                options=replace(o, max_area=area, station_spacing=spacing)))
+        except InputError as e:  # two paths marking one stretch
+            out.append(str(e))
+    # with an outline missing, which paths it would have taken is unknown
+    return out or boundary_problems(outlines, ann.boundaries, snap=o.snap)

@@ -50,3 +50,18 @@ def test_a_tilted_plane_occludes_nothing_but_a_step_on_it_does():
     assert np.allclose(ao[8:-8, 8:-8], 1.0)
     stepped = plane + np.where(x >= 30, 10.0, 0.0)
     assert ambient_occlusion(stepped, radius=8)[20, 29] < 0.8
+
+
+def test_a_huge_radius_costs_no_more_than_the_image():
+    import tracemalloc
+
+    h = np.zeros((40, 50))
+    h[15:25, 20:30] = 5.0
+    tracemalloc.start()
+    ao = ambient_occlusion(h, radius=1e6, directions=8, steps=4)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 200 * h.size * 8  # the padding is bounded by the image, not the radius
+    assert ao.shape == h.shape and ((ao >= 0) & (ao <= 1)).all()
+    with pytest.raises(InputError, match="radius"):
+        ambient_occlusion(h, radius=1e9)

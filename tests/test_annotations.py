@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from conftest import shared_drawing_names, SHARED
-from inkray.input.annotations import load_annotations, parse_annotations, rescale_annotations
+from inkray.input.annotations import (decode_annotations, load_annotations, parse_annotations,
+                                      rescale_annotations)
+from inkray.input.limits import Limits
 from inkray.errors import InputError
 
 
@@ -149,3 +151,54 @@ def test_every_shared_annotation_file_loads(name):
     ann = load_annotations(SHARED / name / "drawing.inkray.json")
     assert ann.drawing.is_file()
     assert len(ann.regions) > 0 and len(ann.order) > 0
+
+
+# -- bounded memory and file names ---------------------------------------------------
+
+def _peak_of(code):
+    """Peak resident memory (bytes) of a fresh interpreter running ``code``."""
+    import subprocess
+    import sys
+
+    code += "; import resource; print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    out = subprocess.run([sys.executable, "-c", code], check=True, timeout=300,
+                         capture_output=True, text=True).stdout
+    return int(out.split()[-1]) * 1024
+
+
+def test_a_long_string_costs_a_small_multiple_of_its_size(tmp_path, minimal_doc):
+    # the pre-scan once kept a backtracking mark per character: 1.3 GB for 10 MB
+    doc = dict(minimal_doc, _note="a" * 10_000_000)
+    path = tmp_path / "long.inkray.json"
+    path.write_text(json.dumps(doc))
+    base = tmp_path / "base.inkray.json"
+    base.write_text(json.dumps(minimal_doc))
+    code = ("from inkray.input.annotations import load_annotations; "
+            "load_annotations({!r})")
+    idle = _peak_of(code.format(str(base)))
+    peak = _peak_of(code.format(str(path)))
+    assert peak - idle < 8 * path.stat().st_size
+
+
+@pytest.mark.parametrize("text", ['"' + "\\\\" * 200_000 + '"', '"' + '\\"' * 200_000 + '"',
+                                  '"' + "a" * 400_000])
+def test_the_pre_scan_skips_strings_whatever_their_escapes(minimal_doc, text):
+    raw = json.dumps(minimal_doc)[:-1] + ', "_note": ' + text + "}"
+    if text.endswith('"'):
+        assert decode_annotations(raw)["_note"] == json.loads(text)
+    else:
+        with pytest.raises(InputError, match="not valid JSON"):
+            decode_annotations(raw)
+
+
+def test_too_many_json_values_are_refused_with_their_place(minimal_doc):
+    limits = Limits(total_points=10, entries=1)
+    raw = json.dumps(dict(minimal_doc, _note=[{}] * (limits.values + 1)))
+    with pytest.raises(InputError, match=r"_note\[\d+\]: more than 130 JSON values"):
+        decode_annotations(raw, limits=limits)
+
+
+@pytest.mark.parametrize("name", ["a\x00b.png", "a\ud800b.png"])
+def test_a_drawing_name_no_file_can_have_is_one_line(minimal_doc, name):
+    with pytest.raises(InputError, match=r"^drawing: .* is not a file name"):
+        parse_annotations(dict(minimal_doc, drawing=name))

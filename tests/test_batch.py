@@ -190,6 +190,113 @@ def test_ctrl_c_on_the_command_line_keeps_finished_frames(tmp_path):
     assert {n for n, r in again["frames"].items() if r["status"] == "skipped"} == finished
 
 
+def _digests(folder):
+    return {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def test_a_frames_drawing_named_like_an_output_is_never_overwritten(tmp_path, capsys):
+    # the drawing of frame "a" is a/shaded.png, where the render job writes
+    _frame(tmp_path, "a")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a.png").rename(tmp_path / "a" / "shaded.png")
+    doc = json.loads((tmp_path / "a.inkray.json").read_text())
+    (tmp_path / "a.inkray.json").write_text(json.dumps(dict(doc, drawing="a/shaded.png")))
+    before = _digests(tmp_path)
+    assert _run(["batch", tmp_path / "*.inkray.json", "-o", tmp_path, "--jobs",
+                 "relief,render"]) == 2
+    err = capsys.readouterr().err
+    assert "shaded.png: would overwrite" in err and err.count("\n") == 1
+    assert _digests(tmp_path) == before  # nothing written, nothing changed
+
+
+def test_the_report_is_not_written_over_the_annotation_it_read(tmp_path, capsys):
+    path = _frame(tmp_path, "f")
+    path.rename(tmp_path / "batch-report.json")
+    before = _digests(tmp_path)
+    assert _run(["batch", tmp_path / "batch-report.json", "-o", tmp_path]) == 2
+    assert "this batch's own outputs" in capsys.readouterr().err
+    assert _digests(tmp_path) == before
+
+
+def test_a_second_run_does_not_take_its_own_outputs_as_frames(tmp_path, cluster):
+    _frame(tmp_path / "shots", "f000")
+    pattern = str(tmp_path / "**" / "*.json")
+    out = tmp_path / "out"
+    first = run_batch(pattern, out, jobs="relief,maps", scheduler=cluster)
+    assert list(first["frames"]) == ["shots/f000"]
+    second = run_batch(pattern, out, jobs="relief,maps", scheduler=cluster)
+    assert list(second["frames"]) == ["shots/f000"]  # not out/batch-report, maps/maps.json...
+    assert second["counts"]["skipped"] == 1
+
+
+class _Silent:
+    """A TCP service that accepts connections and answers nothing (or garbage)."""
+
+    def __init__(self, answer=b""):
+        import socket
+        import threading
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen()
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.conns = []
+
+        def serve():
+            while True:
+                try:
+                    conn, _ = self.sock.accept()
+                except OSError:
+                    return
+                self.conns.append(conn)
+                if answer:
+                    try:
+                        conn.sendall(answer)
+                    except OSError:
+                        pass
+
+        threading.Thread(target=serve, daemon=True).start()
+
+    def close(self):
+        for c in self.conns:
+            c.close()
+        self.sock.close()
+
+
+@pytest.mark.parametrize("answer", [b"", b"\xff" * 8 + b"\x7f" * 4096])
+def test_a_scheduler_that_is_not_dask_is_a_one_line_error_in_bounded_time(shots, capsys,
+                                                                        monkeypatch, answer):
+    import inkray.batch
+
+    monkeypatch.setattr(inkray.batch, "CONNECT_TIMEOUT", 2.0)
+    service = _Silent(answer)
+    try:
+        start = time.monotonic()
+        assert _run(["batch", shots / "shots/a/*.inkray.json", "-o", shots / "out", "--jobs",
+                     "relief", "--scheduler", service.address]) == 2
+        assert time.monotonic() - start < 30
+    finally:
+        service.close()
+    err = capsys.readouterr().err
+    assert err.startswith(f"inkray: error: --scheduler {service.address}: ") and \
+        err.count("\n") == 1 and "out of memory" not in err
+    assert not (shots / "out").exists()
+
+
+@pytest.mark.slow
+def test_the_local_cluster_leaves_no_scratch_folder(tmp_path):
+    _frame(tmp_path / "shots", "f000")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    env = dict(os.environ, PYTHONPATH=str(ROOT), TMPDIR=str(temp))
+    argv = [sys.executable, "-c", "import sys; from inkray.cli import main; sys.exit(main())",
+            "--quiet", "batch", str(tmp_path / "shots/*.inkray.json"), "-o",
+            str(tmp_path / "out"), "--workers", "1", "--jobs", "relief"]
+    subprocess.run(argv, env=env, check=True, capture_output=True, timeout=300)
+    assert (tmp_path / "out" / "f000" / "relief.glb").is_file()
+    assert list(temp.iterdir()) == []  # no dask-scratch-space, no folder of ours
+
+
 def test_a_shot_with_keys_carries_every_other_frame_from_the_nearest_key(tmp_path, cluster):
     shot = tmp_path / "shot"
     for k in range(5):

@@ -114,6 +114,7 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
 
     code, out, err = _run(capsys, "--quiet", "demo", "-o", str(tmp_path / "demo"), "--spp", "2")
     assert code == 0, err
+    assert "warning" not in err  # the showcase is clean
     assert "turtle" in out and "ok:" in out and "demo: done" in out
     written = {p.name for p in (tmp_path / "demo").iterdir()}
     expected = {"labels.png", "labels.json", "depth.png", "depth.json", "regions.json",
@@ -294,3 +295,115 @@ def test_masks_of_a_region_with_a_long_name(annotated, minimal_doc, tmp_path, ca
                         "--masks", str(tmp_path / "masks"))
     assert code == 2 and "regions[0].name: 300 characters are too many" in err, err
     assert not (tmp_path / "masks").exists() and not (tmp_path / "r.json").exists()
+
+
+# -- inputs are never overwritten; extreme option values are refused up front --------
+
+@pytest.fixture
+def obj_relief(tmp_path):
+    """An OBJ relief beside its MTL and texture, as `inkray relief -o scene.obj` writes it."""
+    from inkray.formats.meshes import export_relief
+    from inkray.relief.model import Part, Relief
+
+    grid = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0)), -1).reshape(-1, 2)
+    faces = np.array([[i, i + 1, i + 6] for i in range(29) if i % 6 != 5])
+    part = Part("a", np.column_stack([grid, np.ones(len(grid))]), faces)
+    texture = np.random.default_rng(3).integers(0, 255, (6, 6, 3), dtype=np.uint8)
+    export_relief(Relief([part], (6, 6), texture), tmp_path / "scene.obj")
+    return tmp_path / "scene.obj"
+
+
+def _files(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+
+
+def test_render_never_writes_over_the_meshs_texture(obj_relief, capsys):
+    before = _files(obj_relief.parent)
+    code, _, err = _run(capsys, "render", str(obj_relief), "-o",
+                        str(obj_relief.parent / "scene_drawing.png"))
+    assert code == 2 and "is an input of this command" in err and err.count("\n") == 1
+    assert _files(obj_relief.parent) == before
+
+
+def test_render_never_writes_a_stereo_view_over_the_texture(obj_relief, capsys):
+    png = obj_relief.parent / "scene_drawing.png"
+    png.rename(obj_relief.parent / "v-left.png")
+    mtl = obj_relief.with_suffix(".mtl")
+    mtl.write_text(mtl.read_text().replace("scene_drawing.png", "v-left.png"))
+    before = _files(obj_relief.parent)
+    code, _, err = _run(capsys, "render", str(obj_relief), "-o", str(obj_relief.parent / "v.png"),
+                        "--mode", "stereo")
+    assert code == 2 and "v-left.png: is an input" in err
+    assert _files(obj_relief.parent) == before
+
+
+def test_a_texture_cut_short_is_an_error_naming_it(obj_relief, capsys):
+    png = obj_relief.parent / "scene_drawing.png"
+    png.write_bytes(png.read_bytes()[:40])  # the header only: the OBJ reader drops it silently
+    out = obj_relief.parent / "out.png"
+    code, _, err = _run(capsys, "render", str(obj_relief), "-o", str(out))
+    assert code == 2 and f"{png}: the texture of {obj_relief} cannot be decoded" in err
+    assert not out.exists()
+
+
+def test_a_missing_texture_is_a_warning_naming_it(obj_relief, capsys):
+    png = obj_relief.parent / "scene_drawing.png"
+    png.unlink()
+    out = obj_relief.parent / "out.png"
+    code, _, err = _run(capsys, "--quiet", "render", str(obj_relief), "-o", str(out))
+    assert code == 0 and f"warning: {png}: texture of {obj_relief} not found" in err
+    assert out.is_file()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--turntable", "100000"], "--turntable: 100000: expected 1..360 frames"),
+    (["--turntable", "300", "--size", "4000x4000"], "more than 268435456 pixels"),
+    (["--turntable", "3", "--angle", "inf"], "--angle: inf: expected 0..60 degrees"),
+    (["--quality", "final"], "--quality final: only for --mode gi"),
+])
+def test_render_extremes_are_refused_up_front(obj_relief, capsys, argv, message):
+    out = obj_relief.parent / ("o.gif" if "--turntable" in argv else "o.png")
+    code, _, err = _run(capsys, "render", str(obj_relief), "-o", str(out), *argv)
+    assert code == 2 and message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("radius", ["inf", "nan", "0.5", "1e9"])
+def test_maps_ao_radius_out_of_range_is_refused_before_the_relief(annotated, capsys, radius,
+                                                                  monkeypatch):
+    import inkray.chain
+
+    def no_relief(self):
+        raise AssertionError("the relief was built before the radius was checked")
+
+    monkeypatch.setattr(inkray.chain.ReliefChain, "relief", property(no_relief))
+    out = annotated.parent / "maps"
+    code, _, err = _run(capsys, "maps", str(annotated), "-o", str(out), "--ao-radius", radius)
+    assert code == 2 and err.startswith("inkray: error: --ao-radius ") and "1..1e+06" in err
+    assert not out.exists()
+
+
+def test_gi_renders_final_quality_unless_told(obj_relief, monkeypatch, capsys):
+    from inkray.view import rendering
+
+    seen = []
+    monkeypatch.setattr(rendering, "_gi", lambda *a: seen.append(a[5]) or rendering._depth(
+        a[0], a[2], a[3]))
+    out = obj_relief.parent / "g.png"
+    for argv, spp in (([], rendering.GI_QUALITY["final"]),
+                      (["--quality", "draft"], rendering.GI_QUALITY["draft"]),
+                      (["--spp", "3"], 3)):
+        assert _run(capsys, "--quiet", "render", str(obj_relief), "-o", str(out), "--mode", "gi",
+                    "--size", "8x8", *argv)[0] == 0
+        assert seen[-1] == spp
+    assert rendering.GI_QUALITY["final"] > rendering.GI_QUALITY["draft"]
+
+
+def test_the_demos_turtle_builds_without_a_warning():
+    from inkray.chain import ReliefChain
+    from inkray.examples import example_path
+    from inkray.input.loading import load_input
+
+    chain = ReliefChain(*load_input(example_path("turtle")))
+    chain.relief
+    assert chain.warnings == []

@@ -470,3 +470,17 @@ def test_ply_vertex_colours_come_back_as_the_drawing():
     same = np.corrcoef(got, relief.texture[mask].astype(float).ravel())[0, 1]
     flipped = np.corrcoef(got, relief.texture[::-1][mask].astype(float).ravel())[0, 1]
     assert same > 0.6 and same > flipped + 0.3, (same, flipped)  # blurred by the mesh only
+
+
+def test_read_relief_reports_every_file_it_read(tmp_path):
+    from inkray.relief.model import Part, Relief
+
+    tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    relief = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
+    for suffix, expected in ((".obj", {"r.obj", "r.mtl", "r_drawing.png"}), (".glb", {"r.glb"}),
+                             (".ply", {"r.ply"})):
+        path = export_relief(relief, tmp_path / suffix[1:] / f"r{suffix}")[0]
+        inputs = []
+        read_relief(path, inputs=inputs)
+        assert {p.name for p in inputs} == expected, suffix
+        assert all(p.is_file() for p in inputs)

@@ -410,3 +410,17 @@ def test_turntable_frames_never_repeat_and_never_crop():
     assert cropped[:, 0].any() or cropped[:, -1].any()  # without the wider frame
     for f in render_turntable(slab, frames=6, angle=60, mode="depth"):
         assert not (f.mask[:, 0].any() or f.mask[:, -1].any())
+
+
+@pytest.mark.parametrize("frames, angle, size, message", [
+    (361, 15.0, None, "frames: 361: expected 1..360 frames"),
+    (0, 15.0, None, "frames: 0: expected"),
+    (24, float("inf"), None, "angle: inf: expected 0..60 degrees"),
+    (360, 15.0, (1000, 1000), "more than 268435456 pixels together"),
+])
+def test_a_turntable_is_bounded_before_any_frame(frames, angle, size, message):
+    from inkray.errors import InputError
+    from inkray.view.rendering import check_turntable
+
+    with pytest.raises(InputError, match=message.replace("..", r"\.\.")):
+        check_turntable(frames=frames, angle=angle, size=size)

@@ -15,7 +15,7 @@ from inkray.formats.depth_png import codes_png
 from inkray.view.rendering import Rendering
 from inkray.view.shading import over_white
 
-__all__ = ["write_renderings"]
+__all__ = ["rendering_files", "write_renderings"]
 
 
 def write_renderings(renderings, path, *, fps=12, outputs=None):
@@ -86,6 +86,35 @@ def write_renderings(renderings, path, *, fps=12, outputs=None):
     return list(files)
 
 
+def rendering_files(path, *, frames=None, mode=None):
+    """Every file :func:`write_renderings` writes at ``path``, known before rendering.
+
+    Parameters
+    ----------
+    path : str or Path
+    frames : int, optional
+        The number of renderings of a turntable; None for one.
+    mode : str, optional
+        The renderings' mode (``stereo`` adds its two views).
+
+    Returns
+    -------
+    list of Path
+
+    Examples
+    --------
+    >>> [p.name for p in rendering_files("spin.png", frames=2)]
+    ['spin-000.png', 'spin-001.png']
+    >>> [p.name for p in rendering_files("s.png", mode="stereo")]
+    ['s.png', 's-left.png', 's-right.png']
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".gif":
+        return [path]
+    if frames is None or frames == 1:
+        views = ("left", "right") if mode == "stereo" else ()
+        return [path, *(path.with_name(f"{path.stem}-{side}.png") for side in views)]
+    return [path.with_name(f"{path.stem}-{k:03d}.png") for k in range(frames)]
 
 
 def _gif_frame(r):

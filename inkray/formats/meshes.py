@@ -312,9 +312,20 @@ def read_meshes(path):
     return _load(Path(path), materials=False)[1]
 
 
-def _load(path, *, materials):
-    """``(scene or None, meshes)``: the file parsed once (the scene when ``materials``)."""
+def _load(path, *, materials, read=None):
+    """``(scene or None, meshes)``: the file parsed once (the scene when ``materials``).
+
+    Every file the parser asks for beside ``path`` (an MTL, a texture, a glTF
+    buffer) is appended to the list ``read``, found or not.
+    """
     import trimesh
+    from trimesh.resolvers import FilePathResolver
+
+    class _Recording(FilePathResolver):
+        def get(self, name):
+            if read is not None:
+                read.append(self.absolute(name))
+            return super().get(name)
 
     suffix = path.suffix.lower()
     if suffix not in (".glb", ".gltf", ".obj", ".ply"):
@@ -331,7 +342,8 @@ def _load(path, *, materials):
             # OBJ: one mesh per o/g group even when groups share a material.
             options = ({"group_material": False, "split_objects": True,
                         "skip_materials": not materials} if suffix == ".obj" else {})
-            scene = trimesh.load_scene(path, process=False, **options)
+            scene = trimesh.load_scene(path, process=False, resolver=_Recording(str(path)),
+                                       **options)
             meshes = _scene_to_named(scene)
     except InputError:
         raise
@@ -777,7 +789,7 @@ def _read_ply(path):
     return meshes
 
 
-def read_relief(path):
+def read_relief(path, *, inputs=None):
     """A relief from a GLB/glTF, OBJ or PLY file.
 
     Geometry comes from :func:`inkray.formats.meshes.read_meshes`. inkray's files are
@@ -791,16 +803,23 @@ def read_relief(path):
     Parameters
     ----------
     path : str or Path
+    inputs : list, optional
+        Receives every file read: ``path`` and the files it refers to (an
+        OBJ's MTL and texture, a glTF's buffers and images), so that a
+        command can refuse to write over any of them.
 
     Returns
     -------
     inkray.relief.model.Relief
+        A referenced texture that is missing leaves it untextured, with a
+        warning naming the file in its ``warnings``.
 
     Raises
     ------
     InputError
         The file is missing, unreadable, holds no triangles, or its inkray
-        frame record is malformed.
+        frame record is malformed; a texture it refers to cannot be decoded
+        (cut short, not an image).
 
     Examples
     --------
@@ -814,7 +833,10 @@ def read_relief(path):
     ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
     """
     path = Path(path)
-    scene, meshes = _load(path, materials=True)
+    read = [path]
+    scene, meshes = _load(path, materials=True, read=read)
+    if inputs is not None:
+        inputs.extend(read)
     z_up = _z_up(path)
     texture, pairs = None, []
     for node in scene.graph.nodes_geometry:
@@ -860,7 +882,36 @@ def read_relief(path):
     size = (int(size[0]), int(size[1]))
     if texture is None and path.suffix.lower() == ".ply":
         texture = _ply_colour_texture(parts, [m.colors for m in meshes], size)
-    return Relief(parts, size=size, texture=texture)
+    return Relief(parts, size=size, texture=texture,
+                  warnings=[] if texture is not None else _texture_problems(path, read[1:]))
+
+
+def _texture_problems(path, read):
+    """Warnings for referenced images that are missing; an error for one that does not decode.
+
+    The parser drops a texture it cannot open without a word: an image read
+    beside a mesh that came out untextured is looked at again here.
+    """
+    from PIL import Image
+
+    out = []
+    for file in read:
+        if file.suffix.lower() in (".mtl", ".bin", ".gltf"):
+            continue
+        if not file.is_file():
+            out.append(f"{file}: texture of {path} not found; rendered without it")
+            continue
+        try:
+            with Image.open(file) as image:
+                DEFAULT_LIMITS.check_pixels(image.size, f"{file}: texture")
+                image.load()
+        except InputError:
+            raise
+        except Exception as e:
+            raise InputError(f"{file}: the texture of {path} cannot be decoded "
+                             f"({type(e).__name__}: {' '.join(str(e).split()) or 'corrupt data'})"
+                             ) from None
+    return out
 
 
 def _ply_colour_texture(parts, colours, size):

@@ -217,7 +217,7 @@ def decode_annotations(raw, *, where="annotations", limits=DEFAULT_LIMITS):
             raise InputError(f"{where}: not UTF-8 text (byte {e.start})") from None
     else:
         text = raw
-    problem = _json_problem(text, limits.depth)
+    problem = _json_problem(text, limits.depth, limits.values)
     if problem:
         raise InputError(f"{where}: {problem}")
     try:
@@ -228,15 +228,55 @@ def decode_annotations(raw, *, where="annotations", limits=DEFAULT_LIMITS):
         raise InputError(f"{where}: not valid JSON ({type(e).__name__})") from None
 
 
-_JSON_TOKEN = re.compile(r'"(?:[^"\\\x00-\x1f]|\\.)*"|[{}\[\]:,]|[^\s{}\[\]:,"]+|"', re.S)
+_JSON_TOKEN = re.compile(r'[{}\[\]:,"]|[^\s{}\[\]:,"]+')
 _MAX_DIGITS = 30
 
 
-def _json_problem(text, depth):
-    """The first duplicate key, non-JSON constant, huge integer or too deep nesting, or None.
+def _json_tokens(text):
+    """``(start, end)`` of every token: brackets, colons, commas, whole strings, other runs.
+
+    Linear in time and memory: a string is skipped to its closing quote with
+    ``str.find`` (a regular expression with an alternation inside a repeat
+    keeps a backtracking mark per character: gigabytes for a long string).
+    An unterminated string ends the scan; the JSON parser says where.
+    """
+    pos = 0
+    while True:
+        for m in _JSON_TOKEN.finditer(text, pos):
+            start = m.start()
+            if text[start] != '"':
+                yield start, m.end()
+                continue
+            pos = _string_end(text, start)
+            if pos < 0:
+                return
+            yield start, pos
+            break
+        else:
+            return
+
+
+def _string_end(text, start):
+    """The index after the string opened at ``start``, or -1 when it is not closed."""
+    j = start + 1
+    while True:
+        q = text.find('"', j)
+        if q < 0:
+            return -1
+        run = text[j:q]
+        j = q + 1
+        if (len(run) - len(run.rstrip("\\"))) % 2 == 0:  # an even run escapes only itself
+            return j
+
+
+def _json_problem(text, depth, values=None):
+    """The first duplicate key, non-JSON constant, huge integer, too deep nesting or too many
+    values, or None.
 
     An iterative scan that keeps the key path, so any depth is safe; other
-    syntax errors are left to the JSON parser.
+    syntax errors are left to the JSON parser. ``values`` bounds the number
+    of JSON values (each costs the parser tens of bytes whatever its size in
+    the file); keys count as values.
     """
     stack = []  # [kind, keys seen or index, key]
 
@@ -251,45 +291,55 @@ def _json_problem(text, depth):
             out += ("." if out else "") + extra
         return (out if len(out) <= 80 else out[:40] + "..." + out[-30:]) or "(top level)"
 
-    def at(m):
-        line = text.count("\n", 0, m.start()) + 1
-        column = m.start() - (text.rfind("\n", 0, m.start()) + 1) + 1
+    def at(start):
+        line = text.count("\n", 0, start) + 1
+        column = start - (text.rfind("\n", 0, start) + 1) + 1
         return f"(line {line}, column {column})"
 
     expect_key = False
-    for m in _JSON_TOKEN.finditer(text):
-        tok = m.group()
-        if tok in "{[":
+    count = 0
+    for start, end in _json_tokens(text):
+        first = text[start]
+        if first in "{[":
             if len(stack) >= depth:
-                return f"{path()}: nested deeper than {depth} levels {at(m)}"
-            stack.append(["{", set(), None] if tok == "{" else ["[", 0, None])
-            expect_key = tok == "{"
-        elif tok in "}]":
+                return f"{path()}: nested deeper than {depth} levels {at(start)}"
+            stack.append(["{", set(), None] if first == "{" else ["[", 0, None])
+            expect_key = first == "{"
+        elif first in "}]":
             if stack:
                 stack.pop()
             expect_key = False
-        elif tok == ",":
+            continue
+        elif first == ",":
             if stack and stack[-1][0] == "[":
                 stack[-1][1] += 1
             expect_key = bool(stack) and stack[-1][0] == "{"
-        elif tok == ":":
+            continue
+        elif first == ":":
             expect_key = False
-        elif tok.startswith('"'):
-            if expect_key and stack and len(tok) >= 2:
+            continue
+        elif first == '"':
+            if expect_key and stack:
                 try:
-                    key = json.loads(tok)
+                    key = json.loads(text[start:end])
                 except ValueError:
                     return None  # a broken string: the parser says where
                 if key in stack[-1][1]:
                     stack[-1][2] = None
-                    return f"{path(key)}: duplicate key {at(m)}"
+                    return f"{path(key)}: duplicate key {at(start)}"
                 stack[-1][1].add(key)
                 stack[-1][2] = key
-        elif tok in ("NaN", "Infinity", "-Infinity"):
-            return f"{path()}: {tok} is not valid JSON {at(m)}"
-        elif tok.lstrip("-").isdigit() and len(tok.lstrip("-")) > _MAX_DIGITS:
-            return (f"{path()}: an integer of {len(tok.lstrip('-'))} digits (at most "
-                    f"{_MAX_DIGITS}) {at(m)}")
+        else:
+            tok = text[start:end]
+            if tok in ("NaN", "Infinity", "-Infinity"):
+                return f"{path()}: {tok} is not valid JSON {at(start)}"
+            if tok.lstrip("-").isdigit() and len(tok.lstrip("-")) > _MAX_DIGITS:
+                return (f"{path()}: an integer of {len(tok.lstrip('-'))} digits (at most "
+                        f"{_MAX_DIGITS}) {at(start)}")
+        count += 1
+        if values is not None and count > values:
+            return (f"{path()}: more than {values} JSON values and keys {at(start)}; too many "
+                    f"for an annotation file")
     return None
 
 
@@ -337,6 +387,8 @@ def parse_annotations(data, *, limits=DEFAULT_LIMITS):
     if drawing is not None:
         _expect(isinstance(drawing, str) and drawing.strip() != "", "drawing",
                 f"expected a non-empty path string, got {_show(drawing)}")
+        _expect("\x00" not in drawing and _encodable(drawing), "drawing",
+                f"{_show(drawing)} is not a file name (a NUL character or a lone surrogate)")
         drawing = Path(drawing)
 
     size = data["size"]
@@ -458,6 +510,14 @@ def rescale_annotations(ann, size):
 
 
 # -- validation helpers ------------------------------------------------------
+
+def _encodable(text):
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
 
 def _expect(ok, where, message):
     if not ok:

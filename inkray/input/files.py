@@ -46,6 +46,8 @@ def regular_file(path, what):
     path = Path(path)
     try:
         st = os.stat(path)
+    except (ValueError, UnicodeEncodeError):  # a NUL or a lone surrogate: no file has that name
+        raise InputError(f"{ascii(str(path))}: not a valid file name for a {what}") from None
     except FileNotFoundError:
         raise InputError(f"{path}: no such {what}") from None
     except OSError as e:

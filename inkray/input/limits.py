@@ -15,6 +15,7 @@ with the key path (or file) that exceeds it and the option that raises it
 | ``total_points`` | 1,000,000 per file | the same, summed |
 | ``entries`` | 10,000 per list | regions, ``order``, ``equal``, ``boundaries``, ``background`` |
 | ``depth`` | 64 levels of JSON nesting | the parser |
+| ``values`` | 3 per ``total_points`` + 100 per ``entries`` (4,000,000) | the parser's memory: JSON values in an annotation file |
 """
 
 from dataclasses import dataclass
@@ -50,6 +51,15 @@ class Limits:
             value = getattr(self, key)
             if not (isinstance(value, int) and not isinstance(value, bool) and value > 0):
                 raise InputError(f"limits.{key}: expected a positive integer, got {value!r}")
+
+    @property
+    def values(self):
+        """JSON values per annotation file: three per point (a list of two numbers), 100 per entry.
+
+        What the parser holds grows with the number of values, not with the
+        file's size (``[{},{},...]`` takes 24 times its bytes).
+        """
+        return 3 * self.total_points + 100 * self.entries
 
     def check_pixels(self, size, where):
         """Raise when a ``(width, height)`` image exceeds :attr:`pixels`."""

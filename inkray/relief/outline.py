@@ -45,7 +45,7 @@ from inkray.errors import InputError
 from inkray.numerics.polyline import arc_length, resample_polyline
 
 __all__ = [
-    "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "edge_length",
+    "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "boundary_problems", "edge_length",
     "INTERIOR", "INKED", "INVENTED", "FRAME", "STITCH", "GRAFT", "FLAT",
     "KIND_NAMES", "DIRICHLET_KINDS", "DEFAULT_MAX_AREA", "DEFAULT_SNAP",
 ]
@@ -377,17 +377,38 @@ def check_boundaries(outlines, boundaries, *, snap=DEFAULT_SNAP):
     --------
     >>> check_boundaries([], [])
     """
+    problems = boundary_problems(outlines, boundaries, snap=snap)
+    if problems:
+        raise InputError(problems[0])
+
+
+def boundary_problems(outlines, boundaries, *, snap=DEFAULT_SNAP):
+    """The messages of :func:`check_boundaries`, one per entry no outline took.
+
+    The rule, one for every command and ``validate``: a path is taken when
+    the median distance of its points to a completed region's outline is at
+    most ``snap`` px (:data:`DEFAULT_SNAP`) and two of its points are that
+    near; two paths marking overlapping stretches of one outline are refused
+    by :func:`region_outline`.
+
+    Examples
+    --------
+    >>> boundary_problems([], [])
+    []
+    """
     taken = set()
     for o in outlines:
         taken.update(o.matched)
+    out = []
     for b in boundaries:
         if b.index in taken:
             continue
         near = [o.snap_distance[b.index] for o in outlines if b.index in o.snap_distance]
         where = f" (the nearest is {min(near):.1f} px away)" if near else ""
         start = np.asarray(b.path, float)[0]
-        raise InputError(f"boundaries[{b.index}]: no region outline within {snap:g} px of the "
-                         f"{b.type} path starting at ({start[0]:g}, {start[1]:g}){where}")
+        out.append(f"boundaries[{b.index}]: no region outline within {snap:g} px of the "
+                   f"{b.type} path starting at ({start[0]:g}, {start[1]:g}){where}")
+    return out
 
 
 # -- contours ----------------------------------------------------------------

@@ -20,7 +20,11 @@ import numpy as np
 
 from inkray.errors import InputError
 
-__all__ = ["ambient_occlusion"]
+__all__ = ["MAX_RADIUS", "ambient_occlusion"]
+
+#: Largest occlusion radius in pixels (the work does not grow with it: beyond
+#: the image every sample sees the ground).
+MAX_RADIUS = 1e6
 
 
 def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8):
@@ -63,8 +67,9 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
         raise InputError(f"mask: shape {mask.shape} differs from the height's {h.shape}")
     if not np.isfinite(h[mask]).all():
         raise InputError("height: not finite inside the mask")
-    if not (np.isfinite(radius) and radius >= 1):
-        raise InputError(f"radius: expected at least 1 pixel, got {radius!r}")
+    if not (np.isfinite(radius) and 1 <= radius <= MAX_RADIUS):
+        raise InputError(f"radius: expected 1..{MAX_RADIUS:g} pixels, got {radius!r}",
+                         option="radius")
     if int(directions) < 1 or int(steps) < 1:
         raise InputError(f"directions, steps: expected at least 1, got {directions}, {steps}")
     if not mask.any():
@@ -72,7 +77,8 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
     ground = float(h[mask].min())
     # Single precision: half the memory traffic of the 128 passes; angles need no more.
     field = np.where(mask, h, ground).astype(np.float32)
-    pad = int(np.ceil(radius)) + 1
+    # Samples farther than the image all see the ground: the padding need not be wider.
+    pad = min(int(np.ceil(radius)), max(h.shape)) + 1
     padded = np.pad(field, pad, mode="constant", constant_values=ground)
     rows, cols = h.shape
     gx, gy = _slope(field, axis=1), _slope(field, axis=0)
@@ -92,7 +98,8 @@ def ambient_occlusion(height, *, mask=None, radius=16.0, directions=16, steps=8)
             if dist > radius:
                 continue
             d2, fade = np.float32(dist * dist), np.float32(1.0 - (dist / radius) ** 2)
-            rise = padded[pad + oy:pad + oy + rows, pad + ox:pad + ox + cols] - field
+            sx, sy = (min(max(o, -pad), pad) for o in (ox, oy))  # the same ground beyond
+            rise = padded[pad + sy:pad + sy + rows, pad + sx:pad + sx + cols] - field
             # The surface's own tangent plane occludes nothing: the sine of the
             # sample's elevation counts above the tangent's, faded with distance.
             tangent = gx * np.float32(ox) + gy * np.float32(oy)

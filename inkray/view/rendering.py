@@ -41,7 +41,8 @@ from inkray.view.depth_enhancement import RADIUS, STRENGTH, check_enhancement, e
 from inkray.view.rasterization import fit_view, rasterize, vertex_normals
 from inkray.view.shading import over_white
 
-__all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "render",
+__all__ = ["GI_MAX_SIDE", "GI_QUALITY", "MAX_PIXELS", "MODES", "TURNTABLE_MAX_FRAMES", "TURNTABLE_MAX_PIXELS",
+           "Rendering", "check_turntable", "has_mitsuba", "output_size", "render",
            "render_turntable"]
 
 MODES = ("shade", "normals", "depth", "stereo", "gi", "enhance")
@@ -60,6 +61,16 @@ _PALETTE = np.array([[0.55, 0.75, 0.45], [0.95, 0.75, 0.35], [0.45, 0.65, 0.85],
 _RIM = 6.0  # drawing pixels: reach of outline ink past the silhouette (half a thick stroke)
 _GI_PASSES = 16  # progress granularity: spp is split over up to this many passes
 GI_MAX_SIDE = 800  # default gi size: the drawing, shrunk to fit (path tracing is slow)
+#: Samples per pixel of the gi quality presets, denoised: ``draft`` a preview with
+#: blotches on smooth surfaces, ``final`` converged to within one 8-bit level of a
+#: reference after blurring (``benchmarks/bench_gi_quality.py``).
+GI_QUALITY = {"draft": 4, "final": 64}
+#: Most frames of a turntable, and most pixels of all its frames together (the
+#: frames are held in memory until they are written: 4 bytes a pixel).
+TURNTABLE_MAX_FRAMES = 360
+#: Most pixels of one image (a drawing's bound: 4096 x 4096).
+MAX_PIXELS = 1 << 24
+TURNTABLE_MAX_PIXELS = 1 << 28
 _BACKDROP = np.array([0.8, 0.8, 0.78])  # linear reflectance of the gi backdrop
 _MIN_ALBEDO = 0.02  # gi denoising: irradiance = radiance / albedo, kept finite on black
 # gi denoising: the luminance stop, in standard deviations of the noise of
@@ -183,7 +194,9 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         relief's highest point (zero at height 0). Default: 2% of the width.
     spp : int, optional
         ``gi``: samples per pixel. Denoised, 8 are as close to a converged
-        render as 64 without (``benchmarks/bench_gi.py``).
+        render as 64 without (``benchmarks/bench_gi.py``), but keep blotches
+        on smooth surfaces; :data:`GI_QUALITY` holds the presets (``final``:
+        64, converged, ``benchmarks/bench_gi_quality.py``).
     backdrop : bool, optional
         ``gi``: put a matte backdrop behind the relief to catch its shadows.
         Without it the background is transparent.
@@ -284,10 +297,7 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
     >>> len(render_turntable(Relief([sq], size=(10, 10)), frames=3))
     3
     """
-    if not (isinstance(frames, (int, np.integer)) and frames >= 1):
-        raise InputError(f"turntable: frames must be a positive integer, got {frames!r}")
-    if not (np.isfinite(angle) and 0 <= angle <= 60):
-        raise InputError(f"turntable: angle must be within 0..60 degrees, got {angle!r}")
+    check_turntable(frames=frames, angle=angle, size=options.get("size"))
     if "yaw" in options:
         raise InputError("turntable: 'yaw' is set per frame; pass 'angle' instead")
     out = []
@@ -306,6 +316,42 @@ def render_turntable(relief, *, frames=24, angle=15.0, mode="shade", progress=No
 
 # -- validation ----------------------------------------------------------------
 
+def check_turntable(*, frames, angle, size=None):
+    """Refuse a turntable before any work: too many frames, or pixels, or a wide angle.
+
+    Parameters
+    ----------
+    frames : int
+        1 .. :data:`TURNTABLE_MAX_FRAMES`.
+    angle : float
+        0 .. 60 degrees.
+    size : (int, int), optional
+        The frames' size: ``frames * width * height`` at most
+        :data:`TURNTABLE_MAX_PIXELS`.
+
+    Raises
+    ------
+    InputError
+        Naming ``frames`` or ``angle``.
+
+    Examples
+    --------
+    >>> check_turntable(frames=100000, angle=15)
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: frames: 100000: expected 1..360 frames
+    """
+    if not (isinstance(frames, (int, np.integer)) and 1 <= frames <= TURNTABLE_MAX_FRAMES):
+        raise InputError(f"frames: {frames!r}: expected 1..{TURNTABLE_MAX_FRAMES} frames",
+                         option="frames")
+    if not (np.isfinite(angle) and 0 <= angle <= 60):
+        raise InputError(f"angle: {angle!r}: expected 0..60 degrees", option="angle")
+    if size is not None and frames * int(size[0]) * int(size[1]) > TURNTABLE_MAX_PIXELS:
+        raise InputError(f"frames: {frames} frames of {size[0]}x{size[1]} are more than "
+                         f"{TURNTABLE_MAX_PIXELS} pixels together", option="frames",
+                         fix=("fewer {} frames or a smaller size", "frames"))
+
+
 def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
     if not isinstance(relief, Relief):
         raise InputError(f"render: expected an inkray.relief.model.Relief, got {type(relief).__name__}")
@@ -318,6 +364,9 @@ def _check(relief, mode, size, light, ambient, disparity, spp, yaw):
     if (len(size) != 2 or not all(isinstance(s, (int, np.integer)) for s in size)
             or not all(1 <= s <= 16384 for s in size)):
         raise InputError(f"render: size must be two integers in 1..16384, got {size!r}")
+    if int(size[0]) * int(size[1]) > MAX_PIXELS:
+        raise InputError(f"size: {size[0]}x{size[1]} is more than {MAX_PIXELS} pixels",
+                         option="size")
     light = np.asarray(light, float)
     if light.shape != (3,) or not np.all(np.isfinite(light)) or not np.linalg.norm(light) > 0:
         shown = " ".join(f"{v:g}" for v in light.ravel()[:6])
