@@ -209,9 +209,21 @@ def _junction_scale(labels, a, b, point, limit):
     r = int(np.ceil(limit))
     y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 2, h)
     x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 2, w)
-    crop = np.pad(labels[y0:y1, x0:x1], 1, constant_values=-2)
-    widths = [ndimage.distance_transform_edt(crop == x).max() for x in (a, b)]
+    crop = labels[y0:y1, x0:x1]
+    widths = [_inscribed_radius(crop == x) for x in (a, b)]
     return float(np.clip(3.0 * min(widths), 4.0, limit))
+
+
+def _inscribed_radius(mask):
+    """Largest distance from a pixel of ``mask`` to the nearest pixel outside it (beyond the
+    edge counts as outside); 0 for an empty mask."""
+    rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
+    if not len(rows):
+        return 0.0
+    # Only the mask's bounding box: the ring just outside it lies outside the mask and is
+    # nearer to every pixel of the mask than anything beyond it.
+    box = mask[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+    return float(ndimage.distance_transform_edt(np.pad(box, 1)).max())
 
 
 def _extension(completion, place):
@@ -232,7 +244,7 @@ def _straightening(completion, x, other, point, radius):
     r = int(np.ceil(radius))
     y0, y1 = max(int(np.floor(py)) - r, 0), min(int(np.ceil(py)) + r + 1, h)
     x0, x1 = max(int(np.floor(px)) - r, 0), min(int(np.ceil(px)) + r + 1, w)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
+    yy, xx = np.ogrid[y0:y1, x0:x1]
     disk = (yy - py) ** 2 + (xx - px) ** 2 <= radius * radius
     lab, own = labels[y0:y1, x0:x1][disk], owner[y0:y1, x0:x1][disk]
     visible = lab == x
@@ -299,20 +311,19 @@ def _walk(masks, within, start, steps):
     seeds = np.flatnonzero(stack & start)
     if not len(seeds):
         return [seeds] * len(masks)
-    # Breadth-first over the graph of the masks' pixels alone (a few hundred along an
-    # outline), not over the whole crop.
+    # Breadth-first over the graph of the masks' pixels alone (a few thousand along the
+    # outlines), not over the whole crop; its rows are written in order, not assembled.
     node = np.full(stack.size + 1, -1, np.int64)  # the extra last entry: off the layer
     node[pixels] = np.arange(len(pixels))
     y, x = np.divmod(pixels % (h * w), w)
-    rows, cols = [], []
-    for dy, dx in ((0, 1), (1, -1), (1, 0), (1, 1)):
-        inside = (y + dy < h) & (x + dx >= 0) & (x + dx < w)
-        other = node[np.where(inside, pixels + dy * w + dx, stack.size)]
-        rows.append(np.flatnonzero(other >= 0))
-        cols.append(other[other >= 0])
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    graph = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(pixels),) * 2)
-    hops = dijkstra(graph, directed=False, indices=node[seeds], unweighted=True, min_only=True,
+    steps8 = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    near = np.stack([node[np.where((y + dy >= 0) & (y + dy < h) & (x + dx >= 0) & (x + dx < w),
+                                   pixels + dy * w + dx, stack.size)] for dy, dx in steps8], 1)
+    linked = near >= 0
+    indptr = np.concatenate([[0], np.cumsum(linked.sum(1))])
+    graph = csr_matrix((np.ones(int(indptr[-1])), near[linked], indptr),
+                       shape=(len(pixels),) * 2)
+    hops = dijkstra(graph, indices=node[seeds], unweighted=True, min_only=True,
                     limit=steps + 1.0)
     # A path of ``hops`` steps holds ``hops + 1`` pixels, its start included.
     reached = pixels[hops + 1.0 <= steps + 1.5]
@@ -421,7 +432,7 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     lab = labels[y0:y1, x0:x1]
     share = [min(float((place.contact & (lab == x)).sum()) / max(int(outlines[x]), 1), 1.0)
              for x in (a, b)]
-    thick = [float(ndimage.distance_transform_edt(np.pad(lab == x, 1)).max()) for x in (a, b)]
+    thick = [_inscribed_radius(lab == x) for x in (a, b)]
     inside = _inside_bend(place, lab, a, b)
     own = completion.owner[y0:y1, x0:x1]
     hidden = [float((place.mask & (lab == x) & (own == o)).sum()) / max(int(areas[o]), 1)
@@ -504,7 +515,7 @@ def _disk_shares(labels, point, radius, regions):
     px, py = point
     y0, y1 = max(int(py) - r, 0), min(int(py) + r + 2, h)
     x0, x1 = max(int(px) - r, 0), min(int(px) + r + 2, w)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
+    yy, xx = np.ogrid[y0:y1, x0:x1]
     disk = (yy - py) ** 2 + (xx - px) ** 2 <= radius * radius
     lab = labels[y0:y1, x0:x1][disk]
     n = max(int(disk.sum()), 1)
