@@ -330,6 +330,49 @@ def _write_maps(maps, target, *, chain, outputs):
     return write_sprite_maps(maps, target, outputs=outputs)
 
 
+def _transfer(chain, *, frame, threshold=None):
+    from inkray.transfer import CHECK, transfer_annotations
+
+    t = transfer_annotations(chain.annotations, chain.drawing, frame,
+                             key_labels=chain.segmentation.labels,
+                             threshold=CHECK if threshold is None else threshold)
+    t.annotations.drawing = frame.path
+    return t
+
+
+def _transfer_files(target, report=None, **params):
+    return [target, report]
+
+
+def _transfer_document(t, target):
+    import os
+
+    from inkray.formats.annotation_file import annotation_document
+
+    drawing = t.annotations.drawing
+    if drawing is not None:
+        drawing = Path(os.path.relpath(Path(drawing).resolve(), Path(target).resolve().parent)).as_posix()
+    return annotation_document(t.annotations, drawing=drawing)
+
+
+def _write_transfer(t, target, *, chain, outputs, report=None, **params):
+    from inkray.formats.annotation_file import annotation_text, transfer_report
+
+    outputs.write_text(target, annotation_text(_transfer_document(t, target)))
+    written = [Path(target)]
+    if report is not None:
+        doc = transfer_report(t, key=chain.annotations.source, frame=t.annotations.drawing)
+        outputs.write_text(report, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+        written.append(Path(report))
+    return written
+
+
+def _encode_transfer(t, **params):
+    from inkray.formats.annotation_file import annotation_text
+
+    return annotation_text(_transfer_document(t, "frame.inkray.json")).encode("utf-8")
+
+
 _LAYERS = Writer(_write_layers)
 
 #: Every artefact by name.
@@ -355,4 +398,7 @@ ARTEFACTS = {a.name: a for a in (
     Artefact("maps", reads=("relief", "segmentation"), compute=_maps,
              writers={"": Writer(_write_maps, lambda target, **p: [Path(target) / "maps.json"])},
              needs="sprite maps need"),
+    Artefact("transfer", reads=("segmentation",), compute=_transfer,
+             writers={".json": Writer(_write_transfer, _transfer_files)}, encode=_encode_transfer,
+             media_type="application/json", needs="carrying an annotation needs"),
 )}

@@ -82,7 +82,7 @@ def _chain(args, progress, targets=(), **options):
 
 def _inputs(args, ann):
     return [args.annotation, ann.drawing, args.scribbles,
-            args.legend if isinstance(args.legend, str) else None]
+            args.legend if isinstance(args.legend, str) else None, getattr(args, "frame", None)]
 
 
 def _group(args, chain):
@@ -406,11 +406,34 @@ def _cmd_layers(args, progress):
                            options=dict(predict=not args.no_predict),
                            params=dict(pad=args.pad, split_local=args.split_local,
                                        background=args.background),
-                           warn=lambda chain, stack: chain.warnings + stack.warnings,
+                           warn=lambda chain, stack: chain.warnings + [
+                               w.replace("(split_local splits it)", f"({_flag('split_local')} "
+                                                                    f"splits it)")
+                               for w in stack.warnings],
                            stage="layers")
     split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
     print(f"{args.output}: {len(stack.layers)} layers back to front: "
           f"{', '.join(layer.name for layer in stack.layers)}{split}")
+    return 0
+
+
+def _cmd_transfer(args, progress):
+    from inkray.input.drawing import load_drawing
+
+    if Path(args.output).suffix.lower() != ".json":
+        raise InputError(f"-o {args.output}: expected an annotation file (.inkray.json)")
+    if args.report is not None and Path(args.report).suffix.lower() != ".json":
+        raise InputError(f"--report {args.report}: expected a .json file")
+    _in_range("--threshold", args.threshold, 0.0, 1.0, "match score")
+    frame = load_drawing(args.frame, limits=_limits(args))
+    _, t, written = _produce(args, progress, "transfer", args.output,
+                             params=dict(frame=frame, threshold=args.threshold),
+                             write=dict(report=args.report), stage="transfer",
+                             warn=lambda chain, t: t.warnings)
+    checks = sum(e.flagged for e in t.entries)
+    print(f"{args.output}: {len(t.entries)} entries carried to {args.frame}, match "
+          f"{t.confidence:.2f}, {checks} to check"
+          + (f" (report {args.report})" if args.report is not None else ""))
     return 0
 
 
@@ -419,7 +442,7 @@ def _cmd_batch(args, progress):
 
     try:
         report = run_batch(args.pattern, args.output, jobs=args.jobs, scheduler=args.scheduler,
-                           workers=args.workers, progress=progress)
+                           workers=args.workers, progress=progress, keys=args.key or ())
     except KeyboardInterrupt:
         print(f"inkray: interrupted; finished frames are kept in {args.output}/ and skipped "
               f"when the batch runs again", file=sys.stderr)
@@ -508,6 +531,7 @@ _COMMANDS = {
     "check": (_cmd_check, "mesh-quality report"),
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "transfer": (_cmd_transfer, "carry a key frame's annotation to another frame of the shot"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
     "edit": (_cmd_edit, "annotate in the browser with live depth and relief previews"),
@@ -652,9 +676,22 @@ def _parser():
                                 "or directx y down (Unreal) (default: opengl)")
     p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
                            help="ambient occlusion radius (default: 3%% of the longer side)")
+    tr = p["transfer"]
+    _add_input(tr)
+    tr.add_argument("frame", metavar="FRAME", help="the frame's drawing (same size as the key's)")
+    tr.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="the frame's annotation file (.inkray.json)")
+    tr.add_argument("--report", metavar="JSON",
+                    help="also write every entry's movement and match score")
+    tr.add_argument("--threshold", type=float, default=0.6, metavar="S",
+                    help="name entries matching worse than S (0..1) as to check (default: 0.6)")
     b = p["batch"]
     b.add_argument("pattern", metavar="PATTERN",
-                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
+                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json'); with "
+                        "--key the shot's drawings ('shot/*.png')")
+    b.add_argument("--key", action="append", metavar="ANN",
+                   help="a key frame's annotation (repeatable): every frame without one is "
+                        "annotated by carrying the nearest key to it frame by frame")
     b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
                    help="comma-separated jobs per frame: relief, render, layers, maps "
