@@ -21,6 +21,8 @@ relief    ``relief.glb`` (``inkray relief ANN -o relief.glb``)
 render    ``shaded.png`` (``inkray render relief.glb -o shaded.png``)
 layers    ``parts.psd``, ``parts.ora`` (``inkray layers ANN -o parts.psd``, ``.ora``)
 maps      ``maps/`` (``inkray maps ANN -o maps``)
+pose      ``posed.png`` (``inkray pose ANN X.pose.json -o posed.png``, the pose
+          file ``X.pose.json`` beside ``X.inkray.json``; not run by default)
 ========  =====================================================================
 
 ``OUT/batch-manifest.json`` records, per finished frame, a content hash of
@@ -70,8 +72,10 @@ JOB_FILES = {
     "render": (("shaded", "shaded.png"),),
     "layers": (("layers", "parts.psd"), ("layers", "parts.ora")),
     "maps": (("maps", "maps"),),
+    "pose": (("posed", "posed.png"),),
 }
-JOBS = tuple(JOB_FILES)
+#: The jobs run when none are named; ``pose`` needs ``X.pose.json`` beside ``X.inkray.json``.
+JOBS = ("relief", "render", "layers", "maps")
 MANIFEST = "batch-manifest.json"
 REPORT = "batch-report.json"
 _SUFFIXES = (".inkray.json", ".json")
@@ -630,7 +634,12 @@ def _files_key(files, jobs, *, drawing_of):
         drawing = None  # the task reports the problem
     h = hashlib.blake2b(digest_size=16)
     h.update(json.dumps({"inkray": __version__, "jobs": list(jobs)}).encode())
-    for path in list(files) + ([drawing] if drawing is not None else []):
+    inputs = list(files) + ([drawing] if drawing is not None else [])
+    if "pose" in jobs:
+        from inkray.input.pose import pose_path
+
+        inputs.append(pose_path(drawing_of))
+    for path in inputs:
         try:
             data = Path(path).read_bytes()
         except OSError:
@@ -670,12 +679,12 @@ def _write_report(out, report):
 
 def _check_jobs(jobs):
     jobs = [j.strip() for j in (jobs.split(",") if isinstance(jobs, str) else jobs)]
-    unknown = [j for j in jobs if j not in JOBS]
+    unknown = [j for j in jobs if j not in JOB_FILES]
     if unknown or not jobs:
         bad = unknown[0] if unknown else "(none)"
         raise InputError(f"--jobs {','.join(jobs)}: unknown job {bad} "
-                         f"(expected some of {','.join(JOBS)})")
-    return tuple(j for j in JOBS if j in jobs)
+                         f"(expected some of {','.join(JOB_FILES)})")
+    return tuple(j for j in JOB_FILES if j in jobs)
 
 
 def _digest(data):

@@ -144,3 +144,164 @@ def test_narrow_parts_get_shorter_edges():
         lengths = np.array([np.linalg.norm(s[1] - s[0]) for s in mid])
         assert lengths.max() <= longest + 1e-6
     assert lengths.max() > 0.9 * edge_length(50.0)  # across=0: the plain spacing
+
+
+# -- regions too small or thin to mesh: bounded, in a child process -----------------
+# Triangle runs in C and cannot be interrupted: a degenerate outline loop (one vertex, a
+# segment from a vertex to itself) makes it allocate without end. Each case runs in a
+# child with a time and memory limit, so that a regression fails instead of hanging.
+
+_LIMITED = """
+import json, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+import numpy as np
+from inkray.errors import InputError
+from inkray.relief.outline import MeshOptions, region_outline
+from inkray.relief.triangulation import mesh_region, triangulate_outline
+"""
+
+
+def _bounded(code, timeout=60):
+    import json
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-c", _LIMITED + code], capture_output=True, text=True,
+                          timeout=timeout)
+    assert proc.returncode == 0, proc.stderr[-2000:] + proc.stdout[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+_SMALL = {
+    "pixel": "m[20, 30] = True",
+    "corner pixel": "m[0, 0] = True",
+    "diagonal line": "i = np.arange(30); m[5 + i, 10 + i] = True",
+    "isolated pixels": "m[5, 5] = m[20, 30] = m[30, 50] = True",
+    "scribble": "t = np.linspace(0, 5, 300); m[np.rint(20 + 12 * np.sin(t)).astype(int), "
+                "np.rint(5 + 10 * t).astype(int)] = True",
+    "2 px strip": "m[20:22, 5:55] = True",
+}
+
+
+@pytest.mark.parametrize("case", sorted(_SMALL))
+def test_tiny_and_thin_regions_are_meshed(case):
+    out = _bounded(f"""
+m = np.zeros((40, 60), bool)
+{_SMALL[case]}
+mesh = mesh_region(m, options=MeshOptions(max_area=50.0))
+print(json.dumps(dict(v=mesh.vertices.tolist(), f=mesh.faces.tolist(), w=mesh.warnings,
+                      px=np.argwhere(m)[:, ::-1].tolist())))
+""")
+    v, f, px = np.array(out["v"]), np.array(out["f"]), np.array(out["px"], float)
+    area = _signed_area(v, f)
+    assert len(f) and np.all(area < 0) and out["w"] == []
+    # The pixel contour (marching squares at 0.5) of n pixels encloses n less its cut
+    # corners (n / 4 for a pixel in the image's corner); the smoothed outline strays
+    # from it by under a pixel.
+    assert 0.25 * len(px) - 1e-6 <= -area.sum() <= 1.1 * len(px) + 1
+    # Every pixel centre of the region is on the mesh or within the smoothing's band of it.
+    mesh = SimpleNamespace(vertices=v, faces=f)
+    p = v[f]
+    d = p[None] - px[:, None, None, :]
+    cross = d[..., 0] * np.roll(d, -1, axis=2)[..., 1] - d[..., 1] * np.roll(d, -1, axis=2)[..., 0]
+    inside = np.any(np.all(cross <= 1e-9, axis=2), axis=1)
+    near = cKDTree(_dense(_boundary_curves(mesh), step=0.05)).query(px)[0] < 0.75
+    # The level set's smoothing still loses short diagonal runs of a one-pixel scribble
+    # (a fidelity limit of the outline, not of the triangulation).
+    assert np.mean(inside | near) >= (0.85 if case == "scribble" else 1.0)
+
+
+def test_loops_that_enclose_no_area_are_left_out_with_a_warning():
+    out = _bounded("""
+from dataclasses import replace
+yy, xx = np.mgrid[:60, :80]
+o = region_outline((xx - 40) ** 2 + (yy - 30) ** 2 <= 20 ** 2, name="ball")
+n = len(o.points)
+extra = np.array([[40.0, 30.0], [70.0, 50.0], [72.0, 50.0]])  # a pinhole, a two-vertex stub
+def grow(a, fill):
+    return np.r_[a, np.full(3, fill, a.dtype)]
+o = replace(o, points=np.r_[o.points, extra], loop=np.r_[o.loop, 1, 2, 2],
+            hole=np.r_[o.hole, True, False], kind=grow(o.kind, 1),
+            boundary_index=grow(o.boundary_index, -1), station=grow(o.station, -1),
+            neighbour=grow(o.neighbour, -1), hole_points=np.array([[40.005, 30.0]]))
+mesh = triangulate_outline(o, max_area=30.0)
+try:
+    triangulate_outline(replace(o, points=o.points[n:], loop=np.array([0, 1, 1]), hole=o.hole[1:],
+                                kind=o.kind[n:], boundary_index=o.boundary_index[n:],
+                                station=o.station[n:], neighbour=o.neighbour[n:]))
+    err = ""
+except InputError as e:
+    err = str(e)
+centre = int(np.flatnonzero(np.all(mesh.vertices == [40.0, 30.0], axis=1))[0])
+print(json.dumps(dict(w=mesh.warnings, err=err, n=len(mesh.faces), kind=int(mesh.kind[centre]),
+                      used=bool(np.isin(centre, mesh.faces)),
+                      far=bool((mesh.vertices[:, 0] > 65).any()))))
+""")
+    assert len(out["w"]) == 2 and all(w.startswith("region ball: ") for w in out["w"])
+    assert "hole at pixel (40, 30)" in out["w"][0] and "piece at pixel (71, 50)" in out["w"][1]
+    # The pinhole is filled (its point an interior vertex, its hole point gone), the stub dropped.
+    assert out["n"] > 40 and out["kind"] == INTERIOR and out["used"] and not out["far"]
+    assert out["err"].startswith("region ball: too small or thin to mesh at pixel (")
+
+
+_OUTLINE = """
+from inkray.relief.outline import INKED, RegionOutline
+def outline(loops, name="r"):
+    pts = np.vstack(loops).astype(float)
+    n = len(pts)
+    return RegionOutline(name=name, points=pts, loop=np.repeat(np.arange(len(loops)), [len(p) for p in loops]),
+                         hole=np.zeros(len(loops), bool), kind=np.full(n, INKED, np.int8),
+                         boundary_index=np.full(n, -1), station=np.full(n, -1),
+                         neighbour=np.full(n, -1), hole_points=np.zeros((0, 2)))
+"""
+
+
+@pytest.mark.parametrize("loop, area", [
+    # Two triangles touching at a point, the point listed twice.
+    ([[0, 0], [10, 0], [5, 5], [10, 10], [0, 10], [5, 5]], 50.0),
+    # A square with a spike: an edge walked there and back (a one-pixel whisker).
+    ([[0, 0], [10, 0], [10, 10], [5, 10], [5, 20], [5, 10], [0, 10]], 100.0),
+])
+def test_self_touching_outlines_are_meshed(loop, area):
+    out = _bounded(_OUTLINE + f"""
+mesh = triangulate_outline(outline([np.array({loop})]), max_area=1.0)
+print(json.dumps(dict(v=mesh.vertices.tolist(), f=mesh.faces.tolist())))
+""")
+    v, f = np.array(out["v"]), np.array(out["f"])
+    a = _signed_area(v, f)
+    assert np.all(a < 0) and abs(-a.sum() - area) < 1e-6 and -a.min() <= 1.0 + 1e-9
+
+
+def test_steiner_points_are_capped():
+    out = _bounded(_OUTLINE + """
+import inkray.relief.triangulation as T
+T._STEINER_FACTOR, T._STEINER_SLACK = 0, 25
+square = outline([np.array([[0, 0], [0, 30], [30, 30], [30, 0]])], name="sq")
+mesh = triangulate_outline(square, max_area=1.0)
+print(json.dumps(dict(n=len(mesh.vertices), w=mesh.warnings)))
+""")
+    # 2 * 4 outline vertices + 25 allowed, where the area bound alone asks for hundreds.
+    assert out["n"] <= 4 + 8 + 25
+    assert out["w"] == ["region sq: the mesh reached its limit of 33 added vertices; "
+                        "some of its triangles may be sharper than asked"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scribble", [[[30, 30]], [[20, 20], [60, 60]]])
+def test_region_scribbled_on_paper_without_background(scribble):
+    # A region scribbled on the paper around the fish, no background scribble: the image
+    # frame takes the paper and the region is its one-pixel scribble.
+    out = _bounded(f"""
+from inkray.chain import ReliefChain
+from inkray.examples import example_path
+from inkray.input.annotations import parse_annotations
+from inkray.input.drawing import load_drawing
+path = example_path("fish")
+raw = json.loads(path.read_text())
+raw.pop("background")
+raw["regions"].append({{"name": "paper", "scribbles": [{scribble}]}})
+chain = ReliefChain(parse_annotations(raw), load_drawing(path.parent / raw["drawing"]))
+print(json.dumps({{r.mesh.name: [len(r.mesh.faces), int(chain.completion.completed(i).sum())]
+                  for i, r in enumerate(chain.meshes)}}))
+""", timeout=240)
+    assert out["paper"][0] > 0 and out["paper"][1] <= 60  # meshed, and only its scribble
+    assert set(out) == {"tail", "fin_top", "fin_bottom", "body", "fin_side", "eye", "paper"}

@@ -19,7 +19,12 @@ Endpoints (a public contract, see ``docs/editor.md``):
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
   at half resolution (the first answer after an edit);
-- ``GET /api/relations`` the user's and predicted relations and the warnings.
+- ``GET /api/relations`` the user's and predicted relations and the warnings;
+- ``POST /api/pose`` ``{"handles": [[x, y], ...], "to": [[x, y], ...], "scale": s}``:
+  the posed drawing as PNG (Pose mode; ``scale`` optional, 0.05..1, a smaller
+  picture while dragging), with ``X-Inkray-Compute-Ms``; ``POST
+  /api/pose/save`` a pose file's JSON: written as ``<name>.pose.json`` beside
+  the annotation, ``{"path": ...}``.
 """
 
 import io
@@ -36,6 +41,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from inkray.editor.posing import PoseSession
 from inkray.editor.session import PREVIEWS, entry_paths
 from inkray.errors import InkrayError, InputError
 from inkray.input.limits import DEFAULT_LIMITS
@@ -76,6 +82,7 @@ def editor_app(session, *, allowed_hosts=None):
     ['/', '/api/info', '/api/drawing.png', '/api/annotations']
     """
     drawing_png = _png(session.drawing.rgb)
+    posing = PoseSession(session)
 
     async def page(request):
         return FileResponse(STATIC / "index.html", headers=_NO_STORE)
@@ -191,6 +198,30 @@ def editor_app(session, *, allowed_hosts=None):
             "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
             "X-Inkray-Generation": str(value["generation"])}))
 
+    async def pose(request):
+        body = await _json(request)
+        if not isinstance(body, dict) or not {"handles", "to"} <= set(body) <= {
+                "handles", "to", "scale"}:
+            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...], "
+                               "\"scale\": s (optional)}")
+        try:
+            png, ms, generation = await anyio.to_thread.run_sync(lambda: posing.picture(
+                body["handles"], body["to"], scale=body.get("scale", 1.0)))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return Response(png, media_type="image/png", headers=dict(_NO_STORE, **{
+            "X-Inkray-Compute-Ms": f"{ms:.1f}", "X-Inkray-Generation": str(generation)}))
+
+    async def pose_save(request):
+        body = await _json(request)
+        try:
+            path = await anyio.to_thread.run_sync(posing.save, body)
+        except InputError as e:
+            return _error(400, str(e))
+        except OSError as e:
+            return _error(500, f"cannot write the pose file ({e.strerror or e})")
+        return JSONResponse({"path": str(path)})
+
     routes = [
         Route("/", page),
         Route("/api/info", info),
@@ -202,6 +233,8 @@ def editor_app(session, *, allowed_hosts=None):
         Route("/api/scribble-region", scribble_region, methods=["POST"]),
         Route("/api/preview/{name}", preview),
         Route("/api/relations", relations),
+        Route("/api/pose", pose, methods=["POST"]),
+        Route("/api/pose/save", pose_save, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []
@@ -225,6 +258,19 @@ async def _body(request, limit):
         if len(body) > limit:
             return None
     return bytes(body)
+
+
+async def _json(request):
+    """The request's JSON body (at most the annotation file's byte limit), or None."""
+    import json
+
+    raw = await _body(request, _MAX_BODY)
+    if raw is None:
+        return None
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return None
 
 
 def _error(status, message, session=None):

@@ -527,6 +527,10 @@ def _smooth(p, w, h, sigma):
     for _ in range(_RELAX):
         sm = _clamp(0.5 * sm + 0.25 * (np.roll(sm, 1, axis=0) + np.roll(sm, -1, axis=0)), q, _BAND)
         sm[pinned] = q[pinned]
+    # A loop not much longer than the filter (a pixel, a dot) collapses onto a line:
+    # it keeps its pixel contour, so that it still encloses its area.
+    if abs(_area(sm)) < 0.5 * abs(_area(p)):
+        return p
     return sm
 
 

@@ -16,10 +16,19 @@ edge to meet the quality bounds; the new vertex takes the provenance of the
 nearer end of that edge (of its unmarked end when the edge leaves a marked
 stretch) and is no station.
 
+Triangle is only given a valid planar straight-line graph: an outline loop
+that encloses no area (fewer than three distinct vertices, as a region of a
+pixel or a one-pixel line can give) is left out with a warning, a region
+left with nothing to mesh is an :class:`~inkray.errors.InputError` naming it
+and its pixel, and the Steiner points Triangle may add are capped at a
+multiple of what the area bounds ask for, so that no input makes it run
+without end.
+
 Faces follow :mod:`inkray.relief`: clockwise in the ``(x, y)`` image plane,
 i.e. counter-clockwise as the viewer sees the drawing.
 """
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -34,6 +43,9 @@ __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
 _SEAM_EDGE = 1.0  # px: longest triangle edge on a graft seam
 _SEAM_GROWTH = 0.25  # and its growth per px away from the seam
+_MIN_LOOP_AREA = 1e-2  # px^2: a loop enclosing less is a degenerate polygon for Triangle
+_STEINER_FACTOR = 8  # added vertices allowed per triangle the area bound asks for
+_STEINER_SLACK = 1000  # and beyond that (small angles, short input edges)
 
 
 @dataclass
@@ -62,6 +74,9 @@ class RegionMesh:
         ``boundaries`` entries snapped to this region's outline.
     snap_distance : dict
         ``boundaries`` index -> median distance (px) to this outline.
+    warnings : list of str
+        Outline loops left out as too small to mesh, a Steiner point cap
+        reached.
     """
 
     name: str
@@ -73,6 +88,7 @@ class RegionMesh:
     neighbour: np.ndarray
     matched: tuple = ()
     snap_distance: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
     @property
     def outline(self):
@@ -119,7 +135,8 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
     Raises
     ------
     InputError
-        Non-positive ``max_area`` or ``min_angle`` outside (0, 34].
+        Non-positive ``max_area``, ``min_angle`` outside (0, 34], or an
+        outline with no loop that encloses an area.
     StageError
         Triangle produced no triangles.
 
@@ -142,15 +159,21 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
         raise InputError(f"min_angle: expected 0 < min_angle <= 34 degrees, got {min_angle!r}")
     n = len(outline.points)
     seg = outline.segments()
+    kept, holes, warnings = _meshable(outline)
+    use, graph = _planar_graph(outline.points, seg, kept)
     pslg = {"vertices": outline.points,
             "vertex_markers": (np.arange(n) + 2)[:, None],
-            "segments": seg,
-            "segment_markers": (np.arange(len(seg)) + 2)[:, None]}
-    if len(outline.hole_points):
-        pslg["holes"] = outline.hole_points
-    res = triangle.triangulate(pslg, f"pq{min_angle:g}a{max_area:.17g}Q")
+            "segments": graph,
+            "segment_markers": (use + 2)[:, None]}
+    if len(holes):
+        pslg["holes"] = holes
+    area = sum(abs(_area(outline.points[outline.loop == lp])) for lp in np.unique(outline.loop[kept]))
+    cap = _steiner_cap(area / max_area, n)
+    res = triangle.triangulate(pslg, f"pq{min_angle:g}a{max_area:.17g}S{cap}Q")
+    if len(res["vertices"]) - n >= cap:
+        warnings.append(_capped(outline.name, cap))
     if len(seams) and len(res.get("triangles", ())):
-        res = _refine(res, seams, max_area, min_angle)
+        res = _refine(res, seams, max_area, min_angle, outline.name, warnings)
     faces = np.asarray(res.get("triangles", np.zeros((0, 3))), np.int64)
     if len(faces) == 0:
         raise StageError(f"region {outline.name}: the triangulation is empty")
@@ -165,6 +188,8 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
     neigh = np.full(m, -1)
     kind[:n], bidx[:n], station[:n], neigh[:n] = (outline.kind, outline.boundary_index,
                                                   outline.station, outline.neighbour)
+    # Vertices of a left-out loop inside the region are plain interior points.
+    kind[:n][~kept], bidx[:n][~kept], station[:n][~kept], neigh[:n][~kept] = INTERIOR, -1, -1, -1
     new = np.arange(n, m)
     on_seg = new[markers[n:] >= 2]
     if len(on_seg):
@@ -187,18 +212,85 @@ def triangulate_outline(outline, *, max_area=DEFAULT_MAX_AREA, min_angle=20.0, s
         verts, kind, bidx, station, neigh = (x[used] for x in (verts, kind, bidx, station, neigh))
     return RegionMesh(name=outline.name, vertices=verts, faces=faces, kind=kind,
                       boundary_index=bidx, station=station, neighbour=neigh,
-                      matched=outline.matched, snap_distance=dict(outline.snap_distance))
+                      matched=outline.matched, snap_distance=dict(outline.snap_distance),
+                      warnings=warnings)
 
 
-def _refine(res, seams, max_area, min_angle):
+def _meshable(outline):
+    """Segments of the loops that enclose an area (bool per segment), their hole
+    points, and a warning per loop left out."""
+    kept = np.ones(len(outline.points), bool)
+    dropped, warnings = [], []
+    for lp in range(len(outline.hole)):
+        members = np.flatnonzero(outline.loop == lp)
+        p = outline.points[members]
+        distinct = len(np.unique(np.round(p, 9), axis=0))
+        if distinct >= 3 and abs(_area(p)) >= _MIN_LOOP_AREA:
+            continue
+        kept[members] = False
+        dropped.append(p)
+        x, y = np.rint(p.mean(axis=0)).astype(int)
+        warnings.append(f"region {outline.name}: an outline {'hole' if outline.hole[lp] else 'piece'} "
+                        f"at pixel ({x}, {y}) encloses no area; left out of the mesh")
+    if not kept.any():
+        x, y = np.rint(outline.points.mean(axis=0)).astype(int)
+        raise InputError(f"region {outline.name}: too small or thin to mesh at pixel ({x}, {y}) "
+                         f"(its outline encloses no area)")
+    holes = np.asarray(outline.hole_points, float).reshape(-1, 2)
+    for p in dropped:
+        # A left-out hole's point would lie inside the region and eat its triangles.
+        far = point_polyline_distance(holes, np.vstack([p, p[:1]])) > 0.1
+        holes = holes[far]
+    return kept, holes, warnings
+
+
+def _planar_graph(points, seg, kept):
+    """The kept segments (their indices, and their vertex pairs) with every
+    position's first vertex for its copies, less the segments that shrink to a
+    point or repeat another: Triangle fails on a segment whose ends coincide and
+    crashes on some whose end is a copy of an earlier vertex."""
+    _, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
+    pairs = first[inverse.ravel()][seg]
+    use = np.flatnonzero(kept & (pairs[:, 0] != pairs[:, 1]))
+    _, once = np.unique(np.sort(pairs[use], axis=1), axis=0, return_index=True)
+    use = use[np.sort(once)]
+    return use, pairs[use]
+
+
+def _area(p):
+    """Signed shoelace area of a closed polygon."""
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _steiner_cap(triangles, vertices):
+    """Most Steiner points Triangle may add for a mesh of about ``triangles`` triangles."""
+    return int(min(_STEINER_FACTOR * math.ceil(triangles) + 2 * vertices + _STEINER_SLACK,
+                   np.iinfo(np.int32).max))
+
+
+def _capped(name, cap):
+    return (f"region {name}: the mesh reached its limit of {cap} added vertices; "
+            f"some of its triangles may be sharper than asked")
+
+
+def _refine(res, seams, max_area, min_angle, name, warnings):
     """``res`` refined by Triangle to the area bound of each triangle's distance to ``seams``."""
-    centre = np.asarray(res["vertices"])[np.asarray(res["triangles"])].mean(axis=1)
+    verts = np.asarray(res["vertices"])
+    corner = verts[np.asarray(res["triangles"])]
+    centre = corner.mean(axis=1)
     dist = np.min([point_polyline_distance(centre, np.asarray(s, float)) for s in seams], axis=0)
     edge = _SEAM_EDGE + _SEAM_GROWTH * dist
     bound = np.minimum(max_area, np.sqrt(3.0) / 4.0 * edge ** 2)
     if not (bound < max_area).any():
         return res
-    return triangle.triangulate({**res, "triangle_max_area": bound}, f"rpq{min_angle:g}aQ")
+    a, b = corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0]
+    area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    cap = _steiner_cap(float(np.sum(area / bound)), len(verts))
+    out = triangle.triangulate({**res, "triangle_max_area": bound}, f"rpq{min_angle:g}aS{cap}Q")
+    if len(out["vertices"]) - len(verts) >= cap:
+        warnings.append(_capped(name, cap))
+    return out
 
 
 def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
