@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
     python benchmarks/bench_order.py --generated 330 [--cache DIR] [--styles] [--real A.inkray.json]
+    python benchmarks/bench_order.py --timing [--drawings fox,man]
 
 ``--generated N`` (the learned model's protocol): train on N generated drawings
 only (``benchmarks/train_order.py``: the model of
@@ -26,6 +27,12 @@ drawings that do not use the style, against one trained on as many drawings
 drawn with every style, each scored on the real drawings' places (without
 the consistency step). The table of the run is in docs/regions.md. ``--cache``
 keeps each generated drawing's features (about 1 s a drawing to make again).
+
+``--timing``: only the prediction time of every place
+(:func:`inkray.relief.ordering.depth_order`, empty memo, median of 5 wall and
+CPU seconds, learned model and weighted cues) of the drawings (default
+:data:`REAL`) at their size and upscaled to about 1 Mpx, the worst wall
+median at 1 Mpx against :data:`TARGET_TIME`.
 
 Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
 for each drawing, the predictor is fitted on all the *other* drawings only:
@@ -392,33 +399,73 @@ def bench_styles(pool, drawings, candidate):
         print(f"{what:<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} {reach:>6.1%}")
 
 
-def bench_time_1mpx(model, repeats=3):
-    """Median seconds of predicting every place of the fox upscaled to about 1 Mpx."""
+def _prepared(name, upscaled):
+    """``(size, annotations, labels, completion, ink)`` of a bundled drawing with its
+    ``order`` entries removed, at its size or upscaled to about 1 Mpx (Lanczos)."""
     from PIL import Image
 
+    from inkray.input.annotations import rescale_annotations
     from inkray.input.drawing import drawing_from_array
 
-    ann, _ = load_input(EXAMPLES / "fox" / "drawing.inkray.json")
-    image = Image.open(EXAMPLES / "fox" / "drawing.jpg").convert("RGB")
-    scale = (1e6 / (image.width * image.height)) ** 0.5
-    size = (round(image.width * scale), round(image.height * scale))
-    drawing = drawing_from_array(np.asarray(image.resize(size, Image.LANCZOS)))
-    from inkray.input.annotations import rescale_annotations
-
-    ann = replace(rescale_annotations(ann, size), order=[])
+    ann, drawing = load_input(EXAMPLES / name / "drawing.inkray.json")
+    if upscaled:
+        image = Image.open(ann.drawing).convert("RGB")
+        scale = (1e6 / (image.width * image.height)) ** 0.5
+        size = (round(image.width * scale), round(image.height * scale))
+        drawing = drawing_from_array(np.asarray(image.resize(size, Image.LANCZOS)))
+        ann = rescale_annotations(ann, size)
+    ann = replace(ann, order=[])
     chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
     labels, completion = chain.segmentation.labels, chain.candidates
-    ink = ink_style(drawing.gray)
-    times = {"learned": [], "cues": []}
+    return labels.shape[::-1], ann, labels, completion, ink_style(drawing.gray)
+
+
+def _prediction_times(prepared, model, repeats):
+    """Median ``(wall, cpu)`` seconds of :func:`depth_order` predicting every place (empty
+    memo), with ``model`` (None: the weighted cues)."""
+    _, ann, labels, completion, ink = prepared
+    wall, cpu = [], []
     for _ in range(repeats):
-        for name, m in (("learned", model), ("cues", None)):
-            start = time.perf_counter()
-            depth_order([], labels, completion, seams=ann.boundaries, ink=ink, model=m)
-            times[name].append(time.perf_counter() - start)
-    print(f"\nfox at {size[0]}x{size[1]}, {len(completion.places)} places, prediction "
-          f"(median of {repeats}): learned {np.median(times['learned']):.3f} s, weighted cues "
-          f"{np.median(times['cues']):.3f} s")
-    return float(np.median(times["learned"]))
+        w, c = time.perf_counter(), time.process_time()
+        depth_order([], labels, completion, seams=ann.boundaries, ink=ink, model=model)
+        wall.append(time.perf_counter() - w)
+        cpu.append(time.process_time() - c)
+    return float(np.median(wall)), float(np.median(cpu))
+
+
+def bench_time_1mpx(model, repeats=3):
+    """Median wall seconds of predicting every place of the fox upscaled to about 1 Mpx."""
+    prepared = _prepared("fox", True)
+    (width, height), completion = prepared[0], prepared[3]
+    (learned, learned_cpu), (cues, cues_cpu) = (_prediction_times(prepared, m, repeats)
+                                                for m in (model, None))
+    print(f"\nfox at {width}x{height}, {len(completion.places)} places, prediction "
+          f"(median of {repeats}, wall / CPU): learned {learned:.3f} / {learned_cpu:.3f} s, "
+          f"weighted cues {cues:.3f} / {cues_cpu:.3f} s")
+    return learned
+
+
+def bench_timing(names, repeats=5):
+    """The prediction time of every place of each drawing, at its size and at about 1 Mpx:
+    median wall and CPU seconds, learned model and weighted cues; the worst at 1 Mpx
+    against :data:`TARGET_TIME`."""
+    from inkray.relief.order_model import load_order_model
+
+    model = load_order_model()
+    print(f"{'drawing':<12} {'size':>10} {'places':>6} {'learned wall / CPU s':>21} "
+          f"{'cues wall / CPU s':>18}")
+    worst = 0.0
+    for name in names:
+        for upscaled in (False, True):
+            prepared = _prepared(name, upscaled)
+            (width, height), completion = prepared[0], prepared[3]
+            learned, cues = (_prediction_times(prepared, m, repeats) for m in (model, None))
+            print(f"{name:<12} {f'{width}x{height}':>10} {len(completion.places):>6} "
+                  f"{learned[0]:>10.3f} / {learned[1]:.3f} {cues[0]:>8.3f} / {cues[1]:.3f}")
+            if upscaled:
+                worst = max(worst, learned[0], cues[0])
+    print(f"\nworst wall median at 1 Mpx {worst:.3f} s, target {TARGET_TIME:g} s, "
+          f"ratio {worst / TARGET_TIME:.2f}")
 
 
 def main(argv=None):
@@ -432,7 +479,12 @@ def main(argv=None):
                     help="the annotation of one more real drawing (e.g. a shot's first frame), "
                          "repeatable")
     ap.add_argument("--styles", action="store_true", help="with --generated: each style left out")
+    ap.add_argument("--timing", action="store_true", help="only the prediction time of the "
+                    "drawings (--drawings, default the real ones) at their size and at 1 Mpx")
     args = ap.parse_args(argv)
+    if args.timing:
+        bench_timing(args.drawings.split(",") if args.drawings else REAL)
+        return
     if args.generated:
         import sys
 

@@ -187,7 +187,8 @@ def test_walk_reaches_the_chessboard_ball_on_open_paper_and_follows_a_bent_line(
     yy, xx = np.mgrid[:41, :41]
     for steps in (0, 1, 7, 25):
         ball = np.maximum(abs(yy - 20), abs(xx - 20)) <= steps
-        np.testing.assert_array_equal(_walk(open_paper, start, steps), ball)
+        (got,) = _walk([open_paper], open_paper, start, steps)
+        np.testing.assert_array_equal(got, np.flatnonzero(ball))
     # an L-shaped one-pixel line: 30 steps from its end reach its first 31 pixels and,
     # cutting the corner diagonally, the first pixel past the corner
     line = np.zeros((41, 41), bool)
@@ -195,6 +196,16 @@ def test_walk_reaches_the_chessboard_ball_on_open_paper_and_follows_a_bent_line(
     line[5:36, 35] = True
     start = np.zeros_like(line)
     start[5, 5] = True
-    reached = _walk(line, start, 30)
+    (reached,) = _walk([line], open_paper, start, 30)
+    reached = np.isin(np.arange(line.size), reached).reshape(line.shape)
     assert reached.sum() == 32 and reached[5, 35] and reached[6, 35] and not reached[7, 35]
-    assert not _walk(line, ~line, 30).any()  # no start on the line: nothing reached
+    assert not len(_walk([line], open_paper, ~line, 30)[0])  # no start on the line: nothing
+    # the masks are walked apart: the line's row does not lead into the square beside it,
+    # and ``within`` cuts the walk short
+    square = np.zeros_like(line)
+    square[6:20, 5:20] = True
+    along, inside = _walk([line, square], open_paper, start | square, 30)
+    assert len(along) == 32 and len(inside) == square.sum()
+    half = xx < 20
+    (cut,) = _walk([line], half, start, 30)
+    np.testing.assert_array_equal(cut, np.flatnonzero(line & half))

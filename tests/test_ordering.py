@@ -371,3 +371,37 @@ def test_prediction_agrees_with_shared_drawings(shared_drawings, capsys):
         print("\n" + "\n".join(lines) + f"\nall: {agree}/{counted} = {agree / counted:.1%} "
               f"({total} entries, {total - counted} between regions that do not touch)")
     assert agree / counted >= 0.89
+
+
+# -- the predictions stay what they were --------------------------------------------
+
+#: Drawings compared at their size in the default suite; the others, and every drawing
+#: upscaled to about 1 Mpx, are slow.
+_QUICK = ("fox", "man", "turtle")
+
+
+def _stored():
+    from _order_predictions import FIXTURE
+
+    return json.loads(FIXTURE.read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize("name, upscaled", [
+    pytest.param(n, up, id=f"{n}-{'1mpx' if up else 'native'}",
+                 marks=() if n in _QUICK and not up else pytest.mark.slow)
+    for n in sorted(_stored()["drawings"]) for up in (False, True)])
+def test_predictions_match_the_stored_ones(name, upscaled):
+    """Every place's prediction (weighted cues and learned model) equals the one stored
+    in tests/data/order_predictions.json (``python tests/_order_predictions.py``): the
+    same front, the confidence to 1e-6. Making the cues faster must not change them."""
+    from _order_predictions import predictions
+
+    want = _stored()["drawings"][name]["upscaled" if upscaled else "native"]
+    got = predictions(name, upscaled=upscaled)
+    assert got["size"] == want["size"]
+    for key in ("cues", "learned"):
+        assert len(got[key]) == len(want[key])
+        for place, (g, e) in enumerate(zip(got[key], want[key])):
+            assert g[:3] == e[:3], f"{name} {key} place {place}: {g} != {e}"
+            if e[3] is not None:
+                assert abs(g[3] - e[3]) <= 1e-6, f"{name} {key} place {place}: {g} != {e}"
