@@ -294,3 +294,18 @@ def test_masks_of_a_region_with_a_long_name(annotated, minimal_doc, tmp_path, ca
                         "--masks", str(tmp_path / "masks"))
     assert code == 2 and "regions[0].name: 300 characters are too many" in err, err
     assert not (tmp_path / "masks").exists() and not (tmp_path / "r.json").exists()
+
+
+def test_relief_summary_counts_what_the_file_holds(annotated, tmp_path, capsys):
+    import re
+
+    import trimesh
+
+    for back in ("none", "plate"):
+        path = tmp_path / f"r-{back}.ply"
+        code, out, _ = _run(capsys, "relief", str(annotated), "-o", str(path), "--back", back,
+                            "--quiet")
+        assert code == 0, out
+        vertices, faces = map(int, re.search(r"(\d+) vertices, (\d+) faces", out).groups())
+        mesh = trimesh.load(path, process=False)
+        assert (vertices, faces) == (len(mesh.vertices), len(mesh.faces)), back
