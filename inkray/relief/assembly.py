@@ -40,6 +40,7 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
 _FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
+_ITERATIONS = 4  # of the first remeshing (the further rounds go on where slivers are left)
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -171,8 +172,9 @@ def union_parts(parts, *, name="union", remesh=True):
         ``(x, y)``, back faces counter-clockwise).
     name : str, default "union"
     remesh : bool, default True
-        Remesh the solid (:func:`remesh_solid`) with edges a third as long
-        as the parts' median edge.
+        Remesh the solid (:func:`remesh_solid`) with edges as long as the
+        parts' median edge (the relief's own resolution: finer would multiply
+        the faces and the time, not the detail).
 
     Returns
     -------
@@ -191,8 +193,8 @@ def union_parts(parts, *, name="union", remesh=True):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    target = float(np.median(edges)) / 3.0
-    verts, faces = _envelope_solid(parts, gap=target / 2.0)
+    target = float(np.median(edges))
+    verts, faces = _envelope_solid(parts, gap=target / 6.0)
     if remesh:
         verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
@@ -408,8 +410,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=v, face_matrix=f))
     length = pymeshlab.PureValue(float(target))
-    ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
-                                            checksurfdist=False)
+    ms.meshing_isotropic_explicit_remeshing(iterations=_ITERATIONS, targetlen=length,
+                                            featuredeg=89.0, checksurfdist=False)
     best = None  # (smallest angle, vertices, faces) of the best round so far
     first = None  # the first round repaired, and its bad faces left
     for rounds in range(_FIX_ROUNDS + 1):
