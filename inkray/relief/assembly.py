@@ -40,6 +40,7 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
 _FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
+_FINER = 3.0  # edges this much shorter when the first remeshing leaves slivers
 _ITERATIONS = 4  # of the first remeshing (the further rounds go on where slivers are left)
 
 
@@ -173,8 +174,10 @@ def union_parts(parts, *, name="union", remesh=True):
     name : str, default "union"
     remesh : bool, default True
         Remesh the solid (:func:`remesh_solid`) with edges as long as the
-        parts' median edge (the relief's own resolution: finer would multiply
-        the faces and the time, not the detail).
+        parts' median edge (the relief's own resolution: finer multiplies
+        the faces and the time); where that leaves a face bad (an angle
+        below :data:`MIN_ANGLE` or crossing another), again from the start
+        with edges a third as long.
 
     Returns
     -------
@@ -196,7 +199,12 @@ def union_parts(parts, *, name="union", remesh=True):
     target = float(np.median(edges))
     verts, faces = _envelope_solid(parts, gap=target / 6.0)
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=target)
+        v, f = remesh_solid(verts, faces, target=target)
+        if bad_faces(v, f, min_angle=MIN_ANGLE).any():
+            # where a sliver is left at the relief's resolution, edges a third as long
+            # leave none on every bundled drawing (minutes on the largest)
+            v, f = remesh_solid(verts, faces, target=target / _FINER)
+        verts, faces = v, f
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
