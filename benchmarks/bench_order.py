@@ -3,6 +3,29 @@
 Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
+    python benchmarks/bench_order.py --generated 330 [--cache DIR] [--styles] [--real A.inkray.json]
+
+``--generated N`` (the learned model's protocol): train on N generated drawings
+only (``benchmarks/train_order.py``: the model of
+:mod:`inkray.relief.order_model`, the candidate chosen on the drawings made
+for inkray, and the same four-cue logistic as below fitted on the same
+generated drawings), then test on the real drawings, none of them seen in
+training or in choosing: the bundled drawings not made for inkray
+(:data:`REAL`) and the annotations given with ``--real`` (e.g. the first
+frames of real shots). Per drawing and per confidence bin: right, right at
+confidence 0.5 or more, and the share of relations reaching 0.5, for the
+learned model, the
+logistic fitted on the generated drawings, and the shipped logistic
+(:data:`inkray.relief.ordering.WEIGHTS`, fitted on all bundled drawings, so
+not held out: shown for reference); then the prediction time of every
+place at about 1 Mpx (the fox upscaled,
+:func:`inkray.relief.ordering.depth_order` with an empty memo, the learned
+model and the weighted cues), and each against its target. ``--styles``
+adds what each generator style does: the model trained on the generated
+drawings that do not use the style, against one trained on as many drawings
+drawn with every style, each scored on the real drawings' places (without
+the consistency step). The table of the run is in docs/regions.md. ``--cache``
+keeps each generated drawing's features (about 1 s a drawing to make again).
 
 Leave-one-out over the bundled drawings (``examples/*/drawing.inkray.json``):
 for each drawing, the predictor is fitted on all the *other* drawings only:
@@ -47,7 +70,7 @@ from inkray.input.loading import load_input
 from inkray.input.scribbles import seed_image
 from inkray.relief.ink_style import ink_style
 from inkray.relief.order_cues import CUES, contact_continuation, order_cues, outline_lengths
-from inkray.relief.ordering import depth_order
+from inkray.relief.ordering import WEIGHTS, depth_order
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 GRID = {"junction_radius": (25.0, 40.0, 80.0), "continuation_widths": (6.0, 8.0, 10.0),
@@ -56,14 +79,20 @@ BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
 TARGET = 0.2  # seconds for one fast re-solve after adding an entry
 TARGET_ACCURACY = 0.90  # leave-one-out, all counted entries
 TARGET_SURE = 0.95  # accuracy of the predictions with confidence >= 0.5
+#: The bundled drawings not made for inkray: the learned model's test set.
+REAL = ("balls", "donkey", "dragon", "fox", "frog", "gingerbread", "man", "turtle")
+TARGET_REAL = 0.85  # right, on the real drawings
+TARGET_REACH = 0.60  # share of the relations reaching confidence 0.5
+TARGET_TIME = 0.3  # seconds to predict every place at 1 Mpx
 
 
 class _Drawing:
     """One drawing's candidates, its annotated relations and their cues."""
 
-    def __init__(self, folder):
+    def __init__(self, folder, annotation=None):
         self.name = folder.name
-        ann, drawing = load_input(folder / "drawing.inkray.json")
+        ann, drawing = load_input(annotation or folder / "drawing.inkray.json")
+        self.drawing = drawing
         chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
         self.annotations = ann
         self.labels = chain.segmentation.labels
@@ -71,7 +100,7 @@ class _Drawing:
         orders = [r for r in chain.relations if r.kind == "order"]
         self.truth = [r for r in orders if r.place is not None]
         self.apart = len(orders) - len(self.truth)
-        self._seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
+        self.seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
         self._outlines = outline_lengths(self.labels)
         self.ink = ink_style(drawing.gray)
         self._cues = {}
@@ -85,12 +114,12 @@ class _Drawing:
         places = [self.completion.places[r.place] for r in self.truth]
         if radius not in self._cues:
             # Without the ink: the continuation (0 here) is measured apart, once per width.
-            rows = [order_cues(self.completion, p, outlines=self._outlines, seams=self._seams,
+            rows = [order_cues(self.completion, p, outlines=self._outlines, seams=self.seams,
                                junction_radius=radius) for p in places]
             self._cues[radius] = [None if c is None else [c[k] for k in CUES] for c in rows]
         if widths not in self._continuation:
             self._continuation[widths] = [
-                contact_continuation(self.labels, p, ink=self.ink, seams=self._seams,
+                contact_continuation(self.labels, p, ink=self.ink, seams=self.seams,
                                      continuation_widths=widths) for p in places]
         owns = np.array(self._continuation[widths]) * self.ink.clarity(scale)
         column = CUES.index("continuation")
@@ -99,14 +128,16 @@ class _Drawing:
         y = np.array([1.0 if r.front == p.a else -1.0 for r, p in zip(self.truth, places)])
         return rows, y
 
-    def score(self, weights, params):
+    def score(self, weights, params, model=None):
         """``[(right, confidence)]`` per counted entry, predicted with its order entries
-        removed (a missing prediction is wrong with confidence 0)."""
+        removed (a missing prediction is wrong with confidence 0); ``weights=None``: the
+        learned ``model``."""
         radius, widths, scale = params
         ann = replace(self.annotations, order=[])
         rel, _ = depth_order(constraints(ann), self.labels, self.completion,
                              seams=ann.boundaries, weights=weights, junction_radius=radius,
-                             ink=self.ink, continuation_widths=widths, stroke_end_scale=scale)
+                             ink=self.ink, continuation_widths=widths, stroke_end_scale=scale,
+                             model=model)
         pred = {r.place: (r.front, r.confidence) for r in rel if r.source == "predicted"}
         return [(pred.get(r.place, (None, 0.0))[0] == r.front, pred.get(r.place, (None, 0.0))[1])
                 for r in self.truth]
@@ -225,11 +256,189 @@ def bench_resolve():
     return worst
 
 
+def _real_drawings(extra):
+    """The test drawings: :data:`REAL` and the ``extra`` annotation files."""
+    return [_Drawing(EXAMPLES / n) for n in REAL] + [_Drawing(Path(p).parent, annotation=p)
+                                                    for p in extra]
+
+
+def _cue_rows(batch):
+    """Both orientations of the four cues (the first columns of the features) and labels."""
+    X, y = [], []
+    for s in batch:
+        X += [s.features[:, 0, :len(CUES)], s.features[:, 1, :len(CUES)]]
+        y += [2 * s.y - 1, 1 - 2 * s.y]
+    return np.concatenate(X), np.concatenate(y)
+
+
+def _fit_rows(X, y, lam):
+    """L2-regularized logistic weights of the cues on rows ``X`` with labels +-1."""
+    def loss(w):
+        m = y * (X @ w)
+        return (np.logaddexp(0.0, -m).sum() + lam * w @ w,
+                X.T @ (-y * np.exp(-np.logaddexp(0.0, m))) + 2.0 * lam * w)
+
+    w = minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B").x
+    return {k: round(float(v), 3) for k, v in zip(CUES, w)}
+
+
+def _summary(scored):
+    """(right share, right share at confidence >= 0.5, share reaching 0.5, counts)."""
+    n = max(len(scored), 1)
+    sure = [ok for ok, c in scored if c >= 0.5]
+    return (sum(ok for ok, _ in scored) / n, sum(sure) / max(len(sure), 1), len(sure) / n,
+            len(scored), len(sure))
+
+
+def bench_generated(args):
+    """Train on generated drawings, test on the real ones (see the module docstring)."""
+    import train_order
+
+    pool = []
+    for seed in range(args.generated):
+        pool.append(train_order.generated_samples(seed, cache=args.cache))
+    fit, val = train_order.split(pool)
+    start = time.perf_counter()
+    chosen, model = train_order.choose(fit, val, train_order.development_samples())
+    took = time.perf_counter() - start
+    cues = _fit_rows(*_cue_rows(fit), 1.0)
+    print(f"trained on {len(fit)} generated drawings ({sum(len(s.y) for s in fit)} places), "
+          f"calibrated on {len(val)} ({sum(len(s.y) for s in val)} places), every candidate "
+          f"in {took:.1f} s: kept {chosen!r}, temperature {model.temperature}")
+    print(f"four-cue logistic fitted on the same generated drawings: {cues}\n")
+    default = (40.0, 6.0, 10.0)
+    predictors = (("learned", None, model), ("cues, generated", cues, None),
+                  ("cues, shipped*", WEIGHTS, None))
+    drawings = _real_drawings(args.real)
+    scored = {name: [] for name, _, _ in predictors}
+    head = f"{'drawing':<14} {'entries':>7}" + "".join(
+        f" | {name:>15}: right  sure  >=0.5" for name, _, _ in predictors)
+    print(head)
+    print("-" * len(head))
+    for d in drawings:
+        line = f"{d.name:<14} {len(d.truth):>7}"
+        for name, weights, m in predictors:
+            s = d.score(weights, default, model=m)
+            scored[name] += s
+            acc, sure, reach, _, k = _summary(s)
+            sure = f"{sure:.0%}" if k else "-"
+            line += f" | {'':>15}  {acc:>5.0%} {sure:>5} {reach:>6.0%}"
+        print(line)
+    line = f"{'all':<14} {len(scored['learned']):>7}"
+    for name, _, _ in predictors:
+        acc, sure, reach, n, k = _summary(scored[name])
+        line += f" | {'':>15}  {acc:>5.1%} {sure:>5.1%} {reach:>6.1%}"
+    print(line)
+    print("* the shipped logistic was fitted on all bundled drawings, these included\n")
+    print(f"{'confidence':<12}" + "".join(f" | {name:>15}: entries right" for name, _, _ in predictors))
+    for lo, hi in zip(BINS[:-1], BINS[1:]):
+        line = f"{f'{lo:.2f}-{hi:.2f}':<12}"
+        for name, _, _ in predictors:
+            inbin = [ok for ok, c in scored[name] if lo <= c < hi or (hi == 1.0 and c == 1.0)]
+            acc = f"{sum(inbin) / len(inbin):.0%}" if inbin else "-"
+            line += f" | {'':>15}  {len(inbin):>7} {acc:>5}"
+        print(line)
+    seconds = bench_time_1mpx(model)
+    acc, sure, reach, _, _ = _summary(scored["learned"])
+    print()
+    print(f"{'target (learned model)':<34} {'measured':>9} {'target':>7} {'measured / target':>18}")
+    for name, measured, target, ratio in (
+            ("right, real drawings", f"{acc:.1%}", f"{TARGET_REAL:.0%}", acc / TARGET_REAL),
+            ("right at confidence >= 0.5", f"{sure:.1%}", f"{TARGET_SURE:.0%}", sure / TARGET_SURE),
+            ("relations reaching 0.5", f"{reach:.1%}", f"{TARGET_REACH:.0%}", reach / TARGET_REACH),
+            ("prediction at 1 Mpx (median of 3)", f"{seconds:.3f} s", f"{TARGET_TIME:g} s",
+             seconds / TARGET_TIME)):
+        print(f"{name:<34} {measured:>9} {target:>7} {ratio:>18.2f}")
+    if args.styles:
+        bench_styles(pool, drawings, train_order.CANDIDATES[chosen])
+
+
+def bench_styles(pool, drawings, candidate):
+    """Each generator style left out of training, against as many drawings with every style."""
+    import train_order
+
+    real = [train_order.place_samples(d.completion, d.truth, ink=d.ink, seams=d.seams, name=d.name)
+            for d in drawings]
+    f = np.concatenate([s.features for s in real])
+    y = np.concatenate([s.y for s in real])
+
+    linear, trees = candidate
+
+    def scored(batch):
+        fit, val = train_order.split(batch)
+        p = train_order.train(fit, val, linear=linear, trees=trees).probability(f)
+        conf = np.abs(2 * p - 1)
+        return _summary(list(zip(((p > 0.5) == (y > 0.5)).tolist(), conf.tolist())))
+
+    print(f"\ngenerator styles, scored on the {len(y)} places of the real drawings' entries "
+          f"(no consistency step):")
+    print(f"{'trained on':<28} {'drawings':>8} {'right':>6} {'sure':>6} {'>=0.5':>6}")
+    rng = np.random.default_rng(0)
+    for style in (None,) + train_order.STYLES:
+        if style is None:
+            batch, what = pool, "every style, all drawings"
+        else:
+            batch = [s for s in pool if style not in s.styles]
+            # As many drawings with every style, three random draws, averaged: the spread
+            # between draws is the noise of this table.
+            runs = np.array([scored([pool[i] for i in np.sort(rng.choice(len(pool), len(batch),
+                                                                          replace=False))])[:3]
+                             for _ in range(3)])
+            acc, sure, reach = runs.mean(0)
+            print(f"{'  every style, as many (3x)':<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} "
+                  f"{reach:>6.1%}   right {runs[:, 0].min():.0%}-{runs[:, 0].max():.0%}")
+            what = f"without {style}"
+        acc, sure, reach, _, _ = scored(batch)
+        print(f"{what:<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} {reach:>6.1%}")
+
+
+def bench_time_1mpx(model, repeats=3):
+    """Median seconds of predicting every place of the fox upscaled to about 1 Mpx."""
+    from PIL import Image
+
+    from inkray.input.drawing import drawing_from_array
+
+    ann, _ = load_input(EXAMPLES / "fox" / "drawing.inkray.json")
+    image = Image.open(EXAMPLES / "fox" / "drawing.jpg").convert("RGB")
+    scale = (1e6 / (image.width * image.height)) ** 0.5
+    size = (round(image.width * scale), round(image.height * scale))
+    drawing = drawing_from_array(np.asarray(image.resize(size, Image.LANCZOS)))
+    from inkray.input.annotations import rescale_annotations
+
+    ann = replace(rescale_annotations(ann, size), order=[])
+    chain = ReliefChain(ann, drawing, options=ChainOptions(predict=False))
+    labels, completion = chain.segmentation.labels, chain.candidates
+    ink = ink_style(drawing.gray)
+    times = {"learned": [], "cues": []}
+    for _ in range(repeats):
+        for name, m in (("learned", model), ("cues", None)):
+            start = time.perf_counter()
+            depth_order([], labels, completion, seams=ann.boundaries, ink=ink, model=m)
+            times[name].append(time.perf_counter() - start)
+    print(f"\nfox at {size[0]}x{size[1]}, {len(completion.places)} places, prediction "
+          f"(median of {repeats}): learned {np.median(times['learned']):.3f} s, weighted cues "
+          f"{np.median(times['cues']):.3f} s")
+    return float(np.median(times["learned"]))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--drawings", help="comma-separated folder names under examples/ (default all)")
     ap.add_argument("--no-resolve", action="store_true", help="skip the fast re-solve timing")
+    ap.add_argument("--generated", type=int, help="train on this many generated drawings, "
+                    "test on the real ones")
+    ap.add_argument("--cache", type=Path, help="folder keeping each generated drawing's features")
+    ap.add_argument("--real", action="append", default=[], type=Path,
+                    help="the annotation of one more real drawing (e.g. a shot's first frame), "
+                         "repeatable")
+    ap.add_argument("--styles", action="store_true", help="with --generated: each style left out")
     args = ap.parse_args(argv)
+    if args.generated:
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        bench_generated(args)
+        return
     folders = sorted(p.parent for p in EXAMPLES.glob("*/drawing.inkray.json"))
     if args.drawings:
         wanted = args.drawings.split(",")

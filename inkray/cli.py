@@ -293,6 +293,7 @@ def _cmd_render(args, progress):
     from inkray.formats.atomic import atomic_outputs, check_targets
     from inkray.formats.images import write_renderings
     from inkray.formats.meshes import read_relief
+    from inkray.view.depth_enhancement import check_enhancement
     from inkray.view.rendering import GI_MAX_SIDE, output_size, render, render_turntable
 
     _check_output(args.output, (".png", ".gif") if args.turntable else (".png",))
@@ -308,6 +309,7 @@ def _cmd_render(args, progress):
                              f"(e.g. 800x600)")
     if args.turntable is not None and args.turntable < 1:
         raise InputError(f"--turntable {args.turntable}: expected at least 1 frame")
+    check_enhancement(args.enhance_strength, args.enhance_radius, prefix="enhance_")
     check_targets([args.output], inputs=[args.mesh])
     with progress.stage("read"):
         relief = read_relief(args.mesh)
@@ -316,7 +318,8 @@ def _cmd_render(args, progress):
     options = dict(mode=args.mode, size=size, ambient=args.ambient,
                    flat_colors=args.flat_colors, disparity=args.disparity, spp=args.spp,
                    backdrop=not args.no_backdrop, seed=args.seed, denoise=args.denoise,
-                   progress=progress)
+                   progress=progress, enhance_strength=args.enhance_strength,
+                   enhance_radius=args.enhance_radius)
     if args.light is not None:
         options["light"] = args.light
     with progress.stage(f"render {args.mode} {size[0]}x{size[1]}"):
@@ -594,7 +597,7 @@ def _parser():
     r.add_argument("mesh", metavar="MESH", help="mesh file (GLB, OBJ or PLY)")
     r.add_argument("-o", "--output", required=True, metavar="PNG",
                    help="output image (.png; with --turntable also .gif)")
-    r.add_argument("--mode", choices=("shade", "normals", "depth", "stereo", "gi"),
+    r.add_argument("--mode", choices=("shade", "normals", "depth", "stereo", "gi", "enhance"),
                    default="shade", help="what to render (default: shade)")
     r.add_argument("--size", metavar="WxH", help="image size (default: the drawing's; "
                    "gi: shrunk to fit 800)")
@@ -617,6 +620,12 @@ def _parser():
     r.add_argument("--disparity", type=float, metavar="PX",
                    help="stereo: disparity of the highest point in pixels (default: 2%% of "
                         "the width)")
+    r.add_argument("--enhance-strength", type=float, default=1.0, metavar="S",
+                   help="enhance: how dark surfaces get behind occluding edges, 0..10 "
+                        "(default: 1)")
+    r.add_argument("--enhance-radius", type=float, default=8.0, metavar="PX",
+                   help="enhance: reach of the darkening behind an edge in drawing pixels, "
+                        "0.5..100 (default: 8)")
     r.add_argument("--turntable", type=int, metavar="N",
                    help="N frames swinging around the vertical axis: X-000.png ... or a GIF")
     r.add_argument("--angle", type=float, default=15.0,

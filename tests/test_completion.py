@@ -2,11 +2,12 @@
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from inkray.numerics.grid import grid_laplacian
 from inkray.relief.completion import _OUTSIDE, _dirichlet_system, complete_regions, continue_outline
 from inkray.errors import InputError
-from inkray.relief.ordering import depth_order
+from inkray.relief.ordering import Relation, depth_order
 
 H = W = 200
 YY, XX = np.mgrid[:H, :W]
@@ -308,3 +309,33 @@ def test_coarse_to_fine_completion_moves_the_owner_by_at_most_a_pixel():
         change[tuple(lo)] |= d
         change[tuple(hi)] |= d
     assert not (differ & ~ndimage.binary_dilation(change)).any()
+
+
+def _longest_axis_run(mask):
+    """The longest horizontal or vertical run of pixels of ``mask``."""
+    best = 0
+    for m in (mask, mask.T):
+        padded = np.pad(m, ((0, 0), (1, 1))).astype(np.int8)
+        d = np.diff(padded, axis=1)
+        starts, ends = np.nonzero(d == 1), np.nonzero(d == -1)
+        if starts[0].size:
+            best = max(best, int((ends[1] - starts[1]).max()))
+    return best
+
+
+def test_diverging_outline_closes_without_a_straight_cut():
+    # An ear whose sides splay outwards where they enter the head in front of it: continued,
+    # they never meet; the hidden part must close along a curve, not along the reshaping's window.
+    labels = np.full((H, W), -1, np.int32)
+    wedge = (YY >= 20) & (YY < 90) & (np.abs(XX - 100) <= 4 + 0.5 * (YY - 20))
+    labels[wedge] = 0
+    labels[(YY - 150) ** 2 + (XX - 100) ** 2 < 90 ** 2] = 1          # the head, in front
+    c = complete_regions(labels, names=["ear", "head"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    rel = [Relation(1, 0, "head", "ear", place.where, "user", 1.0, place=place.index)]
+    hidden = c.ordered(rel).owner == 0
+    plain = c.ordered(rel, curvature=False).owner == 0
+    assert hidden.sum() > plain.sum()             # the splaying sides are continued
+    outline = hidden & ~ndimage.binary_erosion(hidden | (labels == 0), border_value=1)
+    contact = int((hidden & ndimage.binary_dilation(labels == 0)).sum())
+    assert _longest_axis_run(outline) < 0.5 * contact, (_longest_axis_run(outline), contact)

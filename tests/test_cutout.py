@@ -34,13 +34,48 @@ def _rank(stack):
     return {layer.region: k for k, layer in enumerate(stack.layers)}
 
 
-def test_flattened_stack_is_the_drawing_where_the_character_is(drawn):
+def _over(rgba, paper):
+    a = rgba[..., 3:4] / 255.0
+    return rgba[..., :3] * a + np.asarray(paper, float) * (1 - a)
+
+
+def _paper(rgb, labels):
+    return np.median(rgb[ndimage.binary_erosion(labels < 0, iterations=10)], axis=0)
+
+
+def test_flattened_stack_over_the_paper_is_the_drawing(drawn):
     chain, stack = drawn
-    character = chain.segmentation.labels >= 0
+    labels, rgb = chain.segmentation.labels, chain.drawing.rgb
+    character = labels >= 0
     flat = stack.flatten()
-    assert np.all(flat[..., 3][character] == 255)
-    assert psnr(flat[..., :3][character], chain.drawing.rgb[character]) >= 35.0
-    assert np.all(flat[..., 3][~character] == 0)
+    assert np.all(flat[..., 3][ndimage.binary_erosion(character, iterations=8)] == 255)
+    shown = character | (flat[..., 3] > 0)
+    assert psnr(_over(flat, _paper(rgb, labels))[shown], rgb[shown]) >= 35.0
+    # Beyond the character only its contour strokes, as faint as they are drawn.
+    beyond = ~character & (flat[..., 3] > 0)
+    gray = chain.drawing.gray
+    paper = np.median(gray[~character & (flat[..., 3] == 0)])
+    core = np.median(gray[character & (gray < 0.5)])
+    cover = (paper - gray[beyond]) / (paper - core)
+    faint = cover < 0.7   # (at the strokes' core the tone varies: there anything goes)
+    assert np.all(flat[..., 3][beyond][faint] / 255 <= cover[faint] + 0.1)
+
+
+def _edge_share(layer):
+    """The share of a layer's edge pixels (opaque at all, beside a transparent one) that
+    are partly transparent."""
+    alpha = np.pad(layer.rgba[..., 3], 1)
+    clear = alpha == 0
+    beside = clear[:-2, 1:-1] | clear[2:, 1:-1] | clear[1:-1, :-2] | clear[1:-1, 2:]
+    edge = (alpha[1:-1, 1:-1] > 0) & beside
+    return float(np.mean(alpha[1:-1, 1:-1][edge] < 255))
+
+
+def test_layer_edges_are_antialiased_as_the_drawing(drawn):
+    chain, stack = drawn
+    shares = [_edge_share(layer) for layer in stack.layers]
+    # Both drawings' strokes have soft edges: so do the layers, drawn and continued edges.
+    assert np.median(shares) > 0.6, shares
 
 
 def test_layers_follow_the_depth_order(drawn):
@@ -59,13 +94,14 @@ def test_hidden_parts_are_filled_with_the_parts_colour_and_outlined(drawn):
     checked = 0
     for layer in stack.layers:
         y0, y1, x0, x1 = layer.box
-        shape = completion.completed(layer.region)[y0:y1, x0:x1]
+        whole = completion.completed(layer.region)
+        shape = whole[y0:y1, x0:x1]
         alpha = layer.rgba[..., 3]
-        assert np.all(alpha[shape] == 255) and np.all(alpha[~shape] == 0)
+        depth = ndimage.distance_transform_edt(whole)[y0:y1, x0:x1]
+        assert np.all(alpha[depth > width + 2] == 255)
         hidden = shape & (completion.labels[y0:y1, x0:x1] != layer.region)
         assert np.array_equal(layer.hidden, hidden)
-        depth = ndimage.distance_transform_edt(shape)
-        inner = layer.hidden & (depth > width + 2)
+        inner = layer.hidden & (depth > 2 * width + 2)  # the local stroke may be wider
         rim = layer.hidden & (depth <= 1)
         if inner.sum() < 30:
             continue
@@ -98,7 +134,8 @@ def test_background_layer_makes_the_whole_drawing(drawn):
     assert np.all(flat[..., 3] == 255) and psnr(flat[..., :3], chain.drawing.rgb) >= 35.0
     under = full.layers[0]
     character = chain.segmentation.labels >= 0
-    assert np.all(under.rgba[..., 3] == 255) and np.array_equal(under.hidden, character)
+    assert np.all(under.rgba[..., 3] == 255) and np.all(under.hidden[character])
+
     # Paper continued under the character: as light as the paper around it.
     paper = np.median(chain.drawing.rgb[~character].astype(float))
     assert np.abs(under.rgba[..., :3][character].astype(float) - paper).mean() < 20
@@ -254,3 +291,81 @@ def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
     assert [layer.name for layer in split.layers] == [split_region, other,
                                                      f"{split_region} over {other}"]
     assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0
+
+
+def _outlined_band():
+    """A band drawn with a soft 3 px grey outline (core 60, a half-tone pixel each side),
+    a bar across it in front: the band's outline is continued under the bar."""
+    h, w = 70, 120
+    gray = np.ones((h, w))
+    labels = np.full((h, w), -1, np.int32)
+    labels[16:54, 4:116] = 0
+    for top in (16, 49):                      # rows: soft, core, core, core... soft
+        gray[top, 4:116] = 0.6
+        gray[top + 1:top + 4, 4:116] = 60 / 255
+        gray[top + 4, 4:116] = 0.6
+    labels[6:64, 50:70] = 1                   # the bar, outlined on its long sides
+    gray[6:64, 50:70] = 1.0
+    for left in (50, 66):
+        gray[6:64, left] = 0.6
+        gray[6:64, left + 1:left + 3] = 60 / 255
+        gray[6:64, left + 3] = 0.6
+    rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
+    c = complete_regions(labels, names=["band", "bar"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
+    return labels, gray, rgb, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+
+
+def test_continued_outline_has_the_drawings_tone_and_width():
+    labels, gray, rgb, stack = _outlined_band()
+    band = stack.layers[0]
+    assert band.name == "band" and band.hidden.any()
+    over = _over(band.rgba, (255, 255, 255))[..., 0] / 255   # the layer alone on paper
+    drawn_cover = (1 - gray[:, 20]) / (1 - 60 / 255)          # across the visible outline
+    for x in (58, 60, 62):                                    # across the continued outline
+        column = np.full(gray.shape[0], 1.0)
+        column[band.top:band.top + over.shape[0]] = over[:, x - band.left]
+        cover = (1 - column) / (1 - 60 / 255)
+        for rows in (slice(10, 30), slice(40, 60)):
+            assert abs(cover[rows].sum() - drawn_cover[rows].sum()) < 0.5, (x, cover[rows])
+            assert abs(column[rows].min() - 60 / 255) < 12 / 255           # the core's tone
+
+
+def test_a_continued_outline_fades_at_its_edge():
+    # A disk drawn with an anti-aliased 3 px outline, a bar in front across it.
+    h = w = 100
+    yy, xx = (np.mgrid[0:4 * h, 0:4 * w] + 0.5) / 4          # 4x4 samples per pixel
+    r = np.hypot(yy - 50, xx - 50)
+    ink = ((r > 27) & (r < 30)).reshape(h, 4, w, 4).mean(axis=(1, 3))
+    inside = (r < 30).reshape(h, 4, w, 4).mean(axis=(1, 3)) >= 0.5
+    gray = 1 - ink
+    labels = np.where(inside, 0, -1).astype(np.int32)
+    labels[:, 44:56] = 1
+    rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
+    c = complete_regions(labels, names=["disk", "bar"])
+    rel = [Relation(1, 0, "bar", "disk", p.where, "user", 1.0, place=p.index)
+           for p in c.places if (p.a, p.b) == (0, 1)]
+    disk = cut_out(c.ordered(rel), rel, drawing_from_array(rgb)).layers[0]
+    alpha = np.pad(disk.rgba[..., 3], 1)
+    clear = alpha == 0
+    beside = clear[:-2, 1:-1] | clear[2:, 1:-1] | clear[1:-1, :-2] | clear[1:-1, 2:]
+    edge = (alpha[1:-1, 1:-1] > 0) & beside
+    continued = edge & ndimage.binary_dilation(disk.hidden, iterations=2)
+    drawn = edge & ~continued
+    assert continued.sum() >= 4 and drawn.sum() > 100
+    share = np.mean(alpha[1:-1, 1:-1][continued] < 255)
+    assert share >= 0.5 * np.mean(alpha[1:-1, 1:-1][drawn] < 255) > 0.3
+
+
+def test_split_local_writes_each_split_piece_once_with_unique_names():
+    labels, rgb, completion, rels = _rings()
+    # The same crossing given twice (an entry and a prediction there), and a third ring-like
+    # crossing of the same pair elsewhere: one split layer per pair, every name once.
+    again = [Relation(r.front, r.back, r.front_name, r.back_name, r.where, "predicted", 0.5,
+                      place=r.place) for r in rels]
+    stack = cut_out(completion, rels + again, drawing_from_array(rgb), split_local=True)
+    names = [layer.name for layer in stack.layers]
+    assert len(names) == len(set(names)) == 3, names
+    character = labels >= 0
+    assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf

@@ -6,7 +6,8 @@ import pytest
 from inkray.errors import InputError
 from inkray.relief.completion import complete_regions
 from inkray.relief.ink_style import InkStyle
-from inkray.relief.order_cues import CUES, contact_continuation, order_cues, outline_lengths
+from inkray.relief.order_cues import (CUES, FEATURES, contact_continuation, order_cues,
+                                      outline_lengths, place_features, region_stats)
 from inkray.relief.ordering import WEIGHTS, predict_place
 
 H, W = 200, 260
@@ -73,7 +74,7 @@ def test_confidence_is_the_logistic_margin_of_the_weighted_cues():
     place = c.places[0]
     cues = order_cues(c, place)
     score = sum(WEIGHTS[k] * cues[k] for k in CUES)
-    r = predict_place(c, place)
+    r = predict_place(c, place, weights=WEIGHTS)
     assert r.front == (place.a if score > 0 else place.b)
     assert r.confidence == pytest.approx(2.0 / (1.0 + np.exp(-abs(score))) - 1.0)
     doubled = predict_place(c, place, weights={k: 2 * v for k, v in WEIGHTS.items()})
@@ -82,6 +83,53 @@ def test_confidence_is_the_logistic_margin_of_the_weighted_cues():
         predict_place(c, place, weights={"size": 1.0})
     with pytest.raises(InputError, match="^junction_radius:"):
         predict_place(c, place, junction_radius=0)
+
+
+# -- the learned model's features -------------------------------------------------
+
+def test_region_stats_are_areas_and_centres():
+    labels = np.full((10, 12), -1, np.int32)
+    labels[2:4, 3:9] = 0                        # 2 x 6: centre (5.5, 2.5)
+    labels[6:9, 0:3] = 2                        # region 1 is empty
+    areas, centres = region_stats(labels)
+    assert areas.tolist() == [12.0, 0.0, 9.0]
+    assert centres.tolist() == [[5.5, 2.5], [0.0, 0.0], [1.0, 7.0]]
+
+
+def test_feature_rows_are_the_two_orientations_of_one_place():
+    labels = _paint(_disk(85, 50, 22), _disk(130, 110, 65), _disk(150, 120, 12))
+    c = complete_regions(labels)
+    for place in c.places:
+        f = place_features(c, place, ink=CLEAN)
+        assert f.shape == (2, len(FEATURES))
+        swapped = place_features(c, place, ink=CLEAN)[::-1]
+        odd = ("junction", "area", "surround", "continuation", "continuation_raw", "log_area",
+               "log_thickness", "inside", "rise")
+        for k, name in enumerate(FEATURES):
+            if name in odd:
+                assert f[0, k] == pytest.approx(-f[1, k])
+        pairs = (("share_x", "share_y"), ("near_x", "near_y"), ("hidden_y", "hidden_x"))
+        for u, v in pairs:
+            assert f[0, FEATURES.index(u)] == f[1, FEATURES.index(v)]
+        assert np.array_equal(f, swapped[::-1])     # deterministic
+
+
+def test_features_of_an_enclosed_part_and_of_a_bar_over_a_box():
+    labels = _paint(_disk(130, 100, 80), _disk(140, 90, 20))          # an eye in a head
+    c = complete_regions(labels)
+    f = place_features(c, c.places[0], ink=CLEAN)
+    assert f[0, FEATURES.index("enclosed_y")] == 1.0 and f[0, FEATURES.index("enclosed_x")] == 0.0
+    assert f[0, FEATURES.index("log_area")] == pytest.approx(np.log((labels == 0).sum() + 1.0)
+                                                             - np.log((labels == 1).sum() + 1.0))
+    assert -0.3 < f[0, FEATURES.index("rise")] < 0        # the head's centre lies below the eye
+    bar = (YY >= 90) & (YY < 110) & (XX >= 20) & (XX < 240)
+    box = (XX >= 60) & (XX < 200) & (YY >= 40) & (YY < 160)
+    c = complete_regions(_paint(box, bar))
+    f = place_features(c, c.places[0], ink=CLEAN)
+    # The bar (b) is thinner; its T-junctions: it covers half of a small disk there.
+    assert f[0, FEATURES.index("log_thickness")] > 0
+    assert f[0, FEATURES.index("near_y")] == pytest.approx(0.5, abs=0.1)
+    assert f[0, FEATURES.index("junctions")] == 4
 
 
 # -- contact continuation: which part's outline runs on along the contact --------

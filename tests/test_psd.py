@@ -38,8 +38,68 @@ def test_psd_tools_composite_is_the_drawing_where_the_character_is(turtle):
     chain, _, path = turtle
     flat = np.asarray(PSDImage.open(path).composite(force=True).convert("RGBA"))
     character = chain.segmentation.labels >= 0
-    mse = np.mean((flat[..., :3][character].astype(float) - chain.drawing.rgb[character]) ** 2)
+    a = flat[..., 3:4] / 255.0   # the layers' soft edges over the (white) paper
+    flat = flat[..., :3] * a + 255.0 * (1 - a)
+    mse = np.mean((flat[character] - chain.drawing.rgb[character]) ** 2)
     assert mse == 0 or 10 * np.log10(255 ** 2 / mse) >= 35.0
+
+
+def _merged_image(data):
+    """The layer count (signed) and the merged image's channels, read with the specification
+    (Adobe Photoshop File Formats: header, colour mode data, image resources, layer and mask
+    information, then the merged image data), not with psd-tools."""
+    import struct
+
+    channels, height, width, depth = struct.unpack(">HIIH", data[12:24])
+    at = 26
+    at += 4 + struct.unpack(">I", data[at:at + 4])[0]          # colour mode data
+    at += 4 + struct.unpack(">I", data[at:at + 4])[0]          # image resources
+    (layers_and_masks,) = struct.unpack(">I", data[at:at + 4])
+    (count,) = struct.unpack(">h", data[at + 8:at + 10])       # after the layer info's length
+    at += 4 + layers_and_masks
+    (compression,) = struct.unpack(">H", data[at:at + 2])
+    at += 2
+    assert depth == 8 and compression in (0, 1)                 # raw or RLE (PackBits) rows
+    if compression == 0:
+        planes = np.frombuffer(data[at:at + channels * height * width], np.uint8)
+        return count, planes.reshape(channels, height, width).transpose(1, 2, 0)
+    lengths = struct.unpack(f">{channels * height}H", data[at:at + 2 * channels * height])
+    at += 2 * channels * height
+    planes = []
+    for c in range(channels):
+        rows = []
+        for n in lengths[c * height:(c + 1) * height]:
+            rows.append(_unpackbits(data[at:at + n]))
+            at += n
+        planes.append(np.array(rows, np.uint8))
+    return count, np.stack(planes, axis=-1)
+
+
+def _unpackbits(row):
+    out, i = bytearray(), 0
+    while i < len(row):
+        n = row[i] if row[i] < 128 else row[i] - 256
+        if n >= 0:
+            out += row[i + 1:i + 2 + n]
+            i += 2 + n
+        elif n != -128:
+            out += bytes([row[i + 1]]) * (1 - n)
+            i += 2
+        else:
+            i += 1
+    return list(out)
+
+
+def test_merged_image_keeps_the_stacks_transparency_flagged_as_such(turtle):
+    _, stack, path = turtle
+    count, merged = _merged_image(path.read_bytes())
+    # A negative layer count: the merged image's first extra channel is its transparency
+    # (not an extra channel), as Photoshop writes it and GIMP and ImageMagick read it.
+    assert count == -len(stack.layers) and merged.shape[-1] == 4
+    flat = stack.flatten()
+    assert np.array_equal(merged[..., 3], flat[..., 3])       # clear around the character
+    shown = flat[..., 3] == 255
+    assert np.abs(merged[..., :3][shown].astype(int) - flat[..., :3][shown]).max() <= 1
 
 
 def test_layer_order_follows_the_relations(turtle):

@@ -93,6 +93,25 @@ def test_alpha_is_the_character_mask(turtle, written):
     assert np.array_equal(maps.mask, character) and maps.names == chain.segmentation.names
 
 
+def test_empty_normals_are_flat_beyond_a_padded_edge(turtle, written):
+    chain, _ = turtle
+    character = chain.segmentation.labels >= 0
+    with Image.open(written / "normal.png") as im:
+        rgba = np.asarray(im).astype(int)
+    distance, (iy, ix) = ndimage.distance_transform_edt(~character, return_indices=True)
+    far = distance > 8
+    assert far.any() and np.all(rgba[far][:, :3] == [128, 128, 255])
+    # A few pixels around the character hold its edge's normals (texture filtering and
+    # mipmaps average them in, not a normal of (-1, -1, -1)).
+    pad = ~character & (distance <= 8)
+    assert pad.sum() > 1000
+    assert np.array_equal(rgba[pad][:, :3], rgba[iy[pad], ix[pad]][:, :3])
+    # The average of any 4x4 block (a mipmap two levels down) is a normal facing the viewer.
+    h, w = (s - s % 4 for s in character.shape)
+    blocks = (rgba[:h, :w, :3] / 127.5 - 1).reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
+    assert blocks[..., 2].min() > 0
+
+
 def test_legend_and_round_trip(turtle, written):
     _, maps = turtle
     legend = json.loads((written / "maps.json").read_text())

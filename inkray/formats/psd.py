@@ -22,7 +22,8 @@ _NAME_MAX = 255  # characters of a layer name
 
 
 def psd_bytes(cutout):
-    """The PSD file of a cut-out stack, as bytes (RGB with transparency, 8 bits, RLE layers).
+    """The PSD file of a cut-out stack, as bytes (RGB with transparency, 8 bits, RLE layers,
+    the flattened stack as the merged image with its transparency).
 
     Parameters
     ----------
@@ -55,6 +56,13 @@ def psd_bytes(cutout):
         # The name property keeps any name in the Unicode name block (and a
         # legacy Mac Roman name beside it), which frompil's argument does not.
         added.name = layer.name
+    # The composite over nothing (not over new()'s black), its alpha flagged as transparency
+    # as Photoshop does: a negative layer count says the first extra channel of the merged
+    # image is its transparency (GIMP, ImageMagick and thumbnailers read it so; otherwise
+    # GIMP shows an "Extra" channel and previews show the character on black).
+    document.background_color = None
+    info = document._record.layer_and_mask_information.layer_info
+    info.layer_count = -abs(info.layer_count)
     buf = io.BytesIO()
     document.save(buf)
     return buf.getvalue()

@@ -16,7 +16,10 @@ The normal's frame is *x right, y up, z toward the viewer* for the OpenGL
 convention (``"opengl"``, also Godot, Blender, Unity) and *x right, y down*
 for DirectX (``"directx"``, Unreal): the two differ in the sign of the green
 channel. The alpha of every image (and code 0 of the height) is the
-character mask: the pixels the segmentation gave a region.
+character mask: the pixels the segmentation gave a region. In ``normal.png``
+the empty pixels hold the edge's normals for 8 px around the character and
+the flat normal (128, 128, 255) beyond, so that filtering and mipmaps do not
+bleed a false normal into the sprite's edge.
 """
 
 import io
@@ -39,6 +42,7 @@ __all__ = ["SpriteMaps", "CONVENTIONS", "sprite_maps", "write_sprite_maps", "rea
 
 #: Normal-map conventions: the sign of the normal's y (green) in the image.
 CONVENTIONS = {"opengl": 1.0, "directx": -1.0}
+_EDGE_PAD = 8  # px of edge normals around the character in normal.png (3 mipmap levels)
 _FILES = {"normal": "normal.png", "height": "height.png", "ao": "ao.png", "parts": "parts.png"}
 _AO_RADIUS_FRACTION = 0.03  # of the drawing's longer side
 
@@ -173,7 +177,7 @@ def write_sprite_maps(maps, directory, *, outputs=None):
     alpha = np.where(mask, 255, 0).astype(np.uint8)
     images = {}
     rgba = np.zeros(mask.shape + (4,), np.uint8)
-    rgba[..., :3] = np.where(mask[..., None], np.rint((np.clip(maps.normal, -1, 1) + 1) * 127.5), 0)
+    rgba[..., :3] = np.rint((np.clip(_padded_normals(maps.normal, mask), -1, 1) + 1) * 127.5)
     rgba[..., 3] = alpha
     images["normal"] = _png(Image.fromarray(rgba, "RGBA"))
     codes, height_range = quantize16(np.nan_to_num(maps.height), mask)
@@ -241,6 +245,17 @@ def read_sprite_maps(directory):
     return SpriteMaps(normal=normal, height=np.where(mask, height, np.nan),
                       ao=np.where(mask, la[..., 0] / 255.0, 1.0), parts=index - 1, names=names,
                       convention=legend["normal"]["convention"])
+
+
+def _padded_normals(normal, mask):
+    """Normals with the edge's normals carried ``_EDGE_PAD`` px into the empty pixels and the
+    flat normal (0, 0, 1) beyond: texture filtering and mipmaps that mix in empty pixels
+    then blend the sprite's edge with its own normals, not with (-1, -1, -1)."""
+    if not mask.any():
+        return np.broadcast_to([0.0, 0.0, 1.0], normal.shape)
+    distance, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    out = np.where((distance <= _EDGE_PAD)[..., None], normal[iy, ix], [0.0, 0.0, 1.0])
+    return np.where(mask[..., None], normal, out)
 
 
 def _png(image, **options):

@@ -36,6 +36,7 @@ from inkray.numerics.spd import spd_factor
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "check_labels"]
 
+_ROUNDING = 2.0  # px: width over which a continued outline turns into its closing offset
 _OUTSIDE = -2  # beyond the image frame: no neighbour (zero normal derivative there)
 _STEPS = ((0, 1), (1, 0), (0, -1), (-1, 0))
 
@@ -287,8 +288,10 @@ def _continuation(labels, front, back, box, piece, *, margin=0.25, band=1.5):
     py, px = np.nonzero(piece)
     py, px = py + box[0], px + box[2]
     m = int(np.ceil(margin * min(np.ptp(py) + 1, np.ptp(px) + 1))) + 3
-    wy0, wy1 = max(py.min() - m, 0), min(py.max() + 1 + m, h)
-    wx0, wx1 = max(px.min() - m, 0), min(px.max() + 1 + m, w)
+    # The window holds every pixel within the margin of the old part (and the rounding).
+    wm = m + 2
+    wy0, wy1 = max(py.min() - wm, 0), min(py.max() + 1 + wm, h)
+    wx0, wx1 = max(px.min() - wm, 0), min(px.max() + 1 + wm, w)
     # Distances are taken on a larger window so that the outline just outside still counts.
     oy0, oy1 = max(wy0 - m, 0), min(wy1 + m, h)
     ox0, ox1 = max(wx0 - m, 0), min(wx1 + m, w)
@@ -312,15 +315,27 @@ def _continuation(labels, front, back, box, piece, *, margin=0.25, band=1.5):
     psi = phi - 0.5 * kappa * phi * phi
     win = (slice(wy0 - oy0, wy1 - oy0), slice(wx0 - ox0, wx1 - ox0))
     psi, hidden = psi[win], outer[win] == front
-    x = _poisson_extension(psi, hidden, -2.0 * kappa[win])
-    grown = hidden & (np.nan_to_num(x, nan=-1.0) > 0)
+    x = np.nan_to_num(_poisson_extension(psi, hidden, -2.0 * kappa[win]), nan=-1.0)
+    old = np.zeros(hidden.shape, bool)
+    old[py - wy0, px - wx0] = True
+    # Outlines that diverge under the occluder (an ear's sides splaying into the head) never
+    # close: the continuation is closed by the diffusion's part grown by the margin, a rounded
+    # offset of its shape (not by the window, whose cut would be a straight line), with a
+    # smooth minimum so that the two outlines meet without a corner.
+    bound = np.where(old, ndimage.distance_transform_edt(old),
+                     0.5 - ndimage.distance_transform_edt(~old)) + m + 0.5 * _ROUNDING
+    grown = hidden & (_smooth_min(x, bound, _ROUNDING) > 0)
     # Only pieces attached to the visible region are its continuation.
     comp, _ = ndimage.label(grown)
     touching = ndimage.binary_dilation(labels[wy0:wy1, wx0:wx1] == back) & grown
     grown = np.isin(comp, np.unique(comp[touching])) & grown
-    old = np.zeros(hidden.shape, bool)
-    old[py - wy0, px - wx0] = True
     return (slice(wy0, wy1), slice(wx0, wx1)), old, grown
+
+
+def _smooth_min(a, b, k):
+    """``min(a, b)`` with the corner where ``a == b`` rounded over a width ``k`` (polynomial)."""
+    h = np.clip(0.5 + 0.5 * (b - a) / k, 0.0, 1.0)
+    return b * (1 - h) + a * h - k * h * (1 - h)
 
 
 def _apply_continuation(owner, back, found):

@@ -31,12 +31,17 @@ from inkray.errors import InputError
 from inkray.numerics.grid import grid_laplacian
 from inkray.numerics.order_graph import OrderGraph
 from inkray.numerics.spd import MinQuadWithFixed
+from inkray.relief.silhouette import grow_over_ink, pad_ink_edge
 
 __all__ = ["CutoutLayer", "Cutout", "Split", "cut_out", "stack_order", "stroke_style"]
 
 _INK_CONTRAST = 0.15  # ink: this much darker than the closing of the grey image (its surroundings)
 _STROKE_MAX = 8       # px: the widest stroke the ink detection and the outline assume
 _REGULARIZE = 1e-6  # pull toward the region's mean colour: fills parts no visible colour reaches
+_SOFT_EDGE = 0.75   # grey level up to which a stroke's soft edge belongs to its part's contour
+_CLEAR = 0.05  # coverage below which a pixel beyond a part is paper
+_MATTE = 24  # levels: a pixel this close to a mix of paper and ink is that mix
+_EDGE_SMOOTHING = 0.7  # px: Gaussian over a silhouette's stair-steps for its anti-aliased edge
 
 
 @dataclass
@@ -208,19 +213,27 @@ def stack_order(count, relations):
     return order, broken
 
 
-def stroke_style(rgb, gray):
-    """The drawing's ink: its colour and its typical stroke width in pixels.
+def stroke_style(rgb, gray, *, where=None):
+    """The drawing's ink: the colour of its strokes' cores and their width in pixels.
 
     Ink is what is darker than its surroundings by a stroke's width (a grey
-    closing); the width is the ink's area over the length of its skeleton,
-    clipped to 1..8 px; the colour the median of the ink pixels (black
-    without ink).
+    closing). The colour is the median of the drawing along the ink's
+    skeleton (the darkest line of each stroke, not its soft edges); the width
+    is the ink's coverage (how far each pixel goes from its surroundings'
+    tone to that core tone, 0..1) summed across the strokes, over the
+    skeleton's length: the width of a solid stroke of the core colour that
+    puts as much ink on the paper, soft edges included. Clipped to 1..8 px;
+    black and 1 px without ink.
 
     Parameters
     ----------
     rgb : (H, W, 3) uint8 array
     gray : (H, W) float array
         Paper 1, ink near 0.
+    where : (H, W) bool array, optional
+        Measure only the strokes whose skeleton lies here (e.g. near a
+        part's hidden area); the whole drawing's when it holds too little
+        ink (a skeleton shorter than 8 px).
 
     Returns
     -------
@@ -229,21 +242,60 @@ def stroke_style(rgb, gray):
 
     Examples
     --------
-    >>> gray = np.ones((20, 20)); gray[5:8, 2:18] = 0.0      # a 3 px stroke
+    >>> gray = np.ones((20, 90)); gray[5:8, 5:85] = 0.0      # a 3 px stroke
+    >>> gray[4, 5:85] = gray[8, 5:85] = 0.5                  # with a soft edge each side
     >>> rgb = np.repeat((gray[..., None] * 255).astype(np.uint8), 3, axis=2)
     >>> colour, width = stroke_style(rgb, gray)
     >>> colour.tolist(), round(width)
-    ([0, 0, 0], 3)
+    ([0, 0, 0], 4)
     """
+    gray = np.asarray(gray, np.float64)
+    ink, skeleton = _strokes(gray)
+    return _measure(np.asarray(rgb), gray, ink, skeleton, where)
+
+
+def _strokes(gray):
+    """The ink (darker than its surroundings by a stroke's width) and its skeleton."""
     from skimage.morphology import skeletonize
 
-    ink = _ink(np.asarray(gray, np.float64), size=_STROKE_MAX + 1)
-    if not ink.any():
+    ink = _ink(gray, size=_STROKE_MAX + 1)
+    return ink, skeletonize(ink)
+
+
+def _measure(rgb, gray, ink, skeleton, where):
+    """:func:`stroke_style` on the strokes found once."""
+    local = skeleton if where is None else skeleton & where
+    if local.sum() < 8:
+        local = skeleton
+    if not local.any():
         return np.zeros(3, np.uint8), 1.0
-    length = skeletonize(ink).sum()
-    width = float(np.clip(ink.sum() / max(length, 1), 1.0, _STROKE_MAX))
-    colour = np.median(np.asarray(rgb)[ink], axis=0).astype(np.uint8)
+    colour = np.median(rgb[local], axis=0).astype(np.uint8)
+    cover = _coverage(gray, float(np.median(gray[local])), size=_STROKE_MAX + 1)
+    # The coverage of the ink (and its soft edge) whose nearest skeleton pixel is measured.
+    dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
+    mine = local[iy, ix] & (dist <= _STROKE_MAX / 2 + 1) & ndimage.binary_dilation(ink, iterations=2)
+    width = float(np.clip(cover[mine].sum() / _curve_length(local), 1.0, _STROKE_MAX))
     return colour, width
+
+
+def _curve_length(skeleton):
+    """Length (px) of thin 8-connected curves: 1 per step along a row or column, sqrt(2) per
+    diagonal step (not a diagonal that cuts the corner of two such steps); a pixel counts
+    once. Counting pixels instead would make a diagonal stroke look 1.4 times as wide."""
+    s = np.pad(skeleton, 1)
+    c = s[1:-1, 1:-1]
+    right, down = c & s[1:-1, 2:], c & s[2:, 1:-1]
+    links = float(right.sum() + down.sum())
+    for dx, a, b in ((1, s[1:-1, 2:], s[2:, 1:-1]), (-1, s[1:-1, :-2], s[2:, 1:-1])):
+        diagonal = c & s[2:, 1 + dx:s.shape[1] - 1 + dx] & ~a & ~b
+        links += np.sqrt(2.0) * float(diagonal.sum())
+    return max(links, 1.0)
+
+
+def _coverage(gray, core, *, size):
+    """How much of each pixel is ink: 0 at its surroundings' tone, 1 at the strokes' ``core`` tone."""
+    around = ndimage.grey_closing(gray, size=(size, size))
+    return np.clip((around - gray) / np.maximum(around - core, _INK_CONTRAST), 0.0, 1.0)
 
 
 def cut_out(completion, relations, drawing, *, pad=0, split_local=False, background=False):
@@ -293,18 +345,25 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
         raise InputError(f"pad: expected a whole number of pixels >= 0, got {pad!r}")
     names = completion.names
     order, broken = stack_order(completion.count, relations)
+    # One split per place: a crossing given twice (an entry and a prediction) is one split.
+    once = {(r.front, r.back, r.place): r for r in reversed(broken)}
     splits = [Split(r.front, r.back, names[r.front], names[r.back],
-                    tuple(float(v) for v in r.where), r.place) for r in broken]
-    ink_colour, width = stroke_style(rgb, gray)
+                  tuple(float(v) for v in r.where), r.place) for r in reversed(once.values())]
+    strokes = _Strokes(rgb, gray)
+    silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
+    fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
+    air = labels < 0
     layers = []
     if background:
         everywhere = np.ones(labels.shape, bool)
-        layers.append(_layer("background", -1, labels < 0, everywhere, everywhere, rgb, gray,
-                             ink_colour, width, outline=False))
+        layers.append(_layer("background", -1, (labels < 0) & ~fringe, everywhere, everywhere,
+                             strokes, outline=False))
     above = np.zeros(labels.shape, bool)  # visible pixels of the regions above, front first
+    # Where the parts above are opaque: not on their soft rims along the paper.
+    solid = ndimage.distance_transform_edt(~air) > np.ceil(strokes.width) + 2
     covers = {}
     for region in reversed(order):
-        covers[region] = above.copy()
+        covers[region] = above & solid
         above |= labels == region
     shapes = {}
     for region in order:
@@ -314,8 +373,9 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
         grown = shape
         if pad:
             grown = shape | (ndimage.binary_dilation(shape, iterations=int(pad)) & covers[region])
-        shapes[region] = _layer(names[region], region, labels == region, shape, grown, rgb,
-                                gray, ink_colour, width)
+        shapes[region] = _layer(names[region], region, labels == region, shape, grown, strokes,
+                                air=air, under=covers[region],
+                                fringe=fringe & (silhouette == region))
     cuts = [(s, _piece(completion, shapes[s.region], s)) for s in splits
             if split_local and s.region in shapes]
     for region in (r for r in order if r in shapes):
@@ -323,46 +383,193 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
         layer = _without(shapes[region], np.any(taken, axis=0)) if taken else shapes[region]
         if layer is not None:
             layers.append(layer)
-        for s, piece in cuts:  # a split piece goes just above the part it must cover
+        # The split pieces of a part over this one (one per crossing) go just above it, as
+        # one layer.
+        over = {}
+        for s, piece in cuts:
             if s.under == region:
-                part = _without(shapes[s.region], ~piece, name=f"{s.name} over {s.under_name}")
-                if part is not None:
-                    layers.append(part)
+                over[s.region] = over.get(s.region, False) | piece
+        for front, piece in over.items():
+            part = _without(shapes[front], ~piece, name=f"{names[front]} over {names[region]}")
+            if part is not None:
+                layers.append(part)
+    _unique_names(layers)
     return Cutout(layers=layers, size=(labels.shape[1], labels.shape[0]), splits=splits,
                   split=bool(split_local))
 
 
-def _layer(name, region, visible, shape, grown, rgb, gray, ink_colour, width, *, outline=True):
-    """One layer: drawing pixels where visible, fill (and outline) elsewhere in ``grown``."""
-    rows, cols = np.flatnonzero(grown.any(axis=1)), np.flatnonzero(grown.any(axis=0))
-    y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+class _Strokes:
+    """The drawing and its ink, measured once for every layer."""
+
+    def __init__(self, rgb, gray):
+        self.rgb, self.gray = rgb, gray
+        self.ink, self.skeleton = _strokes(gray)
+        self.colour, self.width = _measure(rgb, gray, self.ink, self.skeleton, None)
+        core = float(np.median(gray[self.skeleton])) if self.skeleton.any() else 0.0
+        self.soft = gray < _SOFT_EDGE
+        paper = ~ndimage.binary_dilation(self.ink, iterations=2) & (gray >= _SOFT_EDGE)
+        self.paper = np.median(rgb[paper], axis=0) if paper.any() else np.full(3, 255.0)
+        tone = float(np.median(gray[paper])) if paper.any() else 1.0
+        # Against the paper: the layers' soft edges lie on it.
+        self.cover = np.clip((tone - gray) / max(tone - core, _INK_CONTRAST), 0.0, 1.0)
+        # Pixels that are ink over paper (not a colour of their own) can fade with the ink.
+        mix = self.paper + self.cover[..., None] * (self.colour.astype(float) - self.paper)
+        self.matte = np.abs(rgb - mix).max(axis=2) <= _MATTE
+
+    def style(self, hidden, own):
+        """Colour and width of the part's strokes (``own``: its pixels, (H, W)) where its
+        outline enters its ``hidden`` area ((H, W)): within 32 px of it, not at the junctions
+        (within 8 px), where the occluder's outline meets them."""
+        rows, cols = np.flatnonzero(hidden.any(axis=1)), np.flatnonzero(hidden.any(axis=0))
+        m = 5 * _STROKE_MAX
+        big = (slice(max(rows[0] - m, 0), rows[-1] + m + 1),
+               slice(max(cols[0] - m, 0), cols[-1] + m + 1))
+        near = hidden[big]
+        reach = ndimage.binary_dilation(near, iterations=4 * _STROKE_MAX) & own[big] & \
+            ~ndimage.binary_dilation(near, iterations=_STROKE_MAX)
+        return _measure(self.rgb[big], self.gray[big], self.ink[big], self.skeleton[big], reach)
+
+
+def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None, fringe=None,
+           outline=True):
+    """One layer: drawing pixels where visible, fill (and outline) elsewhere in ``grown``.
+
+    Its alpha is the drawing's own soft edge where the layer ends at a drawn
+    outline (the ink's coverage beyond the stroke's darkest line) and an
+    anti-aliased edge (from the silhouette's smoothed signed distance) where
+    it ends at a continued outline. ``under`` are the pixels that the parts
+    in front cover opaquely: the padding lies there, and so whatever it
+    changes, so that the flattened stack does not depend on it.
+    """
+    h, w = visible.shape
+    footprint = grown if fringe is None else grown | fringe
+    rows, cols = np.flatnonzero(footprint.any(axis=1)), np.flatnonzero(footprint.any(axis=0))
+    # One pixel beyond the continued outline for its anti-aliasing, one of air around it.
+    y0, y1 = max(rows[0] - 2, 0), min(rows[-1] + 3, h)
+    x0, x1 = max(cols[0] - 2, 0), min(cols[-1] + 3, w)
     win = (slice(y0, y1), slice(x0, x1))
     vis, shp, grw = visible[win], shape[win], grown[win]
-    colours = rgb[win].astype(np.float64)
+    frg = np.zeros_like(grw) if fringe is None else fringe[win] & ~grw
+    below = np.zeros_like(grw) if under is None else under[win]
+    colours = strokes.rgb[win].astype(np.float64)
     hidden = grw & ~vis
-    out = np.zeros(grw.shape + (4,), np.uint8)
-    out[..., :3] = np.where(vis[..., None], rgb[win], 0)
+    out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
-        # Ink (the occluder's outline) is not the part's colour; one pixel of antialiased fringe.
-        ink = vis & ndimage.binary_dilation(_ink(gray[win], size=2 * int(np.ceil(width)) + 3))
-        # Ink next to the hidden part (the occluder's outline) is not the part's colour.
-        near = ndimage.binary_dilation(hidden, iterations=int(np.ceil(2 * width)) + 1)
-        unknown = hidden | (ink & near)
-        known = vis & ~ink & ndimage.binary_dilation(unknown)
-        if not known.any():
-            known = vis & ndimage.binary_dilation(unknown)
-        mean = colours[vis & ~ink].mean(axis=0) if (vis & ~ink).any() else (
-            colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
-        fill = _harmonic_fill(colours, known, unknown, mean)
-        if outline:
-            # The outline continues along the completed silhouette, over the fill.
-            depth = ndimage.distance_transform_edt(shp)
-            cover = np.clip(width - (depth - 1.0), 0.0, 1.0)[..., None]
-            fill = fill * (1 - cover) + ink_colour * cover
-        out[..., :3] = np.where(hidden[..., None], np.clip(np.rint(fill), 0, 255), out[..., :3])
-    out[..., 3] = np.where(grw, 255, 0)
-    return CutoutLayer(name=name, region=region, top=int(y0), left=int(x0), rgba=out,
-                       hidden=hidden)
+        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], vis, shp & ~vis,
+                                                hidden, strokes.width), out)
+    if not outline:
+        alpha = grw.astype(np.float64)
+    else:
+        own = (shape & ~visible, visible if fringe is None else visible | fringe)
+        alpha, out = _edges(win, vis, shp, grw, frg, below, air[win], out, colours, strokes, own)
+    a8 = np.rint(alpha * 255).astype(np.uint8)
+    rgba = np.dstack([np.where(a8[..., None] > 0, np.clip(np.rint(out), 0, 255), 0), a8])
+    rgba = rgba.astype(np.uint8)
+    keep = a8 > 0
+    rows, cols = np.flatnonzero(keep.any(axis=1)), np.flatnonzero(keep.any(axis=0))
+    crop = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    return CutoutLayer(name=name, region=region, top=int(y0 + rows[0]), left=int(x0 + cols[0]),
+                       rgba=rgba[crop], hidden=hidden[crop])
+
+
+def _fill(colours, gray, vis, hidden, padded, width):
+    """The part's colours continued into its ``hidden`` pixels, then into the padding."""
+    # Ink next to the hidden part (the occluder's outline) is not the part's colour.
+    ink = vis & ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
+    near = ndimage.binary_dilation(hidden, iterations=int(np.ceil(2 * width)) + 1)
+    unknown = hidden | (ink & near)
+    known = vis & ~ink & ndimage.binary_dilation(unknown)
+    if not known.any():
+        known = vis & ndimage.binary_dilation(unknown)
+    mean = colours[vis & ~ink].mean(axis=0) if (vis & ~ink).any() else (
+        colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
+    fill = _harmonic_fill(colours, known, unknown, mean) if unknown.any() else colours
+    pad = padded & ~hidden
+    if pad.any():  # the padding continues the completed part, which it does not change
+        done = (vis & ~ink) | hidden
+        fill = np.where(done[..., None], fill, colours)
+        fill = np.where(pad[..., None],
+                        _harmonic_fill(fill, done & ndimage.binary_dilation(pad), pad, mean), fill)
+    return fill
+
+
+def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
+    """The layer's alpha and colours at its edges: drawn (the ink's soft edge) and continued."""
+    drawn = grw | frg   # the layer's pixels whose edge the drawing gives
+    edge = np.zeros_like(grw)
+    sd = np.zeros(grw.shape)
+    hidden = shp & ~vis
+    if hidden.any():
+        # The continued outline's edge: pixels whose nearest pixel of the part is hidden, beyond
+        # the part only under the parts in front; the padding's own edge only there.
+        for part in (shp, grw):
+            d = _signed_distance(part)
+            _, (iy, ix) = ndimage.distance_transform_edt(~part, return_indices=True)
+            mine = (part & ~vis) | (~part & below & (part & ~vis)[iy, ix] & (d > -1.5))
+            if part is grw:
+                mine &= below
+            edge |= mine
+            sd = np.where(mine, d, sd)
+        drawn &= ~edge
+    alpha = np.where(drawn, _drawn_alpha(drawn, air, frg, strokes.matte[win], strokes.cover[win],
+                                         strokes.ink[win], strokes.width), 0.0)
+    # A soft edge pixel holds the ink that makes the drawing over the paper.
+    soft = drawn & (alpha < 1)
+    safe = np.where(alpha > 1e-3, alpha, 1.0)[..., None]
+    out = np.where(soft[..., None], (colours - (1 - safe) * strokes.paper) / safe, out)
+    if hidden.any():
+        # The continued outline: the colour and width of the part's own strokes where its
+        # outline enters the hidden area, its edge as soft as the drawn edge (inset by as
+        # much as the drawn edge's pixels are clear on average).
+        colour, width = strokes.style(*own)
+        inset = _inset(alpha, drawn)
+        a = np.clip(sd + 0.5 - inset, 0.0, 1.0)
+        # The stroke lies within ``width`` of the completed silhouette (not of the padding).
+        ss = _signed_distance(shp) - inset
+        cover = np.clip(np.minimum(ss + 0.5, width) - np.maximum(ss - 0.5, 0.0), 0.0, 1.0)
+        k = np.divide(cover, a, out=np.zeros_like(a), where=a > 0).clip(0.0, 1.0)[..., None]
+        out = np.where(edge[..., None], out * (1 - k) + colour * k, out)
+        alpha = np.where(edge, a, alpha)
+    return alpha, out
+
+
+def _inset(alpha, drawn):
+    """How far (px) the drawn edge's alpha falls inside the layer: the mean clear share of
+    its edge pixels (opaque at all, beside a clear one), 0 for a crisp edge."""
+    solid = alpha > 0
+    clear = np.pad(~solid, 1, constant_values=True)
+    beside = clear[:-2, 1:-1] | clear[2:, 1:-1] | clear[1:-1, :-2] | clear[1:-1, 2:]
+    rim = drawn & solid & beside
+    return float(np.mean(1.0 - alpha[rim])) if rim.any() else 0.0
+
+
+def _signed_distance(mask):
+    """Distance (px) from each pixel's centre to the edge of ``mask``, positive inside,
+    smoothed over the pixel stair-steps."""
+    sd = np.where(mask, ndimage.distance_transform_edt(mask) - 0.5,
+                  0.5 - ndimage.distance_transform_edt(~mask))
+    return ndimage.gaussian_filter(sd, _EDGE_SMOOTHING)
+
+
+def _drawn_alpha(footprint, air, fringe, matte, cover, ink, width):
+    """Alpha of a layer where its edge is drawn: the ink's coverage outside the stroke's core.
+
+    Transparency flows in from the paper around the layer (``air``) through
+    pixels of its rim near ink and stops at the stroke's darkest line (a
+    morphological reconstruction of ``1 - cover``): what lies outside that
+    line fades with the ink as in the drawing; the paper inside the stroke
+    stays opaque. Where no ink lines the edge, and along a seam with another
+    part, the layer stays opaque to its edge.
+    """
+    from skimage.morphology import reconstruction
+
+    outside = ~footprint & air
+    rim = footprint & (ndimage.distance_transform_edt(~outside) <= np.ceil(width) + 1)
+    rim = (rim & ndimage.binary_dilation(ink, iterations=2) & matte) | fringe
+    # Paper beyond the part's label is clear also where strokes enclose it.
+    seed = (outside | (fringe & (cover < _CLEAR))).astype(np.float64)
+    mask = np.maximum(np.where(rim, 1.0 - cover, 0.0), seed)
+    return 1.0 - reconstruction(seed, mask, method="dilation")
 
 
 def _ink(gray, *, size):
@@ -387,6 +594,20 @@ def _harmonic_fill(colours, known, unknown, mean):
     out = np.zeros((h * w, 3))
     out[index] = x
     return out.reshape(h, w, 3)
+
+
+def _unique_names(layers):
+    """Number the second and later layers of one name ("arm 2"): rigs key layers by name."""
+    seen = {layer.name for layer in layers}
+    count = {}
+    for layer in layers:
+        count[layer.name] = count.get(layer.name, 0) + 1
+        if count[layer.name] > 1:
+            k = count[layer.name]
+            while f"{layer.name} {k}" in seen:
+                k += 1
+            seen.add(f"{layer.name} {k}")
+            layer.name = f"{layer.name} {k}"
 
 
 def _piece(completion, layer, split):

@@ -39,7 +39,8 @@ from scipy import ndimage
 
 from inkray.numerics.polyline import point_polyline_distance
 
-__all__ = ["CUES", "contact_continuation", "order_cues", "outline_lengths"]
+__all__ = ["CUES", "FEATURES", "contact_continuation", "order_cues", "outline_lengths",
+           "place_features", "region_stats"]
 
 #: Names of the cues :func:`order_cues` returns, in order.
 CUES = ("junction", "area", "surround", "continuation")
@@ -311,3 +312,177 @@ def _border(lab, x, touches):
     for n in (padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:]):
         found |= touches(n)
     return found & (lab == x)
+
+
+#: Names of the columns of :func:`place_features`, for one orientation ``(x, y)``
+#: of a place: ``x`` the region supposed in front.
+FEATURES = ("junction", "area", "surround", "continuation", "continuation_raw", "clarity",
+            "log_area", "share_x", "share_y", "enclosed_x", "enclosed_y", "log_thickness",
+            "inside", "hidden_y", "hidden_x", "near_x", "near_y", "far_x", "far_y", "junctions",
+            "rise")
+
+
+def place_features(completion, place, *, outlines=None, stats=None, seams=(), ink=None,
+                   junction_radius=40.0, continuation_widths=6.0, stroke_end_scale=10.0,
+                   seam_distance=6.0):
+    """What the learned order model reads at one place, for both orientations.
+
+    Row 0 describes the place with ``x = place.a`` supposed in front of
+    ``y = place.b``, row 1 the other way round; a model scores both and
+    compares, so its answer does not depend on which region is ``a``.
+    Columns (:data:`FEATURES`):
+
+    - the four cues of :func:`order_cues` (signed for ``x`` in front), the
+      ``continuation`` cue not weighted by the ink's clarity, and the clarity;
+    - ``log_area``: ``log(|x| / |y|)``, the parts' sizes;
+    - ``share_x``, ``share_y``: the share of each part's outline on the
+      contact, and ``enclosed_x``, ``enclosed_y`` (share above 0.98);
+    - ``log_thickness``: log ratio of the parts' largest inscribed radius
+      within the place's box (a limb over a body is the thinner part);
+    - ``inside``: which part lies inside the bend of the contact line (the
+      front part's outline bounds it: the contact curves round the front
+      part): ``(n_x - n_y) / (n_x + n_y)`` over the pixels of the contact's
+      convex hull;
+    - ``hidden_y``, ``hidden_x``: the candidate completion of ``y`` under
+      ``x`` (and of ``x`` under ``y``) over the hidden part's visible area;
+    - junction patches: ``near_x``, ``near_y`` (share of a disk of 3 stroke
+      widths around each junction covered by each part) and ``far_x``,
+      ``far_y`` (the same over 8 stroke widths), averaged over the junctions;
+      at a T-junction the front part covers half the disk;
+    - ``junctions``: how many junctions the place has (at most 4);
+    - ``rise``: how far ``x``'s centre lies above ``y``'s, over the square
+      root of their mean area.
+
+    Parameters
+    ----------
+    completion : inkray.relief.completion.Completion
+    place : inkray.relief.completion.Place
+    outlines : (R,) array, optional
+        :func:`outline_lengths` of the labels (computed when not given).
+    stats : ((R,) array, (R, 2) array), optional
+        :func:`region_stats` of the labels (computed when not given).
+    seams, ink, junction_radius, continuation_widths, stroke_end_scale, seam_distance
+        As for :func:`order_cues`; without ``ink`` the stroke width is taken
+        as 2 pixels and the continuation cues are 0.
+
+    Returns
+    -------
+    (2, len(FEATURES)) float array or None
+        None when every junction of the place lies on a seam.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.completion import complete_regions
+    >>> labels = np.full((60, 80), -1); labels[10:50, 10:45] = 0
+    >>> labels[24:36, 30:75] = 1                                   # a bar over a square
+    >>> c = complete_regions(labels)
+    >>> f = place_features(c, c.places[0])
+    >>> f.shape, bool(f[0, FEATURES.index("log_area")] > 0)
+    ((2, 21), True)
+    """
+    a, b = place.a, place.b
+    labels = completion.labels
+    if outlines is None:
+        outlines = outline_lengths(labels)
+    areas, centres = region_stats(labels) if stats is None else stats
+    cues = order_cues(completion, place, outlines=outlines, seams=seams,
+                      junction_radius=junction_radius, seam_distance=seam_distance, ink=ink,
+                      continuation_widths=continuation_widths, stroke_end_scale=stroke_end_scale)
+    if cues is None:
+        return None
+    clarity = ink.clarity(stroke_end_scale) if ink is not None else 0.0
+    raw = cues["continuation"] / clarity if clarity > 0 else 0.0
+    width = ink.width if ink is not None and ink.width > 0 else 2.0
+    y0, y1, x0, x1 = place.box
+    lab = labels[y0:y1, x0:x1]
+    share = [min(float((place.contact & (lab == x)).sum()) / max(int(outlines[x]), 1), 1.0)
+             for x in (a, b)]
+    thick = [float(ndimage.distance_transform_edt(np.pad(lab == x, 1)).max()) for x in (a, b)]
+    inside = _inside_bend(place, lab, a, b)
+    own = completion.owner[y0:y1, x0:x1]
+    hidden = [float((place.mask & (lab == x) & (own == o)).sum()) / max(int(areas[o]), 1)
+              for x, o in ((a, b), (b, a))]  # [y=b under x=a, a under b]
+    junctions = _free_junctions(place, seams, seam_distance)
+    patch = np.zeros((2, 2))  # [radius][part]
+    for j in junctions:
+        for k, r in enumerate((3.0 * width, 8.0 * width)):
+            patch[k] += _disk_shares(labels, j, r, (a, b))
+    patch /= max(len(junctions), 1)
+    rise = (centres[b, 1] - centres[a, 1]) / np.sqrt((areas[a] + areas[b]) / 2.0 + 1.0)
+    one = np.array([cues["junction"], cues["area"], cues["surround"], cues["continuation"], raw,
+                    clarity, np.log((areas[a] + 1.0) / (areas[b] + 1.0)), share[0], share[1],
+                    float(share[0] > 0.98), float(share[1] > 0.98),
+                    np.log((thick[0] + 1.0) / (thick[1] + 1.0)), inside, hidden[0], hidden[1],
+                    patch[0, 0], patch[0, 1], patch[1, 0], patch[1, 1],
+                    float(min(len(junctions), 4)), rise])
+    other = one.copy()
+    for k in ("junction", "area", "surround", "continuation", "continuation_raw", "log_area",
+              "log_thickness", "inside", "rise"):
+        other[FEATURES.index(k)] *= -1.0
+    for u, v in (("share_x", "share_y"), ("enclosed_x", "enclosed_y"), ("hidden_y", "hidden_x"),
+                 ("near_x", "near_y"), ("far_x", "far_y")):
+        i, j = FEATURES.index(u), FEATURES.index(v)
+        other[i], other[j] = one[j], one[i]
+    return np.stack([one, other])
+
+
+def region_stats(labels):
+    """Pixel count and centre of every region.
+
+    Parameters
+    ----------
+    labels : (H, W) int array
+        ``-1`` background, ``0..R-1`` regions.
+
+    Returns
+    -------
+    areas : (R,) float array
+    centres : (R, 2) float array
+        ``[x, y]`` of each region's centre (0 for an empty region).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> labels = np.full((4, 6), -1); labels[1:3, 2:6] = 0
+    >>> areas, centres = region_stats(labels)
+    >>> areas.tolist(), centres.tolist()
+    ([8.0], [[3.5, 1.5]])
+    """
+    labels = np.asarray(labels)
+    count = int(labels.max()) + 1 if labels.size else 0
+    inside = labels >= 0
+    lab = labels[inside]
+    yy, xx = np.nonzero(inside)
+    areas = np.bincount(lab, minlength=count).astype(float)
+    centres = np.stack([np.bincount(lab, xx, minlength=count),
+                        np.bincount(lab, yy, minlength=count)], 1) / np.maximum(areas, 1.0)[:, None]
+    return areas, centres
+
+
+def _inside_bend(place, lab, a, b):
+    """``(n_a - n_b) / (n_a + n_b)`` over the pixels in the convex hull of the contact."""
+    from skimage.morphology import convex_hull_image
+
+    if place.contact.sum() < 3:
+        return 0.0
+    # The hull lies within the contact's bounding box: only that is searched.
+    (box,) = ndimage.find_objects(place.contact.astype(np.int8))
+    contact, lab = place.contact[box], lab[box]
+    hull = convex_hull_image(contact) & ~contact
+    na, nb = int((hull & (lab == a)).sum()), int((hull & (lab == b)).sum())
+    return (na - nb) / max(na + nb, 1)
+
+
+def _disk_shares(labels, point, radius, regions):
+    """Share of a disk around ``point`` ``(x, y)`` covered by each of ``regions``."""
+    h, w = labels.shape
+    r = int(np.ceil(radius))
+    px, py = point
+    y0, y1 = max(int(py) - r, 0), min(int(py) + r + 2, h)
+    x0, x1 = max(int(px) - r, 0), min(int(px) + r + 2, w)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    disk = (yy - py) ** 2 + (xx - px) ** 2 <= radius * radius
+    lab = labels[y0:y1, x0:x1][disk]
+    n = max(int(disk.sum()), 1)
+    return np.array([float((lab == x).sum()) / n for x in regions])

@@ -15,14 +15,21 @@ be acyclic.
 Prediction, per place of a pair ``a``/``b``: the cues of
 :mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
 of each part's outline the contact is, which part's outline continues the
-contact line, trusted as far as the drawing's lines are clean) are combined as a logistic model,
-``score = sum(weights[cue] * cue)``; its sign says who is in front and
-``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss, towards 1 when
-sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`, :data:`CONTINUATION_WIDTHS` and
-:data:`STROKE_END_SCALE` were fitted on the
+contact line, trusted as far as the drawing's lines are clean) are combined as
+a logistic model, ``score = sum(weights[cue] * cue)``; its sign says who is in
+front and ``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss,
+towards 1 when sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`,
+:data:`CONTINUATION_WIDTHS` and :data:`STROKE_END_SCALE` were fitted on the
 bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
 leave-one-out (weights fitted without the drawing scored) and how accuracy
-grows with confidence. A global consistency step follows: predictions are
+grows with confidence. Given a ``model``
+(:func:`inkray.relief.order_model.load_order_model`), a model learned from
+generated drawings reads the measures of
+:func:`inkray.relief.order_cues.place_features` instead and gives ``p``, the
+calibrated probability that ``a`` is in front: ``confidence = |2 p - 1|``
+(``benchmarks/bench_order.py --generated`` compares the two on the bundled
+drawings not made for inkray).
+A global consistency step follows: predictions are
 added strongest first, and one that would close a cycle within its site
 (with the user's entries or stronger predictions) is dropped.
 
@@ -39,7 +46,8 @@ import numpy as np
 
 from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
-from inkray.relief.order_cues import CUES, order_cues, outline_lengths
+from inkray.relief.order_cues import (CUES, order_cues, outline_lengths, place_features,
+                                      region_stats)
 
 __all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS",
            "depth_order", "predict_place"]
@@ -112,7 +120,7 @@ class Relation:
 
 def depth_order(constraints, labels, completion, *, seams=(), predict=True, weights=None,
                 junction_radius=None, min_confidence=0.0, ink=None, continuation_widths=None,
-                stroke_end_scale=None, memo=None):
+                stroke_end_scale=None, memo=None, model=None):
     """Local depth relations of all neighbouring regions.
 
     Parameters
@@ -145,6 +153,9 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
         entries, so an editor passes the same dict to every call with the
         same completion, ``seams`` and parameters, and a new arrow costs no
         cue (at 1 Mpx the fox's continuation cues took 0.54 s per call).
+    model : inkray.relief.order_model.OrderModel, optional
+        Predict with this learned model instead of the weighted cues, see
+        :func:`predict_place`.
 
     Returns
     -------
@@ -193,7 +204,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     if predict:
         paths = [b.path for b in seams if b.type in ("graft", "stitch")]
         spoken = {r.place for r in user if r.place is not None}
-        outlines = None  # measured once, when some place is not in the memo
+        outlines = stats = None  # measured once, when some place is not in the memo
         predicted = []
         memo = {} if memo is None else memo
         for place in completion.places:
@@ -202,10 +213,12 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
             if place.index not in memo:
                 if outlines is None:
                     outlines = outline_lengths(labels)
+                    stats = region_stats(labels) if model is not None else None
                 memo[place.index] = predict_place(
                     completion, place, weights=weights, junction_radius=junction_radius,
                     seams=paths, outlines=outlines, ink=ink,
-                    continuation_widths=continuation_widths, stroke_end_scale=stroke_end_scale)
+                    continuation_widths=continuation_widths, stroke_end_scale=stroke_end_scale,
+                    model=model, stats=stats)
             r = memo[place.index]
             if r is not None and r.confidence >= min_confidence:
                 predicted.append(r)
@@ -226,7 +239,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
 
 def predict_place(completion, place, *, weights=None, junction_radius=None, seams=(),
                   seam_distance=6.0, outlines=None, ink=None, continuation_widths=None,
-                  stroke_end_scale=None):
+                  stroke_end_scale=None, model=None, stats=None):
     """Predict which region of a place is in front.
 
     Parameters
@@ -257,6 +270,15 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     stroke_end_scale : float, optional
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
+    model : inkray.relief.order_model.OrderModel, optional
+        A learned model (e.g. :func:`inkray.relief.order_model.load_order_model`)
+        used instead of the weighted cues (``weights`` must then be None):
+        ``p`` the probability that ``place.a`` is in front,
+        ``confidence = |2 p - 1|``. It was trained with the default radii and
+        scale.
+    stats : tuple, optional
+        :func:`inkray.relief.order_cues.region_stats` of the labels, when
+        already known.
 
     Returns
     -------
@@ -275,9 +297,15 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     >>> r = predict_place(c, c.places[0])
     >>> (r.front_name, r.back_name)
     ('eye', 'head')
+    >>> from inkray.relief.order_model import load_order_model
+    >>> learned = predict_place(c, c.places[0], model=load_order_model())
+    >>> (learned.front_name, learned.back_name)
+    ('eye', 'head')
     """
-    weights = WEIGHTS if weights is None else weights
-    unknown = sorted(set(weights) - set(CUES))
+    if model is not None and weights is not None:
+        raise InputError("weights: give cue weights or a learned model, not both")
+    weights = WEIGHTS if weights is None and model is None else weights
+    unknown = sorted(set(weights or ()) - set(CUES))
     if unknown:
         raise InputError(f"weights: unknown cue {unknown[0]!r} (expected {', '.join(CUES)})")
     radius = JUNCTION_RADIUS if junction_radius is None else float(junction_radius)
@@ -285,17 +313,25 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         raise InputError(f"junction_radius: expected a positive radius, got {junction_radius!r}")
     widths = CONTINUATION_WIDTHS if continuation_widths is None else float(continuation_widths)
     scale = STROKE_END_SCALE if stroke_end_scale is None else float(stroke_end_scale)
-    cues = order_cues(completion, place, outlines=outlines, seams=seams, junction_radius=radius,
-                      seam_distance=seam_distance, ink=ink, continuation_widths=widths,
-                      stroke_end_scale=scale)
-    if cues is None:
-        return None
-    score = sum(float(w) * cues[k] for k, w in weights.items())
+    if model is not None:
+        features = place_features(completion, place, outlines=outlines, stats=stats, seams=seams,
+                                  ink=ink, junction_radius=radius, continuation_widths=widths,
+                                  stroke_end_scale=scale, seam_distance=seam_distance)
+        if features is None:
+            return None
+        score = float(model.score(features[None])[0]) * model.temperature
+    else:
+        cues = order_cues(completion, place, outlines=outlines, seams=seams,
+                          junction_radius=radius, seam_distance=seam_distance, ink=ink,
+                          continuation_widths=widths, stroke_end_scale=scale)
+        if cues is None:
+            return None
+        score = sum(float(w) * cues[k] for k, w in weights.items())
     if score == 0:
         return None
     a, b = place.a, place.b
     front, back = (a, b) if score > 0 else (b, a)
-    confidence = float(np.tanh(abs(score) / 2.0))  # 2 * sigmoid(|score|) - 1
+    confidence = float(np.tanh(abs(score) / 2.0))  # 2 * sigmoid(|score|) - 1 = |2 p - 1|
     names = completion.names
     return Relation(front=front, back=back, front_name=names[front], back_name=names[back],
                     where=tuple(float(v) for v in place.where), source="predicted",

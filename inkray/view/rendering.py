@@ -20,6 +20,9 @@ Modes (see :func:`render`):
   and their red-cyan anaglyph; zero disparity at the drawing plane.
 - ``gi``: a path-traced render with Mitsuba 3 (``scalar_rgb``): relief on a
   backdrop, a soft area light plus a dim sky, ink multiplied on top.
+- ``enhance``: the drawing on the relief, unlit, darkened behind occluding
+  edges by the high-pass of the relief's depth (Luft, Colditz and Deussen
+  2006; :mod:`inkray.view.depth_enhancement`).
 
 Frames: the light direction is given as ``(x right, y up, z toward the
 viewer)``; a turntable ``yaw`` (degrees) moves an orthographic camera around
@@ -34,13 +37,14 @@ import numpy as np
 from inkray.errors import InputError, StageError
 from inkray.numerics.quantization import quantize16
 from inkray.relief.model import Relief
+from inkray.view.depth_enhancement import RADIUS, STRENGTH, check_enhancement, enhance
 from inkray.view.rasterization import fit_view, rasterize, vertex_normals
 from inkray.view.shading import over_white
 
 __all__ = ["GI_MAX_SIDE", "MODES", "Rendering", "has_mitsuba", "output_size", "render",
            "render_turntable"]
 
-MODES = ("shade", "normals", "depth", "stereo", "gi")
+MODES = ("shade", "normals", "depth", "stereo", "gi", "enhance")
 
 # shade/stereo/ink: rasterized at 2x2 samples per pixel and box-filtered
 # (antialiasing), up to this many output pixels; beyond, pixels are small
@@ -155,13 +159,14 @@ def output_size(drawing_size, *, size=None, width=None, height=None, max_side=No
 
 def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0.3,
            flat_colors=False, disparity=None, spp=8, backdrop=True, yaw=0.0, seed=0,
-           denoise=True, progress=None, frame_yaw=None):
+           denoise=True, progress=None, frame_yaw=None, enhance_strength=STRENGTH[0],
+           enhance_radius=RADIUS[0]):
     """Render a relief seen from the front (or from ``yaw`` degrees to the side).
 
     Parameters
     ----------
     relief : inkray.relief.model.Relief
-    mode : {"shade", "normals", "depth", "stereo", "gi"}, optional
+    mode : {"shade", "normals", "depth", "stereo", "gi", "enhance"}, optional
     size : (int, int), optional
         ``(width, height)`` of the image; the drawing is fitted and centred.
         Default: the drawing's size (for ``gi`` shrunk to fit 800 pixels).
@@ -197,6 +202,12 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         turntable passes its largest angle so every frame has one scale).
     progress : inkray.progress.Progress, optional
         ``gi`` reports its passes on it.
+    enhance_strength : float, optional
+        ``enhance``: how dark the surfaces behind occluding edges get, 0..10
+        (default 1; 0 is the plain drawing on the relief).
+    enhance_radius : float, optional
+        ``enhance``: how far behind an edge the darkening reaches, in drawing
+        pixels, 0.5..100 (default 8).
 
     Returns
     -------
@@ -220,6 +231,7 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
     ((20, 20, 4), 144)
     """
     relief, size, light, yaw = _check(relief, mode, size, light, ambient, disparity, spp, yaw)
+    check_enhancement(enhance_strength, enhance_radius, prefix="enhance_")
     frame = _frame_width(relief, abs(yaw) if frame_yaw is None else abs(float(frame_yaw)))
     if mode == "normals":
         return _normals(relief, size, yaw, frame)
@@ -231,6 +243,8 @@ def render(relief, *, mode="shade", size=None, light=(-1.0, 1.0, 1.5), ambient=0
         return Rendering("shade", rgba, rgba[..., 3] > 0)
     if mode == "stereo":
         return _stereo(relief, layers, size, yaw, light, ambient, disparity)
+    if mode == "enhance":
+        return _enhance(relief, layers, size, yaw, frame, enhance_strength, enhance_radius)
     return _gi(relief, layers, size, yaw, light, spp, backdrop, seed, denoise, progress)
 
 
@@ -516,17 +530,19 @@ def _depth(relief, size, yaw, frame=None):
     return Rendering("depth", img, r.mask, depth_range=depth_range)
 
 
-def _shade(relief, layers, size, yaw, light, ambient, shear=0.0, frame=None):
+def _shade(relief, layers, size, yaw, light, ambient, shear=0.0, frame=None, lit=True):
     ss = _supersample(size)
     r = _raster(relief, size, yaw, ss, shear, frame)
     albedo, ink = layers.sample(r)
-    l_dir = light * [1, -1, 1]  # user frame (y up) -> relief frame (y down)
-    n = r.normal
-    diffuse = np.clip(n @ l_dir, 0, None)
-    half = l_dir + [0, 0, 1]
-    half /= np.linalg.norm(half)
-    spec = _SPECULAR * np.clip(n @ half, 0, None) ** _SHININESS
-    lin = albedo * (ambient + (1 - ambient) * diffuse)[..., None] + spec[..., None]
+    lin = albedo
+    if lit:
+        l_dir = light * [1, -1, 1]  # user frame (y up) -> relief frame (y down)
+        n = r.normal
+        diffuse = np.clip(n @ l_dir, 0, None)
+        half = l_dir + [0, 0, 1]
+        half /= np.linalg.norm(half)
+        spec = _SPECULAR * np.clip(n @ half, 0, None) ** _SHININESS
+        lin = albedo * (ambient + (1 - ambient) * diffuse)[..., None] + spec[..., None]
     srgb = _linear_to_srgb(lin) * ink[..., None]
     cover = r.mask.astype(float)
     # premultiplied box filter, then un-premultiply
@@ -534,6 +550,16 @@ def _shade(relief, layers, size, yaw, light, ambient, shear=0.0, frame=None):
     alpha = _downsample(cover, ss)
     rgb = np.divide(rgb, alpha[..., None], out=np.zeros_like(rgb), where=alpha[..., None] > 0)
     return _rgba8(rgb, alpha)
+
+
+def _enhance(relief, layers, size, yaw, frame, strength, radius):
+    """The drawing on the relief, unlit, darkened behind occluding edges."""
+    rgba = _shade(relief, layers, size, yaw, None, 1.0, frame=frame, lit=False)
+    r = _raster(relief, size, yaw, frame=frame)
+    scale, _ = fit_view((relief.size[0] if frame is None else frame, relief.size[1]), size)
+    rgb = enhance(rgba[..., :3] / 255.0, np.where(r.mask, r.depth, 0.0), mask=r.mask,
+                  strength=strength, radius=radius, scale=scale)
+    return Rendering("enhance", _rgba8(rgb, rgba[..., 3] / 255.0), rgba[..., 3] > 0)
 
 
 def _rgba8(rgb, alpha):

@@ -1,0 +1,65 @@
+"""The generated line drawings with a known depth order (benchmarks/order_drawings.py)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+from order_drawings import STYLES, generate  # noqa: E402
+
+from inkray.input.annotations import parse_annotations  # noqa: E402
+from inkray.input.drawing import drawing_from_array  # noqa: E402
+from inkray.segmentation import segment  # noqa: E402
+
+
+def test_same_seed_same_drawing():
+    a, b = generate(11, size=(200, 180)), generate(11, size=(200, 180))
+    assert np.array_equal(a.gray, b.gray) and a.annotation == b.annotation
+    assert a.gray.shape == (180, 200) and a.annotation["size"] == [200, 180]
+    assert not np.array_equal(a.gray, generate(12, size=(200, 180)).gray)
+
+
+def test_styles_switch_off():
+    plain = generate(4, styles=(), size=(220, 220))
+    assert plain.styles == ()
+    assert set(np.unique(plain.gray).tolist()) <= {0, 255}      # no anti-aliasing, no paper
+    for seed in range(6):
+        g = generate(seed, styles=("paper",), size=(160, 160))
+        assert set(g.styles) <= {"paper"}
+        if g.styles:
+            assert len(np.unique(g.gray)) > 20                  # shading and grain
+    with pytest.raises(ValueError, match="unknown style 'ink'"):
+        generate(0, styles=("ink",))
+    assert len(STYLES) == 8
+
+
+def test_order_entries_point_into_their_parts():
+    g = generate(1, size=(300, 300))
+    names = g.names
+    assert g.relations, "a character has overlapping parts"
+    for entry in g.annotation["order"]:
+        (fx, fy), (bx, by) = entry["front"], entry["back"]
+        front, back = names[g.labels[int(fy), int(fx)]], names[g.labels[int(by), int(bx)]]
+        assert (front, back) in g.relations
+        assert names.index(front) > names.index(back)            # painted later
+
+
+@pytest.mark.parametrize("seed", [1, 2, 7])
+def test_drawings_segment_into_their_true_parts(seed):
+    g = generate(seed, size=(280, 280))
+    ann = parse_annotations(g.annotation)
+    seg = segment(ann, drawing_from_array(g.gray))
+    index = {n: i for i, n in enumerate(g.names)}
+    found = np.full(seg.labels.shape, -1)
+    for j, name in enumerate(seg.names):
+        found[seg.labels == j] = index[name]
+    # Away from the ink, where the segmentation's cut along a line may fall on either side.
+    paper = ~ndimage.binary_dilation(g.gray < 128, iterations=2)
+    assert (found == g.labels)[paper].mean() > 0.98
+    for name in seg.names:
+        mine, true = (found == index[name]) & paper, (g.labels == index[name]) & paper
+        assert (mine & true).sum() / (mine | true).sum() > 0.6, name
