@@ -330,7 +330,131 @@ def _write_maps(maps, target, *, chain, outputs):
     return write_sprite_maps(maps, target, outputs=outputs)
 
 
+def _transfer(chain, *, frame, threshold=None):
+    from inkray.transfer import CHECK, transfer_annotations
+
+    t = transfer_annotations(chain.annotations, chain.drawing, frame,
+                             key_labels=chain.segmentation.labels,
+                             threshold=CHECK if threshold is None else threshold)
+    t.annotations.drawing = frame.path
+    return t
+
+
+def _transfer_files(target, report=None, **params):
+    return [target, report]
+
+
+def _transfer_document(t, target):
+    import os
+
+    from inkray.formats.annotation_file import annotation_document
+
+    drawing = t.annotations.drawing
+    if drawing is not None:
+        drawing = Path(os.path.relpath(Path(drawing).resolve(), Path(target).resolve().parent)).as_posix()
+    return annotation_document(t.annotations, drawing=drawing)
+
+
+def _write_transfer(t, target, *, chain, outputs, report=None, **params):
+    from inkray.formats.annotation_file import annotation_text, transfer_report
+
+    outputs.write_text(target, annotation_text(_transfer_document(t, target)))
+    written = [Path(target)]
+    if report is not None:
+        doc = transfer_report(t, key=chain.annotations.source, frame=t.annotations.drawing)
+        outputs.write_text(report, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+        written.append(Path(report))
+    return written
+
+
+def _encode_transfer(t, **params):
+    from inkray.formats.annotation_file import annotation_text
+
+    return annotation_text(_transfer_document(t, "frame.inkray.json")).encode("utf-8")
+
+
+def _pose_of(chain, pose):
+    """``pose``, or the pose file beside the chain's annotation file (batch)."""
+    from inkray.input.pose import load_pose, pose_path
+
+    if pose is not None:
+        return pose
+    source = chain.annotations.source
+    path = None if source is None else pose_path(source)
+    if path is None or not path.is_file():
+        raise InputError(f"pose: no pose file{'' if path is None else f' {path}'} beside the "
+                         f"annotation file", option="pose")
+    return load_pose(path, size=chain.annotations.size)
+
+
+def _posed(chain, pose):
+    from inkray.view.posed import PosedDrawing
+
+    return PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
+                        pose.handles, boundaries=chain.annotations.boundaries)
+
+
+def _posed_image(chain, *, pose=None, frame=None):
+    from inkray.view.rendering import Rendering
+
+    pose = _pose_of(chain, pose)
+    posed = _posed(chain, pose)
+    rgba = posed.image(posed.at(pose, frame))
+    return Rendering("pose", rgba, rgba[..., 3] > 0)
+
+
+def _posed_layers(chain, *, pose=None, frame=None):
+    pose = _pose_of(chain, pose)
+    posed = _posed(chain, pose)
+    return posed.layers(posed.at(pose, frame))
+
+
+def _posed_relief(chain, *, pose=None, frame=None):
+    pose = _pose_of(chain, pose)
+    posed = _posed(chain, pose)
+    return posed.relief(posed.at(pose, frame))
+
+
+def _posed_frames(chain, *, pose=None):
+    pose = _pose_of(chain, pose)
+    posed = _posed(chain, pose)
+    return [(f, posed.image(x)) for f, x in posed.frames(pose)]
+
+
+def _write_posed_relief(relief, target, *, chain, outputs):
+    from inkray.formats.meshes import export_relief
+
+    return export_relief(relief, target, outputs=outputs)
+
+
+def _animation_files(target, frames=(), fps=12):
+    from inkray.formats.poses import animation_files
+
+    return animation_files(target, frames)
+
+
+def _write_animation(value, target, *, chain, outputs, frames=(), fps=12):
+    from inkray.formats.poses import write_animation
+
+    return write_animation(value, target, fps=fps, outputs=outputs)
+
+
+def _encode_gif(frames):
+    import io
+
+    from PIL import Image
+
+    from inkray.view.shading import over_white
+
+    pictures = [Image.fromarray((over_white(rgba) * 255 + 0.5).astype("uint8")) for _, rgba in frames]
+    buf = io.BytesIO()
+    pictures[0].save(buf, format="GIF", save_all=True, append_images=pictures[1:], duration=83,
+                     loop=0, optimize=False)
+    return buf.getvalue()
+
+
 _LAYERS = Writer(_write_layers)
+_POSED_RELIEF = Writer(_write_posed_relief)
 
 #: Every artefact by name.
 ARTEFACTS = {a.name: a for a in (
@@ -352,7 +476,25 @@ ARTEFACTS = {a.name: a for a in (
     Artefact("layers", reads=("completion", "relations"), compute=_layers,
              writers={".psd": _LAYERS, ".ora": _LAYERS}, encode=_encode_psd,
              media_type="image/vnd.adobe.photoshop", needs="a layer stack needs"),
+    Artefact("posed", reads=("relief", "completion", "relations"), compute=_posed_image,
+             writers={".png": Writer(_write_image)}, encode=lambda r, **p: _encode_png(r.image),
+             media_type="image/png", needs="posing needs"),
+    Artefact("posed-layers", reads=("relief", "completion", "relations"), compute=_posed_layers,
+             writers={".psd": _LAYERS, ".ora": _LAYERS}, encode=lambda s, **p: _encode_psd(s),
+             media_type="image/vnd.adobe.photoshop", needs="posing needs"),
+    Artefact("posed-relief", reads=("relief", "completion", "relations"), compute=_posed_relief,
+             writers={s: _POSED_RELIEF for s in (".glb", ".obj", ".ply")},
+             encode=lambda r, **p: _encode_glb(r), media_type="model/gltf-binary",
+             needs="posing needs"),
+    Artefact("posed-animation", reads=("relief", "completion", "relations"),
+             compute=_posed_frames,
+             writers={"": Writer(_write_animation, _animation_files)},
+             encode=lambda frames, **p: _encode_gif(frames), media_type="image/gif",
+             needs="posing needs"),
     Artefact("maps", reads=("relief", "segmentation"), compute=_maps,
              writers={"": Writer(_write_maps, lambda target, **p: [Path(target) / "maps.json"])},
              needs="sprite maps need"),
+    Artefact("transfer", reads=("segmentation",), compute=_transfer,
+             writers={".json": Writer(_write_transfer, _transfer_files)}, encode=_encode_transfer,
+             media_type="application/json", needs="carrying an annotation needs"),
 )}

@@ -21,6 +21,8 @@ relief    ``relief.glb`` (``inkray relief ANN -o relief.glb``)
 render    ``shaded.png`` (``inkray render relief.glb -o shaded.png``)
 layers    ``parts.psd``, ``parts.ora`` (``inkray layers ANN -o parts.psd``, ``.ora``)
 maps      ``maps/`` (``inkray maps ANN -o maps``)
+pose      ``posed.png`` (``inkray pose ANN X.pose.json -o posed.png``, the pose
+          file ``X.pose.json`` beside ``X.inkray.json``; not run by default)
 ========  =====================================================================
 
 ``OUT/batch-manifest.json`` records, per finished frame, a content hash of
@@ -31,8 +33,21 @@ intact is skipped, so an interrupted batch resumes where it stopped.
 ``failed``, ``interrupted``), ``time`` (seconds), ``cpu_time`` (seconds of
 CPU its worker process used), ``peak_memory`` (bytes of resident memory of
 its worker process while it ran) and ``error`` (one line). A failed frame does not stop the others; the batch then exits 1.
+
+Shots: ``inkray batch 'shot/*.png' --key shot/0001.inkray.json -o OUT``
+takes drawings. A frame with an annotation (a ``--key`` whose drawing it is,
+or ``<frame>.inkray.json`` beside it) is a key; every other frame is
+annotated by carrying the nearest key's annotation to it frame by frame
+(:mod:`inkray.transfer`: forward from an earlier key, backward from a later
+one, never in one jump), then the jobs run on it. Its folder also gets the
+carried ``annotation.inkray.json`` and ``transfer.json`` (every entry's match;
+those to check), and its report record the key, the frame it was carried from,
+its ``confidence`` and the entries to ``check``. Each carrying step is a Dask
+task that waits only for the step before it, so the chains from different
+keys, and every frame's jobs, run side by side.
 """
 
+import contextlib
 import glob
 import hashlib
 import json
@@ -48,7 +63,7 @@ from inkray.errors import InkrayError, InputError
 from inkray.formats.atomic import atomic_outputs, write_text
 from inkray.progress import Progress
 
-__all__ = ["JOBS", "JOB_FILES", "Frame", "find_frames", "run_batch", "run_frame"]
+__all__ = ["JOBS", "JOB_FILES", "Frame", "find_frames", "run_batch", "run_frame", "plan_shot"]
 
 #: The jobs a batch can run per frame, in the order they are done: the artefacts
 #: (:data:`inkray.artefacts.ARTEFACTS`) each writes, and where in the frame's folder.
@@ -57,11 +72,16 @@ JOB_FILES = {
     "render": (("shaded", "shaded.png"),),
     "layers": (("layers", "parts.psd"), ("layers", "parts.ora")),
     "maps": (("maps", "maps"),),
+    "pose": (("posed", "posed.png"),),
 }
-JOBS = tuple(JOB_FILES)
+#: The jobs run when none are named; ``pose`` needs ``X.pose.json`` beside ``X.inkray.json``.
+JOBS = ("relief", "render", "layers", "maps")
 MANIFEST = "batch-manifest.json"
 REPORT = "batch-report.json"
 _SUFFIXES = (".inkray.json", ".json")
+_IMAGES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".svg")
+CARRIED = "annotation.inkray.json"
+TRANSFER = "transfer.json"
 
 
 @dataclass(frozen=True)
@@ -89,12 +109,13 @@ class _Outcome:
     peak_memory: int = None
     error: str = None
     outputs: list = field(default_factory=list)
+    shot: dict = None
 
     def record(self, frame):
         return {"annotation": frame.annotation, "status": self.status,
                 "time": round(self.time, 3), "cpu_time": round(self.cpu_time, 3),
                 "peak_memory": self.peak_memory,
-                "error": self.error, "outputs": self.outputs}
+                "error": self.error, "outputs": self.outputs, **(self.shot or {})}
 
 
 def find_frames(pattern):
@@ -129,7 +150,7 @@ def find_frames(pattern):
     frames, seen = [], {}
     for match in matches:
         rel = Path(match).relative_to(root).as_posix()
-        name = next((rel[:-len(s)] for s in _SUFFIXES if rel.endswith(s)), rel)
+        name = next((rel[:-len(s)] for s in _SUFFIXES + _IMAGES if rel.lower().endswith(s)), rel)
         if name in seen:
             raise InputError(f"{match}: writes into the same folder as {seen[name]} ({name}/)")
         seen[name] = match
@@ -170,7 +191,8 @@ def run_frame(annotation, jobs):
             "cpu_time": time.process_time() - cpu, "peak_memory": _peak_memory(), "error": error}
 
 
-def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progress=None):
+def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progress=None,
+              keys=()):
     """Run the jobs on every frame of ``pattern`` on Dask and write ``output``.
 
     Parameters
@@ -186,6 +208,9 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
     workers : int, optional
         Worker processes of the local cluster; default one per core.
     progress : inkray.progress.Progress, optional
+    keys : sequence of str, optional
+        Key annotation files: ``pattern`` then matches the shot's drawings, and
+        every frame without an annotation is carried from the nearest key.
 
     Returns
     -------
@@ -207,20 +232,34 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
     out = Path(output)
     if out.exists() and not out.is_dir():
         raise InputError(f"-o {out}: exists and is not a folder")
+    plan = plan_shot(frames, keys) if keys else None
+    if plan is not None:
+        frames = [Frame(annotation=step["annotation"] or step["drawing"], name=name)
+                  for name, step in plan.items()]
     inputs = {str(Path(f.annotation).resolve()) for f in frames}
+    if plan is not None:
+        inputs |= {str(Path(step["drawing"]).resolve()) for step in plan.values()}
     manifest = _read_manifest(out)
-    keys = {f.name: _frame_key(f.annotation, jobs) for f in frames}
+    keys = ({f.name: _frame_key(f.annotation, jobs) for f in frames} if plan is None
+            else {name: _shot_key(plan, name, jobs) for name in plan})
     outcomes, todo = {}, []
     for f in frames:
         if _unchanged(out / f.name, manifest.get(f.name), keys[f.name]):
             outcomes[f.name] = _Outcome("skipped", outputs=sorted(manifest[f.name]["outputs"]))
+            if plan is not None:
+                outcomes[f.name].shot = _shot_record(plan, f.name, _read_transfer(out / f.name))
         else:
             todo.append(f)
+    results = (_dask_results(todo, jobs, scheduler, workers) if plan is None
+               else _shot_results(plan, todo, jobs, scheduler, workers, out))
     with progress.stage(f"batch: {len(todo)} of {len(frames)} frames"):
         progress.update(len(frames) - len(todo), len(frames))
         try:
-            for frame, result in _dask_results(todo, jobs, scheduler, workers):
+            for frame, result in results:
                 outcomes[frame.name] = _finish(out, frame, result, inputs, manifest, keys)
+                if plan is not None:
+                    outcomes[frame.name].shot = _shot_record(plan, frame.name,
+                                                             result.get("transfer"))
                 if outcomes[frame.name].status == "failed" and not progress.quiet:
                     print(f"inkray: {frame.annotation}: {outcomes[frame.name].error}",
                           file=progress.stream)
@@ -240,17 +279,22 @@ def run_batch(pattern, output, *, jobs=JOBS, scheduler=None, workers=None, progr
 
 def _frame_files(annotation, jobs):
     """The bytes of every output of ``jobs``, each made as its single command makes it."""
-    from inkray.artefacts import ARTEFACTS, artefact_files
-    from inkray.chain import ChainOptions, ReliefChain
     from inkray.input.loading import load_input
 
     ann, drawing = load_input(annotation)
+    return _chain_files(ann, drawing, jobs, where=annotation)
+
+
+def _chain_files(ann, drawing, jobs, *, where):
+    from inkray.artefacts import ARTEFACTS, artefact_files
+    from inkray.chain import ChainOptions, ReliefChain
+
     made = [(ARTEFACTS[name], target) for job in jobs for name, target in JOB_FILES[job]]
     for artefact, _ in made:
         try:
             artefact.check(ann)
         except InputError as e:
-            raise InputError(f"{annotation}: {e}") from None
+            raise InputError(f"{where}: {e}") from None
     chain = ReliefChain(ann, drawing, options=ChainOptions())
     files, values = {}, {}
     for artefact, target in made:
@@ -283,12 +327,11 @@ def _peak_memory():
 
 # -- the batch -------------------------------------------------------------------
 
-def _dask_results(frames, jobs, scheduler, workers):
-    """(frame, result) of every frame as it finishes, on the given or a local cluster."""
-    if not frames:
-        return
+@contextlib.contextmanager
+def _client(scheduler, workers):
+    """A Dask client of the given scheduler or of a local cluster of worker processes."""
     import dask
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, LocalCluster
 
     cluster = None
     if scheduler is None:
@@ -306,13 +349,23 @@ def _dask_results(frames, jobs, scheduler, workers):
             client = Client(scheduler, timeout=10)
         except (OSError, ValueError) as e:
             raise InputError(f"--scheduler {scheduler}: cannot connect ({_one_line(e)})") from None
-    futures = {}
     try:
-        for f in frames:
-            future = client.submit(run_frame, f.annotation, tuple(jobs), pure=False,
-                                   key=f"inkray-frame-{_digest(f.annotation.encode())}-"
-                                       f"{time.monotonic_ns()}")
-            futures[future] = f
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _task_key(what, path):
+    return f"inkray-{what}-{_digest(str(path).encode())}-{time.monotonic_ns()}"
+
+
+def _gather(client, futures):
+    """(frame, result) of every future of ``futures`` ({future: frame}) as it finishes."""
+    from distributed import as_completed
+
+    try:
         for future in as_completed(futures):
             try:
                 result = future.result()
@@ -324,9 +377,209 @@ def _dask_results(frames, jobs, scheduler, workers):
             yield futures[future], result
     finally:
         client.cancel(list(futures))
-        client.close()
-        if cluster is not None:
-            cluster.close()
+
+
+def _dask_results(frames, jobs, scheduler, workers):
+    """(frame, result) of every frame as it finishes, on the given or a local cluster."""
+    if not frames:
+        return
+    with _client(scheduler, workers) as client:
+        futures = {client.submit(run_frame, f.annotation, tuple(jobs), pure=False,
+                                 key=_task_key("frame", f.annotation)): f for f in frames}
+        yield from _gather(client, futures)
+
+
+# -- shots: frames carried from keys ------------------------------------------------
+
+def plan_shot(frames, keys):
+    """Which key each frame of a shot is carried from, and through which frame.
+
+    Parameters
+    ----------
+    frames : list of Frame
+        The shot's drawings in order (:func:`find_frames` of a drawing pattern).
+    keys : sequence of str
+        Key annotation files; each one's drawing must be one of ``frames``.
+        A frame with ``<frame>.inkray.json`` beside it is a key as well.
+
+    Returns
+    -------
+    dict
+        By frame name, in order: ``{"drawing", "annotation" (its own, or
+        None), "key" (the key annotation it is carried from), "source" (the
+        neighbouring frame it is carried from, None for a key)}``.
+
+    Raises
+    ------
+    InputError
+        A key whose drawing is not a frame of the pattern, or two keys of one frame.
+    """
+    from inkray.input.annotations import load_annotations
+
+    index = {str(Path(f.annotation).resolve()): i for i, f in enumerate(frames)}
+    own = {}
+    for key in keys:
+        ann = load_annotations(key)
+        drawing = None if ann.drawing is None else str(Path(ann.drawing).resolve())
+        if drawing not in index:
+            raise InputError(f"--key {key}: its drawing {ann.drawing} is not a frame of the pattern")
+        if index[drawing] in own:
+            raise InputError(f"--key {key}: frame {frames[index[drawing]].name} already has the key "
+                             f"{own[index[drawing]]}")
+        own[index[drawing]] = str(key)
+    for i, f in enumerate(frames):
+        beside = Path(f.annotation).with_suffix(".inkray.json")
+        if i not in own and beside.is_file():
+            own[i] = str(beside)
+    if not own:
+        raise InputError("--key: no key frame among the frames")
+    plan = {}
+    for i, f in enumerate(frames):
+        if i in own:
+            plan[f.name] = {"drawing": f.annotation, "annotation": own[i], "key": own[i],
+                            "source": None}
+            continue
+        # The nearest key; an earlier one on a tie (carried forward).
+        k = min(own, key=lambda j: (abs(j - i), j > i))
+        step = 1 if k < i else -1
+        plan[f.name] = {"drawing": f.annotation, "annotation": None, "key": own[k],
+                        "source": frames[i - step].name}
+    return plan
+
+
+def _chain_of(plan, name):
+    """The frames from ``name``'s key to ``name``, key first."""
+    path = [name]
+    while plan[path[-1]]["source"] is not None:
+        path.append(plan[path[-1]]["source"])
+    return path[::-1]
+
+
+def _shot_key(plan, name, jobs):
+    """Hash of what a shot frame depends on: the key and every drawing on its way."""
+    files = [plan[name]["key"]] + [plan[n]["drawing"] for n in _chain_of(plan, name)]
+    return _files_key(files, jobs, drawing_of=plan[name]["key"])
+
+
+def _shot_record(plan, name, transfer):
+    step = plan[name]
+    record = {"key": step["key"], "carried_from": step["source"]}
+    if step["source"] is not None and transfer is not None:
+        record.update(confidence=transfer["confidence"], check=transfer["check"],
+                      transfer_time=transfer.get("time"))
+    return record
+
+
+def _read_transfer(folder):
+    try:
+        return json.loads((folder / TRANSFER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _shot_results(plan, todo, jobs, scheduler, workers, out):
+    """(frame, result) of every frame to do, carrying annotations key to frame as needed."""
+    if not todo:
+        return
+    needed = set()
+    for f in todo:
+        needed.update(_chain_of(plan, f.name))
+    with _client(scheduler, workers) as client:
+        states, futures = {}, {}
+
+        def state(name):  # the carried (or key) annotation of a frame, as a future
+            if name not in states:
+                step = plan[name]
+                if step["source"] is None:
+                    states[name] = client.submit(key_state, step["annotation"], pure=False,
+                                                 key=_task_key("key", step["annotation"]))
+                else:
+                    states[name] = client.submit(carry_state, state(step["source"]),
+                                                 step["drawing"], pure=False,
+                                                 key=_task_key("carry", step["drawing"]))
+            return states[name]
+
+        for f in todo:
+            step = plan[f.name]
+            if step["source"] is None:
+                future = client.submit(run_frame, step["annotation"], tuple(jobs), pure=False,
+                                       key=_task_key("frame", step["annotation"]))
+            else:
+                drawing = os.path.relpath(Path(step["drawing"]).resolve(),
+                                          (out / f.name).resolve())
+                future = client.submit(run_carried, state(f.name), tuple(jobs),
+                                       Path(drawing).as_posix(), pure=False,
+                                       key=_task_key("jobs", step["drawing"]))
+            futures[future] = f
+        yield from _gather(client, futures)
+
+
+def key_state(annotation):
+    """A key frame as carrying starts from it: its annotation, drawing and labels.
+
+    One batch task; errors travel in the state (``"error"``) to the frames
+    carried from it.
+    """
+    from inkray.input.loading import load_input
+    from inkray.segmentation import segment
+
+    try:
+        ann, drawing = load_input(annotation)
+        return {"annotations": ann, "drawing": drawing, "labels": segment(ann, drawing).labels,
+                "error": None, "transfer": None}
+    except InkrayError as e:
+        return {"error": f"key {annotation}: {_one_line(e)}"}
+
+
+def carry_state(previous, drawing_path):
+    """The state of the next frame: ``previous``'s annotation carried to ``drawing_path``."""
+    from inkray.formats.annotation_file import transfer_report
+    from inkray.input.drawing import load_drawing
+    from inkray.transfer import transfer_annotations
+
+    if previous["error"] is not None:
+        return previous
+    start, cpu = time.perf_counter(), time.process_time()
+    try:
+        frame = load_drawing(drawing_path)
+        prior = None if previous["transfer"] is None else \
+            {e["key"]: e["match"] for e in previous["transfer"]["entries"]}
+        t = transfer_annotations(previous["annotations"], previous["drawing"], frame,
+                                 key_labels=previous["labels"], prior=prior)
+    except InkrayError as e:
+        return {"error": f"carrying to {drawing_path}: {_one_line(e)}"}
+    t.annotations.drawing = Path(drawing_path)
+    report = transfer_report(t, frame=drawing_path)
+    report["time"] = round(time.perf_counter() - start, 3)
+    return {"annotations": t.annotations, "drawing": frame, "labels": t.labels, "error": None,
+            "transfer": report}
+
+
+def run_carried(state, jobs, drawing):
+    """Run ``jobs`` on a carried frame; like :func:`run_frame`, plus the carried annotation
+    (``annotation.inkray.json``, its ``drawing`` key ``drawing``) and ``transfer.json``."""
+    from inkray.formats.annotation_file import annotation_document, annotation_text
+
+    _reset_peak_memory()
+    start, cpu = time.perf_counter(), time.process_time()
+    files, status, error = {}, "failed", state["error"]
+    if error is None:
+        try:
+            files = _chain_files(state["annotations"], state["drawing"], jobs,
+                                 where=str(state["drawing"].path))
+            files[CARRIED] = annotation_text(annotation_document(state["annotations"],
+                                                                 drawing=drawing)).encode()
+            files[TRANSFER] = (json.dumps(state["transfer"], indent=1) + "\n").encode()
+            status = "done"
+        except MemoryError:
+            files, error = {}, "out of memory"
+        except InkrayError as e:
+            files, error = {}, _one_line(e)
+        except Exception as e:  # a bug on one frame must not stop the batch
+            files, error = {}, f"internal error: {type(e).__name__}: {_one_line(e)}"
+    return {"status": status, "files": files, "time": time.perf_counter() - start,
+            "cpu_time": time.process_time() - cpu, "peak_memory": _peak_memory(), "error": error,
+            "transfer": state.get("transfer")}
 
 
 def _finish(out, frame, result, inputs, manifest, keys):
@@ -368,15 +621,25 @@ def _unchanged(folder, record, key):
 
 def _frame_key(annotation, jobs):
     """Hash of what a frame's outputs depend on: inkray, the jobs, the input files' bytes."""
+    return _files_key([annotation], jobs, drawing_of=annotation)
+
+
+def _files_key(files, jobs, *, drawing_of):
+    """Hash of inkray, the jobs, the bytes of ``files`` and of ``drawing_of``'s drawing."""
     from inkray.input.annotations import load_annotations
 
     try:
-        drawing = load_annotations(annotation).drawing
+        drawing = load_annotations(drawing_of).drawing
     except InkrayError:
         drawing = None  # the task reports the problem
     h = hashlib.blake2b(digest_size=16)
     h.update(json.dumps({"inkray": __version__, "jobs": list(jobs)}).encode())
-    for path in [annotation] + ([drawing] if drawing is not None else []):
+    inputs = list(files) + ([drawing] if drawing is not None else [])
+    if "pose" in jobs:
+        from inkray.input.pose import pose_path
+
+        inputs.append(pose_path(drawing_of))
+    for path in inputs:
         try:
             data = Path(path).read_bytes()
         except OSError:
@@ -416,12 +679,12 @@ def _write_report(out, report):
 
 def _check_jobs(jobs):
     jobs = [j.strip() for j in (jobs.split(",") if isinstance(jobs, str) else jobs)]
-    unknown = [j for j in jobs if j not in JOBS]
+    unknown = [j for j in jobs if j not in JOB_FILES]
     if unknown or not jobs:
         bad = unknown[0] if unknown else "(none)"
         raise InputError(f"--jobs {','.join(jobs)}: unknown job {bad} "
-                         f"(expected some of {','.join(JOBS)})")
-    return tuple(j for j in JOBS if j in jobs)
+                         f"(expected some of {','.join(JOB_FILES)})")
+    return tuple(j for j in JOB_FILES if j in jobs)
 
 
 def _digest(data):

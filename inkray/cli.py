@@ -82,7 +82,7 @@ def _chain(args, progress, targets=(), **options):
 
 def _inputs(args, ann):
     return [args.annotation, ann.drawing, args.scribbles,
-            args.legend if isinstance(args.legend, str) else None]
+            args.legend if isinstance(args.legend, str) else None, getattr(args, "frame", None)]
 
 
 def _group(args, chain):
@@ -410,11 +410,104 @@ def _cmd_layers(args, progress):
                            options=dict(predict=not args.no_predict),
                            params=dict(pad=args.pad, split_local=args.split_local,
                                        background=args.background),
-                           warn=lambda chain, stack: chain.warnings + stack.warnings,
+                           warn=lambda chain, stack: chain.warnings + [
+                               w.replace("(split_local splits it)", f"({_flag('split_local')} "
+                                                                    f"splits it)")
+                               for w in stack.warnings],
                            stage="layers")
     split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
     print(f"{args.output}: {len(stack.layers)} layers back to front: "
           f"{', '.join(layer.name for layer in stack.layers)}{split}")
+    return 0
+
+
+def _cmd_transfer(args, progress):
+    from inkray.input.drawing import load_drawing
+
+    if Path(args.output).suffix.lower() != ".json":
+        raise InputError(f"-o {args.output}: expected an annotation file (.inkray.json)")
+    if args.report is not None and Path(args.report).suffix.lower() != ".json":
+        raise InputError(f"--report {args.report}: expected a .json file")
+    _in_range("--threshold", args.threshold, 0.0, 1.0, "match score")
+    frame = load_drawing(args.frame, limits=_limits(args))
+    _, t, written = _produce(args, progress, "transfer", args.output,
+                             params=dict(frame=frame, threshold=args.threshold),
+                             write=dict(report=args.report), stage="transfer",
+                             warn=lambda chain, t: t.warnings)
+    checks = sum(e.flagged for e in t.entries)
+    print(f"{args.output}: {len(t.entries)} entries carried to {args.frame}, match "
+          f"{t.confidence:.2f}, {checks} to check"
+          + (f" (report {args.report})" if args.report is not None else ""))
+    return 0
+
+
+def _cmd_pose(args, progress):
+    from inkray.artefacts import ARTEFACTS
+    from inkray.formats.atomic import check_targets
+    from inkray.input.pose import load_pose
+
+    suffix = Path(args.output).suffix.lower()
+    name = ("posed-animation" if not suffix else "posed" if suffix == ".png" else
+            "posed-layers" if suffix in (".psd", ".ora") else "posed-relief")
+    pose = load_pose(args.pose, limits=_limits(args))
+    single = name != "posed-animation"
+    if not single and args.frame is not None:
+        raise InputError(f"--frame {args.frame}: a folder gets every frame; give a file name "
+                         f"(.png, .psd, ...) for one frame")
+    write = {} if single else dict(frames=pose.frames, fps=args.fps)
+    try:
+        files = ARTEFACTS[name].files(args.output, **write)
+    except InputError as e:
+        raise InputError(f"-o {e}") from None
+    check_targets(files, inputs=[args.pose])
+    _, value, written = _produce(args, progress, name, args.output,
+                                 options=dict(predict=not args.no_predict),
+                                 params=dict(pose=pose, **(dict(frame=args.frame) if single else {})),
+                                 write=write, warn=lambda chain, value: chain.warnings,
+                                 stage="pose")
+    what = f"{len(pose.frames)} frames and {written[-1].name}" if not single else \
+        f"{len(pose.handles)} handles, frame {args.frame if args.frame is not None else pose.keys[0].frame}"
+    print(f"{args.output}: posed ({what})")
+    return 0
+
+
+def _cmd_compose(args, progress):
+    from inkray.composition import compose
+    from inkray.formats.atomic import atomic_outputs, check_targets
+    from inkray.formats.images import write_renderings
+    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
+    from inkray.formats.meshes import FORMATS as MESH_SUFFIXES
+    from inkray.formats.meshes import export_relief
+    from inkray.input.scene import load_scene
+    from inkray.view.rendering import Rendering
+
+    _check_output(args.output, (".png",) + tuple(LAYER_SUFFIXES) + tuple(MESH_SUFFIXES))
+    try:
+        limits = Limits(pixels=args.max_pixels)
+    except InputError:
+        raise InputError(f"--max-pixels {args.max_pixels}: expected a positive integer") from None
+    scene = load_scene(args.scene, limits=limits)
+    inputs = [args.scene] + [p for d in scene.drawings for p in (d.annotation, d.pose) if p]
+    check_targets([args.output], inputs=inputs)
+    composition = compose(scene, progress=progress)
+    suffix = Path(args.output).suffix.lower()
+    with progress.stage("compose"):
+        if suffix == ".png":
+            rgba = composition.image()
+            value = Rendering("compose", rgba, rgba[..., 3] > 0)
+        elif suffix in LAYER_SUFFIXES:
+            value = composition.layers()
+        else:
+            value = composition.relief()
+    with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
+        if suffix == ".png":
+            write_renderings(value, args.output, outputs=group)
+        elif suffix in LAYER_SUFFIXES:
+            write_layers(value, args.output, outputs=group)
+        else:  # vertices in scene pixels: the scene's top-left corner at the origin
+            export_relief(value, args.output, anchor="top-left", outputs=group)
+    progress.summary()
+    print(f"{args.output}: {len(scene.drawings)} drawings composed")
     return 0
 
 
@@ -423,7 +516,7 @@ def _cmd_batch(args, progress):
 
     try:
         report = run_batch(args.pattern, args.output, jobs=args.jobs, scheduler=args.scheduler,
-                           workers=args.workers, progress=progress)
+                           workers=args.workers, progress=progress, keys=args.key or ())
     except KeyboardInterrupt:
         print(f"inkray: interrupted; finished frames are kept in {args.output}/ and skipped "
               f"when the batch runs again", file=sys.stderr)
@@ -512,6 +605,10 @@ _COMMANDS = {
     "check": (_cmd_check, "mesh-quality report"),
     "layers": (_cmd_layers, "layered cut-out (PSD or OpenRaster), parts completed where hidden"),
     "maps": (_cmd_maps, "sprite maps: normal, height, ambient occlusion, part IDs"),
+    "transfer": (_cmd_transfer, "carry a key frame's annotation to another frame of the shot"),
+    "compose": (_cmd_compose, "several annotated drawings, placed and posed, in one picture "
+                              "(PNG), layer stack (PSD/ORA) or relief (GLB/OBJ/PLY)"),
+    "pose": (_cmd_pose, "pose the drawing by moving handles (PNG, PSD/ORA, GLB/OBJ/PLY or frames)"),
     "batch": (_cmd_batch, "run jobs on many frames on Dask (local or a cluster)"),
     "demo": (_cmd_demo, "run the main job on a bundled example"),
     "edit": (_cmd_edit, "annotate in the browser with live depth and relief previews"),
@@ -538,7 +635,7 @@ def _parser():
     p = {}
     for name, (_, help_) in _COMMANDS.items():
         p[name] = sub.add_parser(name, help=help_, description=help_, parents=[common])
-    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps"):
+    for name in ("validate", "segment", "regions", "depth", "relief", "layers", "maps", "pose"):
         _add_input(p[name])
     p["validate"].add_argument("--json", action="store_true",
                                help="print the result as JSON on stdout (problems with "
@@ -651,18 +748,49 @@ def _parser():
     ly.add_argument("--no-predict", action="store_true",
                     help="use only the annotation's order entries, predict nothing")
     p["maps"].add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    co = p["compose"]
+    co.add_argument("scene", metavar="SCENE", help="scene file (.scene.json)")
+    co.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="the scene as a picture (.png), layers (.psd, .ora) or a relief "
+                         "(.glb, .obj, .ply)")
+    co.add_argument("--max-pixels", type=int, default=DEFAULT_LIMITS.pixels, metavar="N",
+                    help=f"largest scene and drawing in pixels (default: {DEFAULT_LIMITS.pixels})")
+    po = p["pose"]
+    po.add_argument("pose", metavar="POSE", help="pose file (.pose.json)")
+    po.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="posed picture (.png), layers (.psd, .ora), relief (.glb, .obj, .ply), "
+                         "or a folder: one PNG per frame and preview.gif")
+    po.add_argument("--frame", type=int, metavar="N",
+                    help="the frame of a single-file output (default: the first key's)")
+    po.add_argument("--fps", type=int, default=12, metavar="N",
+                    help="frame rate of the folder's preview.gif (default: 12)")
+    po.add_argument("--no-predict", action="store_true",
+                    help="use only the annotated depth order (no predicted relations)")
     p["maps"].add_argument("--convention", choices=("opengl", "directx"), default="opengl",
                            help="normal map's green channel: opengl y up (Godot, Unity, Blender) "
                                 "or directx y down (Unreal) (default: opengl)")
     p["maps"].add_argument("--ao-radius", type=float, metavar="PX",
                            help="ambient occlusion radius (default: 3%% of the longer side)")
+    tr = p["transfer"]
+    _add_input(tr)
+    tr.add_argument("frame", metavar="FRAME", help="the frame's drawing (same size as the key's)")
+    tr.add_argument("-o", "--output", required=True, metavar="PATH",
+                    help="the frame's annotation file (.inkray.json)")
+    tr.add_argument("--report", metavar="JSON",
+                    help="also write every entry's movement and match score")
+    tr.add_argument("--threshold", type=float, default=0.6, metavar="S",
+                    help="name entries matching worse than S (0..1) as to check (default: 0.6)")
     b = p["batch"]
     b.add_argument("pattern", metavar="PATTERN",
-                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json')")
+                   help="annotation files, a glob in quotes ('shots/**/*.inkray.json'); with "
+                        "--key the shot's drawings ('shot/*.png')")
+    b.add_argument("--key", action="append", metavar="ANN",
+                   help="a key frame's annotation (repeatable): every frame without one is "
+                        "annotated by carrying the nearest key to it frame by frame")
     b.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     b.add_argument("--jobs", default="relief,render,layers,maps", metavar="LIST",
-                   help="comma-separated jobs per frame: relief, render, layers, maps "
-                        "(default: all)")
+                   help="comma-separated jobs per frame: relief, render, layers, maps, pose "
+                        "(X.pose.json beside X.inkray.json) (default: relief,render,layers,maps)")
     b.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
     b.add_argument("--workers", type=int, metavar="N",

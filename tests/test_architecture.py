@@ -19,10 +19,10 @@ LAYERS = [
     ("inkray._version", 0), ("inkray.errors", 0), ("inkray.progress", 0),
     ("inkray.numerics", 1), ("inkray.input", 1), ("inkray.examples", 1),
     ("inkray.segmentation", 2),
-    ("inkray.depthmap", 3), ("inkray.relief", 3),
+    ("inkray.depthmap", 3), ("inkray.relief", 3), ("inkray.transfer", 3),
     ("inkray.view", 4),
     ("inkray.formats", 5),
-    ("inkray.chain", 6), ("inkray.validation", 6), ("inkray.artefacts", 6),
+    ("inkray.chain", 6), ("inkray.validation", 6), ("inkray.composition", 6), ("inkray.artefacts", 6),
     ("inkray.cli", 7), ("inkray.__main__", 7), ("inkray.editor", 7), ("inkray.batch", 7),
 ]
 APART = [("inkray.relief", "inkray.depthmap"), ("inkray.depthmap", "inkray.relief")]

@@ -50,7 +50,8 @@ def test_files_in_memory_are_the_files_on_disk(turtle_chain, tmp_path):
 def test_the_regions_guard_is_the_artefacts_own():
     empty = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [8, 8]})
     needs = {name for name, a in ARTEFACTS.items() if a.needs}
-    assert needs == {"relief", "shaded", "layers", "maps"}
+    assert needs == {"relief", "shaded", "layers", "maps", "transfer", "posed", "posed-layers",
+                     "posed-relief", "posed-animation"}
     for name in needs:
         with pytest.raises(InputError, match=r"^regions: .* at least one region$"):
             ARTEFACTS[name].check(empty)

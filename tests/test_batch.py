@@ -188,3 +188,37 @@ def test_ctrl_c_on_the_command_line_keeps_finished_frames(tmp_path):
     assert 1 <= len(finished) < 8
     again = run_batch(str(tmp_path / "shots/*.inkray.json"), out, workers=1)
     assert {n for n, r in again["frames"].items() if r["status"] == "skipped"} == finished
+
+
+def test_a_shot_with_keys_carries_every_other_frame_from_the_nearest_key(tmp_path, cluster):
+    shot = tmp_path / "shot"
+    for k in range(5):
+        _frame(shot, f"f{k:03d}", shift=k)
+    for k in (1, 2, 3):  # only f000 and f004 keep their annotations: the keys
+        (shot / f"f{k:03d}.inkray.json").unlink()
+    out = tmp_path / "out"
+    report = run_batch(str(shot / "*.png"), out, jobs="relief", scheduler=cluster,
+                       keys=[str(shot / "f000.inkray.json")])
+    assert report["counts"]["done"] == 5
+    frames = report["frames"]
+    # f004 has its own annotation beside it: a key, and f003 is carried back from it.
+    assert [frames[f"f{k:03d}"]["carried_from"] for k in range(5)] == \
+        [None, "f000", "f001", "f004", None]
+    assert frames["f002"]["key"].endswith("f000.inkray.json")
+    assert frames["f003"]["key"].endswith("f004.inkray.json")
+    for k in (1, 2, 3):
+        folder = out / f"f{k:03d}"
+        assert sorted(p.name for p in folder.iterdir()) == \
+            ["annotation.inkray.json", "relief.glb", "transfer.json"]
+        assert 0.5 < frames[f"f{k:03d}"]["confidence"] <= 1 and frames[f"f{k:03d}"]["check"] == []
+        # The carried file is a valid annotation of its frame and names the frame's drawing.
+        assert _run(["validate", folder / "annotation.inkray.json"]) == 0
+        doc = json.loads((folder / "annotation.inkray.json").read_text())
+        assert (folder / doc["drawing"]).resolve() == (shot / f"f{k:03d}.png").resolve()
+        # The carried wall splits the boxes where the frame's wall is (it moved k pixels).
+        assert doc["regions"][0]["scribbles"][0][0][0] < 30 + k < doc["regions"][1]["scribbles"][0][0][0]
+    again = run_batch(str(shot / "*.png"), out, jobs="relief", scheduler=cluster,
+                      keys=[str(shot / "f000.inkray.json")])
+    assert again["counts"]["skipped"] == 5 and again["frames"]["f002"]["carried_from"] == "f001"
+    with pytest.raises(InputError, match="is not a frame of the pattern"):
+        run_batch(str(shot / "f00[1-3].png"), out, keys=[str(shot / "f000.inkray.json")])

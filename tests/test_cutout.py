@@ -186,7 +186,7 @@ def test_interlocking_rings_are_reported_with_the_part_to_split():
     stack = cut_out(completion, rels, drawing_from_array(rgb))
     assert len(stack.layers) == 2 and len(stack.splits) == 1
     (message,) = stack.warnings
-    assert "must be split" in message and "--split-local" in message
+    assert "must be split" in message and "(split_local splits it)" in message
     flat = stack.flatten()
     wrong = np.any(flat[..., :3] != rgb, axis=-1) & (labels >= 0)
     assert wrong.sum() > 20  # one crossing shows the wrong ring
@@ -280,6 +280,7 @@ def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
     # decides); it is the back layer of the stack and of its split layer.
     err = capsys.readouterr().err
     (split_region,) = [x for x in "ab" if f"region '{x}' must be split" in err]
+    assert "(--split-local splits it)" in err  # the command line names its flag
     other = "b" if split_region == "a" else "a"
     stuck = read_layers(tmp_path / "one.ora")
     assert [layer.name for layer in stuck.layers] == [split_region, other]

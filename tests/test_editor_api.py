@@ -11,6 +11,7 @@ import threading
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 pytest.importorskip("uvicorn")
 pytest.importorskip("starlette")
@@ -21,6 +22,7 @@ from inkray.editor import session as session_module  # noqa: E402
 from inkray.editor.session import EditSession, autosave_path, entry_paths  # noqa: E402
 from inkray.errors import InkrayError, InputError  # noqa: E402
 from inkray.formats.depth_png import depth_png, read_depth_png  # noqa: E402
+from inkray.input.annotations import parse_annotations  # noqa: E402
 from inkray.input.loading import load_input  # noqa: E402
 
 
@@ -177,6 +179,10 @@ def test_relations_and_accepting_a_prediction(turtle):
             (fx, fy), (bx, by) = r["points"]
             assert labels[int(fy), int(fx)] == r["front_index"]
             assert labels[int(by), int(bx)] == r["back_index"]
+            # each end well inside its part: a segmentation change of a few pixels keeps it there
+            for (x, y), region in zip(r["points"], (r["front_index"], r["back_index"])):
+                inside = ndimage.distance_transform_edt(np.pad(labels == region, 1))[1:-1, 1:-1]
+                assert inside[int(y), int(x)] >= min(6, inside.max() / 3)
         pick = max(predicted, key=lambda r: r["confidence"])
         # flip it: the back point in front
         doc["order"] = [{"front": pick["points"][1], "back": pick["points"][0]}]
@@ -469,3 +475,121 @@ def test_depth_draft_first(turtle, tmp_path, monkeypatch):
     assert d_draft.shape == d_full.shape and not np.array_equal(d_draft, d_full)
     assert np.abs(d_draft - d_full).mean() < 0.05 * np.ptp(d_full)
     assert d_draft[273, 168] > d_draft[265, 180]  # order[0]: the head over the shell
+
+
+def test_a_saved_file_is_compact_and_v1(turtle):
+    doc = json.loads(turtle.read_text())
+    doc["order"].append({"front": [265.8333, 190.04], "back": [300.25, 188]})
+    session = EditSession(turtle)
+    session.replace(json.dumps(doc))
+    session.save()
+    text = turtle.read_text()
+    lines = text.splitlines()
+    # a line per key, region and entry: each polyline and each arrow on one line
+    polylines = sum(len(r["scribbles"]) for r in doc["regions"]) + len(doc["background"])
+    entries = len(doc["order"]) + len(doc["boundaries"])
+    structure = 2 + 4 + 5 * len(doc["regions"]) + 2 * 4  # braces, scalar keys, regions, lists
+    assert len(lines) == structure + polylines + entries, text
+    assert '{"front": [265.8, 190], "back": [300.2, 188]}' in text
+    saved = json.loads(text)
+    assert saved["format"] == "inkray-annotations" and saved["version"] == 1
+    from inkray.cli import main
+
+    assert main(["validate", str(turtle)]) == 0
+
+
+def test_an_autosave_equal_to_the_file_is_removed(turtle):
+    autosave_path(turtle).write_text(turtle.read_text())
+    session = EditSession(turtle)
+    assert not session.restored and session.saved and not autosave_path(turtle).exists()
+
+
+def test_discarding_the_autosave_goes_back_to_the_file(turtle):
+    doc = json.loads(turtle.read_text())
+    kept = dict(doc, order=doc["order"][:1])
+    autosave_path(turtle).write_text(json.dumps(kept))
+    session = EditSession(turtle)
+    with running(session) as url:
+        assert _json(call(url + "/api/info"))[1]["restored"] is True
+        status, answer = _json(call(url + "/api/discard-autosave", "POST"))
+        info = _json(call(url + "/api/info"))[1]
+        shown = _json(call(url + "/api/annotations"))[1]
+    assert status == 200 and answer["generation"] == 1
+    assert shown == doc and info["restored"] is False and info["saved"] is True
+    assert not autosave_path(turtle).exists()
+
+
+def test_saving_refuses_what_validate_refuses(turtle):
+    from inkray.chain import ReliefChain
+    from inkray.validation import validate
+
+    doc = json.loads(turtle.read_text())
+    first = doc["order"][0]
+    doc["order"].append({"front": first["back"], "back": first["front"]})  # a cycle
+    original = turtle.read_bytes()
+    session = EditSession(turtle)
+    with running(session) as url:
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200
+        status, answer = _json(call(url + "/api/save", "POST"))
+    ann, drawing = load_input(turtle)
+    ann.order = parse_annotations(doc).order
+    expected = [p.message for p in validate(ReliefChain(ann, drawing)) if p.severity == "error"]
+    assert status == 422 and answer["error"] == expected[0] and "\n" not in answer["error"]
+    assert answer["plain"].startswith("the arrow at (174, 269) says head is in front of shell, "
+                                      "but the arrow at (174, 269) says shell is in front of head")
+    assert turtle.read_bytes() == original
+
+
+def test_a_chunked_put_stops_at_the_limit(turtle, monkeypatch):
+    """The body is read as it streams in, and refused as soon as it passes the limit."""
+    import socket
+    import select
+
+    from inkray.editor import app
+
+    limit = 1 << 20
+    monkeypatch.setattr(app, "_MAX_BODY", limit)
+    with running(EditSession(turtle)) as url:
+        port = int(url.rsplit(":", 1)[1])
+        sock = socket.create_connection(("127.0.0.1", port))
+        sock.sendall(b"PUT /api/annotations HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                     b"Transfer-Encoding: chunked\r\n\r\n")
+        chunk = b"%x\r\n" % 65536 + b" " * 65536 + b"\r\n"
+        sent, answer = 0, b""
+        while sent < 200 * limit:  # far more than the limit, unless the answer comes first
+            if select.select([sock], [], [], 0)[0]:
+                answer = sock.recv(4096)
+                break
+            try:
+                sock.sendall(chunk)
+            except (BrokenPipeError, ConnectionResetError):
+                answer = sock.recv(4096)
+                break
+            sent += 65536
+        sock.close()
+        length = call(url + "/api/annotations", "PUT", b"x" * (limit + 1),
+                      headers={"Content-Length": str(limit + 1)})
+    assert answer.startswith(b"HTTP/1.1 413"), answer[:100]
+    assert sent < 40 * limit  # the limit and what the sockets' buffers hold
+    assert length[0] == 413
+
+
+def test_scribble_region_is_the_part_under_the_scribble(turtle):
+    doc = json.loads(turtle.read_text())
+    names = [r["name"] for r in doc["regions"]]
+    with running(EditSession(turtle)) as url:
+        def region(points, current=None):
+            return _json(call(url + "/api/scribble-region", "POST",
+                              {"points": points, "current": current}))[1]["region"]
+
+        edge = _json(call(url + "/api/scribble-region", "POST",
+                          {"points": [[30, 30], [40, 40]]}))[1]["edge"]
+        inner = _json(call(url + "/api/scribble-region", "POST",
+                           {"points": [[300, 250], [320, 260]]}))[1]["edge"]
+        shell = region([[300, 250], [320, 260]])
+        head = region([[110, 265], [120, 270]])
+        paper = region([[30, 30], [40, 40]])
+        bad = call(url + "/api/scribble-region", "POST", {"points": "here"})
+    assert names[shell] == "shell" and names[head] == "head" and paper is None
+    assert edge and not inner
+    assert bad[0] == 422 and b"[x, y] points" in bad[2]

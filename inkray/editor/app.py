@@ -7,20 +7,33 @@ Endpoints (a public contract, see ``docs/editor.md``):
 - ``GET /api/drawing.png`` the drawing;
 - ``GET /api/annotations`` the current document; ``PUT`` replaces it
   (400 ``{"error": ...}`` and nothing changed when it is bad);
-- ``POST /api/save`` writes the file, ``{"path": ...}``;
+- ``POST /api/save`` writes the file, ``{"path": ...}`` (422 and nothing written for a
+  document ``inkray validate`` refuses);
+- ``POST /api/discard-autosave`` drops the autosave and goes back to the file;
+- ``POST /api/outline-path`` ``{"from", "to"}``: a boundary path along the nearest
+  region outline between two points;
+- ``POST /api/scribble-region`` ``{"points", "current"}``: the region a region
+  scribble extends (None: a new one);
 - ``GET /api/preview/labels.png``, ``depth.png``, ``relief.glb`` the previews,
   with ``X-Inkray-Compute-Ms`` and ``X-Inkray-Generation``; 422 ``{"error",
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
   at half resolution (the first answer after an edit);
-- ``GET /api/relations`` the user's and predicted relations and the warnings.
+- ``GET /api/relations`` the user's and predicted relations and the warnings;
+- ``POST /api/pose`` ``{"handles": [[x, y], ...], "to": [[x, y], ...], "scale": s}``:
+  the posed drawing as PNG (Pose mode; ``scale`` optional, 0.05..1, a smaller
+  picture while dragging), with ``X-Inkray-Compute-Ms``; ``POST
+  /api/pose/save`` a pose file's JSON: written as ``<name>.pose.json`` beside
+  the annotation, ``{"path": ...}``.
 """
 
 import io
+import json
 import sys
 from pathlib import Path
 
 import anyio
+import numpy as np
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
 from starlette.middleware.trustedhost import TrustedHostMiddleware
@@ -28,8 +41,10 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from inkray.editor.posing import PoseSession
 from inkray.editor.session import PREVIEWS, entry_paths
 from inkray.errors import InkrayError, InputError
+from inkray.input.limits import DEFAULT_LIMITS
 
 __all__ = ["editor_app", "LOOPBACK_HOSTS"]
 
@@ -37,7 +52,8 @@ __all__ = ["editor_app", "LOOPBACK_HOSTS"]
 LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 
 STATIC = Path(__file__).resolve().parent / "static"
-_MAX_BODY = 64 * 1024 * 1024  # the annotation file's own byte limit is checked when decoding
+_MAX_BODY = DEFAULT_LIMITS.file_bytes  # the annotation file's own limit
+_MAX_POINTS_BODY = 1024 * 1024  # a click pair or one scribble
 
 
 def editor_app(session, *, allowed_hosts=None):
@@ -66,6 +82,7 @@ def editor_app(session, *, allowed_hosts=None):
     ['/', '/api/info', '/api/drawing.png', '/api/annotations']
     """
     drawing_png = _png(session.drawing.rgb)
+    posing = PoseSession(session)
 
     async def page(request):
         return FileResponse(STATIC / "index.html", headers=_NO_STORE)
@@ -75,15 +92,16 @@ def editor_app(session, *, allowed_hosts=None):
                              "drawing": session.document.get("drawing"),
                              "size": list(session.drawing.size), "palette": session.palette,
                              "generation": session.generation, "saved": session.saved,
-                             "restored": session.restored}, headers=_NO_STORE)
+                             "restored": session.restored, "exists": session.path.exists()},
+                            headers=_NO_STORE)
 
     async def drawing(request):
         return Response(drawing_png, media_type="image/png")
 
     async def annotations(request):
         if request.method == "PUT":
-            raw = await request.body()
-            if len(raw) > _MAX_BODY:
+            raw = await _body(request, _MAX_BODY)
+            if raw is None:
                 return _error(413, f"{session.path.name}: the document is larger than "
                                    f"{_MAX_BODY} bytes")
             try:
@@ -98,9 +116,55 @@ def editor_app(session, *, allowed_hosts=None):
     async def save(request):
         try:
             path = await anyio.to_thread.run_sync(session.save)
+        except InputError as e:
+            return _error(422, str(e), session)
         except OSError as e:
             return _error(500, f"{session.path}: cannot write ({e.strerror or e})")
         return JSONResponse({"path": str(path)})
+
+    async def discard(request):
+        generation = await anyio.to_thread.run_sync(session.discard)
+        return JSONResponse({"generation": generation, "palette": session.palette},
+                            headers=_NO_STORE)
+
+    async def points_of(request, keys):
+        """The JSON body's points ``keys``, each ``[x, y]`` (a list of them for ``points``)."""
+        raw = await _body(request, _MAX_POINTS_BODY)
+        if raw is None:
+            raise InputError(f"the request is larger than {_MAX_POINTS_BODY} bytes")
+        try:
+            body = json.loads(raw)
+            out = []
+            for key in keys:
+                value = np.asarray(body[key], float)
+                if value.ndim not in (1, 2) or value.shape[-1] != 2 or not value.size \
+                        or not np.isfinite(value).all():
+                    raise ValueError
+                out.append(value.reshape(-1, 2) if key == "points" else value)
+            return out, body
+        except (ValueError, TypeError, KeyError, AttributeError):
+            raise InputError(f"expected a JSON object with {', '.join(keys)} as [x, y] points")
+
+    async def outline_path(request):
+        try:
+            (start, end), _ = await points_of(request, ("from", "to"))
+            value = await anyio.to_thread.run_sync(session.outline_path, start, end)
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        value.pop("compute_ms")
+        return JSONResponse(value, headers=_NO_STORE)
+
+    async def scribble_region(request):
+        try:
+            (points,), body = await points_of(request, ("points",))
+            current = body.get("current")
+            current = current if isinstance(current, int) else None
+            region, edge = await anyio.to_thread.run_sync(
+                lambda: (session.scribble_region(points, current=current),
+                         session.on_edge(points)))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return JSONResponse({"region": region, "edge": edge}, headers=_NO_STORE)
 
     async def preview(request):
         name = request.path_params["name"]
@@ -118,7 +182,7 @@ def editor_app(session, *, allowed_hosts=None):
             p = await anyio.to_thread.run_sync(lambda: session.preview(
                 name, exact=method == "exact", draft=quality == "draft"))
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
-            return _failure(e)
+            return _failure(e, session)
         return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **{
             "X-Inkray-Compute-Ms": f"{p.compute_ms:.1f}",
             "X-Inkray-Generation": str(p.generation)}))
@@ -129,9 +193,34 @@ def editor_app(session, *, allowed_hosts=None):
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
         compute_ms = value.pop("compute_ms")
+        value["plain"] = session.explain(value["error"]) if value["error"] else None
         return JSONResponse(value, headers=dict(_NO_STORE, **{
             "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
             "X-Inkray-Generation": str(value["generation"])}))
+
+    async def pose(request):
+        body = await _json(request)
+        if not isinstance(body, dict) or not {"handles", "to"} <= set(body) <= {
+                "handles", "to", "scale"}:
+            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...], "
+                               "\"scale\": s (optional)}")
+        try:
+            png, ms, generation = await anyio.to_thread.run_sync(lambda: posing.picture(
+                body["handles"], body["to"], scale=body.get("scale", 1.0)))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return Response(png, media_type="image/png", headers=dict(_NO_STORE, **{
+            "X-Inkray-Compute-Ms": f"{ms:.1f}", "X-Inkray-Generation": str(generation)}))
+
+    async def pose_save(request):
+        body = await _json(request)
+        try:
+            path = await anyio.to_thread.run_sync(posing.save, body)
+        except InputError as e:
+            return _error(400, str(e))
+        except OSError as e:
+            return _error(500, f"cannot write the pose file ({e.strerror or e})")
+        return JSONResponse({"path": str(path)})
 
     routes = [
         Route("/", page),
@@ -139,8 +228,13 @@ def editor_app(session, *, allowed_hosts=None):
         Route("/api/drawing.png", drawing),
         Route("/api/annotations", annotations, methods=["GET", "PUT"]),
         Route("/api/save", save, methods=["POST"]),
+        Route("/api/discard-autosave", discard, methods=["POST"]),
+        Route("/api/outline-path", outline_path, methods=["POST"]),
+        Route("/api/scribble-region", scribble_region, methods=["POST"]),
         Route("/api/preview/{name}", preview),
         Route("/api/relations", relations),
+        Route("/api/pose", pose, methods=["POST"]),
+        Route("/api/pose/save", pose_save, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []
@@ -152,15 +246,44 @@ def editor_app(session, *, allowed_hosts=None):
 _NO_STORE = {"Cache-Control": "no-store"}
 
 
-def _error(status, message):
-    return JSONResponse({"error": message, "paths": entry_paths(message)}, status_code=status,
-                        headers=_NO_STORE)
+async def _body(request, limit):
+    """The request's body, read as it streams in; None as soon as it exceeds ``limit`` bytes
+    (so a huge or endless body costs at most ``limit`` bytes of memory)."""
+    length = request.headers.get("content-length", "")
+    if length.isdigit() and int(length) > limit:
+        return None
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > limit:
+            return None
+    return bytes(body)
 
 
-def _failure(e):
+async def _json(request):
+    """The request's JSON body (at most the annotation file's byte limit), or None."""
+    import json
+
+    raw = await _body(request, _MAX_BODY)
+    if raw is None:
+        return None
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return None
+
+
+def _error(status, message, session=None):
+    """``{"error", "paths", "plain"}``: ``plain`` says a contradiction in plain words."""
+    plain = session.explain(message) if session is not None else None
+    return JSONResponse({"error": message, "paths": entry_paths(message), "plain": plain},
+                        status_code=status, headers=_NO_STORE)
+
+
+def _failure(e, session=None):
     """422 for a document that cannot be computed, 500 for anything else; one line, as the CLI."""
     if isinstance(e, InputError):
-        return _error(422, str(e))
+        return _error(422, str(e), session)
     if isinstance(e, InkrayError):
         message = " ".join(str(e).split())
     elif isinstance(e, MemoryError):

@@ -35,16 +35,25 @@ from inkray.input.annotations import FORMAT, VERSION, decode_annotations, parse_
 from inkray.input.drawing import load_drawing
 from inkray.input.files import read_bytes
 from inkray.input.limits import DEFAULT_LIMITS
+from inkray.input.scribbles import polyline_pixels
 from inkray.progress import Progress
+from inkray.segmentation import INK_THRESHOLD
+from inkray.validation import validate
 
-__all__ = ["EditSession", "Preview", "PREVIEWS", "autosave_path", "entry_paths"]
+__all__ = ["EditSession", "Preview", "PREVIEWS", "autosave_path", "dump_annotations",
+           "entry_paths", "plain_contradiction"]
 
 #: The previews a session computes, by the name of their endpoint file.
 PREVIEWS = ("labels.png", "depth.png", "relief.glb")
 
 _ENTRY = re.compile(r"\b(regions|background|order|equal|boundaries)\[(\d+)\]")
 _SUGGEST_RADIUS = 40  # px around a prediction's pixel searched for its arrow's ends
-_SUGGEST_DEPTH = 3.0  # px an accepted arrow's end lies inside its region, where it can
+#: An accepted arrow's ends lie this far inside their regions where they can (and at
+#: least half as deep as the deepest pixel near the place), so that they stay in their
+#: parts when the segmentation moves by a few pixels.
+_SUGGEST_DEPTH = 12.0
+_SNAP_RADIUS = 25  # px from a click to the region outline a two-click boundary follows
+_PATH_TOLERANCE = 0.75  # px a two-click boundary's polyline may depart from the outline pixels
 _FILES_BYTES = 256 * 2**20  # encoded previews kept for undo (a 1 Mpx relief GLB is ~10 MB)
 _POLL = 0.005  # s between looks at a segmentation the depth map waits for
 #: At most this long a relief waits for a depth map being computed (see _depth_first).
@@ -170,14 +179,20 @@ class EditSession:
         self._closed = False
         self.saved = self.path.exists()
         self._chain = None
+        self._parts = None
+        self._file_doc = doc
         self._set(doc)
         if self.autosave.is_file():
             try:
-                self._set(self._read(self.autosave))
+                kept = self._read(self.autosave)
+            except InputError:
+                kept = None  # a broken autosave is left where it is; the file itself was loaded
+            if kept is not None and kept == doc:
+                self.autosave.unlink(missing_ok=True)  # nothing unsaved in it
+            elif kept is not None:
+                self._set(kept)
                 self.restored = True
                 self.saved = False
-            except InputError:
-                pass  # a broken autosave is left where it is; the file itself was loaded
 
     # -- the document ------------------------------------------------------------
 
@@ -215,19 +230,136 @@ class EditSession:
     def save(self):
         """Write the document to the annotation file (atomically) and drop the autosave.
 
+        The document must pass :func:`inkray.validation.validate` as the file
+        would: a document that ``inkray validate`` refuses (a contradictory
+        order cycle, a boundary far from every outline) is not written.
+
         Returns
         -------
         pathlib.Path
+
+        Raises
+        ------
+        InputError
+            The first error ``inkray validate`` would report, one line; nothing written.
         """
         with self._state:
-            text = _dump(self._doc)
+            text = dump_annotations(self._doc)
             generation = self.generation
+            chain = self._chain
+        errors = [p for p in validate(chain) if p.severity == "error"]
+        if errors:
+            raise InputError(errors[0].message)
         write_text(self.path, text)
         with self._state:
             if self.generation == generation:
                 self.saved = True
                 self.autosave.unlink(missing_ok=True)
         return self.path
+
+    def discard(self):
+        """Drop the autosave and go back to the file (or to the empty new document).
+
+        Returns
+        -------
+        int
+            The new generation.
+        """
+        with self._autosave_lock:
+            self.autosave.unlink(missing_ok=True)
+        generation = self._set(self._file_doc, write_autosave=True, autosave=False)
+        with self._state:
+            self.restored = False
+            self.saved = self.path.exists()
+        return generation
+
+    def explain(self, message):
+        """``message`` about contradictory entries in plain words, or None (see
+        :func:`plain_contradiction`)."""
+        with self._state:
+            doc, chain = self._doc, self._chain
+        if not chain.segmented:
+            return None
+        return plain_contradiction(message, doc, chain.segmentation.labels,
+                                   chain.segmentation.names)
+
+    def scribble_region(self, points, *, current=None):
+        """The region a new region scribble along ``points`` extends, or None for a new one.
+
+        A part of the drawing is an area of paper enclosed by ink; a scribble
+        extends the region that already has a scribble in the part under
+        most of its pixels (``current`` first when several do, then the one
+        the segmentation gives most of its pixels to), and starts a new
+        region in a part no region holds.
+
+        Parameters
+        ----------
+        points : (k, 2) sequence of [x, y]
+        current : int, optional
+            The region picked in the page.
+
+        Returns
+        -------
+        int or None
+        """
+        parts = self._paper_parts()
+        part = _majority(parts, points)
+        if part is None:
+            return None
+        with self._state:
+            regions = self._doc.get("regions", [])
+            chain = self._chain
+        holders = [i for i, r in enumerate(regions)
+                   if any(_majority(parts, line, every=True) & {part} for line in r["scribbles"])]
+        if not holders:
+            return None
+        if current in holders:
+            return current
+        if len(holders) > 1 and chain.segmented:
+            # parts joined through a gap in the ink: the region the segmentation gives the
+            # scribble's pixels to
+            rows, cols = polyline_pixels(np.asarray(points, float).reshape(-1, 2), parts.shape)
+            votes = np.bincount(chain.segmentation.labels[rows, cols] + 1, minlength=len(regions) + 1)
+            return max(holders, key=lambda i: votes[i + 1])
+        return holders[0]
+
+    def on_edge(self, points):
+        """Whether the paper part under most of the polyline ``points`` touches the
+        drawing's edge (the paper around the character, mostly)."""
+        parts = self._paper_parts()
+        part = _majority(parts, points)
+        edge = np.concatenate([parts[0], parts[-1], parts[:, 0], parts[:, -1]])
+        return part is not None and bool((edge == part).any())
+
+    def outline_path(self, start, end):
+        """A boundary path from ``start`` to ``end`` along the nearest region outline.
+
+        Both points snap to the outline of the one region whose outline passes
+        nearest to both (within a few pixels); the path is the shortest way
+        between the two snapped pixels along that outline (8-connected), as a
+        polyline within a pixel of it.
+
+        Parameters
+        ----------
+        start, end : (float, float)
+            ``[x, y]`` in drawing pixels.
+
+        Returns
+        -------
+        dict
+            ``{"path": [[x, y], ...], "region": name, "generation"}``.
+
+        Raises
+        ------
+        InputError
+            No region outline passes near both points.
+        """
+        def compute(chain, digest):
+            seg = chain.segmentation
+            path, region = _outline_path(seg.labels, start, end)
+            return {"path": path, "region": seg.names[region]}
+
+        return self._newest(compute, lock="relief", wrap=False)
 
     def close(self):
         """Stop the work under way (at its next stage) and refuse new previews."""
@@ -305,7 +437,13 @@ class EditSession:
         raw = read_bytes(path, "annotation file", limit=DEFAULT_LIMITS.file_bytes)
         return decode_annotations(raw, where=str(path))
 
-    def _set(self, doc, *, write_autosave=False):
+    def _paper_parts(self):
+        """The drawing's areas of paper enclosed by ink, labelled 1.. (0 on ink); kept."""
+        if self._parts is None:
+            self._parts = ndimage.label(self.drawing.gray >= INK_THRESHOLD)[0]
+        return self._parts
+
+    def _set(self, doc, *, write_autosave=False, autosave=True):
         ann = parse_annotations(doc)
         if doc.get("drawing") != self._drawing_key:
             raise InputError(f"drawing: this editor edits the annotation of "
@@ -327,7 +465,7 @@ class EditSession:
             self.generation += 1 if write_autosave else 0
             self.saved = self.saved and not write_autosave
             generation = self.generation
-            text = _dump(doc) if write_autosave else None
+            text = dump_annotations(doc) if write_autosave and autosave else None
         if text is not None:
             with self._autosave_lock:
                 if self.generation == generation:  # a newer edit writes its own
@@ -465,7 +603,7 @@ def _relation(r, labels):
 
 
 def _inside(labels, region, where):
-    """A pixel of ``region`` near ``where``, a few pixels inside its outline where it can be."""
+    """A pixel of ``region`` near ``where``, well inside its outline where it can be."""
     h, w = labels.shape
     x, y = int(round(where[0])), int(round(where[1]))
     r = _SUGGEST_RADIUS
@@ -476,14 +614,232 @@ def _inside(labels, region, where):
         k = int(np.argmin((rows - y) ** 2 + (cols - x) ** 2))
         return float(cols[k]), float(rows[k])
     depth = ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1]
-    ok = depth >= min(_SUGGEST_DEPTH, depth.max())
+    ok = depth >= min(_SUGGEST_DEPTH, depth.max() / 2)
     rows, cols = np.nonzero(ok)
     k = int(np.argmin((rows + y0 - y) ** 2 + (cols + x0 - x) ** 2))
     return float(cols[k] + x0), float(rows[k] + y0)
 
 
-def _dump(doc):
-    return json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+def _majority(parts, points, *, every=False):
+    """The paper part under most pixels of the polyline ``points`` (None on ink only);
+    with ``every``, the set of all parts it touches."""
+    rows, cols = polyline_pixels(np.asarray(points, float).reshape(-1, 2), parts.shape)
+    found = parts[rows, cols]
+    found = found[found > 0]
+    if every:
+        return set(found.tolist())
+    if not len(found):
+        return None
+    return int(np.bincount(found).argmax())
+
+
+def _outline_path(labels, start, end):
+    """The shortest 8-connected way along one region's outline between the pixels of
+    that outline nearest ``start`` and ``end``; ``(polyline, region)``."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+    from scipy.spatial import cKDTree
+    from skimage.measure import approximate_polygon
+
+    h, w = labels.shape
+    inner = np.zeros(labels.shape, bool)  # a region's pixels with a 4-neighbour of another label
+    inner[:, 1:] |= labels[:, 1:] != labels[:, :-1]
+    inner[:, :-1] |= labels[:, :-1] != labels[:, 1:]
+    inner[1:, :] |= labels[1:, :] != labels[:-1, :]
+    inner[:-1, :] |= labels[:-1, :] != labels[1:, :]
+    inner &= labels >= 0
+    rows, cols = np.nonzero(inner)
+    if not len(rows):
+        raise InputError("boundary: no region outline in the segmentation to follow")
+    tree = cKDTree(np.column_stack([cols, rows]))
+    ends = [np.clip(np.asarray(p, float), 0, [w - 1, h - 1]) for p in (start, end)]
+    best = None
+    near = [tree.query_ball_point(p, _SNAP_RADIUS) for p in ends]
+    for region in set(labels[rows[near[0]], cols[near[0]]].tolist()):
+        snapped = []
+        for p, idx in zip(ends, near):
+            idx = [k for k in idx if labels[rows[k], cols[k]] == region]
+            if not idx:
+                break
+            d = np.hypot(cols[idx] - p[0], rows[idx] - p[1])
+            snapped.append((float(d.min()), idx[int(d.argmin())]))
+        if len(snapped) == 2:
+            cost = snapped[0][0] + snapped[1][0]
+            if best is None or cost < best[0]:
+                best = (cost, region, snapped[0][1], snapped[1][1])
+    if best is None:
+        raise InputError(f"boundary: no region outline passes within {_SNAP_RADIUS} px of both "
+                         f"({ends[0][0]:g}, {ends[0][1]:g}) and ({ends[1][0]:g}, {ends[1][1]:g})")
+    _, region, a, b = best
+    own = np.flatnonzero(labels[rows, cols] == region)
+    index = np.full(labels.shape, -1, np.int64)
+    index[rows[own], cols[own]] = np.arange(len(own))
+    src, dst, weight = [], [], []
+    for dy, dx in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        y2, x2 = rows[own] + dy, cols[own] + dx
+        ok = (y2 >= 0) & (y2 < h) & (x2 >= 0) & (x2 < w)
+        j = np.full(len(own), -1)
+        j[ok] = index[y2[ok], x2[ok]]
+        keep = j >= 0
+        src.append(np.flatnonzero(keep))
+        dst.append(j[keep])
+        weight.append(np.full(int(keep.sum()), np.hypot(dx, dy)))
+    src, dst, weight = (np.concatenate(v) for v in (src, dst, weight))
+    graph = coo_matrix((weight, (src, dst)), shape=(len(own), len(own))).tocsr()
+    ia, ib = int(index[rows[a], cols[a]]), int(index[rows[b], cols[b]])
+    dist, pred = dijkstra(graph, directed=False, indices=ia, return_predecessors=True)
+    if not np.isfinite(dist[ib]):
+        raise InputError(f"boundary: the two points lie on separate outlines of region "
+                         f"{region} ({ends[0][0]:g}, {ends[0][1]:g}) and "
+                         f"({ends[1][0]:g}, {ends[1][1]:g})")
+    walk = [ib]
+    while walk[-1] != ia:
+        walk.append(int(pred[walk[-1]]))
+    walk.reverse()
+    pixels = np.column_stack([cols[own][walk], rows[own][walk]]).astype(float)
+    path = approximate_polygon(pixels, tolerance=_PATH_TOLERANCE)
+    return [[float(x), float(y)] for x, y in path], int(region)
+
+
+def plain_contradiction(message, doc, labels, names):
+    """A contradiction among the user's entries in plain words, naming the parts and places.
+
+    Parameters
+    ----------
+    message : str
+        The one-line error naming the cycle of entries (``order[0] -> order[4] -> order[0]``).
+    doc : dict
+        The document the entries are in.
+    labels : (H, W) int array
+        The segmentation (-1 background), to name the part under each end.
+    names : sequence of str
+
+    Returns
+    -------
+    str or None
+        None when ``message`` names no cycle of ``order``/``equal`` entries.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> labels = np.zeros((10, 20), int); labels[:, 10:] = 1
+    >>> doc = {"order": [{"front": [2, 5], "back": [15, 5]}, {"front": [16, 4], "back": [3, 4]}]}
+    >>> plain_contradiction("order: ... order[0] -> order[1] -> order[0] (a > b > a)",
+    ...                     doc, labels, ["a", "b"])
+    'the arrow at (8, 5) says a is in front of b, but the arrow at (10, 4) says b is in front of a'
+    """
+    cycle = re.search(r"((?:(?:order|equal)\[\d+\] -> )+(?:order|equal)\[\d+\])", message)
+    if cycle is None:
+        return None
+    keys = cycle.group(1).split(" -> ")
+    if keys[0] == keys[-1]:
+        keys = keys[:-1]
+    h, w = labels.shape
+
+    def part(p):
+        k = labels[min(max(int(round(p[1])), 0), h - 1), min(max(int(round(p[0])), 0), w - 1)]
+        return "the background" if k < 0 else names[k]
+
+    said = []
+    for key in keys:
+        kind, k = key.split("[")
+        try:
+            e = doc[kind][int(k[:-1])]
+        except (KeyError, IndexError):
+            return None
+        a, b = (e["front"], e["back"]) if kind == "order" else (e["a"], e["b"])
+        where = f"({(a[0] + b[0]) / 2:.0f}, {(a[1] + b[1]) / 2:.0f})"
+        if kind == "order":
+            said.append((where, "arrow", f"{part(a)} is in front of {part(b)}", part(a), part(b)))
+        else:
+            said.append((where, "equal mark", f"{part(a)} and {part(b)} are at the same depth",
+                         part(a), part(b)))
+    first, rest = said[0], said[1:]
+    text = f"the {first[1]} at {first[0]} says {first[2]}"
+    if not rest:
+        return text
+    marks = {m for _, m, *_ in rest}
+    kind = ("arrows" if marks == {"arrow"} else "marks") if len(rest) > 1 else rest[0][1]
+    places = " and ".join(w for w, *_ in rest)
+    verb = "say" if len(rest) > 1 else "says"
+    if len(rest) == 1:
+        claim = rest[0][2]
+    else:
+        claim = "; ".join(r[2] for r in rest)
+        claim = f"{first[4]} is in front of {first[3]} ({claim})"
+    return f"{text}, but the {kind} at {places} {verb} {claim}"
+
+
+def dump_annotations(doc):
+    """The annotation document as compact, deterministic JSON text (format v1).
+
+    Objects take a line per key (2-space indent, keys in their order); a
+    point and a polyline take one line each, their coordinates rounded to
+    0.1 px (integral values written as integers). Comment keys (``_...``)
+    are kept as they are.
+
+    Parameters
+    ----------
+    doc : dict
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(dump_annotations({"size": [4, 3], "order": [{"front": [1.04, 2], "back": [3.0, 1.25]}],
+    ...                         "background": [[[0, 0], [2.333, 1]]]}), end="")
+    {
+      "size": [4, 3],
+      "order": [
+        {"front": [1, 2], "back": [3, 1.2]}
+      ],
+      "background": [
+        [[0, 0], [2.3, 1]]
+      ]
+    }
+    """
+    return _json_value(doc, "", False) + "\n"
+
+
+def _json_value(value, indent, coordinates):
+    if isinstance(value, dict):
+        items = [(k, v) for k, v in value.items()]
+        inner = [f"{json.dumps(k, ensure_ascii=False)}: "
+                 f"{_json_value(v, indent + '  ', coordinates or k in _COORDINATE_KEYS)}"
+                 if not k.startswith("_") else
+                 f"{json.dumps(k, ensure_ascii=False)}: {json.dumps(v, ensure_ascii=False)}"
+                 for k, v in items]
+        if not inner:
+            return "{}"
+        if coordinates and all(_flat(v) for _, v in items):  # an order or equal entry
+            return "{" + ", ".join(inner) + "}"
+        return "{\n" + ",\n".join(indent + "  " + i for i in inner) + "\n" + indent + "}"
+    if isinstance(value, list):
+        if _flat(value):
+            return "[" + ", ".join(_json_value(v, indent, coordinates) for v in value) + "]"
+        if not value:
+            return "[]"
+        return ("[\n" + ",\n".join(indent + "  " + _json_value(v, indent + "  ", coordinates)
+                                    for v in value) + "\n" + indent + "]")
+    if coordinates and isinstance(value, float) and np.isfinite(value):
+        value = round(value, 1)
+        return str(int(value)) if value.is_integer() else repr(value)
+    return json.dumps(value, ensure_ascii=False)
+
+
+_COORDINATE_KEYS = ("scribbles", "background", "order", "equal", "boundaries", "path", "front",
+                    "back", "a", "b")
+
+
+def _flat(value):
+    """Written on one line: a number, a string, a point, a polyline (a list of points)."""
+    if isinstance(value, list):
+        return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value) or \
+            all(isinstance(v, list) and _flat(v) and all(not isinstance(u, list) for u in v)
+                for v in value)
+    return not isinstance(value, dict)
 
 
 def _relative(path, start):

@@ -428,11 +428,16 @@ def _check_relief(relief):
             bad = int(np.argmax((f < 0).any(axis=1) | (f >= len(v)).any(axis=1)))
             raise InputError(f"{where}: face {bad} {f[bad].tolist()} indexes past the "
                              f"{len(v)} vertices")
-        off = ((v[:, 0] < -tol) | (v[:, 0] > w - 1 + tol) | (v[:, 1] < -tol)
-               | (v[:, 1] > h - 1 + tol))
+        # The texture is sampled where the drawing is: a posed part may move off it.
+        t = v if part.texcoords is None else np.asarray(part.texcoords, float)
+        if t.shape[0] != len(v) or not np.all(np.isfinite(t[:, :2])):
+            raise InputError(f"{where}: texcoords must be finite, one (x, y) per vertex")
+        off = ((t[:, 0] < -tol) | (t[:, 0] > w - 1 + tol) | (t[:, 1] < -tol)
+               | (t[:, 1] > h - 1 + tol))
         if off.any():
             k = int(np.argmax(off))
-            raise InputError(f"{where}: vertex {k} at pixel ({v[k, 0]:g}, {v[k, 1]:g}) lies "
+            what = "vertex" if part.texcoords is None else "texcoords of vertex"
+            raise InputError(f"{where}: {what} {k} at pixel ({t[k, 0]:g}, {t[k, 1]:g}) lies "
                              f"outside the {w}x{h} drawing")
 
 
@@ -464,8 +469,9 @@ def _scene_meshes(relief, units_per_pixel, anchor):
         # the vertices of theirs that no front face shares (all of a closed part's
         # back) take the texture coordinates (and PLY colours) of a plain texel. A
         # vertex is not copied for that, so solids stay watertight by index in files.
+        tex = px[:, :2] if part.texcoords is None else np.asarray(part.texcoords, float)[:, :2]
+        sample = tex.copy()
         plain = _plain_faces(px, faces)
-        sample = px[:, :2].copy()
         if plain.any() and not plain.all():
             front = np.zeros(len(px), bool)
             front[faces[~plain].ravel()] = True

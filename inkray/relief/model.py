@@ -34,12 +34,16 @@ class Part:
     faces : (m, 3) int array
     closed : bool
         True when the part is a closed solid (front and back).
+    texcoords : (n, 2) float array or None
+        Where on the drawing (pixels) each vertex takes its colour; None: at
+        its own ``(x, y)``. A posed part keeps its rest positions here.
     """
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
     closed: bool = False
+    texcoords: np.ndarray = None
 
 
 @dataclass

@@ -27,7 +27,7 @@ import numpy as np
 from inkray.errors import InputError
 from inkray.relief.model import Relief
 
-__all__ = ["Raster", "rasterize", "fit_view", "vertex_normals"]
+__all__ = ["Raster", "rasterize", "fit_view", "vertex_normals", "zbuffer"]
 
 _CHUNK = 1 << 20  # (triangle, pixel) candidate pairs per vectorized batch
 _EDGE_EPS = 1e-9  # pixel centres exactly on an edge count as inside
@@ -279,6 +279,37 @@ def _barycentric(corners, x, y):
     b1 = ((y2 - y0) * (x - x0) - (x2 - x0) * (y - y0)) / det
     b2 = ((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0)) / det
     return np.stack([1.0 - b1 - b2, b1, b2], axis=1)
+
+
+def zbuffer(points, z, triangles, size):
+    """Per output pixel, the triangle nearest the viewer (largest ``z``) covering its centre.
+
+    The core of :func:`rasterize` for callers that keep their own attributes.
+
+    Parameters
+    ----------
+    points : (n, 2) float array
+        Vertices in output pixels: pixel ``(row i, column j)`` is centred at
+        ``(j + 0.5, i + 0.5)``.
+    z : (n,) float array
+    triangles : (m, 3) int array
+    size : (int, int)
+        ``(w, h)``.
+
+    Returns
+    -------
+    (h, w) int64 array
+        Triangle index, -1 where none.
+
+    Examples
+    --------
+    >>> pts = np.array([[0.0, 0], [4, 0], [0, 4], [4, 4]])
+    >>> zbuffer(pts, np.array([0.0, 0, 0, 1]), np.array([[0, 1, 2], [1, 3, 2]]), (4, 4))[[0, 3], 0].tolist()
+    [0, 1]
+    """
+    w, h = (int(v) for v in size)
+    tris = np.asarray(triangles, np.int64).reshape(-1, 3)
+    return _zbuffer(np.asarray(points, float), np.asarray(z, float), tris, w, h).reshape(h, w)
 
 
 def _zbuffer(px, z, tris, w, h):

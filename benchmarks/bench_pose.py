@@ -1,0 +1,250 @@
+"""Posing: drag latency, animation time and quality on the bundled drawings.
+
+For each drawing, at its own size and upscaled to about 1 Mpx: the largest
+part is pinned by two handles (its top and bottom visible pixels), the
+largest part joined to it (a limb) gets a handle at its far end, swung by 40
+degrees about where it joins. Measured in process: one drag update (the
+handles nudged by 2 px, the factorization reused, 4 warm-started rounds: the
+deformation only, then the picture), a 24-frame animation (rest to the swing,
+every frame solved and drawn), the ARAP energy, the worst handle error (px),
+folded triangles, holes (transparent pixels enclosed by the posed silhouette,
+minus those enclosed at rest) and visibility agreement (pixels covered by two
+or more posed parts whose drawn part is the one highest in the relief).
+Through HTTP, as the editor's Pose mode sees it: ``inkray edit`` serves the
+same (rescaled) annotation and each drag is one ``POST /api/pose`` answered by
+the posed picture as PNG, at most a quarter megapixel while the handle moves
+(as pose.js asks) and in full when it stops (the first request, which builds
+the relief and the rig, is not counted). Targets: drag <= 30 ms in process and <= 60 ms through
+HTTP at 1 Mpx, handles within 0.5 px, 0 folds, 0 holes, visibility 100 %.
+Times are medians of 5 drags.
+
+    python benchmarks/bench_pose.py [--names man,figure,turtle] [--no-upscale] [--no-http]
+
+``--joins`` prints instead, for every bundled drawing, how the rig joins its
+parts (:mod:`inkray.relief.posing`): parts, joins by kind, and the connected
+pieces a drag can move (1: the whole character hangs together). The join
+rules' thresholds were set looking at man, figure, turtle, rings and
+gingerbread (marked "tuned"); the others are held out.
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _load(name, megapixels):
+    from PIL import Image
+
+    from inkray.input.loading import load_input
+
+    ann_path = EXAMPLES / name / "drawing.inkray.json"
+    drawing = None
+    if megapixels:
+        src = next(p for p in (EXAMPLES / name).iterdir()
+                   if p.stem == "drawing" and p.suffix in (".png", ".jpg"))
+        image = Image.open(src)
+        scale = (megapixels * 1e6 / (image.width * image.height)) ** 0.5
+        drawing = Path(tempfile.mkdtemp()) / f"up{src.suffix}"
+        image.resize((round(image.width * scale), round(image.height * scale)),
+                     Image.LANCZOS).save(drawing)
+    return load_input(ann_path, drawing=drawing, rescale=drawing is not None)
+
+
+def _scenario(chain, rig):
+    labels = chain.completion.labels
+    names = chain.completion.names
+    area = np.bincount(labels[labels >= 0], minlength=len(names))
+    body = int(np.argmax(area))
+    ys, xs = np.nonzero(ndimage.binary_erosion(labels == body, iterations=3))
+    pins = np.array([[xs[np.argmin(ys)], ys.min()], [xs[np.argmax(ys)], ys.max()]], float)
+    limbs = [j for j in rig.joins if j.to == names[body]]
+    if not limbs:
+        return pins, None, None
+    limb = max(limbs, key=lambda j: area[names.index(j.part)]).part
+    li = rig.names.index(limb)
+    glued = np.unique(rig.glue.tocoo().col)
+    glued = glued[(glued >= rig.offsets[li]) & (glued < rig.offsets[li + 1])]
+    join = rig.vertices[glued].mean(axis=0)
+    ys, xs = np.nonzero(ndimage.binary_erosion(labels == names.index(limb), iterations=2))
+    k = np.argmax(np.hypot(xs - join[0], ys - join[1]))
+    return pins, np.array([xs[k], ys[k]], float), join
+
+
+def _turn(p, about, degrees):
+    a = np.radians(degrees)
+    r = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    return about + r @ (p - about)
+
+
+def _holes(alpha):
+    """Transparent pixels no 8-connected path of transparent pixels joins to the outside."""
+    solid = alpha > 0
+    return int((ndimage.binary_fill_holes(solid, structure=np.ones((3, 3))) & ~solid).sum())
+
+
+def _visibility(posed, relief, part):
+    from inkray.relief.model import Relief
+    from inkray.view.rasterization import rasterize
+
+    depth = np.stack([rasterize(Relief([p], size=relief.size)).depth for p in relief.parts])
+    covered = np.isfinite(depth).sum(axis=0) >= 2
+    if not covered.any():
+        return 1.0
+    return float(np.mean(np.argmax(depth, axis=0)[covered] == part[covered]))
+
+
+def _http_drags(name, megapixels, handles, targets):
+    """Median time of a drag through ``inkray edit``'s ``POST /api/pose`` (and its compute part)."""
+    import shutil
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_edit import ROOT, _folder, _request
+
+    ann, _ = _folder(name, megapixels)
+    code = "import sys; from inkray.cli import main; sys.exit(main())"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
+    proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
+                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        url = proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/") + "/api/pose"
+
+        def post(to, scale=1.0):
+            body = json.dumps({"handles": handles.tolist(), "to": to.tolist(),
+                               "scale": scale}).encode()
+            start = time.perf_counter()
+            status, headers, data = _request(url, "POST", body)
+            if status != 200:
+                raise RuntimeError(f"POST /api/pose: {status} {data[:200]!r}")
+            return time.perf_counter() - start, float(headers["X-Inkray-Compute-Ms"]) / 1000
+
+        post(targets)  # builds the relief and the rig
+        # as pose.js asks while a handle moves: at most a quarter megapixel
+        w, h = json.loads(ann.read_text())["size"]
+        scale = min(1.0, (250_000 / (w * h)) ** 0.5)
+        runs = [post(targets + [[0, 0], [0, 0], [2.0 * ((-1) ** k), 1.0]], scale)
+                for k in range(5)]
+        full = statistics.median(post(targets + [[0, 0], [0, 0], [k, 0]])[0] for k in range(3))
+    finally:
+        proc.terminate()
+        proc.wait(30)
+        shutil.rmtree(ann.parent, ignore_errors=True)
+    return statistics.median(r[0] for r in runs), full
+
+
+def one(name, megapixels, http=True):
+    from inkray.chain import ReliefChain
+    from inkray.view.posed import PosedDrawing, posed_image
+
+    ann, drawing = _load(name, megapixels)
+    chain = ReliefChain(ann, drawing)
+    relief = chain.relief
+    start = time.perf_counter()
+    from inkray.relief.posing import rig_relief
+
+    rig = rig_relief(relief, chain.completion, boundaries=ann.boundaries)
+    pins, tip, join = _scenario(chain, rig)
+    if tip is None:
+        return None
+    handles = np.vstack([pins, tip])
+    posed = PosedDrawing(relief, chain.completion, chain.relations, drawing, handles,
+                         boundaries=ann.boundaries)
+    prepare = time.perf_counter() - start
+    target = np.vstack([pins, _turn(tip, join, 40.0)])
+    x, _ = posed.posing.pose(target, iterations=8)
+    drags, pictures = [], []
+    for k in range(5):
+        nudged = target + [[0, 0], [0, 0], [2.0 * ((-1) ** k), 1.0]]
+        t0 = time.perf_counter()
+        x = posed.posing.solve(nudged, iterations=4)
+        t1 = time.perf_counter()
+        img = posed.image(x)
+        t2 = time.perf_counter()
+        drags.append(t1 - t0)
+        pictures.append(t2 - t1)
+    x, _ = posed.posing.pose(target, iterations=8)
+    error = float(np.abs(posed.posing.solver.handles @ x - target).max())
+    folds = rig.folds(x)
+    energy = posed.posing.solver.energy(x)
+    moved = posed.relief(x)
+    img, part = posed_image(moved, relief, posed.cutout, drawing.rgb)
+    rest = posed.image(rig.vertices)
+    holes = max(0, _holes(img[..., 3]) - _holes(rest[..., 3]))
+    visibility = _visibility(posed, moved, part)
+    t0 = time.perf_counter()
+    posed.posing.solver.reset()
+    for f in range(24):
+        s = f / 23.0
+        y = posed.positions(np.vstack([pins, _turn(tip, join, 40.0 * s)]))
+        posed.image(y)
+    animation = time.perf_counter() - t0
+    w, h = ann.size
+    web = _http_drags(name, megapixels, handles, target) if http else (float("nan"),) * 2
+    return dict(http=web[0], http_full=web[1], name=name, size=f"{w}x{h}", vertices=len(rig.vertices), prepare=prepare,
+                drag=statistics.median(drags), picture=statistics.median(pictures),
+                animation=animation, energy=energy, error=error, folds=folds, holes=holes,
+                visibility=visibility)
+
+
+TUNED = ("man", "figure", "turtle", "rings", "gingerbread")
+
+
+def joins_table():
+    from collections import Counter
+
+    from inkray.chain import ReliefChain
+    from inkray.numerics.arap import pieces
+    from inkray.relief.posing import rig_relief
+
+    print("| drawing | set | parts | joins (rooted / on top / seams) | pieces |")
+    print("| --- | --- | --- | --- | --- |")
+    names = sorted(p.name for p in EXAMPLES.iterdir() if (p / "drawing.inkray.json").is_file())
+    for name in names:
+        ann, drawing = _load(name, 0.0)
+        chain = ReliefChain(ann, drawing)
+        rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+        kinds = Counter(j.kind for j in rig.joins)
+        piece = pieces(len(rig.vertices), rig.faces, rig.glue)
+        print(f"| {name} | {'tuned' if name in TUNED else 'held out'} | {len(rig.names)} | "
+              f"{kinds['rooted']} / {kinds['on top']} / {kinds['stitch'] + kinds['graft']} | "
+              f"{len(np.unique(piece))} |", flush=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--names", default="man,figure,turtle")
+    parser.add_argument("--no-upscale", action="store_true")
+    parser.add_argument("--no-http", action="store_true", help="skip the editor's route")
+    parser.add_argument("--joins", action="store_true", help="the joins table of every drawing")
+    args = parser.parse_args()
+    if args.joins:
+        return joins_table()
+    print("| drawing | size | vertices | prepare s | drag ms (vs 30) | picture ms | HTTP drag ms "
+          "(vs 60) | HTTP full ms | 24 frames s | ARAP energy | handle err px | folds | holes "
+          "| visibility |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name in args.names.split(","):
+        for mp in ([0.0] if args.no_upscale else [0.0, 1.0]):
+            r = one(name, mp, http=not args.no_http)
+            if r is None:
+                print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | |")
+                continue
+            print(f"| {r['name']} | {r['size']} | {r['vertices']} | {r['prepare']:.2f} | "
+                  f"{1000 * r['drag']:.1f} ({r['drag'] / 0.03:.2f}x) | {1000 * r['picture']:.0f} | "
+                  f"{1000 * r['http']:.0f} ({r['http'] / 0.06:.2f}x) | {1000 * r['http_full']:.0f} | "
+                  f"{r['animation']:.1f} | {r['energy']:.2f} | {r['error']:.1e} | {r['folds']} | "
+                  f"{r['holes']} | {100 * r['visibility']:.1f} % |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

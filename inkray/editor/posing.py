@@ -1,0 +1,99 @@
+"""The editor's Pose mode on the server: posed pictures of the newest document, and pose files.
+
+A drag in the page sends the handles (points on the drawing) and their
+targets; the answer is the posed drawing as PNG (:mod:`inkray.view.posed`,
+as-rigid-as-possible after Igarashi et al., SIGGRAPH 2005). The rig and its
+factorization are kept per document generation and handle set, so a drag is
+one warm-started solve and one picture.
+"""
+
+import json
+import threading
+import time
+
+from inkray.errors import InputError
+from inkray.formats.atomic import write_text
+from inkray.input.pose import parse_pose, pose_path
+from inkray.view.posed import PosedDrawing
+
+__all__ = ["PoseSession"]
+
+
+class PoseSession:
+    """Posed pictures and pose files of an :class:`~inkray.editor.session.EditSession`.
+
+    Parameters
+    ----------
+    session : inkray.editor.session.EditSession
+    """
+
+    def __init__(self, session):
+        self.session = session
+        self._lock = threading.Lock()
+        self._posed = None  # (generation, handles key, PosedDrawing)
+
+    def picture(self, handles, targets, *, scale=1.0):
+        """The posed drawing of the newest document as PNG bytes.
+
+        Parameters
+        ----------
+        handles, targets : list of [x, y]
+        scale : float, default 1
+            Output pixels per drawing pixel: the page asks for a smaller
+            picture while a handle moves and the full one when it stops.
+
+        Returns
+        -------
+        body : bytes
+        compute_ms : float
+        generation : int
+
+        Raises
+        ------
+        InputError
+            Bad points, a handle on no part, or a document without regions.
+        """
+        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool)
+                and 0.05 <= scale <= 1):
+            raise InputError(f"scale: expected a number within 0.05..1, got {scale!r}")
+        doc = parse_pose({"format": "inkray-pose", "version": 1, "handles": handles,
+                          "keys": [{"frame": 0, "to": targets}]},
+                         size=tuple(self.session.drawing.size))
+
+        def compute(chain, digest):
+            import io
+
+            from PIL import Image
+
+            if not chain.annotations.regions:
+                raise InputError("regions: posing needs at least one region")
+            key = doc.handles.tobytes()
+            with self._lock:
+                cached = self._posed
+                if cached is None or cached[0] != digest or cached[1] != key:
+                    posed = PosedDrawing(chain.relief, chain.completion, chain.relations,
+                                         chain.drawing, doc.handles,
+                                         boundaries=chain.annotations.boundaries)
+                    self._posed = cached = (digest, key, posed)
+                posed = cached[2]
+                rgba = posed.image(posed.positions(doc.keys[0].to), scale=scale)
+            buf = io.BytesIO()
+            Image.fromarray(rgba).save(buf, format="PNG", compress_level=1)
+            return buf.getvalue(), "image/png"
+
+        start = time.perf_counter()
+        p = self.session._newest(compute, lock="relief")
+        return p.body, (time.perf_counter() - start) * 1000, p.generation
+
+    def save(self, document):
+        """Write ``document`` (a pose file's JSON) beside the annotation file; its path.
+
+        Raises
+        ------
+        InputError
+            The document breaks the pose format (key path in the message).
+        """
+        parse_pose(document, size=tuple(self.session.drawing.size))
+        path = pose_path(self.session.path)
+        write_text(path, json.dumps(document, indent=1) + "\n")
+        return path

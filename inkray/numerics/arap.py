@@ -1,0 +1,474 @@
+"""As-rigid-as-possible deformation of 2D triangle meshes with positional handles.
+
+The energy is the triangle-element form of as-rigid-as-possible (ARAP)
+deformation (Sorkine and Alexa, "As-rigid-as-possible surface modeling", SGP
+2007; the per-triangle rotations of Liu, Zhang, Xu, Gotsman and Gortler, "A
+local/global approach to mesh parameterization", SGP 2008):
+
+.. math::
+
+    E(x, R) = \\sum_t \\sum_{(i, j) \\in t} \\tfrac12 \\cot\\theta^t_{ij}
+              \\lVert (x_i - x_j) - R_t (p_i - p_j) \\rVert^2
+              + w \\sum_g \\lVert G_g x \\rVert^2,
+
+the cotangent-weighted difference between every triangle's deformed edges
+and its rest edges ``p`` turned by one rotation ``R_t`` per triangle (per
+triangle this is the triangle's area times ``|J_t - R_t|_F^2``, so it is
+convex in ``x`` for any triangle shape). Optional glue rows ``G`` tie a
+vertex to a point of another triangle (e.g. two overlapping meshes solved as
+one system); they vanish at rest. Handles are points of the mesh (a vertex or
+barycentric point of a triangle) whose positions are prescribed: they are met
+exactly, as equality rows of the KKT system of the global step.
+
+The minimizer alternates a local step (each ``R_t``: the closest rotation to
+the triangle's edge covariance, in closed form in 2D, so never a reflection)
+and a global step (a sparse linear solve with a matrix that does not depend
+on the handle positions: factored once in :class:`Arap`, reused for every
+drag). A drag warm-starts from the previous pose, so a few iterations suffice.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import splu
+
+from inkray.numerics.spd import spd_factor
+
+__all__ = ["Arap", "arap", "arap_energy", "signed_areas", "cotangent_weights", "pieces"]
+
+
+def signed_areas(vertices, faces):
+    """Signed area of every triangle: positive when its corners run counter-clockwise in ``(x, y)``.
+
+    Parameters
+    ----------
+    vertices : (n, 2) float array
+    faces : (m, 3) int array
+
+    Returns
+    -------
+    (m,) float array
+
+    Examples
+    --------
+    >>> signed_areas(np.array([[0.0, 0], [1, 0], [0, 1]]), np.array([[0, 1, 2], [0, 2, 1]])).tolist()
+    [0.5, -0.5]
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+
+
+def cotangent_weights(vertices, faces):
+    """Half the cotangent of the angle opposite each triangle edge.
+
+    Edge ``k`` of face ``t`` runs from corner ``k + 1`` to corner ``k + 2``
+    (mod 3), opposite corner ``k``.
+
+    Parameters
+    ----------
+    vertices : (n, 2) float array
+    faces : (m, 3) int array
+
+    Returns
+    -------
+    (m, 3) float array
+
+    Examples
+    --------
+    >>> w = cotangent_weights(np.array([[0.0, 0], [1, 0], [0, 1]]), np.array([[0, 1, 2]]))
+    >>> np.round(w, 6).tolist()    # the right angle's edge gets cot(90) = 0
+    [[0.0, 0.5, 0.5]]
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    w = np.empty(f.shape)
+    area2 = np.abs(2.0 * signed_areas(v, f))
+    for k in range(3):
+        u = v[f[:, (k + 1) % 3]] - v[f[:, k]]
+        s = v[f[:, (k + 2) % 3]] - v[f[:, k]]
+        # cot = dot / |cross|; a degenerate triangle contributes nothing
+        w[:, k] = 0.5 * np.divide(np.einsum("ij,ij->i", u, s), area2,
+                                  out=np.zeros(len(f)), where=area2 > 0)
+    return w
+
+
+class Arap:
+    """ARAP deformation of one 2D triangle mesh for one set of handles, factored once.
+
+    Parameters
+    ----------
+    vertices : (n, 2) float array
+        Rest positions.
+    faces : (m, 3) int array
+    handles : (k, n) sparse matrix or (k,) int array
+        Each row a handle as a combination of vertices (barycentric weights of
+        the point in its triangle), or vertex indices.
+    glue : (g, n) sparse matrix, optional
+        Rows whose deformed values should vanish (they must vanish at rest):
+        e.g. a vertex of one mesh minus the barycentric point of another.
+    glue_weight : float, default 10.0
+        Weight of the glue rows against the (area-scaled) ARAP energy.
+    fixed : (n,) bool array or int array, optional
+        Vertices held at their rest positions (e.g. pieces no handle reaches).
+    stiffness : (m,) float array, optional
+        Per face, a factor on its energy (default 1): stiffer faces keep
+        their shape at the expense of softer ones.
+
+    Attributes
+    ----------
+    pose : (n, 2) float array
+        The last solution (the warm start of the next solve).
+
+    Examples
+    --------
+    A bar turned by its two end handles turns rigidly:
+
+    >>> x = np.linspace(0.0, 10.0, 11)
+    >>> v = np.concatenate([np.column_stack([x, np.zeros(11)]), np.column_stack([x, np.ones(11)])])
+    >>> f = np.concatenate([[[i, i + 1, i + 12], [i, i + 12, i + 11]] for i in range(10)])
+    >>> solver = Arap(v, f, handles=[0, 10])
+    >>> out = solver.solve([[0.0, 0.0], [0.0, 10.0]], iterations=30)  # a quarter turn
+    >>> (np.round(out[[0, 5, 10, 11]], 4) + 0.0).tolist()
+    [[0.0, 0.0], [0.0, 5.0], [0.0, 10.0], [-1.0, 0.0]]
+    """
+
+    def __init__(self, vertices, faces, *, handles, glue=None, glue_weight=10.0, fixed=None,
+                 stiffness=None):
+        p = np.asarray(vertices, float)
+        f = np.asarray(faces, np.int64)
+        if p.ndim != 2 or p.shape[1] != 2 or not np.all(np.isfinite(p)):
+            raise ValueError("vertices: expected a finite (n, 2) array")
+        n = len(p)
+        if f.ndim != 2 or f.shape[1] != 3 or (f.size and (f.min() < 0 or f.max() >= n)):
+            raise ValueError(f"faces: expected an (m, 3) array of indices 0..{n - 1}")
+        C = _rows(handles, n, "handles")
+        G = sp.csr_matrix((0, n)) if glue is None else _rows(glue, n, "glue")
+        if not glue_weight > 0:
+            raise ValueError(f"glue_weight: expected > 0, got {glue_weight}")
+        mask = np.zeros(n, bool)
+        if fixed is not None:
+            mask[np.asarray(fixed)] = True
+        self.rest = p
+        self.faces = f
+        self.handles = C
+        self.pose = p.copy()
+        self._cold = True
+        self._cot = cotangent_weights(p, f)
+        k = np.ones(len(f)) if stiffness is None else np.asarray(stiffness, float).reshape(-1)
+        if k.shape != (len(f),) or not np.all(np.isfinite(k) & (k > 0)):
+            raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
+        self._weights = self._cot * k[:, None]
+        # Rest edges, edge k of face t runs corner k+1 -> k+2.
+        self._edges = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
+        L = _cotmatrix(f, self._weights, n)
+        self._Q = (L + glue_weight * (G.T @ G)).tocsr()
+        loose = _unheld(f, G, C, mask)
+        if loose is not None:
+            raise ValueError(f"handles: the piece of the mesh holding vertex {loose} has no handle "
+                             f"and is not fixed")
+        self._fixed = np.flatnonzero(mask)
+        self._eliminate(C, mask)
+        # The global step's right-hand side b = sum over face edges of R_t w e, into the
+        # edge's head (+) and tail (-): b_x = M0 cos - M1 sin, b_y = M0 sin + M1 cos.
+        m = len(f)
+        self._tail = np.concatenate([f[:, (k + 1) % 3] for k in range(3)])
+        self._head = np.concatenate([f[:, (k + 2) % 3] for k in range(3)])
+        w = np.concatenate([self._weights[:, k] for k in range(3)])
+        edges = np.concatenate([self._edges[:, k] for k in range(3)])
+        self._we0 = w * edges[:, 0]  # edge k of every face, then k + 1, ...
+        self._we1 = w * edges[:, 1]
+        face = np.tile(np.arange(m), 3)
+        rows = np.concatenate([self._head, self._tail])
+        M = [sp.csr_matrix((np.concatenate([v, -v]), (rows, np.concatenate([face, face]))),
+                           shape=(n, m)) for v in (self._we0, self._we1)]
+        if not self._kkt:
+            M = [self._P.T @ Mi for Mi in M]
+        self._M0, self._M1 = (Mi.tocsr() for Mi in M)
+
+    def _eliminate(self, C, mask):
+        """Factor the global step with the handle rows met exactly.
+
+        Each handle row ``c . x = t`` is solved for one of its vertices (the
+        pivot, its largest weight) where pivots can be chosen apart (no pivot
+        in another row): ``x = P y + D t + H x_fixed`` over the remaining
+        vertices ``y``, and ``P^T Q P`` is symmetric positive definite.
+        Otherwise (handles sharing all their vertices) the rows are Lagrange
+        rows of a KKT system.
+        """
+        n = C.shape[1]
+        Ccsr = C.tocsr()
+        used = np.zeros(n, int)
+        np.add.at(used, C.tocoo().col, 1)
+        pivots = []
+        for j in range(C.shape[0]):
+            cols = Ccsr.indices[Ccsr.indptr[j]:Ccsr.indptr[j + 1]]
+            vals = Ccsr.data[Ccsr.indptr[j]:Ccsr.indptr[j + 1]]
+            ok = (used[cols] == 1) & ~mask[cols] & (np.abs(vals) > 1e-3)
+            pivots.append(int(cols[ok][np.argmax(np.abs(vals[ok]))]) if ok.any() else -1)
+        Q = self._Q
+        if all(p >= 0 for p in pivots) and len(set(pivots)) == len(pivots):
+            piv = np.array(pivots, np.int64)
+            free = np.setdiff1d(np.flatnonzero(~mask), piv)
+            k = len(piv)
+            cp = np.asarray(Ccsr[np.arange(k), piv]).ravel()
+            scaled = sp.diags(1.0 / cp) @ Ccsr
+            # pivot rows of x: t / c_p - sum over the other columns of c / c_p
+            S = sp.csr_matrix((np.ones(k), (piv, np.arange(k))), shape=(n, k))
+            rest = scaled.tolil()
+            rest[np.arange(k), piv] = 0.0
+            rest = rest.tocsr()
+            E = sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))),
+                              shape=(n, len(free)))
+            Fx = sp.csr_matrix((np.ones(len(self._fixed)), (self._fixed, np.arange(len(self._fixed)))),
+                               shape=(n, len(self._fixed)))
+            self._P = (E - S @ (rest @ E)).tocsr()
+            self._D = (S @ sp.diags(1.0 / cp)).tocsr()
+            self._H = (Fx - S @ (rest @ Fx)).tocsr()
+            PtQ = (self._P.T @ Q).tocsr()
+            A = PtQ @ self._P
+            self._PtQD = (PtQ @ self._D).toarray()
+            self._PtQH = (PtQ @ self._H).tocsr()
+            self._factor = spd_factor(A) if A.shape[0] else None
+            self._kkt = False
+        else:
+            free = np.flatnonzero(~mask)
+            Cf = C[:, free].tocsr()
+            if C.shape[0] and sp.linalg.norm(Cf) == 0 and len(free):
+                raise ValueError("handles: every handle lies on fixed vertices")
+            self._K = Q[free][:, self._fixed]
+            self._Ck = C[:, self._fixed].tocsr()
+            kkt = sp.bmat([[Q[free][:, free], Cf.T], [Cf, None]], format="csc")
+            try:
+                self._factor = splu(kkt) if kkt.shape[0] else None
+            except RuntimeError:
+                raise ValueError("handles: the system is singular (two handles pin the same "
+                                 "point)") from None
+            self._kkt = True
+        self._free = free
+
+    def reset(self):
+        """Forget the last pose: the next solve starts cold (from the rigid fit of the handles)."""
+        self.pose = self.rest.copy()
+        self._cold = True
+
+    def rotations(self, x):
+        """Per face, the rotation angle that best fits ``x``'s edges to the rest edges (local step).
+
+        Parameters
+        ----------
+        x : (n, 2) float array
+
+        Returns
+        -------
+        (m,) float array
+            Angles in radians (counter-clockwise in ``(x, y)``).
+        """
+        xs, ys = np.ascontiguousarray(x[:, 0]), np.ascontiguousarray(x[:, 1])
+        d0 = xs[self._head] - xs[self._tail]
+        d1 = ys[self._head] - ys[self._tail]
+        # S = sum_k w_k e_k d_k^T; the best rotation maximizes tr(R S) = c (S00 + S11) + s (S01 - S10).
+        sin = (self._we0 * d1 - self._we1 * d0).reshape(3, -1).sum(axis=0)
+        cos = (self._we0 * d0 + self._we1 * d1).reshape(3, -1).sum(axis=0)
+        return np.arctan2(sin, cos)
+
+    def solve(self, targets, *, initial=None, iterations=4):
+        """Deform so that the handles reach ``targets``.
+
+        Parameters
+        ----------
+        targets : (k, 2) float array
+            The handles' positions.
+        initial : (n, 2) float array, optional
+            Start of the local/global iterations; default the last pose, or
+            before the first solve the rest shape moved by the rigid motion
+            that best fits the handles (Procrustes).
+        iterations : int, default 4
+            Local/global rounds.
+
+        Returns
+        -------
+        (n, 2) float array
+            The deformed vertices; the handles are met exactly.
+        """
+        t = np.asarray(targets, float).reshape(-1, 2)
+        if t.shape[0] != self.handles.shape[0] or not np.all(np.isfinite(t)):
+            raise ValueError(f"targets: expected {self.handles.shape[0]} finite (x, y) points, "
+                             f"got shape {np.shape(targets)}")
+        if initial is not None:
+            x = np.asarray(initial, float).copy()
+        elif self._cold:
+            x = _rigid_fit(self.handles @ self.rest, t, self.rest)
+        else:
+            x = self.pose.copy()
+        self._cold = False
+        x[self._fixed] = self.rest[self._fixed]
+        for _ in range(max(1, int(iterations))):
+            x = self._global(self.rotations(x), x, t)
+        self.pose = x
+        return x
+
+    def energy(self, x):
+        """The ARAP energy of ``x`` with its best-fitting rotations (0 for a rigid motion).
+
+        Without the stiffness factors: comparable between solvers of one mesh.
+        """
+        return arap_energy(self.rest, self.faces, x, weights=self._cot,
+                           angles=self.rotations(np.asarray(x, float)))
+
+    def _global(self, angles, x, targets):
+        c, s = np.cos(angles), np.sin(angles)
+        a, b = self._M0 @ c, self._M1 @ s
+        e, g = self._M0 @ s, self._M1 @ c
+        rhs = np.column_stack([a - b, e + g])
+        out = x.copy()
+        if self._factor is None:
+            return out
+        xk = x[self._fixed]
+        if self._kkt:
+            rhs = np.concatenate([rhs[self._free] - self._K @ xk, targets - self._Ck @ xk])
+            out[self._free] = self._factor.solve(rhs)[:len(self._free)]
+            return out
+        y = self._factor.solve(rhs - self._PtQD @ targets - self._PtQH @ xk)
+        return self._P @ y + self._D @ targets + self._H @ xk
+
+
+def arap(vertices, faces, handles, targets, *, iterations=20):
+    """One ARAP deformation (see :class:`Arap` for repeated drags).
+
+    Parameters
+    ----------
+    vertices : (n, 2) float array
+    faces : (m, 3) int array
+    handles : (k,) int array or (k, n) sparse matrix
+    targets : (k, 2) float array
+    iterations : int, default 20
+
+    Returns
+    -------
+    (n, 2) float array
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0], [1, 0], [0, 1]])
+    >>> np.round(arap(v, [[0, 1, 2]], [0, 1], [[5.0, 5], [6, 5]]), 6).tolist()  # a translation
+    [[5.0, 5.0], [6.0, 5.0], [5.0, 6.0]]
+    """
+    return Arap(vertices, faces, handles=handles).solve(targets, iterations=iterations)
+
+
+def arap_energy(rest, faces, x, *, weights=None, angles=None):
+    """ARAP energy of a deformation: cotangent-weighted squared edge misfit after the best rotations.
+
+    Parameters
+    ----------
+    rest, x : (n, 2) float array
+    faces : (m, 3) int array
+    weights : (m, 3) float array, optional
+        :func:`cotangent_weights` of ``rest`` (computed when omitted).
+    angles : (m,) float array, optional
+        Per-face rotations (the best fit when omitted).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0], [1, 0], [0, 1]])
+    >>> round(arap_energy(v, [[0, 1, 2]], v @ [[0.0, 1], [-1, 0]] + 3), 12)   # a rigid motion
+    0.0
+    """
+    p = np.asarray(rest, float)
+    f = np.asarray(faces, np.int64)
+    x = np.asarray(x, float)
+    w = cotangent_weights(p, f) if weights is None else weights
+    e = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
+    d = np.stack([x[f[:, (k + 2) % 3]] - x[f[:, (k + 1) % 3]] for k in range(3)], 1)
+    if angles is None:
+        S = np.einsum("mki,mkj->mij", w[..., None] * e, d)
+        angles = np.arctan2(S[:, 0, 1] - S[:, 1, 0], S[:, 0, 0] + S[:, 1, 1])
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    re = np.stack([c * e[..., 0] - s * e[..., 1], s * e[..., 0] + c * e[..., 1]], -1)
+    return float(0.5 * np.sum(w * np.sum((d - re) ** 2, axis=-1)))
+
+
+def pieces(n, faces, glue=None):
+    """Connected pieces of a mesh whose vertices faces and glue rows connect.
+
+    Parameters
+    ----------
+    n : int
+        Number of vertices.
+    faces : (m, 3) int array
+    glue : (g, n) sparse matrix, optional
+        Each row connects the vertices it involves.
+
+    Returns
+    -------
+    (n,) int array
+        The piece of every vertex.
+
+    Examples
+    --------
+    >>> pieces(7, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
+    [0, 0, 0, 1, 1, 1, 2]
+    """
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    i = [f[:, 0], f[:, 1], f[:, 2]]
+    j = [f[:, 1], f[:, 2], f[:, 0]]
+    if glue is not None:
+        g = sp.csr_matrix(glue).tocoo()
+        touch = sp.csr_matrix((np.ones(g.nnz), (g.row, g.col)), shape=g.shape)
+        links = (touch.T @ touch).tocoo()
+        i.append(links.row)
+        j.append(links.col)
+    i, j = np.concatenate(i), np.concatenate(j)
+    graph = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _unheld(faces, glue, handles, fixed):
+    """A vertex of a connected piece that no handle or fixed vertex holds, or None."""
+    piece = pieces(len(fixed), faces, glue)
+    held = np.zeros(piece.max() + 1 if len(piece) else 0, bool)
+    held[piece[fixed]] = True
+    held[piece[handles.tocoo().col]] = True
+    free = np.flatnonzero(~held[piece])
+    return int(free[0]) if free.size else None
+
+
+def _rigid_fit(src, dst, points):
+    """``points`` moved by the rotation and translation taking ``src`` closest to ``dst``."""
+    if len(src) == 0:
+        return points.copy()
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - cs, dst - cd
+    S = a.T @ b
+    angle = np.arctan2(S[0, 1] - S[1, 0], S[0, 0] + S[1, 1]) if len(src) > 1 else 0.0
+    c, s = np.cos(angle), np.sin(angle)
+    return (points - cs) @ np.array([[c, s], [-s, c]]) + cd
+
+
+def _cotmatrix(faces, weights, n):
+    """The positive semi-definite cotangent Laplacian assembled from per-face edge weights."""
+    i = np.concatenate([faces[:, (k + 1) % 3] for k in range(3)])
+    j = np.concatenate([faces[:, (k + 2) % 3] for k in range(3)])
+    w = np.concatenate([weights[:, k] for k in range(3)])
+    off = sp.csr_matrix((-w, (i, j)), shape=(n, n))
+    off = off + off.T
+    return (off - sp.diags(np.asarray(off.sum(axis=1)).ravel())).tocsr()
+
+
+def _rows(rows, n, name):
+    """Constraint rows as a sparse (k, n) matrix (vertex indices become unit rows)."""
+    if sp.issparse(rows):
+        M = sp.csr_matrix(rows, dtype=float)
+        if M.shape[1] != n:
+            raise ValueError(f"{name}: expected {n} columns, got {M.shape[1]}")
+        return M
+    idx = np.asarray(rows, np.int64).reshape(-1)
+    if idx.size and (idx.min() < 0 or idx.max() >= n):
+        raise ValueError(f"{name}: vertex index out of range 0..{n - 1}")
+    return sp.csr_matrix((np.ones(len(idx)), (np.arange(len(idx)), idx)), shape=(len(idx), n))

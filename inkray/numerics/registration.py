@@ -1,0 +1,447 @@
+"""As-rigid-as-possible registration of two line drawings.
+
+Implements the registration of Sýkora, Dingliana and Collins, "As-rigid-as-
+possible image registration for hand-drawn cartoon animations" (NPAR 2009):
+a square lattice of control points is laid over the source drawing and
+deformed, coarse to fine, so that the source's ink lands on the target's ink
+while every small neighbourhood of the lattice moves as rigidly as possible.
+Each iteration of a level
+
+1. *matches blocks*: every control point whose block holds ink tries the
+   integer shifts within ``radius`` of its current position and takes the one
+   whose block of blurred target ink best agrees with its block of blurred
+   source ink (sum of squared differences, refined to a sub-pixel shift by a
+   parabola through the neighbouring costs);
+2. *regularizes*: for every control point, the rigid motion (rotation and
+   translation, weighted Procrustes) that best carries the rest positions of
+   its 5x5 lattice neighbourhood to their matched positions; each point then
+   moves to the weighted mean of where the rigid motions of the
+   neighbourhoods it belongs to put it (shape matching, as in the paper).
+
+Matches are weighted by how well their blocks agree (a Dice-like score in
+[0, 1]); blocks that agree poorly, where a stroke appeared, vanished or
+changed, are trimmed and follow their neighbours. Control points without ink
+in their block take the harmonic interpolation of the others, and the dense
+field is the bilinear interpolation of the lattice. The match confidence of a
+pixel is the same agreement score of the registered drawings in a window
+around it (or of the nearest window that holds ink).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.numerics.grid import grid_laplacian
+from inkray.numerics.spd import min_quad_with_fixed
+
+__all__ = ["Registration", "arap_register", "warp_points"]
+
+#: Blocks that agree less than this (the score of their best shift) are trimmed:
+#: they take no part in the rigid fits and follow their neighbours.
+TRIM = 0.35
+#: Offsets of the lattice neighbourhood of a rigid fit (5x5 control points):
+#: wide enough that a straight stroke's slide along itself is pinned by its ends.
+_OFFSETS = (-2, -1, 0, 1, 2)
+
+
+@dataclass
+class Registration:
+    """The result of :func:`arap_register`.
+
+    Attributes
+    ----------
+    displacement : (H, W, 2) float array
+        ``[dx, dy]``: the source pixel ``(x, y)`` lands at
+        ``(x + dx, y + dy)`` in the target.
+    confidence : (H, W) float array
+        In [0, 1]: how well the registered drawings agree around each source
+        pixel (1 = the ink matches exactly).
+    nodes : (n, 2) float array
+        Rest positions ``[x, y]`` of the finest lattice's control points.
+    node_displacement : (n, 2) float array
+        Their displacements.
+    node_weight : (n,) float array
+        Their final match scores (0 for points without ink in their block).
+    """
+
+    displacement: np.ndarray
+    confidence: np.ndarray
+    nodes: np.ndarray
+    node_displacement: np.ndarray
+    node_weight: np.ndarray
+
+
+def arap_register(source, target, *, spacing=8, levels=None, radius=3, iterations=3,
+                  sigma=1.0, trim=TRIM, stiffness=0.02):
+    """Register ``source`` onto ``target`` as rigidly as possible (Sýkora et al. 2009).
+
+    Parameters
+    ----------
+    source, target : (H, W) float arrays
+        Ink darkness in [0, 1] (1 = ink, 0 = paper), same shape.
+    spacing : int, default 8
+        Lattice spacing in pixels of each level (the finest lattice's spacing
+        in the drawing's pixels).
+    levels : int, optional
+        Pyramid levels (each half the size of the one below); by default as
+        many as keep the coarsest image at least 24 pixels on its short side,
+        at most 5.
+    radius : int, default 3
+        Largest shift, in pixels of a level, one block-matching step tries (one
+        less on the finest level, which refines what the coarser ones found).
+    iterations : int, default 3
+        Block-matching and regularization rounds per level (twice as many on
+        the coarsest).
+    sigma : float, default 1.0
+        Blur of each level's ink, in that level's pixels, before matching.
+    trim : float, default :data:`TRIM`
+        Blocks whose best score is below it are left out of the rigid fits.
+    stiffness : float, default 0.02
+        Cost of a shift, per squared pixel, relative to a block's ink energy:
+        featureless or ambiguous blocks (a straight line) keep still.
+
+    Returns
+    -------
+    Registration
+
+    Raises
+    ------
+    InputError
+        When the images differ in shape, are not 2-D or not finite, or a
+        parameter is out of range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ink = np.zeros((64, 64)); ink[20:44, 30] = 1; ink[20, 20:40] = 1
+    >>> moved = np.roll(ink, (2, -3), axis=(0, 1))
+    >>> reg = arap_register(ink, moved)
+    >>> np.round(reg.displacement[30, 30]).tolist()
+    [-3.0, 2.0]
+    """
+    source = _image(source, "source")
+    target = _image(target, "target")
+    if source.shape != target.shape:
+        raise InputError(f"registration: source is {source.shape[1]}x{source.shape[0]} but "
+                         f"target is {target.shape[1]}x{target.shape[0]}")
+    for name, value, low in (("spacing", spacing, 2), ("radius", radius, 1), ("iterations", iterations, 1)):
+        if int(value) != value or value < low:
+            raise InputError(f"registration: {name} must be an integer >= {low}, got {value!r}")
+    if not 0 <= trim < 1:
+        raise InputError(f"registration: trim must lie in [0, 1), got {trim!r}")
+    h, w = source.shape
+    if levels is None:
+        levels = 1
+        while levels < 5 and min(h, w) / 2 ** levels >= 24:
+            levels += 1
+    if int(levels) != levels or levels < 1:
+        raise InputError(f"registration: levels must be a positive integer, got {levels!r}")
+
+    field = None  # node displacements (full-resolution pixels) of the previous level
+    for level in range(levels - 1, -1, -1):
+        f = 2 ** level
+        src = _level_image(source, f, sigma)
+        tgt = _level_image(target, f, sigma)
+        lattice = _Lattice(src.shape, spacing)
+        blocks = _Blocks(lattice, src.shape)
+        u = (np.zeros(lattice.shape + (2,)) if field is None
+             else field.sample(lattice.rest * f) / f)
+        rounds = iterations * 2 if field is None else iterations
+        for _ in range(rounds):
+            # The finest level only refines what the coarser ones found: a smaller search.
+            reach = radius if level > 0 else max(1, radius - 1)
+            proposal, score, active = _match_blocks(src, tgt, blocks, u, reach, stiffness)
+            weight = np.where(active & (score >= trim), score ** 2, 0.0)
+            u, placed = _regularize(lattice, u, proposal, weight)
+            u = _fill(u, placed)
+        field = _NodeField(lattice.rest * f, u * f, spacing * f)
+        final_weight = np.where(active, score, 0.0)
+
+    displacement = field.dense((h, w))
+    confidence = _confidence(source, target, displacement, scale=2 * spacing)
+    return Registration(displacement=displacement, confidence=confidence,
+                        nodes=field.rest.reshape(-1, 2), node_displacement=field.u.reshape(-1, 2),
+                        node_weight=final_weight.reshape(-1))
+
+
+def warp_points(registration, points):
+    """Where points of the source land in the target.
+
+    Parameters
+    ----------
+    registration : Registration
+    points : (k, 2) float array
+        ``[x, y]`` in source pixels.
+
+    Returns
+    -------
+    (k, 2) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ink = np.zeros((40, 40)); ink[10:30, 20] = 1
+    >>> reg = arap_register(ink, ink)
+    >>> np.round(warp_points(reg, np.array([[20.0, 15.0]])), 3).tolist()
+    [[20.0, 15.0]]
+    """
+    p = np.asarray(points, float).reshape(-1, 2)
+    d = registration.displacement
+    coords = [p[:, 1], p[:, 0]]
+    dx = ndimage.map_coordinates(d[..., 0], coords, order=1, mode="nearest")
+    dy = ndimage.map_coordinates(d[..., 1], coords, order=1, mode="nearest")
+    return p + np.stack([dx, dy], axis=1)
+
+
+# -- the lattice ---------------------------------------------------------------
+
+class _Lattice:
+    """Control points every ``spacing`` pixels covering an image of ``shape``."""
+
+    def __init__(self, shape, spacing):
+        h, w = shape
+        self.spacing = spacing
+        self.shape = (int(np.ceil((h - 1) / spacing)) + 1, int(np.ceil((w - 1) / spacing)) + 1)
+        ys, xs = np.mgrid[:self.shape[0], :self.shape[1]]
+        self.rest = np.stack([xs * spacing, ys * spacing], axis=-1).astype(float)
+
+
+class _NodeField:
+    """Node displacements on a regular lattice, interpolated bilinearly."""
+
+    def __init__(self, rest, u, spacing):
+        self.rest, self.u, self.spacing = rest, u, spacing
+
+    def sample(self, points):
+        coords = [points[..., 1] / self.spacing, points[..., 0] / self.spacing]
+        return np.stack([ndimage.map_coordinates(self.u[..., c], coords, order=1, mode="nearest")
+                         for c in (0, 1)], axis=-1)
+
+    def dense(self, shape):
+        # Bilinear on a regular lattice is separable: two small matrix products.
+        ay = _hat_matrix(shape[0], self.u.shape[0], self.spacing)
+        ax = _hat_matrix(shape[1], self.u.shape[1], self.spacing)
+        return np.stack([ay @ self.u[..., c] @ ax.T for c in (0, 1)], axis=-1)
+
+
+def _hat_matrix(n, nodes, spacing):
+    """(n, nodes) linear-interpolation weights of pixels 0..n-1 from nodes every ``spacing``."""
+    t = np.minimum(np.arange(n) / spacing, nodes - 1)
+    i = np.minimum(np.floor(t).astype(int), max(nodes - 2, 0))
+    f = t - i
+    m = np.zeros((n, nodes))
+    m[np.arange(n), i] = 1 - f
+    if nodes > 1:
+        m[np.arange(n), i + 1] += f
+    return m
+
+
+# -- the steps -----------------------------------------------------------------
+
+def _image(a, name):
+    a = np.asarray(a, dtype=float)
+    if a.ndim != 2 or min(a.shape) < 2:
+        raise InputError(f"registration: {name} must be a 2-D image, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise InputError(f"registration: {name} holds NaN or infinite values")
+    return a
+
+
+def _level_image(ink, factor, sigma):
+    """``ink`` averaged over ``factor`` x ``factor`` blocks and blurred by ``sigma``."""
+    if factor > 1:
+        h, w = ink.shape
+        hh, ww = -(-h // factor) * factor, -(-w // factor) * factor
+        padded = np.zeros((hh, ww))
+        padded[:h, :w] = ink
+        ink = padded.reshape(hh // factor, factor, ww // factor, factor).mean(axis=(1, 3))
+    return ndimage.gaussian_filter(ink, sigma, mode="constant")
+
+
+class _Blocks:
+    """Sums over the (2 spacing)-square block centred on each control point.
+
+    A pixel lies in the 2x2 blocks around its lattice cell; sums over a sparse
+    set of pixels are bincounts over cells, then 2x2 sums of cells.
+    """
+
+    def __init__(self, lattice, shape):
+        s = lattice.spacing
+        self.lattice, self.shape = lattice, shape
+        ny, nx = lattice.shape
+        self.cells = (ny + 1, nx + 1)
+        h, w = shape
+        ys, xs = np.mgrid[:h, :w]
+        # Cell c covers pixels [c s - s, c s): node j's block is cells j and j + 1.
+        self.cell = ((ys + s) // s) * (nx + 1) + (xs + s) // s
+
+    def sums(self, weights, where=None):
+        cell = self.cell if where is None else self.cell[where]
+        c = np.bincount(cell.reshape(-1), weights=np.ravel(weights),
+                        minlength=self.cells[0] * self.cells[1]).reshape(self.cells)
+        return c[:-1, :-1] + c[1:, :-1] + c[:-1, 1:] + c[1:, 1:]
+
+    def shifted_sums(self, table, dy, dx, pad):
+        """Block sums, each block (within the image) moved by ``(dy, dx)``, from
+        the integral ``table`` of an image padded by ``pad >= |dy|, |dx|``."""
+        s = self.lattice.spacing
+        rest = self.lattice.rest.astype(int)
+        h, w = self.shape
+        y0 = np.clip(rest[..., 1] - s, 0, h) + dy + pad
+        y1 = np.clip(rest[..., 1] + s, 0, h) + dy + pad
+        x0 = np.clip(rest[..., 0] - s, 0, w) + dx + pad
+        x1 = np.clip(rest[..., 0] + s, 0, w) + dx + pad
+        return table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
+
+
+def _integral(a):
+    t = np.zeros((a.shape[0] + 1, a.shape[1] + 1))
+    np.cumsum(np.cumsum(a, axis=0), axis=1, out=t[1:, 1:])
+    return t
+
+
+def _match_blocks(src, tgt, blocks, u, radius, stiffness):
+    """Best shift of every block, its score and whether the block holds ink.
+
+    Integer shifts within ``radius`` are tried exhaustively; a block whose
+    best shift is none takes one Lucas-Kanade step instead (sub-pixel, and
+    only across a straight line where that line leaves the shift open).
+    """
+    lattice = blocks.lattice
+    h, w = src.shape
+    ys, xs = np.mgrid[:h, :w].astype(float)
+    du = _NodeField(lattice.rest, u, lattice.spacing).dense((h, w))
+    # Edge values beyond the border: a line the frame cuts does not end there.
+    warped = ndimage.map_coordinates(tgt, [ys + du[..., 1], xs + du[..., 0]], order=1,
+                                     mode="nearest")
+    r = radius
+    big = np.pad(warped, r, mode="edge")
+    table = _integral(big * big)
+    ink = src > 1e-3 * max(src.max(), 1e-12)
+    py, px = np.nonzero(ink)
+    sv = src[py, px]
+    src2 = blocks.sums(sv * sv, ink)
+    active = src2 > 1e-3 * max(src2.max(), 1e-12)
+    shifts = [(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
+    cost = np.empty((len(shifts),) + lattice.shape)
+    energy = np.empty_like(cost)
+    for k, (dy, dx) in enumerate(shifts):
+        cross = blocks.sums(sv * big[py + r + dy, px + r + dx], ink)
+        energy[k] = src2 + blocks.shifted_sums(table, dy, dx, r)
+        cost[k] = energy[k] - 2 * cross + stiffness * (dx * dx + dy * dy) * src2
+    best = cost.argmin(axis=0)
+    by, bx = np.take(np.array(shifts, float), best, axis=0).transpose(2, 0, 1)
+    c0 = np.take_along_axis(cost, best[None], 0)[0]
+    e0 = np.take_along_axis(energy, best[None], 0)[0]
+    score = np.clip(1 - c0 / np.maximum(e0, 1e-12), 0.0, 1.0)
+    step = np.stack([bx, by], axis=-1)
+    still = best == shifts.index((0, 0))
+    if still.any():
+        step[still] = _lucas_kanade(src, warped, blocks)[still]
+    return u + step, np.where(active, score, 0.0), active
+
+
+def _lucas_kanade(src, warped, blocks):
+    """One damped Gauss-Newton step per block of ``warped`` towards ``src``."""
+    gy, gx = np.gradient(warped)
+    res = warped - src
+    m = (np.abs(res) > 1e-6) | (np.abs(gx) + np.abs(gy) > 1e-6)
+    gx, gy, res = gx[m], gy[m], res[m]
+    a, b, c = blocks.sums(gx * gx, m), blocks.sums(gx * gy, m), blocks.sums(gy * gy, m)
+    ex, ey = blocks.sums(gx * res, m), blocks.sums(gy * res, m)
+    damp = 0.01 * (a + c) + 1e-9
+    a, c = a + damp, c + damp
+    det = a * c - b * b
+    dx = -(c * ex - b * ey) / det
+    dy = -(a * ey - b * ex) / det
+    return np.clip(np.stack([dx, dy], axis=-1), -1.0, 1.0)
+
+
+def _window_sum(a):
+    """Sum over the lattice neighbourhood of each control point (zero outside)."""
+    out = np.zeros_like(a)
+    ny, nx = a.shape[:2]
+    for dy in _OFFSETS:
+        for dx in _OFFSETS:
+            out[max(0, -dy):ny - max(0, dy), max(0, -dx):nx - max(0, dx)] += \
+                a[max(0, dy):ny - max(0, -dy), max(0, dx):nx - max(0, -dx)]
+    return out
+
+
+def _regularize(lattice, u, proposal, weight):
+    """Shape matching: each node to the weighted mean of its neighbourhoods' rigid fits."""
+    p = lattice.rest
+    q = p + proposal
+    wsum = _window_sum(weight)
+    safe = np.maximum(wsum, 1e-12)
+    pbar = _window_sum(weight[..., None] * p) / safe[..., None]
+    qbar = _window_sum(weight[..., None] * q) / safe[..., None]
+    # Weighted cross terms of the centred positions, from the raw sums.
+    sxx = _window_sum(weight * (p[..., 0] * q[..., 0] + p[..., 1] * q[..., 1])) \
+        - wsum * (pbar[..., 0] * qbar[..., 0] + pbar[..., 1] * qbar[..., 1])
+    sxy = _window_sum(weight * (p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0])) \
+        - wsum * (pbar[..., 0] * qbar[..., 1] - pbar[..., 1] * qbar[..., 0])
+    # A neighbourhood with one weighted node (or none) has no rotation: a small
+    # pull towards none keeps its angle from being rounding noise.
+    theta = np.arctan2(sxy, sxx + 0.05 * wsum * lattice.spacing ** 2)
+    c, s = np.cos(theta), np.sin(theta)
+    # Node i in the neighbourhood of k lands at R_k (p_i - pbar_k) + qbar_k;
+    # accumulate the weighted mean over the k around i.
+    ny, nx = lattice.shape
+    acc = np.zeros(lattice.shape + (2,))
+    tot = np.zeros(lattice.shape)
+    for dy in _OFFSETS:
+        for dx in _OFFSETS:
+            ki = (slice(max(0, dy), ny - max(0, -dy)), slice(max(0, dx), nx - max(0, -dx)))
+            ii = (slice(max(0, -dy), ny - max(0, dy)), slice(max(0, -dx), nx - max(0, dx)))
+            d = p[ii] - pbar[ki]
+            x = np.stack([c[ki] * d[..., 0] - s[ki] * d[..., 1],
+                          s[ki] * d[..., 0] + c[ki] * d[..., 1]], axis=-1) + qbar[ki]
+            acc[ii] += wsum[ki][..., None] * x
+            tot[ii] += wsum[ki]
+    moved = tot > 1e-12
+    out = u.copy()
+    out[moved] = acc[moved] / tot[moved][..., None] - p[moved]
+    return out, moved
+
+
+def _fill(u, known):
+    """Harmonic interpolation of the displacements of the nodes not ``known``."""
+    if known.all():
+        return u
+    if not known.any():
+        return np.zeros_like(u) + u.reshape(-1, 2).mean(axis=0)
+    ny, nx = known.shape
+    L = grid_laplacian(np.ones((ny, nx - 1)), np.ones((ny - 1, nx)))
+    flat = known.reshape(-1)
+    out = np.empty_like(u)
+    for c in (0, 1):
+        values = u[..., c].reshape(-1)
+        out[..., c] = min_quad_with_fixed(L, np.zeros(flat.size), flat, values[flat]).reshape(ny, nx)
+    return out
+
+
+def _confidence(source, target, displacement, *, scale):
+    """Agreement of the registered drawings around each source pixel, in [0, 1]."""
+    h, w = source.shape
+    ys, xs = np.mgrid[:h, :w].astype(float)
+    warped = ndimage.map_coordinates(target, [ys + displacement[..., 1], xs + displacement[..., 0]],
+                                     order=1, mode="constant")
+    # Lines a pixel or two apart (a redrawn stroke) still agree; a missing or
+    # extra stroke does not.
+    blur = scale / 8
+    a = ndimage.gaussian_filter(source, blur)
+    b = ndimage.gaussian_filter(warped, blur)
+    sigma = scale / 2
+    num = ndimage.gaussian_filter(2 * a * b, sigma)
+    den = ndimage.gaussian_filter(a * a + b * b, sigma)
+    # Where the window holds almost no ink the ratio says nothing: take the nearest
+    # window that does.
+    defined = den > 0.02 * max(den.max(), 1e-12)
+    conf = np.where(defined, num / np.maximum(den, 1e-12), 0.0)
+    if defined.any() and not defined.all():
+        _, (iy, ix) = ndimage.distance_transform_edt(~defined, return_indices=True)
+        conf = conf[iy, ix]
+    return np.clip(conf, 0.0, 1.0)

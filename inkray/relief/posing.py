@@ -1,0 +1,469 @@
+"""The pose rig of a relief: its parts' triangulations, joined, deformed as rigidly as possible.
+
+Ink-and-Ray (Sýkora et al., TOG 2014, section 1) names the use this serves:
+keeping "correct visibility and connectivity of individual parts during
+interactive 2D shape manipulation" (Igarashi, Moscovich and Hughes,
+"As-rigid-as-possible shape manipulation", SIGGRAPH 2005). Every relief part
+is already a triangulation of its region completed under its occluders
+(:mod:`inkray.relief.completion`), so a part moves its hidden area with it.
+All parts are deformed in one as-rigid-as-possible system
+(:mod:`inkray.numerics.arap`) in which parts are glued where the drawing joins
+them:
+
+- *rooted*: a smaller part whose completed outline ends under a part in front
+  of it (a leg behind the body, an ear behind the head: the hidden area meets
+  the visible part along one cut that is less than ``ROOT_CONTACT`` of its
+  border) is glued to that part over its hidden area;
+- *on top*: a smaller part lying on a larger one that surrounds it (eyes,
+  buttons, a nose: the larger part's hidden area under it is bordered by the
+  larger part's visible pixels along at least ``ON_TOP_CONTACT`` of its
+  border), or covering only a small area of it (a head on its neck: at most
+  ``JOINT_AREA`` of the smaller part's area) is glued to it where it covers it;
+- *seams*: along ``stitch`` and ``graft`` boundaries both parts are glued to
+  each other.
+
+A glue row ties a vertex of one part to the barycentric point of the other
+part's triangle under it at rest, so the rest shape has no glue energy.
+Parts that crossing alone relates (interlocking rings) stay separate. A
+connected piece of the rig that holds no handle stays where it is.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.numerics.arap import Arap, pieces, signed_areas
+from inkray.relief.model import Part, Relief
+
+__all__ = ["Rig", "Join", "Posing", "rig_relief", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
+
+#: A hidden area is a part's root when its cut to the part's visible pixels is below this share
+#: of its border.
+ROOT_CONTACT = 0.55
+#: A part lies on top of a larger one when that one's visible pixels border this share of the
+#: area under it.
+ON_TOP_CONTACT = 0.6
+#: A smaller part in front is also glued where it covers a hidden area of at most this share of
+#: its own area (a head on a neck): a joint, not an overlap it must be free to leave.
+JOINT_AREA = 0.1
+_SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
+_LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
+_GLUE_WEIGHT = 10.0
+_REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and glue released
+_STIFFER = 10.0
+_REPAIRS = 3
+
+
+@dataclass
+class Join:
+    """Where part ``part`` is glued to part ``to``: ``kind`` (rooted, on top, seam), ``vertices``."""
+
+    part: str
+    to: str
+    kind: str
+    vertices: int
+
+
+@dataclass
+class Rig:
+    """All parts of a relief as one 2D triangle mesh with glue rows between parts.
+
+    Attributes
+    ----------
+    names : list of str
+        The relief's parts.
+    vertices : (n, 2) float array
+        Rest positions, the parts' vertices one after the other.
+    heights : (n,) float array
+        The front surface's height at each vertex.
+    faces : (m, 3) int array
+        Front faces, into ``vertices``.
+    part_of_face : (m,) int array
+    offsets : (P + 1,) int array
+        Part ``i``'s vertices are ``offsets[i]:offsets[i + 1]``.
+    index : list of (n_i,) int arrays
+        For each relief part, the rig vertex of each of its vertices (a
+        closed part's back vertices share the front's).
+    glue : (g, n) sparse matrix
+        Rows that vanish at rest and keep joined parts together.
+    joins : list of Join
+    relief : inkray.relief.model.Relief
+        The rest relief.
+    """
+
+    names: list
+    vertices: np.ndarray
+    heights: np.ndarray
+    faces: np.ndarray
+    part_of_face: np.ndarray
+    offsets: np.ndarray
+    index: list
+    glue: object
+    joins: list = field(default_factory=list)
+    relief: Relief = None
+
+    def locate(self, points):
+        """The front-most part under each point and the point as a combination of rig vertices.
+
+        Parameters
+        ----------
+        points : (k, 2) float array
+
+        Returns
+        -------
+        rows : (k, n) sparse matrix
+            Barycentric rows (a point on no part: an empty row).
+        part : (k,) int array
+            The part, -1 for a point on no part.
+        """
+        pts = np.asarray(points, float).reshape(-1, 2)
+        best_z = np.full(len(pts), -np.inf)
+        part = np.full(len(pts), -1)
+        rows = [None] * len(pts)
+        for i in range(len(self.names)):
+            faces = self.faces[self.part_of_face == i]
+            hit, face, bary = _locate(self.vertices, faces, pts, _LOCATE_TOL)
+            z = np.einsum("kc,kc->k", bary, self.heights[faces[face]]) if len(face) else []
+            for k, ok in enumerate(hit):
+                if ok and z[k] > best_z[k]:
+                    best_z[k], part[k] = z[k], i
+                    rows[k] = (faces[face[k]], bary[k])
+        r, c, v = [], [], []
+        for k, row in enumerate(rows):
+            if row is not None:
+                r += [k] * 3
+                c += list(row[0])
+                v += list(row[1])
+        return sp.csr_matrix((v, (r, c)), shape=(len(pts), len(self.vertices))), part
+
+    def posed_relief(self, positions):
+        """The rest relief with every vertex moved to ``positions`` (same parts, vertices, faces).
+
+        Parameters
+        ----------
+        positions : (n, 2) float array
+            Rig vertices.
+
+        Returns
+        -------
+        inkray.relief.model.Relief
+        """
+        parts = []
+        for p, idx in zip(self.relief.parts, self.index):
+            v = np.array(p.vertices, float)
+            v[:, :2] = positions[idx]
+            rest = np.asarray(p.vertices, float)[:, :2] if p.texcoords is None else p.texcoords
+            parts.append(Part(name=p.name, vertices=v, faces=p.faces, closed=p.closed,
+                              texcoords=rest))
+        return Relief(parts=parts, size=self.relief.size, texture=self.relief.texture,
+                      warnings=list(self.relief.warnings))
+
+    def folds(self, positions):
+        """Number of faces whose orientation flipped against the rest shape."""
+        return len(self.folded(positions))
+
+    def folded(self, positions):
+        """Indices of the faces whose orientation flipped against the rest shape."""
+        rest = signed_areas(self.vertices, self.faces)
+        now = signed_areas(positions, self.faces)
+        return np.flatnonzero(np.sign(rest) * now <= 0)
+
+
+class Posing:
+    """A rig prepared for one set of handles: every drag is one warm-started solve.
+
+    Parameters
+    ----------
+    rig : Rig
+    handles : (k, 2) float array
+        Points on the drawing.
+
+    Attributes
+    ----------
+    parts : (k,) int array
+        The part each handle holds (the front-most under it).
+    fixed : list of str
+        Parts that no handle reaches (through the glue): they stay at rest.
+
+    Examples
+    --------
+    >>> from inkray.relief.completion import complete_regions
+    >>> from inkray.relief.inflation import inflate_region
+    >>> from inkray.relief.stitching import stitch
+    >>> from inkray.relief.assembly import assemble
+    >>> labels = np.full((40, 60), -1, np.int32); labels[10:30, 5:55] = 0
+    >>> relief = assemble(stitch([inflate_region(labels == 0, name="bar")], [], None), size=(60, 40))
+    >>> posing = Posing(rig_relief(relief, complete_regions(labels, names=["bar"])),
+    ...                 [[10.0, 20.0], [50.0, 20.0]])
+    >>> x, _ = posing.pose([[10.0, 20.0], [38.28, 48.28]], iterations=8)   # turned 45 degrees
+    >>> np.round(posing.solver.handles @ x, 6).tolist(), posing.rig.folds(x)
+    ([[10.0, 20.0], [38.28, 48.28]], 0)
+    """
+
+    def __init__(self, rig, handles):
+        h = np.asarray(handles, float).reshape(-1, 2)
+        rows, part = rig.locate(h)
+        missing = np.flatnonzero(part < 0)
+        if missing.size:
+            k = int(missing[0])
+            raise InputError(f"handles[{k}]: point ({h[k, 0]:g}, {h[k, 1]:g}) lies on no part of "
+                             f"the character")
+        self.rig = rig
+        self.handles = h
+        self.parts = part
+        n = len(rig.vertices)
+        # Pieces (faces and glue connect vertices) without a handle stay where they are.
+        piece = pieces(n, rig.faces, rig.glue)
+        held = np.unique(piece[rows.tocoo().col])
+        fixed = ~np.isin(piece, held)
+        self.fixed = [rig.names[i] for i in range(len(rig.names))
+                      if fixed[rig.offsets[i]:rig.offsets[i + 1]].all()]
+        self._rows, self._fixed, self._glue = rows, np.flatnonzero(fixed), rig.glue.tocsc()
+        self._stiffness = np.ones(len(rig.faces))
+        self.solver = self._arap()
+
+    def solve(self, targets, *, iterations=4, initial=None):
+        """Rig vertex positions with the handles at ``targets``.
+
+        Parameters
+        ----------
+        targets : (k, 2) float array
+        iterations : int, default 4
+            Local/global rounds, warm-started from the previous solve.
+        initial : (n, 2) float array, optional
+
+        Returns
+        -------
+        (n, 2) float array
+        """
+        t = np.asarray(targets, float).reshape(-1, 2)
+        if t.shape != self.handles.shape:
+            raise InputError(f"targets: expected {len(self.handles)} points, got {len(t)}")
+        return self.solver.solve(t, iterations=iterations, initial=initial)
+
+    def pose(self, targets, *, iterations=4, max_iterations=64):
+        """Like :meth:`solve`, but iterates further until no face folds.
+
+        Where faces still fold after ``max_iterations`` rounds (a thin
+        protrusion dragged by its tip, a glued area meeting a free one), the
+        faces within ``_REPAIR_REACH`` of them are made ``_STIFFER`` times
+        stiffer and the glue rows there released, the system factored again
+        and the rounds go on, at most ``_REPAIRS`` times. The next drag keeps
+        the repaired system.
+
+        Returns
+        -------
+        positions : (n, 2) float array
+        iterations : int
+            Rounds spent.
+        """
+        t = np.asarray(targets, float).reshape(-1, 2)
+        x = self.solve(t, iterations=iterations)
+        spent = iterations
+        for repair in range(_REPAIRS + 1):
+            budget = spent + max_iterations
+            while self.rig.folds(x) and spent < budget:
+                x = self.solve(t, iterations=iterations)
+                spent += iterations
+            folded = self.rig.folded(x)
+            if not folded.size or repair == _REPAIRS:
+                break
+            centres = x[self.rig.faces[folded]].mean(axis=1)
+            near = _within(x, centres, _REPAIR_REACH)
+            self._stiffness[np.any(near[self.rig.faces], axis=1)] *= _STIFFER
+            if self._glue.shape[0]:
+                touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
+                self._glue = self._glue[touches == 0]
+            self.solver = self._arap()
+            x = self.solve(t, iterations=iterations, initial=x)
+            spent += iterations
+        return x, spent
+
+    def _arap(self):
+        try:
+            return Arap(self.rig.vertices, self.rig.faces, handles=self._rows, glue=self._glue,
+                        glue_weight=_GLUE_WEIGHT, fixed=self._fixed, stiffness=self._stiffness)
+        except ValueError as e:
+            raise InputError(f"handles: {e}") from None
+
+
+def _within(points, centres, reach):
+    """Which points lie within ``reach`` of any centre."""
+    from scipy.spatial import cKDTree
+
+    return np.isfinite(cKDTree(centres).query(points, distance_upper_bound=reach)[0])
+
+
+def rig_relief(relief, completion, *, boundaries=()):
+    """The rig of a relief: its parts' front faces in one mesh, glued where the drawing joins them.
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+        Parts named after the regions (not a union).
+    completion : inkray.relief.completion.Completion
+        The ordered completion the relief was built from.
+    boundaries : list of inkray.input.annotations.Boundary, optional
+        ``stitch`` and ``graft`` paths glue the parts that meet there.
+
+    Returns
+    -------
+    Rig
+
+    Examples
+    --------
+    >>> from inkray.relief.completion import complete_regions
+    >>> from inkray.relief.inflation import inflate_region
+    >>> from inkray.relief.stitching import stitch
+    >>> from inkray.relief.assembly import assemble
+    >>> labels = np.full((40, 60), -1, np.int32); labels[10:30, 5:55] = 0
+    >>> c = complete_regions(labels, names=["bar"])
+    >>> relief = assemble(stitch([inflate_region(labels == 0, name="bar")], [], None), size=(60, 40))
+    >>> rig = rig_relief(relief, c)
+    >>> rig.names, len(rig.vertices) == len(relief.parts[0].vertices), rig.glue.shape[0]
+    (['bar'], True, 0)
+    """
+    if not isinstance(relief, Relief):
+        raise InputError(f"relief: expected an inkray.relief.model.Relief, got "
+                         f"{type(relief).__name__}")
+    names = list(completion.names)
+    verts, heights, faces, part_of_face, index, offsets = [], [], [], [], [], [0]
+    for i, p in enumerate(relief.parts):
+        if p.name not in names:
+            raise InputError(f"relief: part {p.name!r} is not a region of the drawing (a union "
+                             f"of all parts cannot be posed)")
+        v = np.asarray(p.vertices, float)
+        f = np.asarray(p.faces, np.int64)
+        # A closed part's back copies its front's (x, y): one rig vertex for both.
+        xy, first, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_index=True,
+                                       return_inverse=True)
+        inverse = inverse.reshape(-1)
+        top = np.full(len(xy), -np.inf)
+        np.maximum.at(top, inverse, v[:, 2])
+        front = f[np.all(v[f, 2] >= top[inverse[f]] - 1e-9, axis=1)] if p.closed else f
+        tri = inverse[front]
+        tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+        base = offsets[-1]
+        verts.append(v[first, :2])
+        heights.append(top)
+        faces.append(tri + base)
+        part_of_face.append(np.full(len(tri), i))
+        index.append(inverse + base)
+        offsets.append(base + len(xy))
+    vertices = np.concatenate(verts)
+    rig = Rig(names=[p.name for p in relief.parts], vertices=vertices,
+              heights=np.concatenate(heights), faces=np.concatenate(faces),
+              part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
+              index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
+    rows, joins = [], []
+    region_part = {names.index(n): i for i, n in enumerate(rig.names)}
+    for b, a, kind, mask in _joined_areas(completion):
+        if b in region_part and a in region_part:
+            pb, pa = region_part[b], region_part[a]
+            got = _glue_rows(rig, pb, pa, lambda xy, m=mask: _inside(m, xy))
+            if got.shape[0]:
+                rows.append(got)
+                joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
+    for seam in boundaries:
+        if seam.type not in ("stitch", "graft"):
+            continue
+        path = np.asarray(seam.path, float)
+        for pb in range(len(rig.names)):
+            for pa in range(len(rig.names)):
+                if pa == pb:
+                    continue
+                got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH))
+                if got.shape[0]:
+                    rows.append(got)
+                    joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
+    if rows:
+        rig.glue = sp.vstack(rows).tocsr()
+    rig.joins = joins
+    return rig
+
+
+def _joined_areas(completion):
+    """``(part, to, kind, mask)``: the areas where one region is glued to another."""
+    labels, owner = completion.labels, completion.owner
+    area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
+    area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
+    out = []
+    for b in range(completion.count):
+        pieces, n = ndimage.label(owner == b)
+        if not n:
+            continue
+        visible = ndimage.binary_dilation(labels == b)
+        for k, sl in enumerate(ndimage.find_objects(pieces), start=1):
+            grown = tuple(slice(max(s.start - 1, 0), s.stop + 1) for s in sl)
+            piece = pieces[grown] == k
+            contact = piece & visible[grown]
+            border = piece & ~ndimage.binary_erosion(piece)
+            share = contact.sum() / max(border.sum(), 1)
+            cuts = ndimage.label(contact, structure=np.ones((3, 3)))[1]
+            a = int(np.bincount(labels[grown][piece]).argmax())
+            mask = np.zeros(labels.shape, bool)
+            mask[grown] = piece
+            if cuts == 1 and share < ROOT_CONTACT and area[b] < area[a]:
+                out.append((b, a, "rooted", mask))
+            elif cuts == 1 and area[a] < area[b] and (share >= ON_TOP_CONTACT
+                                        or piece.sum() <= JOINT_AREA * area[a]):
+                out.append((a, b, "on top", mask))
+    return out
+
+
+def _glue_rows(rig, pb, pa, where):
+    """Rows tying the vertices of part ``pb`` selected by ``where`` to part ``pa`` under them."""
+    lo, hi = rig.offsets[pb], rig.offsets[pb + 1]
+    xy = rig.vertices[lo:hi]
+    pick = np.flatnonzero(where(xy))
+    if not pick.size:
+        return sp.csr_matrix((0, len(rig.vertices)))
+    faces = rig.faces[rig.part_of_face == pa]
+    hit, face, bary = _locate(rig.vertices, faces, xy[pick], 0.0)
+    pick, face, bary = pick[hit], face[hit], bary[hit]
+    k = len(pick)
+    r = np.repeat(np.arange(k), 4)
+    c = np.column_stack([pick + lo, faces[face]]).ravel()
+    v = np.column_stack([np.ones(k), -bary]).ravel()
+    return sp.csr_matrix((v, (r, c)), shape=(k, len(rig.vertices)))
+
+
+def _inside(mask, xy):
+    h, w = mask.shape
+    col = np.clip(np.rint(xy[:, 0]).astype(int), 0, w - 1)
+    row = np.clip(np.rint(xy[:, 1]).astype(int), 0, h - 1)
+    return mask[row, col]
+
+
+def _near(path, xy, reach):
+    if len(path) == 1:
+        return np.hypot(*(xy - path[0]).T) <= reach
+    a, b = path[:-1], path[1:]
+    d = b - a
+    t = np.clip(np.einsum("nkc,kc->nk", xy[:, None] - a, d) / np.maximum(
+        np.einsum("kc,kc->k", d, d), 1e-12), 0, 1)
+    foot = a + t[..., None] * d
+    return np.min(np.hypot(*(xy[:, None] - foot).transpose(2, 0, 1)), axis=1) <= reach
+
+
+def _locate(vertices, faces, points, tol):
+    """Which points lie on the 2D faces (within ``tol``), their face and barycentric coordinates."""
+    import igl
+
+    k = len(points)
+    if k == 0 or len(faces) == 0:
+        return np.zeros(k, bool), np.zeros(0, np.int64), np.zeros((0, 3))
+    flat = np.column_stack([vertices, np.zeros(len(vertices))])
+    query = np.column_stack([points, np.zeros(k)])
+    d2, face, near = igl.point_mesh_squared_distance(query, flat, faces.astype(np.int64))
+    t = vertices[faces[face]]
+    e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], near[:, :2] - t[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    bary = np.clip(np.column_stack([1 - l1 - l2, l1, l2]), 0, 1)
+    bary /= bary.sum(axis=1, keepdims=True)
+    return d2 <= tol * tol + 1e-12, face.astype(np.int64), bary

@@ -1,0 +1,427 @@
+"""Carrying a key frame's annotation to another frame of the same shot.
+
+The key's drawing is registered onto the frame as rigidly as possible
+(:func:`inkray.numerics.registration.arap_register`, after Sýkora, Dingliana
+and Collins, "As-rigid-as-possible image registration for hand-drawn cartoon
+animations", NPAR 2009, the application its Fig. 1 names), and every entry of
+the annotation moves with the registration:
+
+- region and background scribbles, resampled every few pixels so that a
+  stroke follows a bending part; a point that lands on ink, or across a line
+  in a part it does not belong to, moves to the nearest paper of its own part
+  (the key's segmentation, carried to the frame by the registration);
+- ``order`` and ``equal`` points likewise, each into the part it marks in the
+  key;
+- boundary paths onto the frame's outline between the two parts they
+  separate in the key (the frame segmented with the carried scribbles).
+
+Names, inflation and profile are kept. Each entry gets a match score: how
+well the drawings agree around its points after registration, lowered where a
+point had to move far to find its part, and for a region by how much of the
+part carried from the key the frame's segmentation gives it; along a chain
+of frames the scores multiply. Entries scoring below a threshold are named
+in warnings, ``"order[3]: moved 14 px, match 0.41: check it"``.
+"""
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.input.annotations import Annotations
+from inkray.numerics.polyline import resample_polyline
+from inkray.numerics.registration import arap_register, warp_points
+from inkray.segmentation import INK_THRESHOLD, segment
+
+__all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
+
+#: Entries whose match score is below this are named in the warnings.
+CHECK = 0.6
+#: Scribbles are carried as points this far apart (pixels), then simplified.
+_STEP = 3.0
+
+
+@dataclass
+class EntryCheck:
+    """How one entry of the annotation was carried.
+
+    Attributes
+    ----------
+    key : str
+        The entry's key path: ``regions[2]``, ``background[0]``,
+        ``order[3]``, ``equal[0]`` or ``boundaries[1]``.
+    moved : float
+        Mean distance its points moved, in pixels.
+    match : float
+        In [0, 1]; below the threshold the entry is flagged.
+    flagged : bool
+    name : str or None
+        The region's name (``regions[...]`` entries only).
+    """
+
+    key: str
+    moved: float
+    match: float
+    flagged: bool
+    name: str = None
+
+
+@dataclass
+class Transfer:
+    """The result of :func:`transfer_annotations`.
+
+    Attributes
+    ----------
+    annotations : inkray.input.annotations.Annotations
+        The carried annotation, for the frame (``drawing`` left to the caller).
+    entries : list of EntryCheck
+        One per entry, in the file's order (regions, background, order,
+        equal, boundaries).
+    confidence : float
+        In [0, 1]: the registration's match over the character's ink.
+    warnings : list of str
+        One line per flagged entry.
+    labels : (H, W) int32 array
+        The frame segmented with the carried scribbles (``-1`` background);
+        the key labels of the next frame when a shot is carried frame to frame.
+    """
+
+    annotations: Annotations
+    entries: list
+    confidence: float
+    warnings: list = field(default_factory=list)
+    labels: np.ndarray = None
+
+
+def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=CHECK,
+                         spacing=8, reach=None, prior=None):
+    """Carry the annotation of a key frame onto another frame of the shot.
+
+    Parameters
+    ----------
+    annotations : inkray.input.annotations.Annotations
+        The key frame's annotation.
+    key, frame : inkray.input.drawing.Drawing
+        The key frame's drawing and the frame's, of the same size.
+    key_labels : (H, W) int array, optional
+        The key's segmentation by ``annotations`` (computed when not given).
+    threshold : float, default :data:`CHECK`
+        Entries whose match is below it are flagged.
+    spacing : int, default 8
+        Lattice spacing of the registration, in pixels.
+    reach : float, optional
+        How far (pixels) a point may move to reach its part; by default four
+        lattice spacings.
+    prior : dict, optional
+        The key's own match per entry key (``{"order[3]": 0.4}``) when the key
+        was itself carried: matches multiply along a chain of frames, so an
+        entry that went wrong stays flagged on the frames carried after it.
+
+    Returns
+    -------
+    Transfer
+
+    Raises
+    ------
+    InputError
+        When the drawings differ in size from each other or from the
+        annotation, or the threshold is outside [0, 1].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.input.annotations import parse_annotations
+    >>> from inkray.input.drawing import drawing_from_array
+    >>> def box(x):
+    ...     g = np.full((60, 80), 255, np.uint8)
+    ...     g[15:45, x] = g[15:45, x + 30] = g[15, x:x + 31] = g[44, x:x + 31] = 0
+    ...     return drawing_from_array(g, normalize=False)
+    >>> ann = parse_annotations({"format": "inkray-annotations", "version": 1, "size": [80, 60],
+    ...                          "regions": [{"name": "box", "scribbles": [[[25, 30], [35, 30]]]}]})
+    >>> t = transfer_annotations(ann, box(15), box(25))
+    >>> np.round(t.annotations.regions[0].scribbles[0][[0, -1]]).tolist()
+    [[35.0, 30.0], [45.0, 30.0]]
+    >>> t.entries[0].key, t.entries[0].flagged
+    ('regions[0]', False)
+    """
+    size = (annotations.width, annotations.height)
+    for what, d in (("key", key), ("frame", frame)):
+        if d.size != size:
+            raise InputError(f"{what}: the drawing is {d.size[0]}x{d.size[1]} but the annotation is "
+                             f"for {size[0]}x{size[1]}")
+    if not 0 <= threshold <= 1:
+        raise InputError(f"threshold: expected a number in [0, 1], got {threshold!r}")
+    reach = 4 * spacing if reach is None else float(reach)
+    if key_labels is None:
+        key_labels = segment(annotations, key).labels
+    key_labels = np.asarray(key_labels)
+    if key_labels.shape != key.gray.shape:
+        raise InputError(f"key labels: shape {key_labels.shape} differs from the drawing's "
+                         f"{key.gray.shape}")
+
+    key_ink = np.clip(1.0 - key.gray, 0, 1)
+    frame_ink = np.clip(1.0 - frame.gray, 0, 1)
+    reg = arap_register(key_ink, frame_ink, spacing=spacing)
+    carried = _pull_back(key_labels, reg.displacement)
+    places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
+    conf = reg.confidence
+    h, w = key_labels.shape
+
+    def label_at(p):
+        x = int(np.clip(np.rint(p[0]), 0, w - 1))
+        y = int(np.clip(np.rint(p[1]), 0, h - 1))
+        return int(key_labels[y, x])
+
+    def carry(points, labels):
+        """Points carried into their parts: new points, distances moved, scores."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        moved = warp_points(reg, points)
+        out = np.empty_like(moved)
+        snap = np.empty(len(points))
+        for i, (q, lab) in enumerate(zip(moved, labels)):
+            out[i], snap[i] = places.place(q, lab)
+        match = _sample(conf, points) * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
+        return out, np.linalg.norm(out - points, axis=1), match
+
+    entries, warnings = [], []
+
+    prior = {} if prior is None else prior
+
+    def check(key_path, moved, match, name=None):
+        match = float(np.clip(match, 0, 1)) * float(prior.get(key_path, 1.0))
+        flagged = match < threshold
+        entries.append(EntryCheck(key=key_path, moved=float(moved), match=match, flagged=flagged,
+                                  name=name))
+        if flagged:
+            label = f"{key_path} ({name})" if name else key_path
+            warnings.append(f"{label}: moved {moved:.0f} px, match {match:.2f}: check it")
+
+    def carry_polyline(line, label):
+        dense = line if len(line) == 1 else resample_polyline(line, _STEP)
+        out, moved, match = carry(dense, [label] * len(dense))
+        return _simplify(out, 1.0), moved, match
+
+    regions, region_scores = [], []
+    for i, r in enumerate(annotations.regions):
+        scribbles, moved, match = [], [], []
+        for s in r.scribbles:
+            out, mv, mt = carry_polyline(s, i)
+            scribbles.append(_inside(out, size))
+            moved.append(mv)
+            match.append(mt)
+        regions.append(replace(r, scribbles=scribbles, pixels=None))
+        region_scores.append((np.concatenate(moved).mean(), np.concatenate(match).mean()))
+    background, background_scores = [], []
+    for s in annotations.background:
+        out, mv, mt = carry_polyline(s, -1)
+        background.append(_inside(out, size))
+        background_scores.append((mv.mean(), mt.mean()))
+
+    def carry_pairs(items, a, b):
+        out, scores = [], []
+        for e in items:
+            pa, pb = getattr(e, a), getattr(e, b)
+            parts = [label_at(pa), label_at(pb)]
+            pts, mv, mt = carry([pa, pb], parts)
+            pts = _inside(pts, size)
+            if np.allclose(pts[0], pts[1]):  # both into one pixel: keep them apart
+                pts = _inside(warp_points(reg, np.array([pa, pb], float)), size)
+            out.append((e, pts, parts, np.array([pa, pb], float)))
+            scores.append((mv.mean(), mt.min()))
+        return out, scores
+
+    order, order_scores = carry_pairs(annotations.order, "front", "back")
+    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
+
+    draft = replace(annotations, size=size, regions=regions, background=background, order=[],
+                    equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
+    labels = segment(draft, frame).labels
+    # A point of an order or equal entry goes into its part as the frame is
+    # segmented: where the carried parts and the segmentation differ, the
+    # segmentation is what the relief will use.
+    segmented = _Places(labels, frame.gray >= INK_THRESHOLD, reach)
+
+    def settle(items, scores, a, b):
+        out = []
+        for k, (e, pts, parts, was) in enumerate(items):
+            for j in (0, 1):
+                pts[j], d = segmented.place(pts[j], parts[j])
+                if d > 0:
+                    mv, mt = scores[k]
+                    scores[k] = (mv, mt * np.exp(-(min(d, 1e9) / (2 * spacing)) ** 2))
+            if np.allclose(pts[0], pts[1]):
+                pts = _inside(warp_points(reg, was), size)
+            out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
+        return out
+
+    order = settle(order, order_scores, "front", "back")
+    equal = settle(equal, equal_scores, "a", "b")
+    draft = replace(draft, order=order, equal=equal)
+    for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
+        check(f"regions[{i}]", mv, min(mt, _overlap(carried == i, labels == i)), name=r.name)
+    for j, (mv, mt) in enumerate(background_scores):
+        check(f"background[{j}]", mv, mt)
+    for e, (mv, mt) in zip(order, order_scores):
+        check(f"order[{e.index}]", mv, mt)
+    for e, (mv, mt) in zip(equal, equal_scores):
+        check(f"equal[{e.index}]", mv, mt)
+
+    boundaries = []
+    for b in annotations.boundaries:
+        path, mv, mt = _carry_boundary(b.path, key_labels, labels, reg, conf, reach)
+        boundaries.append(replace(b, path=_inside(path, size)))
+        check(f"boundaries[{b.index}]", mv, mt)
+
+    character = (key_labels >= 0) & (key.gray < INK_THRESHOLD)
+    confidence = float(conf[character].mean()) if character.any() else float(conf.mean())
+    carried_ann = replace(draft, boundaries=boundaries)
+    return Transfer(annotations=carried_ann, entries=entries, confidence=confidence,
+                    warnings=warnings, labels=labels)
+
+
+# -- helpers -------------------------------------------------------------------
+
+class _Places:
+    """Nearest paper pixel of each carried part, found within ``reach``.
+
+    Looked for in a window around the point only (a few thousand pixels
+    whatever the drawing's size).
+    """
+
+    def __init__(self, carried, paper, reach):
+        self.carried, self.paper, self.reach = carried, paper, reach
+
+    def place(self, q, label):
+        """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
+        part is wide enough), and how far; ``inf`` when none is within reach."""
+        h, w = self.carried.shape
+        x = int(np.clip(np.rint(q[0]), 0, w - 1))
+        y = int(np.clip(np.rint(q[1]), 0, h - 1))
+        r = int(np.ceil(self.reach)) + 3
+        y0, x0 = max(y - r, 0), max(x - r, 0)
+        window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
+        mask = self.paper[window] & (self.carried[window] == label)
+        # Aim a little inside the part, not onto the pixel next to its line.
+        inner = ndimage.binary_erosion(mask, iterations=2, border_value=1)
+        for m in (inner, mask):
+            if not m.any():
+                continue
+            if m[y - y0, x - x0]:
+                return q, 0.0
+            dist, (iy, ix) = ndimage.distance_transform_edt(~m, return_indices=True)
+            if dist[y - y0, x - x0] <= self.reach:
+                p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
+                return p, float(np.hypot(*(p - q)))
+        return q, np.inf
+
+
+def _pull_back(labels, displacement, iterations=8, step=4):
+    """Key labels seen from the frame: label of the key pixel each frame pixel comes from.
+
+    The inverse of the (smooth) displacement is solved on every ``step``-th
+    pixel and interpolated in between.
+    """
+    h, w = labels.shape
+    ys, xs = np.mgrid[0:h:step, 0:w:step].astype(float)
+    px, py = xs.copy(), ys.copy()
+    for _ in range(iterations):  # p + u(p) = y, solved by fixed-point iteration
+        ux = ndimage.map_coordinates(displacement[..., 0], [py, px], order=1, mode="nearest")
+        uy = ndimage.map_coordinates(displacement[..., 1], [py, px], order=1, mode="nearest")
+        px, py = xs - ux, ys - uy
+    fy, fx = np.mgrid[:h, :w].astype(float)
+    coarse = [fy / step, fx / step]
+    vx = ndimage.map_coordinates(px - xs, coarse, order=1, mode="nearest")
+    vy = ndimage.map_coordinates(py - ys, coarse, order=1, mode="nearest")
+    ix = np.clip(np.rint(fx + vx), 0, w - 1).astype(int)
+    iy = np.clip(np.rint(fy + vy), 0, h - 1).astype(int)
+    return labels[iy, ix]
+
+
+def _sample(image, points):
+    p = np.asarray(points, float).reshape(-1, 2)
+    return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=1, mode="nearest")
+
+
+def _overlap(a, b):
+    """Intersection over union of two masks (1 when both are empty)."""
+    union = np.count_nonzero(a | b)
+    return 1.0 if union == 0 else np.count_nonzero(a & b) / union
+
+
+def _inside(points, size):
+    w, h = size
+    return np.clip(np.asarray(points, float), 0, [w - 1, h - 1])
+
+
+def _simplify(points, tolerance):
+    """Douglas-Peucker: the vertices of ``points`` needed within ``tolerance``."""
+    if len(points) <= 2:
+        return points
+    keep = np.zeros(len(points), bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, len(points) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        a, b = points[i], points[j]
+        ab = b - a
+        n = np.hypot(*ab)
+        seg = points[i + 1:j] - a
+        d = (np.abs(ab[0] * seg[:, 1] - ab[1] * seg[:, 0]) / n if n > 0
+             else np.hypot(seg[:, 0], seg[:, 1]))
+        k = int(d.argmax())
+        if d[k] > tolerance:
+            keep[i + 1 + k] = True
+            stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    return points[keep]
+
+
+def _outline(labels, a, b):
+    """Pixels of label ``a`` next to label ``b`` (4-neighbours), and the reverse."""
+    out = np.zeros(labels.shape, bool)
+    for axis in (0, 1):
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        p, q = labels[tuple(lo)], labels[tuple(hi)]
+        hit = ((p == a) & (q == b)) | ((p == b) & (q == a))
+        out[tuple(lo)] |= hit
+        out[tuple(hi)] |= hit
+    return out
+
+
+def _carry_boundary(path, key_labels, labels, reg, conf, reach):
+    """A boundary path carried and put back on the frame's outline between its two parts."""
+    dense = resample_polyline(path, _STEP)
+    h, w = key_labels.shape
+    # The two parts the path separates in the key: the commonest labels near it.
+    seen = []
+    for x, y in dense:
+        x0, y0 = int(np.clip(round(x), 0, w - 1)), int(np.clip(round(y), 0, h - 1))
+        seen.append(key_labels[max(0, y0 - 3):y0 + 4, max(0, x0 - 3):x0 + 4].ravel())
+    values, counts = np.unique(np.concatenate(seen), return_counts=True)
+    pair = values[np.argsort(-counts)][:2]
+    moved = warp_points(reg, dense)
+    match = _sample(conf, dense)
+    if len(pair) == 2:
+        line = _outline(labels, pair[0], pair[1])
+    else:
+        line = np.zeros(labels.shape, bool)
+    if not line.any():
+        return _simplify(moved, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()), 0.0
+    dist, (iy, ix) = ndimage.distance_transform_edt(~line, return_indices=True)
+    qx = np.clip(np.rint(moved[:, 0]), 0, w - 1).astype(int)
+    qy = np.clip(np.rint(moved[:, 1]), 0, h - 1).astype(int)
+    d = dist[qy, qx]
+    near = d <= reach
+    snapped = np.where(near[:, None], np.stack([ix[qy, qx], iy[qy, qx]], axis=1).astype(float), moved)
+    match = match * np.where(near, np.exp(-(d / reach) ** 2), 0.0)
+    # Keep the path's order and drop repeats where several samples snapped together.
+    keep = np.r_[True, np.any(np.diff(snapped, axis=0) != 0, axis=1)]
+    snapped = snapped[keep]
+    if len(snapped) < 2:
+        snapped = np.vstack([snapped, snapped + [1.0, 0.0]])
+    return (_simplify(snapped, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()),
+            float(match.mean()))

@@ -1,0 +1,130 @@
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from inkray.numerics.arap import Arap, arap, arap_energy, cotangent_weights, signed_areas
+
+
+def grid(nx, ny, step=1.0):
+    """A rectangle of (nx + 1) x (ny + 1) vertices, two triangles per cell, counter-clockwise."""
+    xs, ys = np.meshgrid(np.arange(nx + 1) * step, np.arange(ny + 1) * step)
+    v = np.column_stack([xs.ravel(), ys.ravel()])
+    f = []
+    for j in range(ny):
+        for i in range(nx):
+            a = j * (nx + 1) + i
+            f += [[a, a + 1, a + nx + 2], [a, a + nx + 2, a + nx + 1]]
+    return v, np.array(f)
+
+
+def turn(points, angle, about=(0.0, 0.0)):
+    c, s = np.cos(angle), np.sin(angle)
+    p = np.asarray(points, float) - about
+    return p @ np.array([[c, s], [-s, c]]) + about
+
+
+def test_cotangent_laplacian_reproduces_linear_functions():
+    v, f = grid(6, 4)
+    w = cotangent_weights(v, f)
+    # sum over faces of w * (u_j - u_i) at an interior vertex vanishes for u linear
+    n = len(v)
+    L = sp.lil_matrix((n, n))
+    for t, face in enumerate(f):
+        for k in range(3):
+            i, j = face[(k + 1) % 3], face[(k + 2) % 3]
+            L[i, j] -= w[t, k]
+            L[j, i] -= w[t, k]
+            L[i, i] += w[t, k]
+            L[j, j] += w[t, k]
+    u = 2.0 * v[:, 0] - 3.0 * v[:, 1]
+    interior = (v[:, 0] > 0) & (v[:, 0] < 6) & (v[:, 1] > 0) & (v[:, 1] < 4)
+    assert np.allclose((L.tocsr() @ u)[interior], 0.0)
+
+
+def test_identity_when_handles_stay():
+    v, f = grid(8, 3)
+    out = Arap(v, f, handles=[0, 8, 35]).solve(v[[0, 8, 35]], iterations=5)
+    assert np.allclose(out, v, atol=1e-10)
+
+
+@pytest.mark.parametrize("angle", [0.3, 1.0, np.pi / 2, 2.5])
+def test_rigid_bar_turned_by_two_handles_turns_rigidly(angle):
+    v, f = grid(20, 2)
+    handles = [0, 20]
+    targets = turn(v[handles], angle, about=(3.0, -2.0)) + [5.0, 1.0]
+    out = Arap(v, f, handles=handles).solve(targets, iterations=10)
+    assert np.allclose(out, turn(v, angle, about=(3.0, -2.0)) + [5.0, 1.0], atol=1e-8)
+    assert arap_energy(v, f, out) < 1e-16
+
+
+def test_handles_are_met_exactly_at_barycentric_points():
+    v, f = grid(10, 10)
+    # a handle inside face 37 and one on a vertex
+    bary = np.array([0.2, 0.3, 0.5])
+    row = np.zeros(len(v))
+    row[f[37]] = bary
+    C = sp.csr_matrix(np.vstack([row, np.eye(len(v))[0]]))
+    targets = np.array([[14.0, 3.0], [-2.0, 1.0]])
+    solver = Arap(v, f, handles=C)
+    out = solver.solve(targets, iterations=6)
+    assert np.abs(C @ out - targets).max() < 1e-9
+    again = solver.solve(targets + 0.5, iterations=2)  # a drag: the same factorization
+    assert np.abs(C @ again - (targets + 0.5)).max() < 1e-9
+
+
+def test_limb_swung_sixty_degrees_does_not_fold():
+    # an L: a body (fixed by two handles) and an arm swung about its joint
+    v, f = grid(30, 4)
+    body = [0, 4 * 31, 10 + 4 * 31]
+    tip = 30 + 2 * 31
+    joint = np.array([10.0, 2.0])
+    for angle in (np.radians(60), -np.radians(60)):
+        targets = np.vstack([v[body], turn(v[[tip]], angle, about=joint)])
+        solver = Arap(v, f, handles=body + [tip])
+        out = solver.solve(targets, iterations=40)
+        assert np.all(signed_areas(out, f) > 0)
+        assert np.abs(out[body + [tip]] - targets).max() < 1e-9
+
+
+def test_glue_rows_keep_two_meshes_together():
+    a, fa = grid(4, 2)
+    b, fb = grid(4, 2)
+    b = b + [3.0, 0.0]  # overlaps a over x in [3, 4]
+    v = np.vstack([a, b])
+    f = np.vstack([fa, fb + len(a)])
+    # vertex of b at (3, 1) equals a's vertex at (3, 1): glue row e_b - e_a
+    ia = int(np.flatnonzero((a == [3, 1]).all(1))[0])
+    ib = len(a) + int(np.flatnonzero((b == [3, 1]).all(1))[0])
+    ja = int(np.flatnonzero((a == [4, 1]).all(1))[0])
+    jb = len(a) + int(np.flatnonzero((b == [4, 1]).all(1))[0])
+    G = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [ib, ia, jb, ja])), shape=(2, len(v)))
+    handles = [0, len(a) + 14]   # a's first vertex, b's far corner
+    targets = v[handles] + [[0, 0], [0, 6]]
+    out = Arap(v, f, handles=handles, glue=G).solve(targets, iterations=30)
+    assert np.abs(G @ out).max() < 0.3          # held together (soft)
+    loose = Arap(v, f, handles=handles).solve(targets, iterations=30)
+    assert np.abs(G @ loose).max() > 1.0        # without glue b leaves a
+
+
+def test_free_piece_without_handle_is_refused_unless_fixed():
+    v, f = grid(3, 3)
+    w = np.vstack([v, v + [10, 0]])
+    g = np.vstack([f, f + len(v)])
+    with pytest.raises(ValueError, match="no handle"):
+        Arap(w, g, handles=[0]).solve(w[[0]])
+    out = Arap(w, g, handles=[0], fixed=np.arange(len(v), 2 * len(v))).solve([[1.0, 1.0]])
+    assert np.allclose(out[len(v):], w[len(v):])
+
+
+def test_arap_one_shot_and_translation():
+    v, f = grid(3, 2)
+    out = arap(v, f, [0, 3], v[[0, 3]] + [2.0, -1.0])
+    assert np.allclose(out, v + [2.0, -1.0])
+
+
+def test_bad_input():
+    v, f = grid(2, 2)
+    with pytest.raises(ValueError, match="faces"):
+        Arap(v, f + 100, handles=[0])
+    with pytest.raises(ValueError, match="targets"):
+        Arap(v, f, handles=[0, 1]).solve([[0.0, 0.0]])

@@ -1,0 +1,98 @@
+"""The editor's Pose mode: the HTTP route, and in a real headless Chromium: place handles, drag one
+with the mouse, the posed picture changes, the pose file saves."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from _editor import call, copy_example, running
+from inkray.editor.session import EditSession
+from inkray.input.pose import load_pose
+
+CHROMIUM = os.environ.get("INKRAY_CHROMIUM", "/usr/bin/chromium")
+
+
+def _png(body):
+    import io
+
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(body)))
+
+
+def test_pose_route_answers_a_drag_and_saves(tmp_path):
+    ann = copy_example("man", tmp_path)
+    session = EditSession(ann)
+    with running(session) as url:
+        handles = [[150, 330], [150, 250], [265, 180]]
+        status, headers, body = call(url + "/api/pose", "POST", {"handles": handles, "to": handles})
+        assert status == 200 and headers["Content-Type"] == "image/png"
+        rest = _png(body)
+        raised = [[150, 330], [150, 250], [250, 110]]
+        status, headers, body = call(url + "/api/pose", "POST", {"handles": handles, "to": raised})
+        assert status == 200 and float(headers["X-Inkray-Compute-Ms"]) > 0
+        assert rest.shape == (540, 304, 4) and (_png(body) != rest).any()
+        status, _, body = call(url + "/api/pose", "POST", {"handles": handles, "to": raised,
+                                                          "scale": 0.5})
+        assert status == 200 and _png(body).shape == (270, 152, 4)
+        status, _, body = call(url + "/api/pose", "POST", {"handles": [[2, 2]], "to": [[3, 3]]})
+        assert status == 422 and "handles[0]" in json.loads(body)["error"]
+        doc = {"format": "inkray-pose", "version": 1, "handles": handles,
+               "keys": [{"frame": 0, "to": raised}]}
+        status, _, body = call(url + "/api/pose/save", "POST", doc)
+        assert status == 200
+        assert load_pose(tmp_path / "drawing.pose.json").keys[0].to.tolist() == raised
+        status, _, body = call(url + "/api/pose/save", "POST", dict(doc, version=3))
+        assert status == 400 and json.loads(body)["error"].startswith("version:")
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).is_file(), reason=f"no Chromium at {CHROMIUM}")
+def test_drag_a_handle_with_the_mouse_and_save_the_pose(tmp_path):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    ann = copy_example("man", tmp_path)
+    session = EditSession(ann)
+    with running(session) as url, sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        page = browser.new_page(viewport={"width": 1440, "height": 1000})
+        errors = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url + "/")
+        page.wait_for_function("window.inkrayPose && window.inkray.size[0] > 1", timeout=60_000)
+        page.click("#pose-mode")
+
+        def screen(x, y):
+            return page.evaluate("""([x, y]) => {
+                const vp = document.getElementById('viewport').getBoundingClientRect();
+                const v = window.inkray.view;
+                return [vp.left + v.tx + (x + 0.5) * v.s, vp.top + v.ty + (y + 0.5) * v.s];
+            }""", [x, y])
+
+        for x, y in ((150, 330), (150, 250), (265, 180)):
+            page.mouse.click(*screen(x, y))
+        page.wait_for_function("window.inkrayPose.updates >= 1 && !window.inkrayPose.busy",
+                               timeout=120_000)
+        before = page.evaluate("window.inkrayPose.updates")
+        shot_before = page.locator("#posed").screenshot()
+        page.mouse.move(*screen(265, 180))
+        page.mouse.down()
+        for k in range(1, 7):
+            page.mouse.move(*screen(265 - 2.5 * k, 180 - 12 * k))
+        page.mouse.up()
+        page.wait_for_function(f"window.inkrayPose.updates > {before} && !window.inkrayPose.busy",
+                               timeout=120_000)
+        page.wait_for_timeout(300)
+        assert page.locator("#posed").screenshot() != shot_before
+        moved = page.evaluate("window.inkrayPose.to[2]")
+        assert abs(moved[1] - 108) < 3
+        page.click("#pose-key")
+        page.click("#pose-save")
+        page.wait_for_function("document.getElementById('pose-saved').dataset.ok === 'true'",
+                               timeout=30_000)
+        pose = load_pose(tmp_path / "drawing.pose.json", size=(304, 540))
+        assert len(pose.handles) == 3 and abs(pose.keys[0].to[2][1] - 108) < 3
+        browser.close()
+        assert not errors, errors

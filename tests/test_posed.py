@@ -1,0 +1,92 @@
+import numpy as np
+import pytest
+
+from inkray.chain import ReliefChain
+from inkray.errors import InputError
+from inkray.formats.layer_files import read_layers, write_layers
+from inkray.formats.meshes import export_relief
+from inkray.input.loading import load_input
+from inkray.input.pose import parse_pose
+from inkray.relief.cutout import Cutout
+from inkray.relief.model import Part, Relief
+from inkray.view.posed import PosedDrawing, posed_image
+
+from conftest import EXAMPLES
+
+
+@pytest.fixture(scope="module")
+def turtle():
+    ann, drawing = load_input(EXAMPLES / "turtle" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    handles = [[250.0, 250.0], [330.0, 200.0]]
+    return chain, PosedDrawing(chain.relief, chain.completion, chain.relations, drawing, handles)
+
+
+def square(shift=(0.0, 0.0), z=1.0, name="sq"):
+    v = np.array([[0, 0, z], [4, 0, z], [4, 4, z], [0, 4, z]], float) - [0.5, 0.5, 0]
+    moved = v + [shift[0], shift[1], 0.0]
+    return Part(name, moved, np.array([[0, 3, 2], [0, 2, 1]])), Part(name, v, np.array([[0, 3, 2], [0, 2, 1]]))
+
+
+def test_a_translation_carries_the_drawing():
+    rgb = np.zeros((6, 10, 3), np.uint8)
+    rgb[:4, :4] = np.arange(16, dtype=np.uint8).reshape(4, 4)[..., None] * 10
+    moved, rest = square((5.0, 2.0))
+    img, part = posed_image(Relief([moved], size=(10, 6)), Relief([rest], size=(10, 6)),
+                            Cutout([], (10, 6)), rgb)
+    assert np.array_equal(img[2:6, 5:9, 0], rgb[:4, :4, 0])
+    assert (img[2:6, 5:9, 3] == 255).all() and img[:2].sum() == 0 and (part[2:6, 5:9] == 0).all()
+
+
+def test_the_higher_part_is_drawn_where_posed_parts_overlap():
+    rgb = np.zeros((4, 12, 3), np.uint8)
+    a_moved, a_rest = square((2.0, 0.0), z=1.0, name="a")
+    b_moved, b_rest = square((0.0, 0.0), z=2.0, name="b")
+    b_moved.vertices[:, 0] += 4.0     # b's rest square moved to x 4..7, a's to 2..5: overlap 4..5
+    b_rest.vertices[:, 0] += 4.0
+    rgb[:, :4] = 50
+    rgb[:, 4:8] = 200
+    posed = Relief([a_moved, b_moved], size=(12, 4))
+    rest = Relief([a_rest, b_rest], size=(12, 4))
+    _, part = posed_image(posed, rest, Cutout([], (12, 4)), rgb)
+    assert (part[:, 2:4] == 0).all() and (part[:, 4:8] == 1).all()
+    b_moved.vertices[:, 2] = 0.5       # now lower than a
+    _, part = posed_image(posed, rest, Cutout([], (12, 4)), rgb)
+    assert (part[:, 2:6] == 0).all() and (part[:, 6:8] == 1).all()
+
+
+def test_posed_layers_keep_the_stack_and_round_trip(turtle, tmp_path):
+    chain, posed = turtle
+    x = posed.positions(np.array([[250.0, 250.0], [345.0, 170.0]]))
+    stack = posed.layers(x)
+    assert [layer.name for layer in stack.layers] == [layer.name for layer in posed.cutout.layers]
+    again = read_layers(write_layers(stack, tmp_path / "p.ora")[0])
+    assert np.array_equal(again.flatten(), stack.flatten())
+
+
+def test_posed_relief_export_keeps_the_rest_texture(turtle, tmp_path):
+    import trimesh
+
+    chain, posed = turtle
+    x = posed.positions(np.array([[250.0, 250.0], [345.0, 170.0]]))
+    moved = posed.relief(x)
+    rest_glb = trimesh.load(export_relief(chain.relief, tmp_path / "rest.glb")[0], force="scene")
+    posed_glb = trimesh.load(export_relief(moved, tmp_path / "posed.glb")[0], force="scene")
+    for name, geom in rest_glb.geometry.items():
+        other = posed_glb.geometry[name]
+        assert np.array_equal(geom.faces, other.faces)
+        assert np.allclose(geom.visual.uv, other.visual.uv)
+
+
+def test_animation_frames_are_warm_started_and_single_frames_match(turtle):
+    chain, posed = turtle
+    pose = parse_pose({"format": "inkray-pose", "version": 1,
+                       "handles": [[250, 250], [330, 200]],
+                       "keys": [{"frame": 0, "to": [[250, 250], [330, 200]]},
+                                {"frame": 4, "to": [[250, 250], [345, 170]]}]})
+    frames = posed.frames(pose)
+    assert [f for f, _ in frames] == [0, 1, 2, 3, 4]
+    assert np.allclose(frames[0][1], posed.rig.vertices, atol=1e-6)
+    assert np.allclose(posed.at(pose, 3), frames[3][1])
+    with pytest.raises(InputError, match="frame: 9 is not a frame of the pose"):
+        posed.at(pose, 9)

@@ -1,0 +1,163 @@
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from inkray.chain import ReliefChain
+from inkray.errors import InputError
+from inkray.input.loading import load_input
+from inkray.relief.model import Relief
+from inkray.relief.posing import Posing, rig_relief
+from inkray.view.posed import PosedDrawing, posed_image
+
+from conftest import EXAMPLES
+
+
+@pytest.fixture(scope="module")
+def rings():
+    ann, drawing = load_input(EXAMPLES / "rings" / "drawing.inkray.json")
+    return ReliefChain(ann, drawing), ann, drawing
+
+
+@pytest.fixture(scope="module")
+def man():
+    ann, drawing = load_input(EXAMPLES / "man" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    return chain, rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+
+
+def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
+    chain, rig = man
+    assert rig.names == [p.name for p in chain.relief.parts]
+    for p, idx in zip(chain.relief.parts, rig.index):
+        assert np.allclose(rig.vertices[idx], p.vertices[:, :2])
+    joined = {(j.part, j.to) for j in rig.joins}
+    assert {("arm_left", "overalls"), ("arm_right", "overalls"), ("shoe_left", "overalls"),
+            ("nose", "head")} <= joined
+    # glue rows vanish at rest
+    assert np.abs(rig.glue @ rig.vertices).max() < 1e-9
+
+
+def test_rings_are_not_glued_at_their_crossings(rings):
+    chain, ann, _ = rings
+    assert rig_relief(chain.relief, chain.completion).joins == []
+
+
+def test_limb_swung_down_meets_handles_without_folds(man):
+    chain, rig = man
+    labels = chain.completion.labels
+    body = rig.names.index("overalls")
+    ys, xs = np.nonzero(ndimage.binary_erosion(labels == body, iterations=4))
+    pins = np.array([[xs[np.argmin(ys)], ys.min()], [xs[np.argmax(ys)], ys.max()]], float)
+    tip = np.array([265.0, 180.0])
+    posing = Posing(rig, np.vstack([pins, tip]))
+    assert rig.names[posing.parts[2]] == "arm_right"
+    # where the arm joins the body: its glued vertices
+    arm = rig.names.index("arm_right")
+    glued = np.unique(rig.glue.tocoo().col)
+    glued = glued[(glued >= rig.offsets[arm]) & (glued < rig.offsets[arm + 1])]
+    shoulder = rig.vertices[glued].mean(axis=0)
+    for degrees in (60, -60):
+        a = np.radians(degrees)
+        turn = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+        target = np.vstack([pins, shoulder + turn @ (tip - shoulder)])
+        posing.solver.reset()
+        x, _ = posing.pose(target, iterations=8)
+        assert rig.folds(x) == 0
+        assert np.abs(posing.solver.handles @ x - target).max() < 1e-6
+        # the body stays put where it is pinned, the arm goes with its hand
+        assert np.abs(x[rig.offsets[body]:rig.offsets[body + 1]] - rig.vertices[
+            rig.offsets[body]:rig.offsets[body + 1]]).max() < 25
+
+
+def test_handle_off_the_character_is_refused(man):
+    _, rig = man
+    with pytest.raises(InputError, match=r"handles\[1\]: point \(2, 2\) lies on no part"):
+        Posing(rig, [[150.0, 330.0], [2.0, 2.0]])
+
+
+def test_identity_pose_reproduces_the_drawing_where_visible(man):
+    chain, rig = man
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
+                         [[150.0, 330.0], [150.0, 250.0]])
+    img = posed.image(rig.vertices)
+    opaque = img[..., 3] == 255
+    assert opaque.sum() > 0.85 * (chain.completion.labels >= 0).sum()
+    same = np.all(img[..., :3] == chain.drawing.rgb, axis=2)
+    # the relief's order and the layers' agree but where three surfaces meet at an outline
+    assert same[opaque].mean() > 0.997
+    # soft edges as the layers have them: the picture is the flattened layer stack
+    flat = posed.cutout.flatten()
+    assert np.mean(np.all(img == flat, axis=2)[flat[..., 3] > 0]) > 0.99
+
+
+def test_posed_relief_keeps_parts_vertices_faces_and_heights(man):
+    chain, rig = man
+    x = rig.vertices + [3.0, -2.0]
+    posed = rig.posed_relief(x)
+    for a, b in zip(chain.relief.parts, posed.parts):
+        assert a.name == b.name and np.array_equal(a.faces, b.faces)
+        assert np.allclose(b.vertices[:, :2], a.vertices[:, :2] + [3.0, -2.0])
+        assert np.array_equal(a.vertices[:, 2], b.vertices[:, 2])
+        assert np.allclose(b.texcoords, a.vertices[:, :2])
+
+
+def test_interlocking_rings_pulled_apart_stay_interlocked(rings):
+    chain, ann, drawing = rings
+    handles = np.array([[67.0, 100.0], [253.0, 100.0]])
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing, handles)
+    x = posed.positions(handles + [[-12.0, 0.0], [12.0, 0.0]])
+    relief = posed.relief(x)
+    img, part = posed_image(relief, chain.relief, posed.cutout, drawing.rgb)
+    names = [p.name for p in relief.parts]
+    a, b = names.index("ring_a"), names.index("ring_b")
+    covers = {}
+    for i in (a, b):
+        one = Relief([relief.parts[i]], size=relief.size)
+        covers[i] = posed_image(one, Relief([chain.relief.parts[i]], size=relief.size),
+                                posed.cutout, drawing.rgb)[1] >= 0
+    both = covers[a] & covers[b]
+    top, bottom = both.copy(), both.copy()
+    top[100:] = False
+    bottom[:100] = False
+    assert top.sum() > 20 and bottom.sum() > 20            # still overlapping at both crossings
+    # ring_a over ring_b at the top crossing, ring_b over ring_a at the bottom one
+    assert np.mean(part[top] == a) > 0.8 and np.mean(part[bottom] == b) > 0.8
+
+
+def test_cli_pose_writes_a_picture_and_refuses_a_bad_pose(tmp_path, capsys):
+    from PIL import Image
+
+    from inkray import cli
+
+    ann = str(EXAMPLES / "man" / "drawing.inkray.json")
+    pose = str(EXAMPLES / "man" / "raise-arm.pose.json")
+    out = tmp_path / "posed.png"
+    assert cli.main(["pose", ann, pose, "-o", str(out), "--frame", "6", "--quiet"]) == 0
+    rgba = np.asarray(Image.open(out))
+    assert rgba.shape == (540, 304, 4) and rgba[0, 0, 3] == 0 and (rgba[..., 3] == 255).sum() > 1000
+    bad = tmp_path / "bad.pose.json"
+    bad.write_text('{"format": "inkray-pose", "version": 1, "handles": [[1, 1]], "keys": [{"frame": 0}]}')
+    assert cli.main(["pose", ann, str(bad), "-o", str(tmp_path / "x.png"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "keys[0].to: missing required key" in err[0]
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_batch_pose_job_reads_the_pose_file_beside_each_frame(tmp_path):
+    import shutil
+
+    from PIL import Image
+
+    from inkray.batch import run_frame
+
+    src = EXAMPLES / "man"
+    shutil.copy(src / "drawing.jpg", tmp_path / "drawing.jpg")
+    shutil.copy(src / "drawing.inkray.json", tmp_path / "a.inkray.json")
+    missing = run_frame(str(tmp_path / "a.inkray.json"), ("pose",))
+    assert missing["status"] == "failed" and "a.pose.json" in missing["error"]
+    shutil.copy(src / "raise-arm.pose.json", tmp_path / "a.pose.json")
+    done = run_frame(str(tmp_path / "a.inkray.json"), ("pose",))
+    assert done["status"] == "done", done["error"]
+    import io
+    rgba = np.asarray(Image.open(io.BytesIO(done["files"]["posed.png"])))
+    assert rgba.shape == (540, 304, 4)

@@ -1,0 +1,86 @@
+import numpy as np
+import pytest
+from PIL import Image
+from scipy import ndimage
+
+from inkray.errors import InputError
+from inkray.numerics.registration import arap_register, warp_points
+
+from conftest import EXAMPLES
+
+
+def _ink(name):
+    gray = np.asarray(Image.open(EXAMPLES / name / "drawing.png").convert("L"), float) / 255
+    return 1 - gray
+
+
+def _backward(x, y, h, w):
+    """A smooth warp (about 6 px): the target at q shows the source at q + b(q)."""
+    return 6 * np.sin(1.6 * np.pi * y / h) + 3, 5 * np.cos(1.4 * np.pi * x / w) - 2
+
+
+def _warped(ink):
+    h, w = ink.shape
+    ys, xs = np.mgrid[:h, :w].astype(float)
+    bx, by = _backward(xs, ys, h, w)
+    target = ndimage.map_coordinates(ink, [ys + by, xs + bx], order=1)
+    # The forward displacement u solves p + u + b(p + u) = p (a contraction).
+    u = np.zeros((h, w, 2))
+    for _ in range(40):
+        bx, by = _backward(xs + u[..., 0], ys + u[..., 1], h, w)
+        u = -np.stack([bx, by], axis=-1)
+    return target, u
+
+
+def test_a_drawing_registered_to_itself_is_the_identity():
+    ink = _ink("cat")
+    reg = arap_register(ink, ink)
+    assert np.abs(reg.displacement).max() < 1e-6
+    assert reg.confidence[ink > 0.5].min() > 0.999
+
+
+def test_a_known_smooth_warp_is_recovered_within_a_pixel_on_the_ink():
+    ink = _ink("figure")
+    target, truth = _warped(ink)
+    reg = arap_register(ink, target)
+    err = np.linalg.norm(reg.displacement - truth, axis=-1)[ink > 0.5]
+    # Along a straight stroke the shift along it is seen only at its ends
+    # (the aperture problem): the few pixels above a pixel are such.
+    assert np.median(err) < 0.3
+    assert np.percentile(err, 99) < 1.0
+    assert np.abs(truth).max() > 5  # the warp is larger than the tolerance
+
+
+def test_a_translation_is_found_and_points_move_with_it():
+    ink = _ink("turtle")
+    moved = np.roll(ink, (7, -12), axis=(0, 1))
+    reg = arap_register(ink, moved)
+    on_ink = ink > 0.5
+    on_ink[:20] = on_ink[-20:] = False  # rolled over the border
+    on_ink[:, :20] = on_ink[:, -20:] = False
+    assert np.allclose(reg.displacement[on_ink], [-12, 7], atol=0.5)
+    p = np.argwhere(on_ink)[::500][:, ::-1].astype(float)
+    assert np.allclose(warp_points(reg, p), p + [-12, 7], atol=0.5)
+
+
+def test_a_stroke_that_appears_lowers_the_confidence_there_only():
+    ink = _ink("figure")
+    target = ink.copy()
+    target[100:104, 40:140] = 1.0  # a new stroke across empty paper near the head
+    reg = arap_register(ink, target)
+    far = ink > 0.5
+    far[60:150, :180] = False
+    assert np.abs(reg.displacement[far]).max() < 0.5
+    assert reg.confidence[102, 90] < 0.7 < np.median(reg.confidence[far])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"target": np.zeros((5, 6))}, "source is 8x8 but target is 6x5"),
+    ({"spacing": 1}, "spacing must be an integer >= 2"),
+    ({"trim": 1.5}, "trim must lie in"),
+    ({"target": np.full((8, 8), np.nan)}, "NaN"),
+])
+def test_bad_input_is_one_line(kwargs, match):
+    args = {"source": np.zeros((8, 8)), "target": np.zeros((8, 8))} | kwargs
+    with pytest.raises(InputError, match=match):
+        arap_register(**args)

@@ -1,0 +1,114 @@
+import json
+
+import numpy as np
+import pytest
+
+from inkray import cli
+from inkray.chain import ReliefChain
+from inkray.errors import InputError
+from inkray.formats.annotation_file import annotation_document, annotation_text
+from inkray.input.annotations import parse_annotations
+from inkray.input.drawing import drawing_from_array
+from inkray.input.loading import load_input
+from inkray.examples import example_path
+from inkray.segmentation import segment
+from inkray.transfer import transfer_annotations
+from inkray.validation import validate
+
+from _shots import make_shot
+from conftest import EXAMPLES
+
+
+@pytest.fixture(scope="module")
+def shot():
+    return make_shot("figure", 3)
+
+
+def test_carried_to_the_same_drawing_every_entry_stays_and_none_is_flagged():
+    ann, drawing = load_input(example_path("cat"))
+    t = transfer_annotations(ann, drawing, drawing)
+    for a, b in zip(ann.regions, t.annotations.regions):
+        assert (a.name, a.inflation, a.profile) == (b.name, b.inflation, b.profile)
+    for a, b in zip(ann.order, t.annotations.order):
+        assert np.allclose(a.front, b.front, atol=0.5) and np.allclose(a.back, b.back, atol=0.5)
+    assert not t.warnings and all(e.match > 0.9 for e in t.entries)
+    assert np.array_equal(t.labels, segment(ann, drawing).labels)
+
+
+def _at(labels, p):
+    x, y = np.rint(p).astype(int)
+    return int(labels[y, x])
+
+
+def test_transfer_then_segment_agrees_with_the_truth_frame_after_frame(shot):
+    ann, labels = shot.truths[0], None
+    key = segment(ann, shot.frames[0]).labels
+    # The relations between two parts in the key (an entry whose point lies
+    # outside the parts already says nothing there).
+    relations = {o.index: (_at(key, o.front), _at(key, o.back)) for o in ann.order}
+    relations = {i: r for i, r in relations.items() if -1 not in r and r[0] != r[1]}
+    assert len(relations) >= 5
+    for t in (1, 2):
+        carried = transfer_annotations(ann, shot.frames[t - 1], shot.frames[t], key_labels=labels)
+        truth = segment(shot.truths[t], shot.frames[t]).labels
+        got = segment(carried.annotations, shot.frames[t]).labels
+        character = truth >= 0
+        assert (got == truth)[character].mean() >= 0.98
+        # The turned limb keeps its name, and every relation its two parts.
+        assert [r.name for r in carried.annotations.regions] == [r.name for r in ann.regions]
+        for o in carried.annotations.order:
+            if o.index in relations:
+                assert (_at(truth, o.front), _at(truth, o.back)) == relations[o.index], o.index
+        ann, labels = carried.annotations, carried.labels
+
+
+def test_carried_annotations_validate_and_build_a_relief(shot):
+    t = transfer_annotations(shot.truths[0], shot.frames[0], shot.frames[2])
+    doc = annotation_document(t.annotations)
+    again = parse_annotations(json.loads(annotation_text(doc)))
+    chain = ReliefChain(again, shot.frames[2])
+    problems = [p for p in validate(chain) if p.severity == "error"]
+    assert not problems
+    assert len(chain.relief.parts) == len(again.regions)
+
+
+def test_a_part_that_vanishes_is_flagged_and_named():
+    ann, drawing = load_input(example_path("figure"))
+    labels = segment(ann, drawing).labels
+    gray = np.array(drawing.gray)
+    near = np.isin(labels, [ann.region_index("leg_left")])
+    gray[near] = 1.0  # the left leg is gone from the frame
+    frame = drawing_from_array(gray, normalize=False)
+    t = transfer_annotations(ann, drawing, frame, key_labels=labels)
+    flagged = {e.name or e.key for e in t.entries if e.flagged}
+    assert "leg_left" in flagged
+    assert any(w.startswith("regions[0] (leg_left): moved ") and w.endswith(": check it")
+               for w in t.warnings)
+
+
+def test_drawings_of_another_size_are_refused():
+    ann, drawing = load_input(example_path("figure"))
+    other = drawing_from_array(np.ones((10, 12)), normalize=False)
+    with pytest.raises(InputError, match=r"^frame: the drawing is 12x10 but the annotation is "
+                                         r"for 400x500$"):
+        transfer_annotations(ann, drawing, other)
+
+
+def test_the_command_writes_the_annotation_and_its_report(tmp_path):
+    shot_dir = EXAMPLES / "shots" / "krita_walkcycle"
+    out, report = tmp_path / "0002.inkray.json", tmp_path / "r.json"
+    assert cli.main(["--quiet", "transfer", str(shot_dir / "0001.inkray.json"),
+                     str(shot_dir / "0002.png"), "-o", str(out), "--report", str(report)]) == 0
+    doc = json.loads(out.read_text())
+    assert (tmp_path / doc["drawing"]).resolve() == (shot_dir / "0002.png").resolve()
+    assert cli.main(["--quiet", "validate", str(out)]) == 0
+    rep = json.loads(report.read_text())
+    assert [e["key"] for e in rep["entries"]][:2] == ["regions[0]", "regions[1]"]
+    assert all((e["match"] < 0.6) == e["check"] for e in rep["entries"])
+    # Bad input: one line, exit 2, nothing written.
+    bad = tmp_path / "bad.inkray.json"
+    assert cli.main(["--quiet", "transfer", str(shot_dir / "0001.inkray.json"),
+                     str(EXAMPLES / "figure" / "drawing.png"), "-o", str(bad)]) == 2
+    assert not bad.exists()
+    assert cli.main(["--quiet", "transfer", str(shot_dir / "0001.inkray.json"),
+                     str(shot_dir / "0002.png"), "-o", str(shot_dir / "0002.png")]) == 2
