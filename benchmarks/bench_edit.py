@@ -1,6 +1,22 @@
-"""Benchmark of ``inkray edit``: how soon each preview is ready after an edit, through HTTP.
+"""Benchmark of ``inkray edit``: how soon each preview is ready on opening and after an edit.
 
-For each bundled drawing, at its own size and upscaled to about 1 Mpx, a fresh
+Three tables (``--tables open,edits,methods``, default all three):
+
+- **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
+  page asks on opening (the depth draft and then the depth map, beside the
+  labels, the relations and then the relief); each preview's time is from the
+  page's first request to the end of that preview's answer. Targets at ~1 Mpx:
+  the full depth map <= 2 s, the relief <= 3 s after it.
+- **edits**: how soon each preview is ready after an edit (below).
+- **methods**: the fast depth method's cold solve against the exact method's:
+  in process (``inkray.depth`` with the grid factorization's symbolic plans
+  cleared first; the loading of the input not counted) and whole process
+  (``python -m inkray depth ANN --method M``), each the median of
+  ``--repeats`` runs (at least 3), fast and exact alternating; the ratio is
+  the median of the pairwise fast / exact ratios (target: below 1 on every
+  drawing).
+
+The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
 page drives it: ``PUT /api/annotations``, then ``GET`` depth.png?quality=draft
 and depth.png beside labels.png followed by relief.glb (the server computes
@@ -21,10 +37,14 @@ after undo. ``/ cold`` is each time against the cold time of the same preview.
 With ``--repeats N`` each drawing is run on N fresh servers and every cell is
 the median of the N times.
 
+Every table runs at the drawings' own size and upscaled to about ``--mpx``
+megapixels (``--mpx 1.15`` for the size of the drawing the editor was found
+slow on).
+
 Usage::
 
     python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
-        [--repeats 3]
+        [--repeats 3] [--tables open,edits,methods]
 """
 
 import argparse
@@ -131,15 +151,52 @@ def _request(url, method="GET", body=None):
         return e.code, e.headers, e.read()
 
 
-def _one(name, megapixels):
-    ann, doc = _folder(name, megapixels)
+def _server(ann):
+    """A fresh ``inkray edit`` server on ``ann``: the process and its address."""
     code = "import sys; from inkray.cli import main; sys.exit(main())"
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
     proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
                              "--port", "0"], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        return proc, proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/")
+    except IndexError:
+        proc.terminate()
+        proc.wait(30)
+        raise
+
+
+def _open(name, megapixels):
+    """The cold open: the page's first requests to a fresh server, timed from the first."""
+    ann, doc = _folder(name, megapixels)
+    proc, url = _server(ann)
+    row = {"edit": "open"}
+    try:
+        start = time.perf_counter()
+
+        def fetch(previews):
+            for preview in previews:
+                path = preview if preview == "relations" else f"preview/{preview}"
+                status, headers, body = _request(f"{url}/api/{path}")
+                row[preview] = (time.perf_counter() - start if status == 200 else
+                                json.loads(body).get("error", str(status)),
+                                float(headers.get("X-Inkray-Compute-Ms", "nan")))
+
+        beside = threading.Thread(target=fetch, args=([DRAFT, "depth.png"],))
+        beside.start()
+        fetch(["labels.png", "relations", "relief.glb"])
+        beside.join()
+    finally:
+        proc.terminate()
+        proc.wait(30)
+        shutil.rmtree(ann.parent, ignore_errors=True)
+    return {"name": name, "size": doc["size"], "rows": [row]}
+
+
+def _one(name, megapixels):
+    ann, doc = _folder(name, megapixels)
+    proc, url = _server(ann)
     rows = []
     try:
-        url = proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/")
         for label, edit in _edits(doc):
             start = time.perf_counter()
             status, _, body = _request(url + "/api/annotations", "PUT", json.dumps(edit).encode())
@@ -168,11 +225,11 @@ def _one(name, megapixels):
     return {"name": name, "size": doc["size"], "rows": rows}
 
 
-def _median(runs):
+def _median(runs, previews=PREVIEWS):
     """One run whose times are the medians over ``runs`` (an error where any run failed)."""
     out = runs[0]
     for k, row in enumerate(out["rows"]):
-        for preview in PREVIEWS:
+        for preview in previews:
             cells = [r["rows"][k][preview] for r in runs]
             errors = [c for c in cells if isinstance(c[0], str)]
             row[preview] = errors[0] if errors else (
@@ -180,24 +237,94 @@ def _median(runs):
     return out
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--names", help="comma-separated bundled drawings (default: all)")
-    parser.add_argument("--mpx", type=float, default=1.0, help="upscale to this many Mpx (default 1)")
-    parser.add_argument("--own-size-only", action="store_true", help="skip the upscaled run")
-    parser.add_argument("--upscaled-only", action="store_true", help="skip the own-size run")
-    parser.add_argument("--repeats", type=int, default=1,
-                        help="fresh servers per drawing; each cell is the median (default 1)")
-    args = parser.parse_args()
-    names = args.names.split(",") if args.names else _drawings()
-    sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
+def _methods(name, megapixels, repeats):
+    """Cold seconds of the fast and the exact method, in process and whole process:
+    ``{(where, method): [seconds, ...]}``, the runs alternating fast and exact."""
+    import inkray
+    import inkray.segmentation  # noqa: F401 - imported before the first timed run
+    from inkray.numerics import grid_cholesky
+
+    ann_path, _ = _folder(name, megapixels)
+    times = {}
+    try:
+        ann, drawing = inkray.load_input(ann_path)
+        out = ann_path.parent / "depth.png"
+        env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
+        for _ in range(repeats):
+            for method in ("fast", "exact"):
+                grid_cholesky._plan.cache_clear()
+                grid_cholesky._front.cache_clear()
+                start = time.perf_counter()
+                inkray.depth(ann, drawing, method=method)
+                times.setdefault(("in process", method), []).append(time.perf_counter() - start)
+                start = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "inkray", "--quiet", "depth", str(ann_path),
+                                "-o", str(out), "--method", method], check=True, env=env,
+                               stdout=subprocess.DEVNULL)
+                times.setdefault(("process", method), []).append(time.perf_counter() - start)
+                out.unlink()
+                out.with_suffix(".json").unlink()
+    finally:
+        shutil.rmtree(ann_path.parent, ignore_errors=True)
+    return times
+
+
+def _open_table(names, sizes, repeats):
+    previews = (DRAFT, "depth.png", "labels.png", "relations", "relief.glb")
+    print("| drawing | size | depth draft s | depth s | labels s | relations s | relief s "
+          "| relief - depth s | targets at ~1 Mpx |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            try:
+                r = _median([_open(name, mpx) for _ in range(repeats)], previews)
+            except (RuntimeError, OSError, IndexError) as e:
+                print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
+                continue
+            row = r["rows"][0]
+            cells = [f"{row[p][0]:.3f}" if isinstance(row[p][0], float) else f"error: {row[p][0]}"
+                     for p in previews]
+            depth, relief = row["depth.png"][0], row["relief.glb"][0]
+            after = relief - depth if isinstance(depth, float) and isinstance(relief, float) else None
+            notes = []
+            if mpx and after is not None:
+                notes = [f"depth <= 2 {'ok' if depth <= 2 else 'MISSED'}",
+                         f"relief - depth <= 3 {'ok' if after <= 3 else 'MISSED'}"]
+            print(f"| {name} | {r['size'][0]}x{r['size'][1]} | {' | '.join(cells)} | "
+                  f"{'-' if after is None else f'{after:.3f}'} | {', '.join(notes)} |", flush=True)
+
+
+def _methods_table(names, sizes, repeats):
+    print("| drawing | size | fast s, in process | exact s, in process | ratio | "
+          "fast s, process | exact s, process | ratio |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            size = _folder_size(name, mpx)
+            t = _methods(name, mpx, max(repeats, 3))
+            cells = []
+            for where in ("in process", "process"):
+                fast, exact = (float(np.median(t[(where, m)])) for m in ("fast", "exact"))
+                # the median of the pairwise ratios: pairs ran next to each other
+                ratio = float(np.median(np.array(t[(where, "fast")]) / np.array(t[(where, "exact")])))
+                cells += [f"{fast:.3f}", f"{exact:.3f}", f"**{ratio:.2f}**"]
+            print(f"| {name} | {size} | {' | '.join(cells)} |", flush=True)
+
+
+def _folder_size(name, megapixels):
+    ann, doc = _folder(name, megapixels)
+    shutil.rmtree(ann.parent, ignore_errors=True)
+    return f"{doc['size'][0]}x{doc['size'][1]}"
+
+
+def _edits_table(names, sizes, repeats):
     print("| drawing | size | edit | labels s (/ cold) | depth draft s (/ cold) | depth s (/ cold) "
           "| relief s (/ cold) | targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for mpx in sizes:
         for name in names:
             try:
-                r = _median([_one(name, mpx) for _ in range(max(args.repeats, 1))])
+                r = _median([_one(name, mpx) for _ in range(repeats)])
             except (RuntimeError, OSError, IndexError) as e:
                 print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
                 continue
@@ -225,6 +352,30 @@ def main():
                       f"{', '.join(notes)} |", flush=True)
             for k, error in enumerate(errors):
                 print(f"| {name} | {size} | error {k + 1}: {error} |", flush=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--names", help="comma-separated bundled drawings (default: all)")
+    parser.add_argument("--mpx", type=float, default=1.0, help="upscale to this many Mpx (default 1)")
+    parser.add_argument("--own-size-only", action="store_true", help="skip the upscaled run")
+    parser.add_argument("--upscaled-only", action="store_true", help="skip the own-size run")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="fresh servers (and method runs, at least 3) per drawing; each cell "
+                             "is the median (default 1)")
+    parser.add_argument("--tables", default="open,edits,methods",
+                        help="which tables, comma-separated (default open,edits,methods)")
+    args = parser.parse_args()
+    names = args.names.split(",") if args.names else _drawings()
+    sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
+    repeats = max(args.repeats, 1)
+    tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table}
+    for k, table in enumerate(args.tables.split(",")):
+        if table not in tables:
+            parser.error(f"--tables: unknown table {table!r} (expected {', '.join(tables)})")
+        if k:
+            print()
+        tables[table](names, sizes, repeats)
 
 
 if __name__ == "__main__":

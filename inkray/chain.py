@@ -146,8 +146,8 @@ class _Cache:
         self.capacity = capacity
         self._items = OrderedDict()
         self._lock = threading.Lock()
-        # (key, DepthSession, {constraint: handle}, (its scribbles' key, its seed image's
-        # digest)) of the interactive depth
+        # (key, DepthSession, {constraint: handle}, (its segmentation's or scribbles' key,
+        # the digest of its labels or seed image)) of the interactive depth
         self.session = None
         # (drawing key, InkStyle) for the order prediction: kept apart from the stages so
         # that it costs no stage its place
@@ -339,16 +339,19 @@ class ReliefChain:
         """The 2010 depth map (:class:`~inkray.depthmap.estimation.DepthResult`) of the entries."""
         o = self.options
         ann = self.annotations
-        seeds_key = _seeds_key(ann)
+        # The segments: of the scribbles and, with regions, the boundaries (not the names).
+        segments_key = _digest(_seeds_key(ann), bool(ann.regions) and tuple(
+            (b.type, b.path) for b in ann.boundaries))
         draft = o.depth_draft and o.depth_method == "fast" and o.interactive
         key = ("depth", o.depth_method, o.depth_epsilon, self._drawing_key, _entries_key(ann),
-               seeds_key, draft)
+               segments_key, draft)
         if o.depth_method == "fast" and o.interactive:
-            return self._stage("depth", key, lambda: self._session_depth(seeds_key))
+            return self._stage("depth", key, lambda: self._session_depth(segments_key))
         # depth() reports its own stage ("depth (exact QP)", "depth (fast)").
-        return self._stage("depth", key, lambda: depth(ann, self.drawing, method=o.depth_method,
-                                                        epsilon=o.depth_epsilon,
-                                                        progress=self.progress), timed=False)
+        return self._stage("depth", key, lambda: depth(
+            ann, self.drawing, method=o.depth_method, epsilon=o.depth_epsilon,
+            segmentation=self.segmentation.labels if ann.regions else None,
+            progress=self.progress), timed=False)
 
     @property
     def warnings(self):
@@ -456,26 +459,35 @@ class ReliefChain:
             cache.ink = (self._drawing_key, ink_style(self.drawing.gray))
         return cache.ink[1]
 
-    def _session_depth(self, seeds_key):
+    def _session_depth(self, segments_key):
         """The fast depth from the kept session: only the changed constraints are re-done,
         and new scribbles keep the session's factorization (it is updated where the
-        segments moved). The seeds are rasterized only when the scribbles changed, and
-        the session is reseeded only when that changed the seed image."""
+        segments moved). With regions the session's segments are this chain's
+        segmentation (the same as the relief's and the labels preview's); the
+        session is reseeded only when the scribbles or boundaries changed its labels."""
         o = self.options
+        ann = self.annotations
         skey = (self._drawing_key, o.depth_epsilon)
         cache = self._cache
-        if cache.session is None or cache.session[0] != skey:
-            seeds = _seeds(self.annotations)
-            cache.session = (skey, DepthSession(self.drawing.gray, epsilon=o.depth_epsilon,
-                                                seeds=seeds, incremental=True), {},
-                             (seeds_key, _image_key(seeds)))
-        _, session, handles, (scribbled, seeded) = cache.session
-        if scribbled != seeds_key:
-            seeds = _seeds(self.annotations)
-            image = _image_key(seeds)
-            if image != seeded:
-                session.reseed(seeds)
-            cache.session = (skey, session, handles, (seeds_key, image))
+        if cache.session is not None and cache.session[0] == skey and \
+                cache.session[3][0] == segments_key:
+            _, session, handles, _ = cache.session
+        else:
+            if ann.regions:
+                seeds, labels = None, self.segmentation.labels
+                image = _digest(labels)
+            else:
+                seeds, labels = _seeds(ann), None
+                image = None if seeds is None else _digest(seeds)
+            if cache.session is None or cache.session[0] != skey:
+                session, handles = DepthSession(self.drawing.gray, epsilon=o.depth_epsilon,
+                                                seeds=seeds, labels=labels,
+                                                incremental=True), {}
+            else:
+                _, session, handles, (_, seeded) = cache.session
+                if image != seeded:
+                    session.reseed(seeds, labels=labels)
+            cache.session = (skey, session, handles, (segments_key, image))
         p, q, ineq, labels = depth_constraints(self.annotations)
         wanted = {(int(a), int(b), bool(c), lab) for a, b, c, lab in zip(p, q, ineq, labels)}
         for c in [c for c in handles if c not in wanted]:
@@ -564,10 +576,6 @@ def _seeds_key(ann):
          None if r.pixels is None else np.asarray(r.pixels)) for r in ann.regions),
         tuple(np.asarray(s, float) for s in ann.background),
         None if ann.background_pixels is None else np.asarray(ann.background_pixels))
-
-
-def _image_key(seeds):
-    return None if seeds is None else _digest(seeds)
 
 
 def _entries_key(ann):

@@ -82,7 +82,7 @@ def _chain(args, progress, targets=(), **options):
 
 def _inputs(args, ann):
     return [args.annotation, ann.drawing, args.scribbles,
-            args.legend if isinstance(args.legend, str) else None, getattr(args, "frame", None)]
+            args.legend if isinstance(args.legend, str) else None, getattr(args, "frame_drawing", None)]
 
 
 def _group(args, chain):
@@ -429,13 +429,13 @@ def _cmd_transfer(args, progress):
     if args.report is not None and Path(args.report).suffix.lower() != ".json":
         raise InputError(f"--report {args.report}: expected a .json file")
     _in_range("--threshold", args.threshold, 0.0, 1.0, "match score")
-    frame = load_drawing(args.frame, limits=_limits(args))
+    frame = load_drawing(args.frame_drawing, limits=_limits(args))
     _, t, written = _produce(args, progress, "transfer", args.output,
                              params=dict(frame=frame, threshold=args.threshold),
                              write=dict(report=args.report), stage="transfer",
                              warn=lambda chain, t: t.warnings)
     checks = sum(e.flagged for e in t.entries)
-    print(f"{args.output}: {len(t.entries)} entries carried to {args.frame}, match "
+    print(f"{args.output}: {len(t.entries)} entries carried to {args.frame_drawing}, match "
           f"{t.confidence:.2f}, {checks} to check"
           + (f" (report {args.report})" if args.report is not None else ""))
     return 0
@@ -773,7 +773,7 @@ def _parser():
                            help="ambient occlusion radius (default: 3%% of the longer side)")
     tr = p["transfer"]
     _add_input(tr)
-    tr.add_argument("frame", metavar="FRAME", help="the frame's drawing (same size as the key's)")
+    tr.add_argument("frame_drawing", metavar="FRAME", help="the frame's drawing (same size as the key's)")
     tr.add_argument("-o", "--output", required=True, metavar="PATH",
                     help="the frame's annotation file (.inkray.json)")
     tr.add_argument("--report", metavar="JSON",

@@ -213,7 +213,7 @@ def test_the_interactive_depth_session_equals_the_one_shot_fast_method():
     assert back.recomputed == []
 
 
-def test_the_interactive_depth_is_reseeded_only_when_the_seed_image_changes(monkeypatch):
+def test_the_interactive_depth_is_reseeded_only_when_its_segmentation_changes(monkeypatch):
     from dataclasses import replace
 
     from inkray.chain import ReliefChain
@@ -221,8 +221,8 @@ def test_the_interactive_depth_is_reseeded_only_when_the_seed_image_changes(monk
 
     reseeded = []
     original = DepthSession.reseed
-    monkeypatch.setattr(DepthSession, "reseed", lambda self, seeds: (
-        reseeded.append(seeds), original(self, seeds))[1])
+    monkeypatch.setattr(DepthSession, "reseed", lambda self, seeds=None, labels=None: (
+        reseeded.append(labels), original(self, seeds, labels=labels))[1])
     ann, drawing = _turtle()
     chain = ReliefChain(ann, drawing).edit(depth_method="fast", interactive=True)
     first = chain.depth_map.depth
@@ -230,7 +230,7 @@ def test_the_interactive_depth_is_reseeded_only_when_the_seed_image_changes(monk
     renamed = [replace(ann.regions[0], name="renamed")] + list(ann.regions[1:])
     same = chain.edit(annotations=replace(ann, regions=renamed))
     assert np.array_equal(same.depth_map.depth, first) and "depth" not in same.recomputed
-    # A scribble nudged by a tenth of a pixel rasterizes the same: solved again, not reseeded.
+    # A scribble nudged by a tenth of a pixel segments the same: solved again, not reseeded.
     nudged = [replace(ann.regions[0], scribbles=[np.asarray(s, float) + 0.1
                                                  for s in ann.regions[0].scribbles])]
     moved = chain.edit(annotations=replace(ann, regions=nudged + list(ann.regions[1:])))

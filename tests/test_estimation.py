@@ -284,24 +284,32 @@ def test_fast_still_names_a_real_cycle():
         depth(replace(ann, order=ann.order + [back]), drawing, method="fast")
 
 
-def _three_boxes():
-    """Three inked boxes on paper, each with a region scribble: the drawing and the seeds."""
+def _three_boxes(gap=False):
+    """Three inked boxes on paper, each with a region scribble: the drawing and the seeds.
+    With ``gap`` the third box's top side has a gap (its depth then passes smoothly
+    through it: a fill that needs a factorization)."""
     gray = np.ones((96, 128))
     seeds = np.full(gray.shape, -2, np.int32)
     for k, (y0, x0) in enumerate(((10, 10), (10, 70), (55, 40))):
         gray[y0, x0:x0 + 40] = gray[y0 + 30, x0:x0 + 40] = 0.0
         gray[y0:y0 + 31, x0] = gray[y0:y0 + 31, x0 + 40] = 0.0
         seeds[y0 + 15, x0 + 5:x0 + 35] = k
+    if gap:
+        gray[55, 56:64] = 1.0
     return gray, seeds
 
 
 def test_session_updates_its_factorization_and_matches_a_fresh_solve():
-    gray, seeds = _three_boxes()
+    gray, seeds = _three_boxes(gap=True)
     s = DepthSession(gray, seeds=seeds)
     s.add((30, 25), (90, 25))
     s.solve()
     k = s.add((60, 70), (5, 90))                # the third box in front of the paper
-    d = s.solve()
+    s.solve()                                   # factored afresh, keeping its updates
+    s.remove(k)
+    s.solve()
+    s.add((60, 70), (5, 90))
+    d = s.solve()                               # updated
     redone = s.refactored_fronts
     for incremental in (True, False):
         fresh = DepthSession(gray, seeds=seeds, incremental=incremental)
@@ -310,7 +318,7 @@ def test_session_updates_its_factorization_and_matches_a_fresh_solve():
         assert np.abs(d - fresh.solve()).max() < 1e-9
     assert sum(u.nbytes for u in fresh._fills[False]._chol._updates if u is not None) == 0  # nothing kept
     assert 0 < redone < s._fills[False]._chol.fronts
-    s.remove(k)
+    s.remove(k + 1)
     again = DepthSession(gray, seeds=seeds)
     again.add((30, 25), (90, 25))
     assert np.abs(s.solve() - again.solve()).max() < 1e-9
@@ -480,7 +488,7 @@ def test_fast_cuts_a_region_holding_both_points_of_an_entry_on_the_dragon():
 
 
 def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
-    gray, seeds = _three_boxes()
+    gray, seeds = _three_boxes(gap=True)
     arrows = [((30, 25), (90, 25)), ((60, 70), (5, 90))]
     s = DepthSession(gray, seeds=seeds)
     for front, back in arrows:
@@ -490,7 +498,8 @@ def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
     fewer = np.where(seeds == 0, -2, seeds)           # the first box's scribble removed
     s.reseed(fewer)
     d = s.solve()
-    assert 0 < s.refactored_fronts < fronts
+    # The fixed pixels moved only around components they settle: nothing refactored.
+    assert s.refactored_fronts < fronts
     fresh = DepthSession(gray, seeds=fewer, incremental=False)
     for front, back in arrows:
         fresh.add(front, back)
@@ -536,7 +545,7 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     from inkray.depthmap import estimation
 
     monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
-    gray, seeds = _three_boxes()
+    gray, seeds = _three_boxes(gap=True)
     s = DepthSession(gray, seeds=seeds)
     s.add((30, 25), (90, 25))
     s.solve(draft=True)
@@ -554,3 +563,62 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     assert np.abs(s.solve(draft=True) - draft).max() < 1e-9  # both fills kept as they were
     assert np.abs(s.solve() - full).max() < 1e-9
     assert s.refactored_fronts == 0
+
+
+def test_a_cold_draft_is_the_full_fill_when_the_fixed_values_settle_most_pixels(monkeypatch):
+    # Closed boxes: every free component's fixed neighbours share one value, so
+    # nothing is factored, and the first draft already is the exact fill.
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    gray, seeds = _three_boxes()
+    s = DepthSession(gray, seeds=seeds)
+    s.add((30, 25), (90, 25))
+    draft = s.solve(draft=True)
+    full = s.solve()
+    assert set(s._fills) == {False} and s._fills[False].box is None  # no draft, no factor
+    fresh = DepthSession(gray, seeds=seeds, incremental=False)
+    fresh.add((30, 25), (90, 25))
+    assert np.abs(fresh.solve() - draft).max() < 1e-9
+    assert np.array_equal(draft, full)
+
+
+# -- the background behind the parts -------------------------------------------------
+
+def _boxes_on_paper():
+    """Two inked boxes side by side on paper and a third inside the first; regions a, b, c."""
+    gray = np.ones((80, 120))
+    for y0, x0, y1, x1 in ((20, 10, 60, 50), (20, 60, 60, 100), (30, 20, 45, 40)):
+        gray[y0, x0:x1 + 1] = gray[y1, x0:x1 + 1] = 0.0
+        gray[y0:y1 + 1, x0] = gray[y0:y1 + 1, x1] = 0.0
+    regions = [{"name": "a", "scribbles": [[[15, 55], [45, 55]]]},
+               {"name": "b", "scribbles": [[[70, 40], [90, 40]]]},
+               {"name": "c", "scribbles": [[[25, 37], [35, 37]]]}]
+    return gray, regions
+
+
+@pytest.mark.parametrize("background", [False, True])
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_background_is_behind_every_part_when_no_entry_mentions_it(method, background):
+    gray, regions = _boxes_on_paper()
+    # c over a over b: without the default the paper took the mean of a and b,
+    # in front of b.
+    extra = {"background": [[[5, 5], [115, 5]]]} if background else {}
+    ann = _ann((120, 80), order=[((30, 38), (30, 50)), ((30, 50), (80, 40))], regions=regions,
+               **extra)
+    d = depth(ann, gray, method=method).depth
+    paper = np.ones(gray.shape, bool)
+    paper[20:61, 10:101] = False
+    a, b, c = d[50, 15:45], d[25:55, 65:95], d[35:42, 25:36]
+    assert d[paper].max() < min(a.min(), b.min(), c.min())
+    if method == "fast":  # one level below b, the lowest part
+        assert np.abs(d[paper] - (b.min() - 1)).max() < 1e-9
+
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
+def test_an_entry_on_the_background_overrides_the_default(method):
+    gray, regions = _boxes_on_paper()
+    # The paper in front of b: the entry wins, no implicit order is added.
+    ann = _ann((120, 80), order=[((30, 50), (80, 40)), ((5, 5), (80, 40))], regions=regions)
+    d = depth(ann, gray, method=method).depth
+    assert d[5, 5] - d[40, 80] >= 1 - 1e-6

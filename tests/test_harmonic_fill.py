@@ -67,11 +67,21 @@ def test_updates_match_fresh_factorizations():
     d = fill.solve(pins, values)
     assert fill.refactored_fronts == 0
     assert np.abs(d - HarmonicFill(wx, wy, incremental=False).solve(pins, values)).max() < 1e-9
-    # The square's inside freed: its fronts and their ancestors refactored.
+    # The square's inside freed: pinning cannot follow, so the fill factors afresh,
+    # keeping the update matrices from now on.
     moved = fixed & (values != 1.0)
     d = fill.solve(moved, values)
-    assert 0 < fill.refactored_fronts < full
+    assert fill.refactored_fronts == full and fill._chol.updatable
     assert np.abs(d - _reference(wx, wy, moved, values)).max() < 1e-9
+    # Fixed again: only the square's fronts and their ancestors refactored.
+    d = fill.solve(fixed, values)
+    assert 0 < fill.refactored_fronts < full
+    assert np.abs(d - _reference(wx, wy, fixed, values)).max() < 1e-9
+    # A fill that factors afresh every time keeps no update matrices.
+    once = HarmonicFill(wx, wy, incremental=False)
+    once.solve(fixed, values)
+    once.solve(moved, values)
+    assert not once._chol.updatable
 
 
 def test_draft_is_close_to_the_full_fill_and_keeps_the_steps():

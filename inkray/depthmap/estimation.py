@@ -13,7 +13,10 @@ Implements Sýkora et al., "Adding Depth to Cartoons Using Sparse Depth
   group of its endpoints that can (order is local: two rings that cross
   twice, an entry with both points in one region); equalities merge nodes,
   inequalities are directed edges, Kahn's topological sort gives each node a
-  level (longest chain of inequalities below it); (3) every endpoint pixel,
+  level (longest chain of inequalities below it); with regions and no entry
+  on the background, the background is a node below every region touching
+  it (in the exact method, an order from each region piece to each
+  background piece it touches, spread along their contact); (3) every endpoint pixel,
   and every pixel of an endpoint's segment (or part) that touches another
   segment across ink, is fixed at its node's level times epsilon; (4) the
   Laplace equation fills in the rest, so steps stay at ink lines and the
@@ -51,6 +54,11 @@ _SEED_STRENGTH = 5.0
 #: A draft (:meth:`DepthSession.solve`) solves the fill at half resolution
 #: only above this many pixels; below, a full solve is fast enough.
 DRAFT_ABOVE = 300_000
+#: The background's label in a segmentation of scribbles.
+BACKGROUND = -1
+#: Pieces (4-connected areas of one label) smaller than this many pixels get no
+#: implicit order in the exact method: slivers along outlines, not parts.
+_MIN_PIECE = 30
 
 
 @dataclass
@@ -126,7 +134,7 @@ def depth_constraints(annotations):
 
 
 def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
-          weight_floor=WEIGHT_FLOOR, progress=None):
+          weight_floor=WEIGHT_FLOOR, segmentation=None, progress=None):
     """Depth map of a drawing from its annotation's ``order`` and ``equal`` entries.
 
     Parameters
@@ -145,6 +153,11 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         squared contrast of the image's edges, see :func:`inkray.numerics.grid.edge_weights`.
     weight_floor : float, default :data:`inkray.numerics.grid.WEIGHT_FLOOR`
         Smallest edge weight (exact method).
+    segmentation : (H, W) int array, optional
+        With regions: :func:`inkray.segmentation.segment`'s labels of this
+        annotation, when the caller has them (computed otherwise). Both
+        methods read the background and the regions from it, the fast
+        method also its segments.
     progress : inkray.progress.Progress, optional
 
     Returns
@@ -185,11 +198,18 @@ def depth(annotations, drawing, *, method="exact", epsilon=1.0, sigma=None,
         y, x = divmod(int(p[same[0]]), w)
         raise InputError(f"{labels[same[0]]}: front and back round to the same pixel ({x}, {y})")
     check_constraints(p, q, ineq, labels)
+    # With regions, the segments are the relief's (inkray.segmentation.segment).
+    seg = None
+    if annotations.regions:
+        seg = segmentation if segmentation is not None else _segments(annotations, drawing,
+                                                                        progress)
     if method == "exact":
+        if seg is not None:
+            p, q, ineq, labels = _with_background_behind(seg, p, q, ineq, labels)
         return _exact(gray, p, q, ineq, labels, epsilon, sigma, weight_floor, progress)
-    session = DepthSession(gray, epsilon=epsilon, seeds=_scribble_seeds(annotations),
-                           incremental=False,
-                           progress=progress)
+    session = DepthSession(gray, epsilon=epsilon,
+                           seeds=None if seg is not None else _scribble_seeds(annotations),
+                           labels=seg, incremental=False, progress=progress)
     for i in range(len(p)):
         session.add(p[i], q[i], inequality=bool(ineq[i]), label=labels[i])
     if progress is not None:
@@ -237,6 +257,73 @@ def _scribble_seeds(annotations):
     return seed_image(annotations)
 
 
+def _segments(annotations, drawing, progress):
+    from inkray.segmentation import segment
+
+    return segment(annotations, drawing, progress=progress).labels
+
+
+def _on_background(labels):
+    """The region labels 4-adjacent to the background, sorted."""
+    out = set()
+    for a, b in ((labels[:, :-1], labels[:, 1:]), (labels[:-1], labels[1:])):
+        edge = (a == BACKGROUND) != (b == BACKGROUND)
+        out.update(np.unique(np.where(a[edge] == BACKGROUND, b[edge], a[edge])).tolist())
+    return sorted(out)
+
+
+def _with_background_behind(lab, p, q, ineq, labels):
+    """The constraints, with the background behind every region touching it when no
+    entry has a point on the background: along the contact of each region piece
+    (4-connected area of one label) with each background piece, one order per
+    cell of a grid of :func:`_contact_spacing` pixels, from a pixel of the piece
+    to its background neighbour, and those background pixels held equal. ``lab``
+    is the segmentation of the scribbles."""
+    if (lab.flat[np.concatenate([p, q])] == BACKGROUND).any():
+        return p, q, ineq, labels
+    h, w = lab.shape
+    piece = np.zeros(lab.shape, np.int64)
+    n = 0
+    for v in range(BACKGROUND, int(lab.max()) + 1):
+        comp, k = ndimage.label(lab == v)
+        np.add(comp, n, out=piece, where=comp > 0)
+        n += k
+    size = np.bincount(piece.ravel(), minlength=n + 1)
+    flat = np.arange(h * w).reshape(h, w)
+    front, back = [], []
+    for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1], np.s_[1:])):
+        la, lb = lab[a], lab[b]
+        on = ((la == BACKGROUND) != (lb == BACKGROUND)) & \
+            (size[piece[a]] >= _MIN_PIECE) & (size[piece[b]] >= _MIN_PIECE)
+        fa, fb = flat[a][on], flat[b][on]
+        bg = lab.flat[fa] == BACKGROUND
+        front.append(np.where(bg, fb, fa))
+        back.append(np.where(bg, fa, fb))
+    front, back = np.concatenate(front), np.concatenate(back)
+    if not len(front):
+        return p, q, ineq, labels
+    s = _contact_spacing(lab.shape)
+    y, x = np.divmod(front, w)
+    cell = (y // s) * (w // s + 1) + x // s
+    key = (piece.flat[front] * (n + 1) + piece.flat[back]) * ((h // s + 1) * (w // s + 1)) + cell
+    _, first = np.unique(key, return_index=True)
+    front, back = front[first], back[first]
+    # The background is one level, as in the fast method: its pixels in the orders
+    # are held equal (a chain), so no part can sink below the paper elsewhere.
+    ground = np.unique(back)
+    names = [f"background behind regions[{lab.flat[v]}]" for v in front]
+    names += ["the background's one level"] * (len(ground) - 1)
+    return (np.concatenate([p, front, ground[1:]]), np.concatenate([q, back, ground[:-1]]),
+            np.concatenate([ineq, np.ones(len(front), bool), np.zeros(len(ground) - 1, bool)]),
+            list(labels) + names)
+
+
+def _contact_spacing(shape):
+    """Pixels between the exact method's implicit orders along a contact: 5 % of the
+    longer side, at least 16."""
+    return max(16, int(0.05 * max(shape)))
+
+
 class DepthSession:
     """Interactive depth from (in)equalities: the fast method with caches.
 
@@ -262,11 +349,19 @@ class DepthSession:
     seeds : (H, W) int array, optional
         Region scribbles ``0..R-1`` and background ``-1`` (``-2`` elsewhere),
         as :func:`inkray.input.scribbles.seed_image` makes. When given, they alone
-        define the regions.
+        define the regions, and unless an entry has a point on the background
+        (label ``-1``) every region touching it lies in front of it: the
+        background is one more node of the region graph, below each of them.
+    labels : (H, W) int array, optional
+        Instead of ``seeds``, their segmentation, when the caller has it
+        (:func:`inkray.segmentation.segment`'s, the relief's: regions
+        ``0..R-1``, background ``-1``).
     incremental : bool, default True
-        Keep what a re-solve reuses: the fill's update matrices (about
-        0.4 GB for a 512x512 drawing, 2 GB at 1024x1024). Without it every
-        :meth:`solve` factors the fill afresh.
+        Keep what a re-solve reuses: the fill's factorization and, once a
+        change needed more than pinning, its update matrices (up to about
+        0.4 GB for a 512x512 drawing, 2 GB at 1024x1024; see
+        :class:`~inkray.numerics.harmonic_fill.HarmonicFill`). Without it
+        every :meth:`solve` factors the fill afresh.
     progress : inkray.progress.Progress, optional
         Its ``update(done, total)`` while the fill is factored afresh.
 
@@ -283,7 +378,8 @@ class DepthSession:
     0.0
     """
 
-    def __init__(self, gray, *, epsilon=1.0, seeds=None, incremental=True, progress=None):
+    def __init__(self, gray, *, epsilon=1.0, seeds=None, labels=None, incremental=True,
+                 progress=None):
         self.gray = np.asarray(gray, np.float64)
         if self.gray.ndim != 2:
             raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
@@ -291,13 +387,15 @@ class DepthSession:
             raise InputError(f"epsilon: expected a positive depth step, got {epsilon}")
         self.epsilon = float(epsilon)
         h, w = self.shape = self.gray.shape
-        self._scribbles = self._checked(seeds)
+        self._scribbles, self._given = self._checked(seeds, labels)
         self._constraints = {}  # handle -> (p, q, inequality, label)
         self._next = 0
         self._endpoint_label = {}  # endpoint pixel -> its seed label (endpoint mode)
         self._dirty = set()     # endpoint pixels added or removed since the last segmentation
         self.labels = None      # (H, W) int32 segmentation, None before the first solve
+        self._on_background = []  # the region labels touching the background, with scribbles
         self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
+        self._answer = None     # (fixed, their values, fill) of the last full fill
         self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
         self._progress = progress
@@ -309,26 +407,34 @@ class DepthSession:
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
 
-    def reseed(self, seeds):
-        """Replace the region and background scribbles (``seeds`` as for the constructor).
+    def reseed(self, seeds=None, *, labels=None):
+        """Replace the region and background scribbles (``seeds`` or their ``labels``,
+        as for the constructor).
 
-        The next :meth:`solve` segments afresh; the fill's factorization is
+        The next :meth:`solve` segments afresh (or takes the given labels); the
+        fill's factorization is
         kept and updated, so it refactors only the fronts where the fixed
         pixels moved (where the segments changed), not the whole grid.
         """
-        self._scribbles = self._checked(seeds)
+        self._scribbles, self._given = self._checked(seeds, labels)
         self.labels = None
         self._split_cache = {}
         self._dirty = set()
 
-    def _checked(self, seeds):
-        """The scribbles as an int32 image, or None when there are none."""
+    def _checked(self, seeds, labels):
+        """The scribbles as an int32 image (None when there are none; the labels when
+        given) and the given labels."""
+        for name, a in (("seeds", seeds), ("labels", labels)):
+            if a is not None and np.shape(a) != self.shape:
+                raise InputError(f"{name}: shape {np.shape(a)} differs from the drawing's "
+                                 f"{self.shape}")
+        if labels is not None:
+            labels = np.asarray(labels, np.int32)
+            return labels, labels
         if seeds is None:
-            return None
+            return None, None
         seeds = np.asarray(seeds, np.int32)
-        if seeds.shape != self.shape:
-            raise InputError(f"seeds: shape {seeds.shape} differs from the drawing's {self.shape}")
-        return seeds if (seeds != -2).any() else None
+        return (seeds if (seeds != -2).any() else None), None
 
     # -- constraints ------------------------------------------------------------
 
@@ -410,7 +516,9 @@ class DepthSession:
             about a third of the time at 1 Mpx; the levels and the fixed
             pixels stay exact). Draft and full fills keep their own
             factorizations (the draft's about a quarter of the full one's
-            memory).
+            memory). When the full fill works on a box of at most
+            :data:`DRAFT_ABOVE` pixels (its fixed values settle the rest), the
+            draft is the full fill.
 
         Returns
         -------
@@ -436,7 +544,11 @@ class DepthSession:
         self._segment()
         self.timings["segment"] = time.perf_counter() - t
         t = time.perf_counter()
-        groups, level = _local_levels(p, q, ineq, self.labels)
+        behind = []
+        if self._scribbles is not None and \
+                not (self.labels.flat[np.concatenate([p, q])] == BACKGROUND).any():
+            behind = self._on_background  # no entry mentions the background
+        groups, level = _local_levels(p, q, ineq, self.labels, behind=behind)
         lab = self._split(groups)
         self.parts = lab
         self.region_levels = {int(lab.flat[g[0]]): level[g[0]]
@@ -470,7 +582,9 @@ class DepthSession:
         self._split_cache = {}
         if self._scribbles is not None:
             if self.labels is None:
-                self.labels = lazybrush(self.gray, self._scribbles, frame_background=False)
+                self.labels = self._given if self._given is not None else lazybrush(
+                    self.gray, self._scribbles, frame_background=False)
+                self._on_background = _on_background(self.labels)
             self._dirty = set()
             return
         if self.labels is None:
@@ -612,22 +726,35 @@ class DepthSession:
 
     def _fill(self, fixed, vals, draft):
         """The harmonic fill for ``vals`` on ``fixed``, by the kept fill of the full grid
-        or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one."""
-        draft = draft and self.gray.size > DRAFT_ABOVE
+        or, for a draft above :data:`DRAFT_ABOVE` pixels, of the half-resolution one.
+
+        A draft is the full fill when that works on a box of at most
+        :data:`DRAFT_ABOVE` pixels (as fast, and exact); the full solve that
+        follows is then that answer."""
+        if self._answer is not None and not draft and np.array_equal(fixed, self._answer[0]) \
+                and np.array_equal(vals[fixed], self._answer[1]):
+            self.refactored_fronts = 0
+            return self._answer[2].copy()
+        self._answer = None
+        if self._weights is None:
+            self._weights = edge_weights(self.gray)[:2]
+        if False not in self._fills:
+            self._fills[False] = HarmonicFill(*self._weights, incremental=self._incremental,
+                                              progress=self._progress)
+        draft = draft and self.gray.size > DRAFT_ABOVE and \
+            self._fills[False].pending(fixed, vals) > DRAFT_ABOVE
         if draft not in self._fills:
-            if self._weights is None:
-                self._weights = edge_weights(self.gray)[:2]
-            wx, wy = self._weights
-            kind = DraftFill if draft else HarmonicFill
-            self._fills[draft] = kind(wx, wy, incremental=self._incremental,
-                                      progress=self._progress)
+            self._fills[draft] = DraftFill(*self._weights, incremental=self._incremental,
+                                           progress=self._progress)
         fill = self._fills[draft]
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts
+        if not draft:
+            self._answer = fixed, vals[fixed], d.copy()
         return d
 
 
-def _local_levels(p, q, ineq, labels):
+def _local_levels(p, q, ineq, labels, *, behind=()):
     """Levels of the endpoints, and how each segment's endpoints group.
 
     The endpoints of one segment share a level (the segment is one node of
@@ -636,6 +763,9 @@ def _local_levels(p, q, ineq, labels):
     the segment with its own level. Two rings that cross twice, or an entry
     with both points in one segment, so give a segment two parts. Only a
     cycle of the entries themselves (checked before) is a contradiction.
+    Every part of the segments ``behind`` lies in front of the background
+    (:data:`BACKGROUND`, which no endpoint may lie in); a segment or the
+    background without endpoints is then one group of its first pixel.
 
     Returns
     -------
@@ -670,6 +800,13 @@ def _local_levels(p, q, ineq, labels):
                     _link(adjacent, part[0], v, False)
         edges += [(part[0], v, False) for part in parts for v in part[1:]]
         groups[seg] = parts
+    if len(behind):
+        flat = labels.ravel()
+        back = int(np.argmax(flat == BACKGROUND))
+        groups[BACKGROUND] = [[back]]
+        for seg in behind:
+            parts = groups.setdefault(seg, [[int(np.argmax(flat == seg))]])
+            edges += [(part[0], back, True) for part in parts]
     return groups, _graph(edges).levels()
 
 

@@ -16,6 +16,7 @@ and interpolates back, for previews at about a third of the cost.
 """
 
 import numpy as np
+from scipy import ndimage
 
 from inkray.errors import InputError
 from inkray.numerics.grid import grid_degree
@@ -33,12 +34,21 @@ PINNED = 128
 class HarmonicFill:
     """The harmonic fill of an image's grid, factored once and updated in place.
 
-    A change that moves the fixed pixels only inside a window refactors the
-    fronts of that window and their ancestors; only the rows of the pixels
-    that changed are rewritten and compared. A change that only adds a few
+    Only what the fixed values do not settle is solved. The free pixels fall
+    into 4-connected components, each its own block of the system; a
+    component whose fixed neighbours all hold one value is that value (the
+    harmonic function with constant boundary values), so it is set and left
+    out. The other components are solved together on the box that bounds
+    them (the other pixels of the box as identity rows), by a grid Cholesky
+    factorization that is kept: a later solve whose components still fit in
+    the box updates it in place, refactoring the fronts of the pixels whose
+    rows changed and their ancestors, and a change that only adds a few
     fixed pixels (at most :data:`PINNED`) refactors nothing: the factored
     system pins them by point sources (:meth:`GridCholesky.solve_pinned`),
-    one solve.
+    one solve. Components that outgrow the box make a new factorization
+    over the union of both boxes. The first factorization keeps no update
+    matrices (a cold solve takes about half the time); the first change that
+    pinning cannot follow factors afresh, keeping them from then on.
 
     Parameters
     ----------
@@ -47,9 +57,10 @@ class HarmonicFill:
     wy : (H-1, W) float array
         Positive weights between ``(y, x)`` and ``(y+1, x)``.
     incremental : bool, default True
-        Keep what an update reuses (the factorization's update matrices,
-        about 0.4 GB at 512x512 and 2 GB at 1024x1024); without it every
-        :meth:`solve` factors afresh.
+        Keep the factorization between solves, and from the second one on
+        what an update reuses (its update matrices, about three times the
+        factor: 0.4 GB for a 512x512 box, 2 GB at 1024x1024); without it
+        every :meth:`solve` factors afresh.
     progress : inkray.progress.Progress, optional
         Its ``update(done, total)`` while the fill is factored afresh.
 
@@ -57,6 +68,9 @@ class HarmonicFill:
     ----------
     refactored_fronts : int
         Fronts of the factorization the last :meth:`solve` factored.
+    box : tuple of int or None
+        ``(r0, r1, c0, c1)``, the rows and columns the kept factorization
+        covers (None before the first solve that needed one).
 
     Examples
     --------
@@ -66,6 +80,10 @@ class HarmonicFill:
     >>> d = fill.solve(fixed, np.where(fixed, np.arange(9.0), 0.0))
     >>> np.allclose(d, np.arange(9.0))          # a linear ramp between the two columns
     True
+    >>> fixed[:, 4] = True                      # a fixed column at 4: each side is constant
+    >>> d = fill.solve(fixed, np.where(fixed, 4.0, 0.0))
+    >>> bool((d == 4.0).all()), fill.refactored_fronts
+    (True, 0)
     """
 
     def __init__(self, wx, wy, *, incremental=True, progress=None):
@@ -74,8 +92,9 @@ class HarmonicFill:
         self._weights = wx, wy, grid_degree(wx, wy)
         self._incremental = bool(incremental)
         self._progress = progress
-        self._chol = None       # the factorization, updated in place
-        self._factored = None   # the fixed pixels it is for
+        self._chol = None       # the factorization over self.box, updated in place
+        self.box = None
+        self._factored = None   # the box's pixels it holds as identity rows
         self._operator = None   # the factored operator (diag, east, south), kept in step
         self.refactored_fronts = 0
 
@@ -94,71 +113,121 @@ class HarmonicFill:
             ``values`` on the fixed pixels, harmonic elsewhere.
         """
         fixed = _checked(self.shape, fixed, values)
-        vals = np.where(fixed, values, 0.0)
-        if self._chol is not None and self._incremental:
-            added = fixed & ~self._factored
-            if not (self._factored & ~fixed).any() and np.count_nonzero(added) <= PINNED:
-                rhs = self._rhs(self._factored, vals)
-                self.refactored_fronts = 0
+        out, free = _settled(fixed, values)
+        self.refactored_fronts = 0
+        if not free.any():
+            return out
+        box = _bounds(free)
+        kept = self._chol is not None and self._incremental
+        if kept and not _inside(box, self.box):
+            kept = False
+            box = _union(box, self.box)
+        elif kept:
+            box = self.box
+        r0, r1, c0, c1 = box
+        crop = np.s_[r0:r1, c0:c1]
+        known = ~free[crop]
+        if kept:
+            added = known & ~self._factored
+            if not (self._factored & ~known).any() and np.count_nonzero(added) <= PINNED:
                 pins = np.flatnonzero(added)
-                d = self._chol.solve_pinned(rhs, pins, vals.flat[pins])
-                return np.where(fixed, vals, d.reshape(self.shape))
-        rhs = self._rhs(fixed, vals)
-        if self._chol is None or not self._incremental:
-            self._operator = self._system(fixed)
-            self._chol = GridCholesky(*self._operator, updatable=self._incremental,
+                # The pinned pixels act through the operator, not the right-hand side.
+                sources = fixed.copy()
+                sources[crop] &= ~added
+                x = self._chol.solve_pinned(self._rhs(sources, out, free[crop], box), pins,
+                                            out[crop].flat[pins])
+                out[crop] = np.where(free[crop], x.reshape(known.shape), out[crop])
+                return out
+        if kept and self._chol.updatable:
+            rows = known ^ self._factored
+            self._rewrite(known, rows, box)
+            self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
+        else:
+            # The first factorization keeps no update matrices (half the time and a
+            # third of the memory; pinning needs none); the first change that pinning
+            # cannot follow makes one that keeps them.
+            self._operator = self._system(known, box)
+            self._chol = GridCholesky(*self._operator,
+                                      updatable=self._incremental and self._chol is not None,
                                       progress=self._progress)
             self.refactored_fronts = self._chol.fronts
-        else:
-            rows = fixed ^ self._factored
-            self._rewrite(fixed, rows)
-            self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
-        self._factored = fixed
-        d = self._chol.solve(rhs).reshape(self.shape)
-        return np.where(fixed, vals, d)
+            self.box = box
+        self._factored = known
+        x = self._chol.solve(self._rhs(fixed, out, free[crop], box)).reshape(known.shape)
+        out[crop] = np.where(known, out[crop], x)
+        return out
 
-    def _system(self, fixed):
-        """The operator ``diag, east, south``: free pixels keep their edges to
-        free neighbours, fixed pixels are identity rows."""
+    def pending(self, fixed, values):
+        """The pixels of the box the next :meth:`solve` works on for these fixed values
+        (0 when they settle every pixel): the box of the pixels they leave, joined
+        with the kept factorization's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> fill = HarmonicFill(np.ones((5, 8)), np.ones((4, 9)))
+        >>> fixed = np.zeros((5, 9), bool); fixed[:, 0] = fixed[:, -1] = True
+        >>> fill.pending(fixed, np.where(fixed, np.arange(9.0), 0.0))
+        35
+        >>> fill.pending(fixed, np.ones((5, 9)))
+        0
+        """
+        _, free = _settled(_checked(self.shape, fixed, values), values)
+        if not free.any():
+            return 0
+        box = _bounds(free)
+        if self.box is not None and self._incremental:
+            box = _union(box, self.box)
+        r0, r1, c0, c1 = box
+        return (r1 - r0) * (c1 - c0)
+
+    def _system(self, known, box):
+        """The box's operator ``diag, east, south``: free pixels keep their edges to
+        free neighbours, known pixels are identity rows."""
         wx, wy, deg = self._weights
-        free = ~fixed
-        diag = np.where(fixed, 1.0, deg)
-        east = np.where(free[:, :-1] & free[:, 1:], -wx, 0.0)
-        south = np.where(free[:-1, :] & free[1:, :], -wy, 0.0)
+        r0, r1, c0, c1 = box
+        free = ~known
+        diag = np.where(known, 1.0, deg[r0:r1, c0:c1])
+        east = np.where(free[:, :-1] & free[:, 1:], -wx[r0:r1, c0:c1 - 1], 0.0)
+        south = np.where(free[:-1, :] & free[1:, :], -wy[r0:r1 - 1, c0:c1], 0.0)
         return diag, east, south
 
-    def _rewrite(self, fixed, rows):
-        """The kept operator's entries in ``rows`` (pixels whose fixedness changed)
-        rewritten for ``fixed``: rewriting a few hundred rows costs far less than
+    def _rewrite(self, known, rows, box):
+        """The kept operator's entries in ``rows`` (box pixels whose knownness changed)
+        rewritten for ``known``: rewriting a few hundred rows costs far less than
         building the operator afresh at 1 Mpx."""
         wx, wy, deg = self._weights
+        r0, r1, c0, c1 = box
         diag, east, south = self._operator
-        h, w = self.shape
+        h, w = known.shape
         y, x = np.nonzero(rows)
-        diag[y, x] = np.where(fixed[y, x], 1.0, deg[y, x])
+        diag[y, x] = np.where(known[y, x], 1.0, deg[y + r0, x + c0])
         for weights, edges, dy, dx in ((wx, east, 0, 1), (wy, south, 1, 0)):
             # The edges from the row's pixel and to it from its west/north neighbour.
             ey, ex = np.concatenate([y, y - dy]), np.concatenate([x, x - dx])
-            keep = (ey >= 0) & (ex >= 0) & (ey < h - dy) & (ex < w - dx)
-            ey, ex = ey[keep], ex[keep]
-            free = ~fixed[ey, ex] & ~fixed[ey + dy, ex + dx]
-            edges[ey, ex] = np.where(free, -weights[ey, ex], 0.0)
+            ok = (ey >= 0) & (ex >= 0) & (ey < h - dy) & (ex < w - dx)
+            ey, ex = ey[ok], ex[ok]
+            free = ~known[ey, ex] & ~known[ey + dy, ex + dx]
+            edges[ey, ex] = np.where(free, -weights[ey + r0, ex + c0], 0.0)
 
-    def _rhs(self, fixed, vals):
-        """The right-hand side (raster order): ``vals`` on the fixed pixels, and on
-        a free pixel its edges to fixed neighbours times their values. Built from
-        the fixed pixels alone, a few thousand at 1 Mpx."""
+    def _rhs(self, fixed, vals, free, box):
+        """The box's right-hand side (raster order): on a ``free`` pixel of the box its
+        edges to ``fixed`` neighbours times their values, zero elsewhere (the known
+        rows' values are set after the solve). Built from the fixed pixels alone:
+        a free pixel's known neighbours are fixed, since two components never touch."""
         wx, wy, _ = self._weights
         h, w = self.shape
-        rhs = np.zeros(h * w)
-        y, x = np.nonzero(fixed)
-        rhs[y * w + x] = vals[y, x]
+        r0, r1, c0, c1 = box
+        bw = c1 - c0
+        rhs = np.zeros((r1 - r0) * bw)
+        y, x = np.nonzero(fixed[max(r0 - 1, 0):r1 + 1, max(c0 - 1, 0):c1 + 1])
+        y, x = y + max(r0 - 1, 0), x + max(c0 - 1, 0)
         for ny, nx, ey, ex, weights in ((y, x + 1, y, x, wx), (y, x - 1, y, x - 1, wx),
                                         (y + 1, x, y, x, wy), (y - 1, x, y - 1, x, wy)):
-            keep = (ny >= 0) & (nx >= 0) & (ny < h) & (nx < w)
-            keep[keep] = ~fixed[ny[keep], nx[keep]]
-            np.add.at(rhs, ny[keep] * w + nx[keep],
-                      weights[ey[keep], ex[keep]] * vals[y[keep], x[keep]])
+            ok = (ny >= r0) & (nx >= c0) & (ny < r1) & (nx < c1)
+            ok[ok] = free[ny[ok] - r0, nx[ok] - c0]
+            np.add.at(rhs, (ny[ok] - r0) * bw + nx[ok] - c0,
+                      weights[ey[ok], ex[ok]] * vals[y[ok], x[ok]])
         return rhs
 
 
@@ -301,6 +370,50 @@ class DraftFill:
         np.copyto(d, values, where=fixed)
         return d
 
+
+
+def _settled(fixed, values):
+    """The fill where the fixed values settle it, and the free pixels they do not.
+
+    ``values`` on the fixed pixels; on each 4-connected component of the free
+    pixels whose fixed neighbours all hold one value, that value. Returns the
+    (H, W) array (zero on the pixels left) and the mask of the pixels left.
+    """
+    free = ~fixed
+    comp, n = ndimage.label(free)
+    out = np.where(fixed, values, 0.0)
+    lo = np.full(n + 1, np.inf)
+    hi = np.full(n + 1, -np.inf)
+    h, w = fixed.shape
+    y, x = np.nonzero(fixed)
+    v = out[y, x]
+    for ny, nx in ((y, x + 1), (y, x - 1), (y + 1, x), (y - 1, x)):
+        ok = (ny >= 0) & (nx >= 0) & (ny < h) & (nx < w)
+        c = comp[ny[ok], nx[ok]]
+        np.minimum.at(lo, c, v[ok])
+        np.maximum.at(hi, c, v[ok])
+    settled = lo == hi
+    settled[0] = False
+    if settled.any():
+        at = settled[comp]
+        out[at] = lo[comp[at]]
+        free &= ~at
+    return out, free
+
+
+def _bounds(mask):
+    """``(r0, r1, c0, c1)``: the rows and columns that hold ``mask``'s pixels."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _inside(a, b):
+    return b[0] <= a[0] and a[1] <= b[1] and b[2] <= a[2] and a[3] <= b[3]
+
+
+def _union(a, b):
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
 
 def _grid_shape(wx, wy):
     """The grid's (H, W) from its edge weights, which must fit it and be positive."""
