@@ -151,6 +151,17 @@ def test_a_disc_floating_in_front_joins_the_disc_behind(small):
     assert q["volume"] - separate >= 0.5 * (envelope - balls)
 
 
+def test_union_is_remeshed_at_the_parts_resolution():
+    # three overlapping discs, one on another: the solid has about as many faces as
+    # the closed parts (not many times more), every angle >= MIN_ANGLE
+    parts = _discs((60.0, 60.0, 40.0, 0.0), (90.0, 60.0, 25.0, 10.0), (40.0, 50.0, 15.0, 20.0))
+    solid = union_parts(parts)
+    q = mesh_quality(solid.vertices * [1, -1, 1], solid.faces)
+    assert q["watertight"] and q["shells"] == 1 and q["min_angle_deg"] >= MIN_ANGLE
+    assert q["self_intersecting_faces"] == 0
+    assert len(solid.faces) <= 1.5 * sum(len(p.faces) for p in parts)
+
+
 def test_union_is_deterministic():
     parts = _discs((60.0, 60.0, 40.0, 0.0), (95.0, 60.0, 12.0, 70.0))
     a, b = union_parts(parts), union_parts(parts)

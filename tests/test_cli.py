@@ -407,3 +407,35 @@ def test_the_demos_turtle_builds_without_a_warning():
     chain = ReliefChain(*load_input(example_path("turtle")))
     chain.relief
     assert chain.warnings == []
+
+
+def test_relief_summary_counts_what_the_file_holds(annotated, tmp_path, capsys):
+    import re
+
+    import trimesh
+
+    for back in ("none", "plate"):
+        path = tmp_path / f"r-{back}.ply"
+        code, out, _ = _run(capsys, "relief", str(annotated), "-o", str(path), "--back", back,
+                            "--quiet")
+        assert code == 0, out
+        vertices, faces = map(int, re.search(r"(\d+) vertices, (\d+) faces", out).groups())
+        mesh = trimesh.load(path, process=False)
+        assert (vertices, faces) == (len(mesh.vertices), len(mesh.faces)), back
+
+
+def test_relief_max_area_too_fine_is_one_line_naming_the_flag(tmp_path, capsys):
+    # 0.001 px^2 (the smallest the flag takes) over a 1200x900 drawing: 1e9 triangles
+    drawing = np.full((900, 1200), 255, np.uint8)
+    drawing[100:800, 600] = 0
+    Image.fromarray(drawing).save(tmp_path / "d.png")
+    doc = {"format": "inkray-annotations", "version": 1, "drawing": "d.png", "size": [1200, 900],
+           "regions": [{"name": "a", "scribbles": [[[300, 400]]]},
+                       {"name": "b", "scribbles": [[[900, 400]]]}]}
+    path = tmp_path / "a.inkray.json"
+    path.write_text(json.dumps(doc))
+    out = tmp_path / "r.glb"
+    code, _, err = _run(capsys, "relief", str(path), "-o", str(out), "--max-area", "0.001", "--quiet")
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("inkray: error: --max-area: 0.001 px^2 asks for up to 1.08e+09"), err
+    assert not out.exists()

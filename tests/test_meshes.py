@@ -41,6 +41,17 @@ def _glb_json(path):
     return json.loads(data[20:20 + length])
 
 
+def _front_vertices(part):
+    """Which vertices a face toward the viewer uses (the others show the part's paper)."""
+    v = part.vertices * [1.0, -1.0, 1.0]  # scene frame: z toward the viewer
+    t = v[part.faces]
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    facing = n[:, 2] >= 0.1 * np.linalg.norm(n, axis=1)
+    out = np.zeros(len(v), bool)
+    out[part.faces[facing].ravel()] = True
+    return out
+
+
 def _concat(relief, key):
     return np.concatenate([getattr(p, key) for p in relief.parts])
 
@@ -67,7 +78,9 @@ def test_textured_formats_round_trip_per_part(relief, suffix, tmp_path):
                                    atol=1e-7)
         uv = np.asarray(mesh.visual.uv)
         assert uv.min() >= 0.0 and uv.max() <= 1.0
-        np.testing.assert_allclose(uv, relief.uv(part.vertices), atol=1e-6)
+        front = _front_vertices(part)
+        np.testing.assert_allclose(uv[front], relief.uv(part.vertices[front]), atol=1e-6)
+        assert len(np.unique(uv[~front].round(7), axis=0)) <= 1  # backs: one plain texel
         material = mesh.visual.material
         image = material.baseColorTexture if suffix == ".glb" else material.image
         assert image is not None, "texture missing"
@@ -84,7 +97,8 @@ def test_ply_round_trip_counts_colours_and_uvs(relief, tmp_path):
     raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
     uv = np.stack([raw["s"], raw["t"]], axis=1)
     assert uv.min() >= 0.0 and uv.max() <= 1.0
-    np.testing.assert_allclose(uv, relief.uv(_concat(relief, "vertices")), atol=1e-6)
+    front = np.concatenate([_front_vertices(p) for p in relief.parts])
+    np.testing.assert_allclose(uv[front], relief.uv(_concat(relief, "vertices")[front]), atol=1e-6)
     colours = np.stack([raw[c] for c in ("red", "green", "blue", "alpha")], axis=1)
     assert colours.shape == (n, 4) and np.all(colours[:, 3] == 255)
     # The disks' rims sit on dark ink, their inside on bright colour: the
@@ -484,3 +498,32 @@ def test_read_relief_reports_every_file_it_read(tmp_path):
         read_relief(path, inputs=inputs)
         assert {p.name for p in inputs} == expected, suffix
         assert all(p.is_file() for p in inputs)
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".ply"])
+def test_backs_and_walls_show_the_parts_paper_not_the_drawing(suffix, tmp_path):
+    # a flat square on paper of one colour, inked at its outline, closed by a plate:
+    # from behind (the plate) and from the side (the walls' lower corners) the file
+    # shows the paper colour, from the front the drawing
+    tex = np.full((60, 80, 3), (200, 180, 150), np.uint8)
+    tex[10:50, 20:24] = tex[10:50, 56:60] = tex[10:14, 20:60] = tex[46:50, 20:60] = 10
+    tex[25:35, 35:45] = (200, 30, 30)  # a red patch in the middle of the front
+    relief = Relief([grid_part("sq", np.arange(20.0, 60.0), np.arange(10.0, 50.0), z=5.0)],
+                    (80, 60), tex)
+    path = export_relief(relief, tmp_path / f"r{suffix}", back="plate")[0]
+    back = read_relief(path)  # pixel frame, as the parts were
+    part = back.parts[0]
+    mesh = _load(path)["sq" if suffix == ".glb" else "ply"]
+    n = len(relief.parts[0].vertices)
+    if suffix == ".glb":
+        uv = np.asarray(mesh.visual.uv)
+        texel = np.stack([uv[:, 0] * 80 - 0.5, (1 - uv[:, 1]) * 60 - 0.5], axis=1)
+        colours = tex[np.rint(texel[:, 1]).astype(int), np.rint(texel[:, 0]).astype(int)]
+    else:
+        raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
+        colours = np.stack([raw[c] for c in ("red", "green", "blue")], axis=1)
+    plate = part.vertices[:, 2] < 4.5  # the plate one pixel behind z = 5
+    assert plate.sum() == n and (colours[plate] == (200, 180, 150)).all()
+    front = ~plate
+    np.testing.assert_array_equal(colours[front], tex[np.rint(part.vertices[front, 1]).astype(int),
+                                                      np.rint(part.vertices[front, 0]).astype(int)])

@@ -142,3 +142,14 @@ def test_bad_masks(bad):
 def test_empty_mask_names_the_region():
     with pytest.raises(InputError, match="region leg: the mask is empty"):
         region_outline(np.zeros((10, 10), bool), name="leg")
+
+
+def test_a_max_area_too_fine_for_the_drawing_is_refused_up_front():
+    from inkray.relief.outline import MAX_TRIANGLES
+
+    mask = _disk(1000, 1000, 500, 500, 400)
+    with pytest.raises(InputError, match=r"^max_area: 0.001 px\^2 asks for up to 1e\+09") as e:
+        region_outline(mask, options=MeshOptions(max_area=0.001))
+    assert e.value.option == "max_area" and "expected at least 1" in str(e.value)
+    fine = 1000 * 1000 / MAX_TRIANGLES  # the finest allowed is still meshed
+    assert len(region_outline(_disk(100, 100, 50, 50, 30), options=MeshOptions(max_area=fine)).points)

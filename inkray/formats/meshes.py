@@ -466,6 +466,8 @@ class _SceneMesh(NamedTuple):
 
 def _scene_meshes(relief, units_per_pixel, anchor):
     meshes = []
+    texture = _texture(relief)
+    plainness = _plainness(texture)
     for part in relief.parts:
         px = np.asarray(part.vertices, float)
         faces = np.asarray(part.faces, np.int64)
@@ -475,10 +477,59 @@ def _scene_meshes(relief, units_per_pixel, anchor):
                              f"beyond finite 32-bit scene coordinates")
         # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
         # down) into counter-clockwise seen from +Z, so faces are kept as they are.
+        # backs and walls show the part's paper, not the drawing mirrored or smeared:
+        # the vertices of theirs that no front face shares (all of a closed part's
+        # back) take the texture coordinates (and PLY colours) of a plain texel. A
+        # vertex is not copied for that, so solids stay watertight by index in files.
         tex = px[:, :2] if part.texcoords is None else np.asarray(part.texcoords, float)[:, :2]
-        uv = np.clip(relief.uv(tex), 0.0, 1.0)
-        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, tex))
+        sample = tex.copy()
+        plain = _plain_faces(px, faces)
+        if plain.any() and not plain.all():
+            front = np.zeros(len(px), bool)
+            front[faces[~plain].ravel()] = True
+            behind = np.zeros(len(px), bool)
+            behind[faces[plain].ravel()] = True
+            sample[behind & ~front] = _paper_texel(texture, plainness, sample[front])
+        uv = np.clip(relief.uv(sample), 0.0, 1.0)
+        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, sample))
     return meshes
+
+
+#: Faces turned further than this from the viewer (the cosine of their normal's angle
+#: with +Z) are backs or walls: they take the part's paper colour.
+_FACING = 0.1
+_PLAIN_WINDOW = 9  # px: a plain texel is the centre of a window this wide of one colour
+
+
+def _plain_faces(pixel_vertices, faces):
+    """Faces whose normal turns more than ``arccos(_FACING)`` away from the viewer."""
+    q = np.asarray(pixel_vertices, float)[faces] * [1.0, -1.0, 1.0]  # scene frame: z toward us
+    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    return (length > 0) & (n[:, 2] < _FACING * length)
+
+
+def _plainness(texture):
+    """Per pixel, the colour spread (summed standard deviations) over a window around it."""
+    from scipy.ndimage import uniform_filter
+
+    t = np.asarray(texture, float)
+    size = (_PLAIN_WINDOW, _PLAIN_WINDOW, 1)
+    mean = uniform_filter(t, size, mode="nearest")
+    var = uniform_filter(t * t, size, mode="nearest") - mean * mean
+    return np.sqrt(np.clip(var, 0.0, None)).sum(axis=2)
+
+
+def _paper_texel(texture, plainness, pixels):
+    """The pixel (x, y) among ``pixels`` (a part's front) most like its paper: the
+    median colour there, in a window of one colour."""
+    h, w = plainness.shape
+    xy = np.rint(np.asarray(pixels, float)).astype(np.int64)
+    xy = np.unique(np.clip(xy, 0, [w - 1, h - 1]), axis=0)
+    colours = np.asarray(texture, float)[xy[:, 1], xy[:, 0]]
+    paper = np.median(colours, axis=0)
+    score = plainness[xy[:, 1], xy[:, 0]] + np.abs(colours - paper).sum(axis=1)
+    return xy[int(np.argmin(score))].astype(float)
 
 
 def _turned(meshes, up):

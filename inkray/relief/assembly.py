@@ -40,6 +40,8 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
 _FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
+_FINER = 3.0  # edges this much shorter when the first remeshing leaves slivers
+_ITERATIONS = 4  # of the first remeshing (the further rounds go on where slivers are left)
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -171,8 +173,11 @@ def union_parts(parts, *, name="union", remesh=True):
         ``(x, y)``, back faces counter-clockwise).
     name : str, default "union"
     remesh : bool, default True
-        Remesh the solid (:func:`remesh_solid`) with edges a third as long
-        as the parts' median edge.
+        Remesh the solid (:func:`remesh_solid`) with edges as long as the
+        parts' median edge (the relief's own resolution: finer multiplies
+        the faces and the time); where that leaves a face bad (an angle
+        below :data:`MIN_ANGLE` or crossing another), again from the start
+        with edges a third as long and 8 iterations.
 
     Returns
     -------
@@ -191,10 +196,15 @@ def union_parts(parts, *, name="union", remesh=True):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    target = float(np.median(edges)) / 3.0
-    verts, faces = _envelope_solid(parts, gap=target / 2.0)
+    target = float(np.median(edges))
+    verts, faces = _envelope_solid(parts, gap=target / _FINER / 2.0)  # a sixth of it
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=target)
+        v, f = remesh_solid(verts, faces, target=target)
+        if bad_faces(v, f, min_angle=MIN_ANGLE).any():
+            # where a sliver is left at the relief's resolution, edges a third as long
+            # and 8 iterations leave none on every bundled drawing (minutes on the largest)
+            v, f = remesh_solid(verts, faces, target=target / _FINER, iterations=8)
+        verts, faces = v, f
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
@@ -354,7 +364,7 @@ def _sample(vertices, faces, points, tol):
     return hit, z[hit]
 
 
-def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
+def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, iterations=_ITERATIONS):
     """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
 
     The whole surface is remeshed toward edges of length ``target``;
@@ -388,6 +398,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     target : float
         Edge length to aim for (same units as the vertices).
     min_angle : float, default 10
+    iterations : int, default 4
+        Of the first remeshing (the further rounds take 4).
 
     Returns
     -------
@@ -408,8 +420,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE):
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=v, face_matrix=f))
     length = pymeshlab.PureValue(float(target))
-    ms.meshing_isotropic_explicit_remeshing(iterations=8, targetlen=length, featuredeg=89.0,
-                                            checksurfdist=False)
+    ms.meshing_isotropic_explicit_remeshing(iterations=iterations, targetlen=length,
+                                            featuredeg=89.0, checksurfdist=False)
     best = None  # (smallest angle, vertices, faces) of the best round so far
     first = None  # the first round repaired, and its bad faces left
     for rounds in range(_FIX_ROUNDS + 1):

@@ -2,10 +2,11 @@
 
 An open bas-relief (Ink-and-Ray, Sýkora et al. 2014) is one front surface per
 part; seen from behind in a viewer with single-sided materials it vanishes.
-:func:`back_plate` closes every part against one flat plane behind the whole
-relief, like a relief carved from a slab: the front, its outline walled down
-to the plane, and a flat back. :func:`depth_scaled` compresses the heights
-while keeping every depth order (a uniform scale keeps every ``front > back``).
+:func:`back_plate` closes every part with a flat plate just behind it: the
+front, its outline walled down to the plate, and a flat back; the plates are
+stacked in the parts' depth order, never two in one plane. :func:`depth_scaled`
+compresses the heights while keeping every depth order (a uniform scale keeps
+every ``front > back``).
 """
 
 from dataclasses import replace
@@ -44,34 +45,54 @@ def depth_scaled(relief, scale):
     return replace(relief, parts=parts)
 
 
-def back_plate(relief, *, z=None):
-    """Every open part closed down to one flat back plane.
+def back_plate(relief, *, depth=1.0, step=0.25):
+    """Every open part closed by a flat plate just behind its own lowest point.
+
+    Each part's plate lies ``depth`` behind the part's lowest vertex, so a
+    small part in front stays a thin solid instead of a prism reaching back
+    to the deepest part. The plates are stacked by the parts' depth order
+    (lowest vertex, then mean height): walking from the front, each plate
+    lies at least ``step`` behind the one before, so no two parts' backs are
+    coplanar (coplanar backs z-fight in depth-buffered viewers).
 
     Parameters
     ----------
     relief : Relief
         Open parts (closed parts are kept as they are).
-    z : float, optional
-        Height of the back plane; default one pixel below the lowest vertex of
-        the relief (so no wall collapses where the front touches the plane).
+    depth : float, default 1
+        Distance (px) from a part's lowest vertex to its plate: positive, so
+        no wall collapses where the front touches the plate.
+    step : float, default 0.25
+        Smallest distance (px) between two parts' plates.
 
     Returns
     -------
     Relief
         Each open part watertight: its front, a wall along every boundary
-        loop and a flat back at ``z`` (faces facing outward).
+        loop and a flat back (faces facing outward).
 
     Examples
     --------
     >>> tri = Part("a", np.array([[0., 0, 2], [0, 9, 2], [9, 0, 2]]), np.array([[0, 2, 1]]))
-    >>> closed = back_plate(Relief([tri], (10, 10)), z=0.0).parts[0]
-    >>> len(closed.vertices), len(closed.faces), closed.closed
+    >>> low = Part("b", tri.vertices - [0, 0, 2], tri.faces)
+    >>> plated = back_plate(Relief([tri, low], (10, 10)))
+    >>> [float(p.vertices[:, 2].min()) for p in plated.parts]
+    [1.0, -1.0]
+    >>> len(plated.parts[0].vertices), len(plated.parts[0].faces), plated.parts[0].closed
     (6, 8, True)
     """
-    if z is None:
-        z = min((float(np.min(p.vertices[:, 2])) for p in relief.parts if len(p.vertices)),
-                default=0.0) - 1.0
-    return replace(relief, parts=[p if p.closed else _close(p, z) for p in relief.parts])
+    if not (np.isfinite(depth) and depth > 0 and np.isfinite(step) and step > 0):
+        raise InputError(f"depth {depth!r}, step {step!r}: expected positive numbers")
+    open_ = [i for i, p in enumerate(relief.parts) if not p.closed and len(p.vertices)]
+    z = np.array([float(np.min(relief.parts[i].vertices[:, 2])) for i in open_])
+    mean = np.array([float(np.mean(relief.parts[i].vertices[:, 2])) for i in open_])
+    plates = {}
+    previous = np.inf
+    for k in np.lexsort((-mean, -z)).tolist():  # front to back
+        previous = min(z[k] - depth, previous - step)
+        plates[open_[k]] = previous
+    return replace(relief, parts=[_close(p, plates[i]) if i in plates else p
+                                  for i, p in enumerate(relief.parts)])
 
 
 def _close(part, z):

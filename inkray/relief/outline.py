@@ -45,7 +45,8 @@ from inkray.errors import InputError
 from inkray.numerics.polyline import arc_length, resample_polyline
 
 __all__ = [
-    "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "boundary_problems", "edge_length",
+    "MeshOptions", "RegionOutline", "region_outline", "check_boundaries", "boundary_problems",
+    "edge_length", "check_triangle_count", "MAX_TRIANGLES",
     "INTERIOR", "INKED", "INVENTED", "FRAME", "STITCH", "GRAFT", "FLAT",
     "KIND_NAMES", "DIRICHLET_KINDS", "DEFAULT_MAX_AREA", "DEFAULT_SNAP",
 ]
@@ -73,6 +74,42 @@ _RELAX = 150  # relaxation sweeps of the smoothed outline inside that band
 
 #: Default distance (px) within which a ``boundaries`` path snaps to an outline.
 DEFAULT_SNAP = 6.0
+#: Most triangles a drawing may ask for: its area over ``max_area`` (a region covering
+#: the whole drawing gets about that many; finer meshes take minutes and gigabytes).
+MAX_TRIANGLES = 1_000_000
+
+
+def check_triangle_count(max_area, size):
+    """Refuse a ``max_area`` that would mesh a drawing of ``size`` too finely.
+
+    Parameters
+    ----------
+    max_area : float
+        Triangle area in px^2.
+    size : (int, int)
+        ``(width, height)`` of the drawing.
+
+    Raises
+    ------
+    InputError
+        When ``width * height / max_area`` exceeds :data:`MAX_TRIANGLES`
+        (the message names ``max_area`` and its smallest allowed value).
+
+    Examples
+    --------
+    >>> check_triangle_count(50.0, (1000, 1000))
+    >>> check_triangle_count(0.001, (1000, 1000))
+    Traceback (most recent call last):
+    ...
+    inkray.errors.InputError: max_area: 0.001 px^2 asks for up to 1e+09 triangles on a 1000x1000 drawing (at most 1e+06: expected at least 1)
+    """
+    w, h = (int(v) for v in size)
+    count = w * h / float(max_area)
+    if count > MAX_TRIANGLES:
+        least = w * h / MAX_TRIANGLES
+        raise InputError(f"max_area: {float(max_area):g} px^2 asks for up to {count:.3g} triangles "
+                         f"on a {w}x{h} drawing (at most {MAX_TRIANGLES:.3g}: expected at least "
+                         f"{least:.3g})", option="max_area")
 
 
 def edge_length(max_area):
@@ -282,6 +319,7 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     mask, visible, labels = _check_arrays(mask, visible, labels, region)
     name = name if name is not None else f"region{region if region is not None else ''}"
     o = options if options is not None else MeshOptions()
+    check_triangle_count(o.max_area, mask.shape[::-1])  # before any work
     spacing = float(o.spacing) if o.spacing is not None else edge_length(o.max_area)
     station_spacing = (float(o.station_spacing) if o.station_spacing is not None
                        else edge_length(o.max_area))
