@@ -16,11 +16,11 @@ from the commands that stitch. All problems of a file are reported at once,
 each with its key path.
 """
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from inkray.errors import InputError
-from inkray.relief.outline import boundary_problems, edge_length, region_outline
+from inkray.relief.outline import boundary_problems, region_outline
 from inkray.segmentation import INK_THRESHOLD, scribbles_on_ink
 
 __all__ = ["Problem", "validate"]
@@ -124,14 +124,10 @@ def _boundary_problems(chain):
         mask = completion.completed(i) | (labels == i)
         if not mask.any():
             continue
-        # the options inkray.relief.triangulation.mesh_region gives region_outline
-        area = min(o.max_area, float(np.count_nonzero(mask)) / o.min_triangles) or o.max_area
-        spacing = o.station_spacing if o.station_spacing is not None else edge_length(o.max_area)
         try:
             outlines.append(region_outline(
                 mask, visible=labels == i, labels=labels, region=i, name=region.name,
-                boundaries=ann.boundaries,
-                options=replace(o, max_area=area, station_spacing=spacing)))
+                boundaries=ann.boundaries, options=o.for_region(mask)))
         except InputError as e:  # two paths marking one stretch
             out.append(str(e))
     # with an outline missing, which paths it would have taken is unknown

@@ -33,7 +33,7 @@ region B; where both regions share the outline the two points coincide.
 
 import math
 from bisect import bisect_left
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.ndimage import (binary_dilation, distance_transform_edt, gaussian_filter,
@@ -206,6 +206,21 @@ class MeshOptions:
                 and self.speckle >= 0):
             raise InputError("mesh options: tolerance and snap must be positive, smoothing, "
                              "across and speckle non-negative")
+
+    def for_region(self, mask):
+        """The options one region is meshed with: smaller triangles for a small region
+        (at most its area over :attr:`min_triangles`), stations spaced by the
+        drawing's triangle size.
+
+        Examples
+        --------
+        >>> o = MeshOptions(max_area=50.0).for_region(np.ones((10, 10), bool))
+        >>> o.max_area, round(o.station_spacing, 2)
+        (0.5, 10.75)
+        """
+        area = min(self.max_area, float(np.count_nonzero(mask)) / self.min_triangles) or self.max_area
+        spacing = self.station_spacing if self.station_spacing is not None else edge_length(self.max_area)
+        return replace(self, max_area=area, station_spacing=spacing)
 
 
 @dataclass

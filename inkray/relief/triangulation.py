@@ -29,15 +29,14 @@ i.e. counter-clockwise as the viewer sees the drawing.
 """
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import triangle
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.polyline import point_polyline_distance
-from inkray.relief.outline import (DEFAULT_MAX_AREA, INTERIOR, MeshOptions, edge_length,
-                                   region_outline)
+from inkray.relief.outline import DEFAULT_MAX_AREA, INTERIOR, MeshOptions, region_outline
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
@@ -323,10 +322,9 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     159.0
     """
     o = options if options is not None else MeshOptions()
-    area = min(o.max_area, float(np.count_nonzero(mask)) / o.min_triangles) or o.max_area
-    station_spacing = o.station_spacing if o.station_spacing is not None else edge_length(o.max_area)
+    region_options = o.for_region(mask)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
-                         boundaries=boundaries,
-                         options=replace(o, max_area=area, station_spacing=station_spacing))
+                         boundaries=boundaries, options=region_options)
     grafts = [np.asarray(b.path, float) for b in boundaries if b.type == "graft"]
-    return triangulate_outline(out, max_area=area, min_angle=o.min_angle, seams=grafts)
+    return triangulate_outline(out, max_area=region_options.max_area, min_angle=o.min_angle,
+                               seams=grafts)
