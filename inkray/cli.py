@@ -16,7 +16,7 @@ import warnings
 from pathlib import Path
 
 from inkray._version import __version__
-from inkray.errors import InkrayError, InputError
+from inkray.errors import InkrayError, InputError, Notice
 from inkray.input.limits import DEFAULT_LIMITS, Limits
 from inkray.progress import Progress
 
@@ -93,7 +93,8 @@ def _group(args, chain):
 
 def _warn(warnings):
     for warning in warnings:
-        print(f"inkray: warning: {warning}", file=sys.stderr)
+        text = warning.worded(_flag) if isinstance(warning, Notice) else warning
+        print(f"inkray: warning: {text}", file=sys.stderr)
 
 
 def _check_output(path, allowed):
@@ -423,10 +424,7 @@ def _cmd_layers(args, progress):
                            options=dict(predict=not args.no_predict),
                            params=dict(pad=args.pad, split_local=args.split_local,
                                        background=args.background),
-                           warn=lambda chain, stack: chain.warnings + [
-                               w.replace("(split_local splits it)", f"({_flag('split_local')} "
-                                                                    f"splits it)")
-                               for w in stack.warnings],
+                           warn=lambda chain, stack: chain.warnings + stack.warnings,
                            stage="layers")
     split = f", {len(stack.splits)} split" if stack.split and stack.splits else ""
     print(f"{args.output}: {len(stack.layers)} layers back to front: "

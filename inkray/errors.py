@@ -49,13 +49,7 @@ class InputError(InkrayError, ValueError):
 
     def worded(self, name):
         """The message with every parameter it names as ``name(parameter)``."""
-        message = self.message
-        if self.option is not None and message.startswith(f"{self.option}:"):
-            message = name(self.option) + message[len(self.option):]
-        if self.fix is not None:
-            template, parameter = self.fix
-            message = f"{message} ({template.format(name(parameter))})"
-        return message
+        return _worded(self.message, self.option, self.fix, name)
 
     def __str__(self):
         return self.worded(lambda parameter: parameter)
@@ -65,3 +59,32 @@ class StageError(InkrayError, RuntimeError):
     """A stage failed on valid input."""
 
     exit_code = 1
+
+
+class Notice(str):
+    """A warning's text that names a parameter, worded by front ends as :class:`InputError` is.
+
+    Examples
+    --------
+    >>> w = Notice("region 'a' must be split", fix=("{} splits it", "split_local"))
+    >>> w, w.worded(lambda name: "--" + name.replace("_", "-"))
+    ("region 'a' must be split (split_local splits it)", "region 'a' must be split (--split-local splits it)")
+    """
+
+    def __new__(cls, message, *, option=None, fix=None):
+        self = super().__new__(cls, _worded(message, option, fix, lambda parameter: parameter))
+        self.message, self.option, self.fix = message, option, fix
+        return self
+
+    def worded(self, name):
+        """The text with every parameter it names as ``name(parameter)``."""
+        return _worded(self.message, self.option, self.fix, name)
+
+
+def _worded(message, option, fix, name):
+    if option is not None and message.startswith(f"{option}:"):
+        message = name(option) + message[len(option):]
+    if fix is not None:
+        template, parameter = fix
+        message = f"{message} ({template.format(name(parameter))})"
+    return message

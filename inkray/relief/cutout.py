@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 
-from inkray.errors import InputError
+from inkray.errors import InputError, Notice
 from inkray.numerics.grid import grid_laplacian
 from inkray.numerics.order_graph import OrderGraph
 from inkray.numerics.spd import MinQuadWithFixed
@@ -102,9 +102,9 @@ class Split:
     def message(self):
         """One line: the part that must be split, where, and why."""
         x, y = self.where
-        return (f"region {self.name!r} must be split: it is over {self.under_name!r} near "
-                f"({x:.0f}, {y:.0f}) but under it elsewhere, which no single layer stack holds "
-                f"(split_local splits it)")
+        return Notice(f"region {self.name!r} must be split: it is over {self.under_name!r} near "
+                      f"({x:.0f}, {y:.0f}) but under it elsewhere, which no single layer stack "
+                      f"holds", fix=("{} splits it", "split_local"))
 
 
 @dataclass
