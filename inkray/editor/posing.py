@@ -82,7 +82,7 @@ class PoseSession:
             return buf.getvalue(), "image/png"
 
         start = time.perf_counter()
-        p = self.session._newest(compute, lock="relief")
+        p = self.session.newest(compute, lock="relief")
         return p.body, (time.perf_counter() - start) * 1000, p.generation
 
     def save(self, document):

@@ -368,7 +368,7 @@ class EditSession:
             path, region = _outline_path(seg.labels, start, end)
             return {"path": path, "region": seg.names[region]}
 
-        return self._newest(compute, lock="relief", wrap=False)
+        return self.newest(compute, lock="relief", wrap=False)
 
     def switch(self, path, *, drawing=None, document=None):
         """Edit another annotation file in this session (the next frame of a shot).
@@ -442,7 +442,7 @@ class EditSession:
         elif name == "depth.png" and draft:
             params = dict(draft=True)
         key = (name, *sorted(params.items()))
-        return self._newest(lambda chain, digest: (self._encoded(
+        return self.newest(lambda chain, digest: (self._encoded(
             (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
             lock="depth" if name == "depth.png" else "relief")
 
@@ -466,7 +466,7 @@ class EditSession:
             return {"relations": [_relation(r, labels) for r in relations],
                     "warnings": chain.warnings, "error": None, "paths": []}
 
-        return self._newest(compute, lock="relief", wrap=False)
+        return self.newest(compute, lock="relief", wrap=False)
 
     # -- internals ------------------------------------------------------------------
 
@@ -569,8 +569,14 @@ class EditSession:
                 self._files_size -= len(self._files.popitem(last=False)[1])
         return body
 
-    def _newest(self, compute, *, lock, wrap=True):
-        """``compute(chain)`` for the newest generation; an edit during it starts it again."""
+    def newest(self, compute, *, lock, wrap=True):
+        """``compute(chain, digest)`` for the newest generation; an edit during it starts it again.
+
+        For work on the session's chain beside the previews (the Pose mode's
+        pictures): ``lock`` is ``"depth"`` or ``"relief"``, the stages it
+        shares a lock with; with ``wrap`` the value ``(body, media type)``
+        comes back as a :class:`Preview`.
+        """
         while True:
             with self._state:
                 if self._closed:
