@@ -616,6 +616,17 @@ def test_background_is_behind_every_part_when_no_entry_mentions_it(method, backg
 
 
 @pytest.mark.parametrize("method", ["exact", "fast"])
+def test_regions_without_any_entry_still_stand_in_front_of_the_background(method):
+    # A new file in the editor: parts scribbled, no arrow yet. The map is not flat.
+    gray, regions = _boxes_on_paper()
+    d = depth(_ann((120, 80), regions=regions), gray, method=method).depth
+    paper = np.ones(gray.shape, bool)
+    paper[20:61, 10:101] = False
+    a, b, c = d[50, 15:45], d[25:55, 65:95], d[35:42, 25:36]
+    assert d[paper].max() + 0.5 < min(a.min(), b.min(), c.min())
+
+
+@pytest.mark.parametrize("method", ["exact", "fast"])
 def test_an_entry_on_the_background_overrides_the_default(method):
     gray, regions = _boxes_on_paper()
     # The paper in front of b: the entry wins, no implicit order is added.

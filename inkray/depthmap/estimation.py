@@ -535,11 +535,8 @@ class DepthSession:
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
-        if not len(p):
-            self._dirty = set()
-            self.region_levels = {}
-            self.parts = self.labels
-            return np.zeros((h, w))
+        if not len(p) and self._scribbles is None:
+            return self._flat()
         t = time.perf_counter()
         self._segment()
         self.timings["segment"] = time.perf_counter() - t
@@ -548,6 +545,8 @@ class DepthSession:
         if self._scribbles is not None and \
                 not (self.labels.flat[np.concatenate([p, q])] == BACKGROUND).any():
             behind = self._on_background  # no entry mentions the background
+        if not len(p) and not len(behind):
+            return self._flat()
         groups, level = _local_levels(p, q, ineq, self.labels, behind=behind)
         lab = self._split(groups)
         self.parts = lab
@@ -573,6 +572,13 @@ class DepthSession:
         d -= d.mean()
         self.timings["laplace"] = time.perf_counter() - t
         return d
+
+    def _flat(self):
+        """No entry and no default order: one depth everywhere."""
+        self._dirty = set()
+        self.region_levels = {}
+        self.parts = self.labels
+        return np.zeros(self.shape)
 
     def _segment(self):
         from inkray.segmentation import lazybrush
