@@ -1,12 +1,14 @@
 """The editor's Pose mode: the HTTP route, and in a real headless Chromium: place handles, drag one
 with the mouse, the posed picture changes, the pose file saves."""
 
+import io
 import json
 import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from _editor import call, copy_example, running
 from inkray.editor.session import EditSession
@@ -86,6 +88,12 @@ def test_drag_a_handle_with_the_mouse_and_save_the_pose(tmp_path):
                                timeout=120_000)
         page.wait_for_timeout(300)
         assert page.locator("#posed").screenshot() != shot_before
+        # every handle is seen over the posed picture, in its colour (#1e88e5)
+        for k in range(3):
+            box = page.locator("#pose-handles circle").nth(k).bounding_box()
+            dot = np.asarray(Image.open(io.BytesIO(page.screenshot(clip=box))).convert("RGB"), int)
+            blue = (abs(dot - [0x1e, 0x88, 0xe5]).max(axis=-1) < 40).sum()
+            assert blue >= 10, (k, blue)
         moved = page.evaluate("window.inkrayPose.to[2]")
         assert abs(moved[1] - 108) < 3
         page.click("#pose-key")
