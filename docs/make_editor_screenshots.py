@@ -5,8 +5,8 @@
 Each picture is the editor served by ``inkray edit``'s own server on a copy of a bundled
 drawing, driven with real mouse and keys as a user would: a guided start on the fish's
 drawing alone, the fish after its first five minutes, the marks at 6x, a two-click
-boundary, a contradiction in plain words beside the last good relief, and the autosave
-banner. Written to docs/images/editor*.png.
+boundary, a contradiction in plain words beside the last good relief, the autosave
+banner, and the Pose mode with a hand dragged up. Written to docs/images/editor*.png.
 """
 
 import argparse
@@ -156,6 +156,25 @@ def main(argv=None):
         autosave_path(turtle).write_text(json.dumps(dict(doc, order=doc["order"][:2])))
         page = Page(browser, _serve(EditSession(turtle)))
         page.shot("editor-autosave.png")
+        page.page.close()
+
+        # the Pose mode on the man: three handles clicked, the hand dragged up
+        for p in (EXAMPLES / "man").iterdir():
+            if p.name.startswith("drawing"):
+                shutil.copy(p, tmp / f"man-{p.name}")
+        man = tmp / "man-drawing.inkray.json"
+        man.write_text(man.read_text().replace('"drawing.jpg"', '"man-drawing.jpg"'))
+        page = Page(browser, _serve(EditSession(man)))
+        page.page.click("#pose-mode")
+        for point in ([150, 330], [150, 250], [265, 180]):
+            page.click(point)
+        page.page.wait_for_function("window.inkrayPose.updates >= 1 && !window.inkrayPose.busy")
+        before = page.page.evaluate("window.inkrayPose.updates")
+        page.drag([[265, 180], [233, 84]], steps=8)
+        page.page.wait_for_function(f"window.inkrayPose.updates > {before} "
+                                    f"&& !window.inkrayPose.busy")
+        page.page.wait_for_timeout(500)
+        page.shot("editor-pose.png")
         browser.close()
 
 
