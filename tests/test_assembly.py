@@ -4,11 +4,12 @@ import manifold3d as m3d
 import numpy as np
 import pytest
 import trimesh
+from scipy.spatial import cKDTree
 
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _despike, _envelope_solid,
+from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _closed_manifold, _envelope_solid,
                                     _min_angles, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
@@ -110,17 +111,26 @@ def test_union_is_one_watertight_solid(scene):
     assert mesh.volume == pytest.approx(raw_volume, rel=1e-2)
 
 
-def _envelope_volume(disks, step=0.1):
-    """Volume between the highest front and the lowest back of closed hemisphere disks
-    (``disk_part``: front ``base + h``, back ``base - h``), integrated on a fine grid."""
+def _envelope_volume(parts, step=0.1):
+    """Volume between the highest front and the lowest back of closed parts, integrated
+    on a fine grid (each sheet's height interpolated linearly on its triangles)."""
     xs = np.arange(0.0, 300.0, step)
     x, y = np.meshgrid(xs, np.arange(0.0, 120.0, step))
     top, bottom = np.full(x.shape, -np.inf), np.full(x.shape, np.inf)
-    for cx, cy, r, base in disks:
-        h = np.sqrt(np.clip(r ** 2 - (x - cx) ** 2 - (y - cy) ** 2, 0.0, None))
-        inside = (x - cx) ** 2 + (y - cy) ** 2 <= r ** 2
-        top[inside] = np.maximum(top[inside], base + h[inside])
-        bottom[inside] = np.minimum(bottom[inside], base - h[inside])
+    for p in parts:
+        t = p.vertices[p.faces]
+        e1, e2 = t[:, 1, :2] - t[:, 0, :2], t[:, 2, :2] - t[:, 0, :2]
+        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        for k in np.flatnonzero(det != 0.0):  # walls have no area in (x, y)
+            (i0, j0), (i1, j1) = np.floor(t[k, :, :2].min(0) / step), np.ceil(t[k, :, :2].max(0) / step) + 1
+            sl = slice(int(j0), int(j1)), slice(int(i0), int(i1))
+            rx, ry = x[sl] - t[k, 0, 0], y[sl] - t[k, 0, 1]
+            l1 = (rx * e2[k, 1] - ry * e2[k, 0]) / det[k]
+            l2 = (e1[k, 0] * ry - e1[k, 1] * rx) / det[k]
+            inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
+            z = t[k, 0, 2] + l1 * (t[k, 1, 2] - t[k, 0, 2]) + l2 * (t[k, 2, 2] - t[k, 0, 2])
+            top[sl] = np.where(inside, np.maximum(top[sl], z), top[sl])
+            bottom[sl] = np.where(inside, np.minimum(bottom[sl], z), bottom[sl])
     covered = np.isfinite(top)
     return float((top - bottom)[covered].sum() * step * step)
 
@@ -144,9 +154,12 @@ def test_a_disc_floating_in_front_joins_the_disc_behind(small):
     assert q["shells"] == 1 and shell_parts(solid, parts) == [["d0", "d1"]]
     assert q["min_angle_deg"] >= MIN_ANGLE
     # the gap between them is filled: the volume is that of the envelopes
-    envelope = _envelope_volume([big, small])
+    envelope = _envelope_volume(parts)
     separate = sum(trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces).volume for p in parts)
-    assert q["volume"] == pytest.approx(envelope, rel=0.02)
+    raw = union_parts(parts, remesh=False)  # the booleans' solid: the envelope exactly
+    assert mesh_quality(raw.vertices * [1, -1, 1], raw.faces)["volume"] == pytest.approx(
+        envelope, rel=1e-3)
+    assert q["volume"] == pytest.approx(envelope, rel=0.015)  # remeshed around the slivers
     balls = sum(4.0 / 3.0 * np.pi * r ** 3 for _, _, r, _ in (big, small))  # the parts alone
     assert q["volume"] - separate >= 0.5 * (envelope - balls)
 
@@ -218,32 +231,20 @@ def _box(x0, x1, top, name):
 
 def test_envelope_of_two_boxes_is_the_higher_box_and_a_step():
     low, high = _box(0.0, 6.0, 1.0, "low"), _box(3.0, 9.0, 3.0, "high")
-    gap = 0.1
-    v, f = _envelope_solid([low, high], gap=gap)
-    n = len(v) // 2
-    xy, top, bottom = v[:n, :2], v[:n, 2], v[n:, 2]
-    # closed form: the top is the high box's (3) where it reaches (its outline plus the
-    # 2 gap it is sampled beyond it), the low box's (1) elsewhere; the bottom is 0
-    expected = np.where(xy[:, 0] >= 3.0 - 2.0 * gap - 1e-9, 3.0, 1.0)
-    assert np.array_equal(top, expected) and np.array_equal(bottom, np.zeros(n))
+    v, f = _envelope_solid([low, high])
     q = mesh_quality(v, f)
     assert q["watertight"] and q["consistently_oriented"] and q["self_intersecting_faces"] == 0
-    # the step ramps down between the high box's reach and the row of points 3 gap out
-    volume = -q["volume"]  # (y down: the envelope's faces run clockwise seen from +z)
-    assert 36.0 + (6.0 + 2.0 * gap) * 8.0 < volume < 36.0 + (6.0 + 3.0 * gap) * 8.0
+    # closed form: the low box where the high one is not (3 x 4 x 1), then the high box
+    # (6 x 4 x 3); y runs down, so the faces run clockwise seen from +z
+    assert -q["volume"] == pytest.approx(12.0 + 72.0, rel=1e-12)
+    top = v[:, 2] > 0.0
+    assert set(np.unique(v[top, 2])) == {1.0, 3.0}
+    assert (v[v[:, 2] == 1.0, 0] <= 3.0).all() and (v[v[:, 2] == 3.0, 0] >= 3.0).all()
 
 
-def test_despike_brings_a_lone_vertex_back_to_its_neighbours():
-    # a fan around vertex 0; its neighbours at heights 1..6 (top) and -1..-6 (bottom)
-    ring = np.arange(1, 7)
-    tris = np.stack([np.zeros(6, np.int64), ring, np.roll(ring, -1)], 1)
-    top = np.r_[20.0, np.arange(1.0, 7.0)]
-    bottom = -top
-    t, b = _despike(tris, top, bottom, 5.0)
-    assert t[0] == 6.0 and b[0] == -6.0  # the nearest neighbour on each sheet
-    assert np.array_equal(t[1:], top[1:]) and np.array_equal(b[1:], bottom[1:])
-    t, b = _despike(tris, top, bottom, 20.0)  # a rise that tall is kept
-    assert np.array_equal(t, top) and np.array_equal(b, bottom)
+def test_envelope_refuses_a_part_that_is_not_a_closed_slab():
+    with pytest.raises(StageError, match="part d0 is not a closed slab"):
+        _envelope_solid([disk_part("d0", 30.0, 30.0, 10.0)])  # a front without a back
 
 
 def test_untangle_moves_a_vertex_pushed_through_the_solid_back():
@@ -252,7 +253,7 @@ def test_untangle_moves_a_vertex_pushed_through_the_solid_back():
     centre = int(np.flatnonzero((v[:, 0] == 2.0) & (v[:, 1] == 2.0) & (v[:, 2] == 2.0))[0])
     v[centre, 2] = -1.0  # through the bottom
     assert self_intersecting_faces(v, f).any()
-    out, crossing = _untangle(v, f, min_angle=10.0)
+    out, crossing = _untangle(v, f, min_angle=10.0, near=np.ones(len(f), bool))
     assert not self_intersecting_faces(out, f).any() and not crossing.any()
     # closed form: its neighbours are all on the top, so the centroid of them is too
     assert out[centre, 2] == pytest.approx(2.0)
@@ -286,3 +287,19 @@ def test_repair_patches_retriangulates_a_sliver_on_a_tilted_plane():
         border = (xy == 0.0).any(axis=1) | (xy == 6.0).any(axis=1)
         assert all((w == vert).all(axis=1).any() for vert in v[border])
         assert len(_boundary_edges(g)) == 24
+
+
+def test_union_is_remeshed_only_around_its_slivers():
+    parts = _discs((60.0, 60.0, 40.0, 0.0), (90.0, 60.0, 25.0, 10.0))
+    raw = union_parts(parts, remesh=False)
+    solid = union_parts(parts)
+    t = raw.vertices[raw.faces]
+    centre = t.mean(axis=1)
+    sliver = _min_angles(raw.vertices, raw.faces) < MIN_ANGLE
+    edge = np.median(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2))
+    # (the remeshing reaches a few rings around a sliver, each ring about an edge)
+    far = cKDTree(centre[sliver]).query(centre)[0] > 5.0 * edge
+    assert sliver.any() and far.sum() > 50
+    # every face far from the booleans' slivers is in the solid as it was, bit for bit
+    kept = {tuple(sorted(map(tuple, tri))) for tri in solid.vertices[solid.faces].tolist()}
+    assert all(tuple(sorted(map(tuple, tri))) in kept for tri in t[far].tolist())

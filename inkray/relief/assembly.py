@@ -15,13 +15,14 @@ triangle has all its corners on the silhouette) and gives ``flat`` parts a
 slab of thickness ``epsilon``. Every closed part is watertight and
 consistently oriented; ``union=True`` makes one solid of them for 3D
 printing: the space between the highest front and the lowest back over the
-union of the parts' outlines, built as a height field (no boolean, so no
-near-coincident sheets and no slivers along intersection curves), which
-joins a part floating in front of the part behind it to it. It is remeshed
-(PyMeshLab's isotropic remeshing), its remaining slivers are flipped,
-collapsed or split away, the vertices of faces folded through another
-moved off them and the patches around faces still bad re-triangulated. Parts whose outlines do not overlap (drawn apart)
-stay separate shells, named in :attr:`~inkray.relief.model.Relief.warnings`.
+union of the parts' outlines, which joins a part floating in front of the
+part behind it to it, built with the booleans of the Manifold library
+(manifold3d, exact in their topology); only the faces
+around the slivers its cuts leave (and the parts' own) are remeshed
+(PyMeshLab's isotropic remeshing of those faces alone), then flipped,
+collapsed or split, the patches around faces still bad re-triangulated.
+Parts whose outlines do not overlap (drawn apart) stay separate shells,
+named in :attr:`~inkray.relief.model.Relief.warnings`.
 """
 
 import numpy as np
@@ -39,9 +40,9 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
-_FIX_ROUNDS = 3  # further remeshing rounds while slivers are left (see remesh_solid)
-_FINER = 3.0  # edges this much shorter when the first remeshing leaves slivers
-_ITERATIONS = 4  # of the first remeshing (the further rounds go on where slivers are left)
+_RINGS = 2  # rings of faces remeshed around each sliver (see remesh_solid)
+_ROUNDS = 3  # of remeshing, one more ring each, while faces are left bad
+_ITERATIONS = 4  # of that remeshing
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -137,16 +138,24 @@ def close_part(part, back_z):
     back_z = np.asarray(back_z, float)
     if (v[:, 2] - back_z <= 0).any():
         raise StageError(f"part {part.name}: the back does not lie below the front")
-    a, b = _boundary_edges(f).T  # front edge a -> b as the front faces run it
-    # the wall runs the shared edges the other way: b -> a on the front, a' -> b' on the back
+    vertices, faces = _prism(v, f, back_z)
+    return Part(name=part.name, vertices=vertices, faces=faces, closed=True)
+
+
+def _prism(vertices, faces, z):
+    """An open sheet closed by its copy at heights ``z`` (faces reversed) and a wall
+    along its outline: the sheet's vertices, then their copies."""
+    n = len(vertices)
+    a, b = _boundary_edges(faces).T  # edge a -> b as the sheet's faces run it
+    # the wall runs the shared edges the other way: b -> a on the sheet, a' -> b' on the copy
     walls = np.concatenate([np.stack([b, a, a + n], 1), np.stack([b, a + n, b + n], 1)])
-    faces = np.concatenate([f, f[:, ::-1] + n, walls])
-    back = np.column_stack([v[:, :2], back_z])
-    return Part(name=part.name, vertices=np.concatenate([v, back]), faces=faces, closed=True)
+    copy = np.column_stack([vertices[:, :2], np.broadcast_to(z, (n,))])
+    return (np.concatenate([vertices, copy]),
+            np.concatenate([faces, faces[:, ::-1] + n, walls]))
 
 
 def union_parts(parts, *, name="union", remesh=True):
-    """One watertight solid over the union of closed parts' outlines, remeshed.
+    """One watertight solid over the union of closed parts' outlines.
 
     Every closed part is a slab over the image plane: over its outline it
     fills ``[back(x, y), front(x, y)]``. The solid fills ``[B, T]`` over the
@@ -154,34 +163,34 @@ def union_parts(parts, *, name="union", remesh=True):
     back of the parts there: the union of the parts where their slabs
     overlap, and the gap filled where a part floats in front of the part
     behind it, so parts whose outlines overlap make one shell. It is built
-    as a height field, without a boolean: the union's footprint is
-    triangulated in 2D (Triangle) with every part's outline as a
-    constraint, ``T`` and ``B`` are sampled at its vertices, and a wall
-    joins them along the footprint's outline. Watertight, consistently
-    oriented and free of near-coincident sheets by construction. A step
-    where one part's outline crosses another part becomes a steep strip
-    about ``3 gap`` wide, ``gap`` being a sixth of the parts' median edge
-    (rows of points beside every outline bound it); slits, spikes and ledges
-    narrower than about ``gap`` are closed, cut or filled, and a lone vertex
-    rising (dropping) more than ``2 gap`` beyond all its neighbours is
-    brought back to them (see ``_envelope_solid``).
+    with manifold3d's booleans (exact in their topology, coplanar and
+    coincident faces decided by symbolic perturbation): the union of every part with
+    its back lowered below all parts (the space under ``T``), intersected
+    with the union of every part with its front raised above all parts (the
+    space over ``B``). Its faces are the parts' own, cut where they meet, so
+    it has about as many faces as the parts and follows their fronts
+    exactly; only the faces around the slivers the cuts leave (and the
+    parts' own) are remeshed.
 
     Parameters
     ----------
     parts : list of Part
         Closed parts, slabs over the image plane (front faces clockwise in
-        ``(x, y)``, back faces counter-clockwise).
+        ``(x, y)``, back faces counter-clockwise, no vertex on both).
     name : str, default "union"
     remesh : bool, default True
-        Remesh the solid (:func:`remesh_solid`) with edges as long as the
-        parts' median edge (the relief's own resolution: finer multiplies
-        the faces and the time); where that leaves a face bad (an angle
-        below :data:`MIN_ANGLE` or crossing another), again from the start
-        with edges a third as long and 8 iterations.
+        Remesh the faces around those with an angle below :data:`MIN_ANGLE`
+        (:func:`remesh_solid`) toward edges as long as the parts' median
+        edge (the relief's own resolution).
 
     Returns
     -------
     Part
+
+    Raises
+    ------
+    StageError
+        When a part is not a closed slab.
 
     Examples
     --------
@@ -196,139 +205,49 @@ def union_parts(parts, *, name="union", remesh=True):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    target = float(np.median(edges))
-    verts, faces = _envelope_solid(parts, gap=target / _FINER / 2.0)  # a sixth of it
+    verts, faces = _envelope_solid(parts)
     if remesh:
-        v, f = remesh_solid(verts, faces, target=target)
-        if bad_faces(v, f, min_angle=MIN_ANGLE).any():
-            # where a sliver is left at the relief's resolution, edges a third as long
-            # and 8 iterations leave none on every bundled drawing (minutes on the largest)
-            v, f = remesh_solid(verts, faces, target=target / _FINER, iterations=8)
-        verts, faces = v, f
+        verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)))
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, *, gap):
-    """The height field ``[B, T]`` over the union of the parts' outlines (see union_parts).
+def _envelope_solid(parts):
+    """The solid ``[B, T]`` over the union of the parts' outlines (see union_parts)."""
+    import manifold3d as m3d
 
-    Notches and gaps of the union's outline narrower than ``gap`` are filled,
-    spikes narrower than it cut off (a wall in a narrow slit cannot be
-    remeshed into well-shaped triangles).
-    """
-    import triangle
-
-    sheets = [_sheets(p) for p in parts]
-    points = np.concatenate([v[:, :2] for v, _, _ in sheets])
-    starts = np.cumsum([0] + [len(v) for v, _, _ in sheets])
-    segments = np.concatenate([np.sort(_boundary_edges(front), axis=1) + s
-                               for (_, front, _), s in zip(sheets, starts)])
-    # rows of points beside every outline, beyond the parts' reach (below): a step where
-    # a part's outline crosses another part becomes a strip this narrow, not a ramp
-    # across a large triangle of the part behind
-    a, b = points[segments[:, 0]], points[segments[:, 1]]
-    normal = (b - a)[:, ::-1] * [1.0, -1.0]
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    beside = [0.5 * (a + b) + k * gap * normal for k in (-5.0, -3.0, 3.0, 5.0)]
-    points = np.concatenate([points] + beside)
-    # one vertex per position: Triangle warns about (and skips) duplicates
-    points, inverse = np.unique(points, axis=0, return_inverse=True)
-    segments = np.unique(np.sort(inverse.ravel()[segments], axis=1), axis=0)
-    segments = segments[segments[:, 0] != segments[:, 1]]
-    tri = triangle.triangulate({"vertices": points, "segments": segments}, "pnQ")
-    xy, tris = np.asarray(tri["vertices"], float), np.asarray(tri["triangles"], np.int64)
-    neighbours = np.asarray(tri["neighbors"], np.int64)
-    tol = 1e-9 * float(np.ptp(xy, axis=0).max())
-    centroids = xy[tris].mean(axis=1)
-    inside = np.zeros(len(tris), bool)
-    top = np.full(len(xy), -np.inf)
-    bottom = np.full(len(xy), np.inf)
-    for v, front, back in sheets:
-        # the triangles of the convex hull inside this part (its outline is a constraint,
-        # so a triangle is inside or outside as a whole)
-        inside |= _sample(v, front, centroids, tol)[0]
-        # a part reaching a fraction of a pixel beyond the part behind it would leave a
-        # ledge that narrow on the solid's side: every part counts a little beyond its
-        # outline (its front out to 2 gap, its back, unseen from the front, out to 4 gap)
-        hit, z = _sample(v, front, xy, 2.0 * gap)
-        top[hit] = np.maximum(top[hit], z)
-        hit, z = _sample(v, back, xy, 4.0 * gap)
-        bottom[hit] = np.minimum(bottom[hit], z)
-    sampled = np.isfinite(top) & np.isfinite(bottom)
-    tris = tris[_trim_footprint(xy, tris, neighbours, inside, gap, sampled[tris].all(axis=1))]
-    used, tris = np.unique(tris, return_inverse=True)
-    tris = tris.reshape(-1, 3)
-    xy, top, bottom = xy[used], top[used], bottom[used]
-    if not (np.isfinite(top).all() and np.isfinite(bottom).all()):
-        raise StageError("union: a vertex of the outlines' triangulation lies in no part")
-    top, bottom = _despike(tris, top, bottom, 2.0 * gap)
-    n = len(xy)
-    # Triangle's faces run counter-clockwise in (x, y): the back's orientation
-    a, b = _boundary_edges(tris).T
-    walls = np.concatenate([np.stack([a, b, b + n], 1), np.stack([a, b + n, a + n], 1)])
-    verts = np.concatenate([np.column_stack([xy, top]), np.column_stack([xy, bottom])])
-    return verts, np.concatenate([tris[:, ::-1], tris + n, walls])
+    z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
+    margin = max(1.0, float(np.ptp(z)))
+    below, above = [], []
+    for p in parts:
+        v, front, back = _sheets(p)
+        if not (len(front) and len(back)):
+            raise StageError(f"union: part {p.name} is not a closed slab (a front over a back)")
+        # the space under the part's front and the space over its back
+        below.append(_manifold(*_prism(*_compact(v, front), z.min() - margin), p.name))
+        above.append(_manifold(*_prism(*_compact(v, back), z.max() + margin), p.name))
+    solid = (m3d.Manifold.batch_boolean(below, m3d.OpType.Add)
+             ^ m3d.Manifold.batch_boolean(above, m3d.OpType.Add))
+    mesh = solid.to_mesh64()
+    verts = np.array(mesh.vert_properties, float)[:, :3]
+    return verts, np.array(mesh.tri_verts, np.int64)[:, ::-1]
 
 
-def _despike(tris, top, bottom, height):
-    """``top`` and ``bottom`` with lone vertices more than ``height`` beyond all their
-    neighbours brought back to the nearest of them.
-
-    A vertex just within a part's sampling tolerance (see ``_envelope_solid``)
-    takes that part's height while its neighbours do not: a needle of the
-    solid a fraction of a pixel wide, which no remeshing makes well shaped.
-    """
-    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
-    e = np.concatenate([e, e[:, ::-1]])
-    n = len(top)
-    highest = np.full(n, -np.inf)
-    np.maximum.at(highest, e[:, 0], top[e[:, 1]])
-    lowest = np.full(n, np.inf)
-    np.minimum.at(lowest, e[:, 0], bottom[e[:, 1]])
-    return (np.where(top > highest + height, highest, top),
-            np.where(bottom < lowest - height, lowest, bottom))
+def _compact(vertices, faces):
+    """The vertices ``faces`` use, and the faces renumbered to them."""
+    used, faces = np.unique(faces, return_inverse=True)
+    return vertices[used], faces.reshape(-1, 3)
 
 
-def _trim_footprint(xy, tris, neighbours, inside, gap, sampled):
-    """``inside`` with thin triangles between two outside (inside) neighbours flipped,
-    islands smaller than ``(4 gap)^2`` dropped and holes that small filled (where
-    every corner is ``sampled``)."""
-    t = xy[tris]
-    e = np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2)
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    thin = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / e.max(axis=1) < gap  # altitude
-    inside = inside.copy()
-    for _ in range(len(tris)):
-        near = np.where(neighbours >= 0, inside[neighbours], False).sum(axis=1)
-        fill = thin & ~inside & (near >= 2)
-        cut = thin & inside & (near <= 1)
-        if not (fill.any() or cut.any()):
-            break
-        inside[fill] = True
-        inside[cut] = False
-    # islands smaller than a few gaps across (a tip cut off at a thin neck) would be
-    # needles of the solid's full height; holes that small (a gap where several parts
-    # meet around one outline vertex) would be pipes of it
-    area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / 2.0
-    limit = 16.0 * gap ** 2
-    inside[_small_pieces(inside, neighbours, area, limit)] = False
-    open_ = (neighbours < 0).any(axis=1) | ~sampled  # the outside around the footprint
-    inside[_small_pieces(~inside, neighbours, np.where(open_, np.inf, area), limit)] = True
-    return inside
+def _manifold(vertices, faces, name):
+    """A manifold3d solid from a closed part's mesh (faces reversed: the image's y runs down)."""
+    import manifold3d as m3d
 
-
-def _small_pieces(chosen, neighbours, area, limit):
-    """The ``chosen`` triangles in edge-connected pieces of ``chosen`` with area below ``limit``."""
-    k = np.flatnonzero(chosen)
-    index = np.full(len(chosen), -1)
-    index[k] = np.arange(len(k))
-    rows = np.repeat(np.arange(len(k)), 3)
-    cols = index[neighbours[k]].ravel()
-    keep = (cols >= 0) & (neighbours[k].ravel() >= 0)
-    graph = coo_matrix((np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(len(k), len(k)))
-    _, label = connected_components(graph, directed=False)
-    small = np.zeros(len(chosen), bool)
-    small[k] = np.bincount(label, weights=area[k])[label] < limit
-    return small
+    solid = m3d.Manifold(m3d.Mesh64(vert_properties=np.ascontiguousarray(vertices, np.float64),
+                                    tri_verts=np.ascontiguousarray(np.asarray(faces)[:, ::-1],
+                                                                   np.uint64)))
+    if solid.status() != m3d.Error.NoError:
+        raise StageError(f"union: part {name} is not a closed manifold ({solid.status().name})")
+    return solid
 
 
 def _sheets(part):
@@ -341,33 +260,13 @@ def _sheets(part):
     return v, f[area < 0], f[area > 0]
 
 
-def _sample(vertices, faces, points, tol):
-    """Which points lie on the faces in (x, y) (within ``tol``), and the faces' z there."""
-    import igl
+def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
+                 iterations=_ITERATIONS):
+    """The faces of a closed solid around its slivers remeshed (PyMeshLab), then repaired.
 
-    hit = np.zeros(len(points), bool)
-    z = np.zeros(len(points))
-    lo, hi = vertices[:, :2].min(axis=0) - tol, vertices[:, :2].max(axis=0) + tol
-    box = np.flatnonzero(((points >= lo) & (points <= hi)).all(axis=1))
-    if len(box) == 0 or len(faces) == 0:
-        return hit, z[hit]
-    flat = np.column_stack([vertices[:, :2], np.zeros(len(vertices))])
-    query = np.column_stack([points[box], np.zeros(len(box))])
-    d2, face, near = igl.point_mesh_squared_distance(query, flat, faces)
-    t = vertices[faces[face]]
-    e1, e2, r = t[:, 1, :2] - t[:, 0, :2], t[:, 2, :2] - t[:, 0, :2], near[:, :2] - t[:, 0, :2]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
-    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-    hit[box] = d2 <= tol * tol
-    z[box] = t[:, 0, 2] + l1 * (t[:, 1, 2] - t[:, 0, 2]) + l2 * (t[:, 2, 2] - t[:, 0, 2])
-    return hit, z[hit]
-
-
-def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, iterations=_ITERATIONS):
-    """Isotropic remeshing of a closed solid (PyMeshLab), then its slivers removed.
-
-    The whole surface is remeshed toward edges of length ``target``;
+    Only where a face has an angle below ``min_angle``: those faces and
+    ``rings`` rings of faces around them are remeshed (isotropic explicit
+    remeshing, selected faces only) toward edges of length ``target``;
     creases sharper than 89 degrees (the steps between parts) are kept as
     features. The remeshing leaves a few slivers along those creases; each
     is then flipped (a cap whose long edge lies in a flat stretch),
@@ -376,19 +275,20 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, iterations=_IT
     foot of its far corner, making two needles), only where this turns no
     face by more than 30 degrees and raises the smallest angle around it (an
     edge shorter than a quarter of the median edge may be collapsed however
-    far its faces turn, short of folding one over). Then every vertex of a
-    face that crosses another is moved to the centroid of its neighbours (or
-    halfway) where that leaves fewer crossings and no angle below
-    ``min_angle`` (``_untangle``), and the patches around faces still bad
-    (an angle below ``min_angle`` or crossing another) are re-triangulated
-    (:func:`~inkray.relief.patches.repair_patches`). When faces are left bad,
-    further remeshing rounds (up to three) run while the local fixes leave a
-    sliver, and the round with the largest smallest angle (the last of
-    equals) is repaired the same way and kept. The remeshed surface is
-    returned only when it is still watertight and edge-manifold (a round
-    that is not ends the rounds; when the first is not, the input comes back
-    unchanged), and without the sliver fixes (the re-triangulation) when
-    they would break that or put two vertices at one position.
+    far its faces turn, short of folding one over). The patches around
+    faces still bad (an angle below ``min_angle``, or crossing another,
+    also once rounded to float32 as files store them) are re-triangulated
+    (:func:`~inkray.relief.patches.repair_patches`). Faces crossing another
+    are looked for only near the faces that changed: the input is taken to
+    cross itself nowhere (as manifold3d's booleans leave it). While faces
+    are left bad this runs again (up to 3 rounds) on them, with two more
+    rings and twice the iterations each round; the round leaving the fewest
+    bad faces is kept, and where it leaves some, every vertex of a face that
+    crosses another is moved to the centroid of its neighbours (or halfway)
+    where that leaves fewer crossings and no angle below ``min_angle``
+    (``_untangle``), and the patches are repaired once more. A step whose
+    result is not watertight and edge-manifold (or puts two vertices at one
+    position) is skipped.
 
     Parameters
     ----------
@@ -398,88 +298,143 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, iterations=_IT
     target : float
         Edge length to aim for (same units as the vertices).
     min_angle : float, default 10
+    rings : int, default 2
+        Rings of faces remeshed around each sliver.
     iterations : int, default 4
-        Of the first remeshing (the further rounds take 4).
+        Of the remeshing.
 
     Returns
     -------
     vertices : (n', 3) float array
     faces : (m', 3) int64 array
+        The input itself where no face has an angle below ``min_angle``.
 
     Examples
     --------
-    >>> import manifold3d as m3d
-    >>> cube = m3d.Manifold.cube([10.0, 10.0, 1.0]).to_mesh()
-    >>> v, f = remesh_solid(np.asarray(cube.vert_properties, float), np.asarray(cube.tri_verts), target=1.0)
-    >>> bool(_min_angles(v, f).min() >= 10.0), len(f) > 100
+    >>> v = np.array([[0., 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 0.5]])  # a thin tetrahedron
+    >>> f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    >>> w, g = remesh_solid(v, f, target=1.0)
+    >>> bool(_min_angles(w, g).min() >= 10.0), _closed_manifold(g)
     (True, True)
     """
+    v, f = np.asarray(vertices, float), np.asarray(faces, np.int64)
+    bad = _min_angles(v, f) < min_angle
+    best = (int(bad.sum()), v, f, bad)
+    for k in range(_ROUNDS):
+        if not bad.any():
+            break
+        # each round on a wider patch, longer
+        w, g = _remesh_around(v, f, bad, target=target, min_angle=min_angle,
+                              rings=rings + 2 * k, iterations=iterations * 2 ** k)
+        v, f, bad = _repair(w, g, target=target, min_angle=min_angle,
+                            near=_suspects(v, f, bad, w, g))
+        if bad.sum() < best[0]:
+            best = (int(bad.sum()), v, f, bad)
+    count, v, f, bad = best
+    if count:
+        # vertices of faces folded through others moved one at a time: slow, so only
+        # around the few faces the rounds leave
+        w, g, bad = _repair(v, f, target=target, min_angle=min_angle,
+                            near=_near_faces(v, f, bad), untangle=True)
+        if bad.sum() < count:
+            v, f = w, g
+    return v, f
+
+
+def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
+    """The ``bad`` faces and ``rings`` rings around them remeshed, then their slivers
+    fixed (each step kept where its result is closed and manifold)."""
     import pymeshlab
 
-    v, f = np.asarray(vertices, float), np.asarray(faces, np.int32)
     ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=v, face_matrix=f))
-    length = pymeshlab.PureValue(float(target))
-    ms.meshing_isotropic_explicit_remeshing(iterations=iterations, targetlen=length,
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=v, face_matrix=f.astype(np.int32),
+                               f_scalar_array=bad.astype(float)))
+    ms.compute_selection_by_condition_per_face(condselect="fq > 0.5")
+    for _ in range(rings):
+        ms.apply_selection_dilatation()
+    ms.meshing_isotropic_explicit_remeshing(iterations=iterations, selectedonly=True,
+                                            targetlen=pymeshlab.PureValue(float(target)),
                                             featuredeg=89.0, checksurfdist=False)
-    best = None  # (smallest angle, vertices, faces) of the best round so far
-    first = None  # the first round repaired, and its bad faces left
-    for rounds in range(_FIX_ROUNDS + 1):
-        m = ms.current_mesh()
-        m.compact()
-        nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
-        if not _closed_manifold(nf):
-            if best is None:
-                return v, f.astype(np.int64)
-            break
-        fv, ff = _SliverFix(nv, nf).run(min_angle)
-        if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
-            fv, ff = nv, nf
-        if rounds == 0:
-            # most solids are done here: the further rounds cost minutes on large ones
-            first = _repair(fv, ff, target=target, min_angle=min_angle)
-            if first[2] == 0:
-                return first[0], first[1]
-        smallest = _min_angles(fv, ff).min(initial=180.0)
-        # a round may leave worse needles than the one before (the fox: 1.8, 0.6,
-        # 0.01, 0.0 degrees): the best round is kept, not the last
-        if best is None or smallest >= best[0]:  # ties: the later round
-            best = (smallest, fv, ff, rounds)
-        if rounds == _FIX_ROUNDS or smallest >= min_angle:
-            break
-        # the remeshing goes on from its own mesh, not the fixed one; (remeshing only the
-        # slivers would be cheaper, but PyMeshLab's selected-only remeshing depends on
-        # earlier calls: the output would too)
-        ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=length, featuredeg=89.0,
-                                                checksurfdist=False)
-    if best[3] == 0:
-        return first[0], first[1]
-    fv, ff, _ = _repair(best[1], best[2], target=target, min_angle=min_angle)
+    m = ms.current_mesh()
+    m.compact()
+    nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
+    if not _closed_manifold(nf):
+        nv, nf = v, f
+    fv, ff = _SliverFix(nv, nf).run(min_angle)
+    if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
+        return nv, nf
     return fv, ff
 
 
-def _repair(vertices, faces, *, target, min_angle):
-    """Vertices moved off the faces they fold through, then the patches around faces
-    still bad re-triangulated; with the number of faces bad after both."""
-    v, crossing = _untangle(vertices, faces, min_angle=min_angle)
-    bad = bad_faces(v, faces, min_angle=min_angle, crossing=crossing)
+def _new_faces(old_vertices, old_faces, vertices, faces):
+    """Which faces are not among the old ones (compared by their corners' positions)."""
+    _, ids = np.unique(np.concatenate([old_vertices, vertices]), axis=0, return_inverse=True)
+    ids = ids.ravel()
+    old = np.sort(ids[:len(old_vertices)][old_faces], axis=1)
+    new = np.sort(ids[len(old_vertices):][faces], axis=1)
+    _, key = np.unique(np.concatenate([old, new]), axis=0, return_inverse=True)
+    key = key.ravel()
+    return ~np.isin(key[len(old):], key[:len(old)])
+
+
+def _near_faces(vertices, faces, chosen):
+    """The ``chosen`` faces and every face whose bounding sphere meets one of theirs."""
+    t = np.asarray(vertices, float)[faces]
+    centre = t.mean(axis=1)
+    radius = np.linalg.norm(t - centre[:, None], axis=2).max(axis=1)
+    near = np.asarray(chosen, bool).copy()
+    if near.any():
+        tree = cKDTree(centre[near])
+        reach = radius + radius[near].max()
+        near |= tree.query_ball_point(centre, reach, return_length=True) > 0
+    return near
+
+
+def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
+    """The patches around bad faces re-triangulated (after vertices moved off the faces
+    they fold through, with ``untangle``). Faces crossing another are looked for among
+    the ``near`` faces only. Returns the vertices, the faces and which are left bad."""
+    from inkray.numerics.tri_intersection import self_intersecting_faces
+
+    if untangle:
+        v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
+    else:
+        v, crossing = vertices, np.zeros(len(faces), bool)
+        crossing[near] = self_intersecting_faces(v, faces[near])
+    bad = _bad_near(v, faces, near, min_angle=min_angle, crossing=crossing)
     if not bad.any():
-        return v, faces, 0
+        return v, faces, bad
     rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
     if not _closed_manifold(rf):
-        return v, faces, int(bad.sum())
-    return rv, rf, int(bad_faces(rv, rf, min_angle=min_angle).sum())
+        return v, faces, bad
+    return rv, rf, _bad_near(rv, rf, _suspects(v, faces, bad, rv, rf), min_angle=min_angle)
 
 
-def _untangle(vertices, faces, *, min_angle, rounds=3):
+def _suspects(old_vertices, old_faces, old_bad, vertices, faces):
+    """The faces that may cross another after a change of a mesh whose faces crossed
+    none but its ``old_bad`` ones: those that are new or were bad, and those near them."""
+    new = _new_faces(old_vertices, old_faces, vertices, faces)
+    kept_bad = ~_new_faces(old_vertices, old_faces[old_bad], vertices, faces)
+    return _near_faces(vertices, faces, new | kept_bad)
+
+
+def _bad_near(vertices, faces, near, *, min_angle, crossing=None):
+    """Faces with an angle below ``min_angle``, and ``near`` faces crossing another."""
+    bad = _min_angles(vertices, faces) < min_angle
+    bad[near] |= bad_faces(vertices, faces[near], min_angle=min_angle,
+                           crossing=None if crossing is None else crossing[near])
+    return bad
+
+
+def _untangle(vertices, faces, *, min_angle, near, rounds=3):
     """Vertices of a mesh moved, one at a time, off the faces they fold through.
 
-    Each vertex of a face that crosses another is tried at the centroid of
-    its neighbours and halfway there; a move is kept when it leaves fewer
-    crossing faces around it and no angle of its faces below ``min_angle``
-    (or below the smallest one there before). Only positions change, so the
-    mesh stays as closed and manifold as it was. Returns the vertices and which
-    faces still cross another.
+    Each vertex of a ``near`` face that crosses another ``near`` face is
+    tried at the centroid of its neighbours and halfway there; a move is
+    kept when it leaves fewer crossing faces around it and no angle of its
+    faces below ``min_angle`` (or below the smallest one there before). Only
+    positions change, so the mesh stays as closed and manifold as it was.
+    Returns the vertices and which faces still cross another.
     """
     from inkray.numerics.tri_intersection import self_intersecting_faces
 
@@ -493,7 +448,12 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
     order = np.argsort(flat, kind="stable")
     start = np.searchsorted(flat[order], np.arange(n + 1))
 
-    bad = self_intersecting_faces(v, f)
+    def crossing():
+        bad = np.zeros(len(f), bool)
+        bad[near] = self_intersecting_faces(v, f[near])
+        return bad
+
+    bad = crossing()
     for _ in range(rounds):
         if not bad.any():
             break
@@ -506,12 +466,12 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
             here = v[x].copy()
             lo = np.minimum(flo[around].min(axis=0), centroid)
             hi = np.maximum(fhi[around].max(axis=0), centroid)
-            near = f[np.flatnonzero((flo <= hi).all(axis=1) & (fhi >= lo).all(axis=1))]
-            before = int(self_intersecting_faces(v, near).sum())
+            near_x = f[np.flatnonzero((flo <= hi).all(axis=1) & (fhi >= lo).all(axis=1))]
+            before = int(self_intersecting_faces(v, near_x).sum())
             worst = min(min_angle, float(_min_angles(v, f[around]).min()))
             for p in (centroid, 0.5 * (here + centroid)):
                 v[x] = p
-                if (self_intersecting_faces(v, near).sum() < before
+                if (self_intersecting_faces(v, near_x).sum() < before
                         and _min_angles(v, f[around]).min() >= worst):
                     moved = True
                     t = v[f[around]]
@@ -520,7 +480,7 @@ def _untangle(vertices, faces, *, min_angle, rounds=3):
                 v[x] = here
         if not moved:
             break
-        bad = self_intersecting_faces(v, f)
+        bad = crossing()
     return v, bad
 
 
@@ -666,8 +626,11 @@ class _SliverFix:
 
 def _normal(tris):
     """Unit normals of triangles given by their corners (..., 3, 3)."""
-    n = np.cross(tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :])
-    return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    u, w = tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
+    n = np.stack([u[..., 1] * w[..., 2] - u[..., 2] * w[..., 1],
+                  u[..., 2] * w[..., 0] - u[..., 0] * w[..., 2],
+                  u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]], axis=-1)
+    return n / np.maximum(np.sqrt((n * n).sum(axis=-1, keepdims=True)), 1e-300)
 
 
 def shell_parts(solid, parts):

@@ -318,9 +318,10 @@ def min_angles(vertices, faces):
     array([45.])
     """
     t = np.asarray(vertices, float)[np.asarray(faces)]
-    out = []
-    for i in range(3):
-        a, b = t[:, (i + 1) % 3] - t[:, i], t[:, (i + 2) % 3] - t[:, i]
-        norm = np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-        out.append(np.degrees(np.arccos(np.clip((a * b).sum(axis=1) / norm, -1.0, 1.0))))
-    return np.min(out, axis=0)
+    d = t[:, [1, 2, 0]] - t
+    squared = np.einsum("ijk,ijk->ij", d, d)
+    squared.sort(axis=1)
+    # the smallest angle lies opposite the shortest edge (law of cosines)
+    a, b, c = squared[:, 0], squared[:, 1], squared[:, 2]
+    cos = (b + c - a) / np.maximum(2.0 * np.sqrt(b * c), 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
