@@ -177,8 +177,12 @@ def _retriangulate(v, pf, *, target, min_angle):
     k = np.arange(len(loop))
     area = np.sqrt(3.0) / 4.0 * target ** 2
     # Y: no point on the boundary, which the faces around the patch share
-    tri = triangle.triangulate({"vertices": poly, "segments": np.column_stack([k, np.roll(k, -1)])},
-                               f"pYQq{max(min_angle, 20.0):g}a{area:.9g}")
+    try:
+        tri = triangle.triangulate({"vertices": poly,
+                                    "segments": np.column_stack([k, np.roll(k, -1)])},
+                                   f"pYQq{max(min_angle, 20.0):g}a{area:.9g}")
+    except RuntimeError:  # Triangle gives up on a nearly degenerate patch: the patch stays
+        return None
     xy, tris = np.asarray(tri["vertices"], float), np.asarray(tri["triangles"], np.int64)
     if len(xy) < len(loop) or not np.array_equal(xy[:len(loop)], poly):
         return None
