@@ -31,7 +31,8 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
-from inkray.numerics.registration import arap_register, warp_points
+from inkray.numerics.registration import (arap_register, arap_segments, rigid_segments,
+                                          warp_points)
 from inkray.segmentation import INK_THRESHOLD, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
@@ -40,6 +41,9 @@ __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
 CHECK = 0.6
 #: Scribbles are carried as points this far apart (pixels), then simplified.
 _STEP = 3.0
+#: A part moves by its own rigid motion when that leaves its ink at most this
+#: share of the distance from the frame's ink the registration leaves it.
+_OWN = 0.7
 
 
 @dataclass
@@ -163,7 +167,17 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     key_ink = np.clip(1.0 - key.gray, 0, 1)
     frame_ink = np.clip(1.0 - frame.gray, 0, 1)
     reg = arap_register(key_ink, frame_ink, spacing=spacing)
-    carried = _pull_back(key_labels, reg.displacement)
+    # A part that swings further than the smooth registration follows moves
+    # by its own rigid motion, where that brings its ink clearly closer.
+    rigid = rigid_segments(key_ink, frame_ink, key_labels, reg, radius=reach)
+    moved = {k: m for k, m in rigid.items() if m.cost < m.base_cost}
+    local = arap_segments(key_ink, frame_ink, key_labels, moved, spacing=max(2, spacing // 2))
+    motions = {}
+    for k, m in moved.items():
+        best = min((m, local.get(k, m)), key=lambda x: x.cost)
+        if best.cost < _OWN * m.base_cost:
+            motions[k] = best
+    carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
     places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
     conf = reg.confidence
     h, w = key_labels.shape
@@ -177,6 +191,9 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         """Points carried into their parts: new points, distances moved, scores."""
         points = np.asarray(points, float).reshape(-1, 2)
         moved = warp_points(reg, points)
+        for lab in set(labels) & set(motions):
+            on = np.asarray(labels) == lab
+            moved[on] = motions[lab].apply(points[on])
         out = np.empty_like(moved)
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
@@ -314,6 +331,33 @@ class _Places:
                 p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
                 return p, float(np.hypot(*(p - q)))
         return q, np.inf
+
+
+def _paint_parts(carried, key_labels, motions):
+    """``carried`` with each part of ``motions`` put where its own motion takes it.
+
+    Larger parts first, so that a limb moved over the body stays on top.
+    """
+    out = carried.copy()
+    h, w = out.shape
+    area = {k: np.count_nonzero(key_labels == k) for k in motions}
+    for k in sorted(motions, key=lambda k: -area[k]):
+        out[out == k] = -2  # where the smooth registration put it: nobody's
+        ky, kx = np.nonzero(key_labels == k)
+        if not len(kx):
+            continue
+        q = np.rint(motions[k].apply(np.stack([kx, ky], axis=1).astype(float))).astype(int)
+        q = q[(q[:, 0] >= 0) & (q[:, 1] >= 0) & (q[:, 0] < w) & (q[:, 1] < h)]
+        if not len(q):
+            continue
+        x0, y0 = np.maximum(q.min(axis=0) - 2, 0)
+        x1, y1 = np.minimum(q.max(axis=0) + 3, [w, h])
+        mask = np.zeros((y1 - y0, x1 - x0), bool)
+        mask[q[:, 1] - y0, q[:, 0] - x0] = True
+        # Forward-moved pixels leave pinholes where the part stretches: close them.
+        mask = ndimage.binary_closing(mask, iterations=1)
+        out[y0:y1, x0:x1][mask] = k
+    return out
 
 
 def _pull_back(labels, displacement, iterations=8, step=4):
