@@ -177,9 +177,14 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         best = min((m, local.get(k, m)), key=lambda x: x.cost)
         if best.cost < _OWN * m.base_cost:
             motions[k] = best
+    # How well each part's lines land on the frame's, from the mean distance
+    # of its ink to the frame's ink under the motion it moved by.
+    fit = {k: float(np.exp(-((motions[k].cost if k in motions else m.base_cost)
+                             / (spacing / 4)) ** 2)) for k, m in rigid.items()}
     carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
     places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
     conf = reg.confidence
+    frame_far = (ndimage.distance_transform_edt(frame.gray >= INK_THRESHOLD) > spacing).astype(float)
     h, w = key_labels.shape
 
     def label_at(p):
@@ -198,7 +203,17 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
             out[i], snap[i] = places.place(q, lab)
-        match = _sample(conf, points) * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
+        # A point of a part matches as well as its part does (and no better than
+        # the drawings agree around it, where it moved with the registration);
+        # a background point far from any line of the frame is surely background.
+        local = _sample(conf, points)
+        labels = np.asarray(labels)
+        part = np.array([fit.get(lab, 1.0) for lab in labels])
+        own = np.isin(labels, list(motions))
+        match = np.where(own, part, np.minimum(local, part))
+        clear = _sample(frame_far, out, order=0) > 0.5
+        match = np.where((labels < 0) & clear, 1.0, match)
+        match = match * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
         return out, np.linalg.norm(out - points, axis=1), match
 
     entries, warnings = [], []
@@ -272,17 +287,22 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
         return out
 
+    named = [item[2] for item in order + equal]
     order = settle(order, order_scores, "front", "back")
     equal = settle(equal, equal_scores, "a", "b")
     draft = replace(draft, order=order, equal=equal)
+    part_match = {-1: 1.0}
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
-        check(f"regions[{i}]", mv, min(mt, _overlap(carried == i, labels == i)), name=r.name)
+        part_match[i] = min(mt, _overlap(carried == i, labels == i))
+        check(f"regions[{i}]", mv, part_match[i], name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
-        check(f"background[{j}]", mv, mt)
-    for e, (mv, mt) in zip(order, order_scores):
-        check(f"order[{e.index}]", mv, mt)
-    for e, (mv, mt) in zip(equal, equal_scores):
-        check(f"equal[{e.index}]", mv, mt)
+        # Paper between parts is as sure as the parts around it.
+        near = _labels_near(labels, background[j], frame_far, spacing)
+        check(f"background[{j}]", mv, min([mt] + [part_match[p] for p in near]))
+    # A relation is no surer than the parts it names.
+    for e, (mv, mt), parts in zip(order + equal, order_scores + equal_scores, named):
+        kind = "order" if e in order else "equal"
+        check(f"{kind}[{e.index}]", mv, min([mt] + [part_match[p] for p in parts]))
 
     boundaries = []
     for b in annotations.boundaries:
@@ -382,9 +402,9 @@ def _pull_back(labels, displacement, iterations=8, step=4):
     return labels[iy, ix]
 
 
-def _sample(image, points):
+def _sample(image, points, order=1):
     p = np.asarray(points, float).reshape(-1, 2)
-    return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=1, mode="nearest")
+    return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=order, mode="nearest")
 
 
 def _overlap(a, b):
@@ -420,6 +440,20 @@ def _simplify(points, tolerance):
             keep[i + 1 + k] = True
             stack += [(i, i + 1 + k), (i + 1 + k, j)]
     return points[keep]
+
+
+def _labels_near(labels, points, far, radius):
+    """The labels ``>= 0`` within ``radius`` of the ``points`` not on ``far``."""
+    h, w = labels.shape
+    r = int(np.ceil(radius))
+    found = set()
+    for x, y in np.rint(np.asarray(points, float)).astype(int):
+        x, y = min(max(x, 0), w - 1), min(max(y, 0), h - 1)
+        if far[y, x] > 0.5:
+            continue
+        window = labels[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1]
+        found.update(int(v) for v in np.unique(window) if v >= 0)
+    return sorted(found)
 
 
 def _outline(labels, a, b):

@@ -512,7 +512,7 @@ class RigidMotion:
 
 
 def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radius=32.0,
-                   clip=6.0, attach=0.15, samples=160, tolerance=0.75):
+                   clip=6.0, attach=0.3, samples=160, tolerance=0.75):
     """Each labelled segment of ``source`` moved rigidly onto ``target``'s ink.
 
     A smooth registration cannot follow a limb that swings far while the rest
