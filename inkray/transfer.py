@@ -31,8 +31,8 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
-from inkray.numerics.registration import (arap_register, arap_segments, rigid_segments,
-                                          warp_points)
+from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
+                                          rigid_segments, warp_points)
 from inkray.segmentation import INK_THRESHOLD, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
@@ -339,6 +339,13 @@ class _Places:
         y0, x0 = max(y - r, 0), max(x - r, 0)
         window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
         mask = self.paper[window] & (self.carried[window] == label)
+        # Already well inside its part (what the erosion below would keep): stays.
+        ball = mask[max(y - y0 - 2, 0):y - y0 + 3, max(x - x0 - 2, 0):x - x0 + 3]
+        cy, cx = min(y - y0, 2), min(x - x0, 2)
+        near = np.abs(np.arange(ball.shape[0])[:, None] - cy) \
+            + np.abs(np.arange(ball.shape[1])[None, :] - cx) <= 2
+        if ball[near].all():
+            return q, 0.0
         # Aim a little inside the part, not onto the pixel next to its line.
         inner = ndimage.binary_erosion(mask, iterations=2, border_value=1)
         for m in (inner, mask):
@@ -393,12 +400,9 @@ def _pull_back(labels, displacement, iterations=8, step=4):
         ux = ndimage.map_coordinates(displacement[..., 0], [py, px], order=1, mode="nearest")
         uy = ndimage.map_coordinates(displacement[..., 1], [py, px], order=1, mode="nearest")
         px, py = xs - ux, ys - uy
-    fy, fx = np.mgrid[:h, :w].astype(float)
-    coarse = [fy / step, fx / step]
-    vx = ndimage.map_coordinates(px - xs, coarse, order=1, mode="nearest")
-    vy = ndimage.map_coordinates(py - ys, coarse, order=1, mode="nearest")
-    ix = np.clip(np.rint(fx + vx), 0, w - 1).astype(int)
-    iy = np.clip(np.rint(fy + vy), 0, h - 1).astype(int)
+    v = lattice_interpolate(np.stack([px - xs, py - ys], axis=-1), step, (h, w))
+    ix = np.clip(np.rint(np.arange(w)[None, :] + v[..., 0]), 0, w - 1).astype(int)
+    iy = np.clip(np.rint(np.arange(h)[:, None] + v[..., 1]), 0, h - 1).astype(int)
     return labels[iy, ix]
 
 

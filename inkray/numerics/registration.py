@@ -35,10 +35,10 @@ from scipy import ndimage
 
 from inkray.errors import InputError
 from inkray.numerics.grid import grid_laplacian
-from inkray.numerics.spd import min_quad_with_fixed
+from inkray.numerics.spd import MinQuadWithFixed
 
 __all__ = ["LocalField", "Registration", "RigidMotion", "arap_register", "arap_segments",
-           "rigid_segments", "warp_points"]
+           "lattice_interpolate", "rigid_segments", "warp_points"]
 
 #: Blocks that agree less than this (the score of their best shift) are trimmed:
 #: they take no part in the rigid fits and follow their neighbours.
@@ -231,10 +231,37 @@ class _NodeField:
                          for c in (0, 1)], axis=-1)
 
     def dense(self, shape):
-        # Bilinear on a regular lattice is separable: two sparse matrix products.
-        ay = _hat_matrix(shape[0], self.u.shape[0], self.spacing)
-        ax = _hat_matrix(shape[1], self.u.shape[1], self.spacing)
-        return np.stack([(ax @ (ay @ self.u[..., c]).T).T for c in (0, 1)], axis=-1)
+        return lattice_interpolate(self.u, self.spacing, shape)
+
+
+def lattice_interpolate(values, spacing, shape):
+    """Bilinear interpolation of values on a lattice to every pixel.
+
+    Parameters
+    ----------
+    values : (ny, nx) or (ny, nx, c) float array
+        Values at the lattice points ``(x, y) = (j spacing, i spacing)``.
+    spacing : int
+    shape : (h, w)
+        The image; pixels beyond the last lattice point take its values.
+
+    Returns
+    -------
+    (h, w) or (h, w, c) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lattice_interpolate(np.array([[0.0, 4.0]]), 4, (1, 6)).tolist()
+    [[0.0, 1.0, 2.0, 3.0, 4.0, 4.0]]
+    """
+    values = np.asarray(values, float)
+    # Bilinear on a regular lattice is separable: two sparse matrix products.
+    ay = _hat_matrix(shape[0], values.shape[0], spacing)
+    ax = _hat_matrix(shape[1], values.shape[1], spacing)
+    if values.ndim == 2:
+        return (ax @ (ay @ values).T).T
+    return np.stack([(ax @ (ay @ values[..., c]).T).T for c in range(values.shape[2])], axis=-1)
 
 
 def _hat_matrix(n, nodes, spacing):
@@ -435,11 +462,8 @@ def _fill(u, known):
     ny, nx = known.shape
     L = grid_laplacian(np.ones((ny, nx - 1)), np.ones((ny - 1, nx)))
     flat = known.reshape(-1)
-    out = np.empty_like(u)
-    for c in (0, 1):
-        values = u[..., c].reshape(-1)
-        out[..., c] = min_quad_with_fixed(L, np.zeros(flat.size), flat, values[flat]).reshape(ny, nx)
-    return out
+    # One factorization for both components.
+    return MinQuadWithFixed(L, flat).solve(Y=u.reshape(-1, 2)[flat]).reshape(u.shape)
 
 
 def _confidence(source, target, displacement, *, scale):
