@@ -183,6 +183,16 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
                              / (spacing / 4)) ** 2)) for k, m in rigid.items()}
     carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
     places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
+    nearest = {}
+
+    def nearest_paper(q):
+        if "index" not in nearest:  # rarely needed: computed once, when it is
+            nearest["index"] = ndimage.distance_transform_edt(
+                frame.gray < INK_THRESHOLD, return_distances=False, return_indices=True)
+        iy, ix = nearest["index"]
+        x = int(np.clip(np.rint(q[0]), 0, w - 1))
+        y = int(np.clip(np.rint(q[1]), 0, h - 1))
+        return np.array([ix[y, x], iy[y, x]], float)
     conf = reg.confidence
     frame_far = (ndimage.distance_transform_edt(frame.gray >= INK_THRESHOLD) > spacing).astype(float)
     h, w = key_labels.shape
@@ -203,6 +213,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
             out[i], snap[i] = places.place(q, lab)
+            if not np.isfinite(snap[i]):
+                # No paper of its part within reach: off the ink at least (and
+                # scored 0), so that the frame can be segmented.
+                out[i] = nearest_paper(q)
         # A point of a part matches as well as its part does (and no better than
         # the drawings agree around it, where it moved with the registration);
         # a background point far from any line of the frame is surely background.

@@ -588,7 +588,8 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
     labels = np.asarray(labels)
     if source.shape != target.shape or labels.shape != source.shape:
         raise InputError("registration: source, target and labels must have one shape")
-    dist = np.minimum(ndimage.distance_transform_edt(target < 0.5), clip)
+    edt = ndimage.distance_transform_edt(target < 0.5)
+    dist, far = np.minimum(edt, clip), np.minimum(edt, 3 * clip)
     ink = source >= 0.5
     out = {}
     for k, window in _segment_windows(labels, 5):
@@ -601,34 +602,43 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
         origin = np.array([window[1].start, window[0].start], float)
         p = np.stack([px[pick], py[pick]], axis=1) + origin
         g = warp_points(registration, p)
-        pivot = p.mean(axis=0)
-        theta0 = _procrustes_angle(p - pivot, g - g.mean(axis=0))
-        t0 = g.mean(axis=0) - pivot
         others = ndimage.binary_dilation((labels[window] >= 0) & ~mask, iterations=3) & mask
         ay, ax = np.nonzero(others)
         a = np.stack([ax, ay], axis=1)[::max(1, len(ax) // 60)] + origin
         goal = warp_points(registration, a)
+        # A limb turns about where it is attached: rotations about there need
+        # the smallest translations.
+        pivot = a.mean(axis=0) if len(a) else p.mean(axis=0)
+        theta0 = _procrustes_angle(p - p.mean(axis=0), g - g.mean(axis=0))
+        t0 = g.mean(axis=0) - _rotate(p.mean(axis=0) - pivot, theta0) - pivot
         base = float(_chamfer(dist, g[None], clip)[0])
-        best = (np.inf, theta0, t0)
         if base <= tolerance:
             out[int(k)] = RigidMotion(angle=theta0, pivot=pivot, translation=t0, cost=base,
                                       base_cost=base)
             continue
-        for step_a, step_t, span_a, span_t in ((5.0, 4.0, max_angle, radius), (1.0, 1.0, 4.0, 3.0)):
-            theta_c, t_c = best[1], best[2]
-            angles = theta_c + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a))
+
+        def search(centre, span_a, step_a, span_t, step_t, field, cut):
+            """The best (cost, angle, shift) per angle tried around ``centre``."""
             r = np.arange(-span_t, span_t + 1e-9, step_t)
-            shifts = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2) + t_c
-            for th in angles:
-                q = _rotate(p - pivot, th) + pivot
-                cost = _chamfer(dist, q[None] + shifts[:, None], clip)
+            shifts = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2) + centre[2]
+            found = []
+            for th in centre[1] + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a)):
+                cost = _chamfer(field, _rotate(p - pivot, th)[None] + pivot + shifts[:, None], cut)
                 if len(a):
                     qa = _rotate(a - pivot, th) + pivot
-                    cost = cost + attach * np.linalg.norm(qa[None] + shifts[:, None] - goal[None],
-                                                          axis=2).mean(axis=1)
+                    gap = np.linalg.norm(qa[None] + shifts[:, None] - goal[None], axis=2)
+                    cost = cost + attach * np.minimum(gap, cut).mean(axis=1)
                 j = int(cost.argmin())
-                if cost[j] < best[0] - 1e-12:
-                    best = (float(cost[j]), float(th), shifts[j].copy())
+                found.append((float(cost[j]), float(th), shifts[j].copy()))
+            return found
+
+        # Coarse steps on distances clipped far (a smooth cost, so that a thin
+        # line's narrow basin is not stepped over), then the few best angles
+        # refined on the near distances.
+        coarse = search((0.0, theta0, t0), max_angle, 5.0, radius, 4.0, far, 3 * clip)
+        best = (np.inf, theta0, t0)
+        for start in sorted(coarse, key=lambda c: c[0])[:3]:
+            best = min([best] + search(start, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
         motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0,
                              base_cost=base)
         motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip)[0])
