@@ -116,10 +116,10 @@ def test_the_command_writes_the_annotation_and_its_report(tmp_path):
 
 
 def test_a_limb_turned_further_than_the_registration_follows_keeps_its_entries():
-    # One frame with the far arm turned by 30 degrees: its scribbles, and the
+    # One frame with the far arm turned by 44 degrees: its scribbles, and the
     # order entries naming it, go with the arm (its own motion), not with the
     # body around it.
-    shot = make_shot("figure", 2, angle=30.0)
+    shot = make_shot("figure", 2, angle=44.0)
     ann, key = shot.truths[0], shot.frames[0]
     frame = shot.frames[1]
     carried = transfer_annotations(ann, key, frame)
