@@ -3,8 +3,12 @@
 The key's drawing is registered onto the frame as rigidly as possible
 (:func:`inkray.numerics.registration.arap_register`, after Sýkora, Dingliana
 and Collins, "As-rigid-as-possible image registration for hand-drawn cartoon
-animations", NPAR 2009, the application its Fig. 1 names), and every entry of
-the annotation moves with the registration:
+animations", NPAR 2009, the application its Fig. 1 names). A part the smooth
+registration does not follow (a leg swinging far while the body stays) gets
+its own motion: a rigid chamfer search from the registration's fit, then the
+part's own ARAP registration (Borgefors, "Hierarchical chamfer matching",
+PAMI 1988, for the matching). Every entry of the annotation moves with its
+part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
@@ -16,11 +20,14 @@ the annotation moves with the registration:
   separate in the key (the frame segmented with the carried scribbles).
 
 Names, inflation and profile are kept. Each entry gets a match score: how
-well the drawings agree around its points after registration, lowered where a
+close its part's lines land to the frame's (and, where it moved with the
+registration, how well the drawings agree around its points), lowered where a
 point had to move far to find its part, and for a region by how much of the
-part carried from the key the frame's segmentation gives it; along a chain
-of frames the scores multiply. Entries scoring below a threshold are named
-in warnings, ``"order[3]: moved 14 px, match 0.41: check it"``.
+part carried from the key the frame's segmentation gives it; a relation is no
+surer than the parts it names, paper between parts no surer than the parts
+around it; along a chain of frames the scores multiply. Entries scoring below
+a threshold are named in warnings, ``"order[3]: moved 14 px, match 0.41:
+check it"``.
 """
 
 from dataclasses import dataclass, field, replace

@@ -25,6 +25,11 @@ in their block take the harmonic interpolation of the others, and the dense
 field is the bilinear interpolation of the lattice. The match confidence of a
 pixel is the same agreement score of the registered drawings in a window
 around it (or of the nearest window that holds ink).
+
+Labelled segments of the source (a limb) can then be moved on their own
+(:func:`rigid_segments`: chamfer matching, after Borgefors, "Hierarchical
+chamfer matching: a parametric edge matching algorithm", PAMI 1988, over
+rigid motions; :func:`arap_segments`: the registration above from there).
 """
 
 from dataclasses import dataclass
