@@ -121,7 +121,7 @@ def test_a_limb_turned_far_is_found_by_its_own_rigid_motion():
     assert np.linalg.norm(warp_points(reg, tip) - truth) > 5
     assert np.linalg.norm(limb.apply(tip) - truth) < 2.0
     assert abs(np.rad2deg(limb.angle) - 35) < 2
-    assert limb.cost < 1.0 < 2.5 < limb.base_cost
+    assert limb.cost < 0.5 < 1.5 < limb.base_cost
     assert np.allclose(limb.invert(limb.apply(tip)), tip)
     # The body, which the registration already fits, keeps that fit.
     assert motions[0].cost == motions[0].base_cost

@@ -48,6 +48,9 @@ __all__ = ["LocalField", "Registration", "RigidMotion", "arap_register", "arap_s
 #: Blocks that agree less than this (the score of their best shift) are trimmed:
 #: they take no part in the rigid fits and follow their neighbours.
 TRIM = 0.35
+#: A segment's reported match distance is the mean over this share of its ink
+#: pixels, the nearest: the rest may be lines another part now hides or reveals.
+_KEEP = 0.75
 #: Offsets of the lattice neighbourhood of a rigid fit (5x5 control points):
 #: wide enough that a straight stroke's slide along itself is pinned by its ends.
 _OFFSETS = (-2, -1, 0, 1, 2)
@@ -515,7 +518,8 @@ class RigidMotion:
         ``[x, y]``.
     cost : float
         Mean distance (pixels, clipped) from the segment's moved ink to the
-        target's ink under this motion.
+        target's ink under this motion, over the nearest three quarters of
+        its ink pixels (the rest may be lines another part hides or reveals).
     base_cost : float
         The same under the registration the search started from.
     """
@@ -616,7 +620,7 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
         pivot = a.mean(axis=0) if len(a) else p.mean(axis=0)
         theta0 = _procrustes_angle(p - p.mean(axis=0), g - g.mean(axis=0))
         t0 = g.mean(axis=0) - _rotate(p.mean(axis=0) - pivot, theta0) - pivot
-        base = float(_chamfer(dist, g[None], clip)[0])
+        base = float(_chamfer(dist, g[None], clip, _KEEP)[0])
         if base <= tolerance:
             out[int(k)] = RigidMotion(angle=theta0, pivot=pivot, translation=t0, cost=base,
                                       base_cost=base)
@@ -646,7 +650,7 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
             best = min([best] + search(start, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
         motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0,
                              base_cost=base)
-        motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip)[0])
+        motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip, _KEEP)[0])
         out[int(k)] = motion
     return out
 
@@ -673,13 +677,17 @@ def _procrustes_angle(a, b):
                             np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
 
 
-def _chamfer(dist, q, clip):
-    """Mean clipped distance at points ``q`` (..., n, 2); ``clip`` outside the image."""
+def _chamfer(dist, q, clip, keep=1.0):
+    """Mean clipped distance at points ``q`` (..., n, 2), of the ``keep`` share of them
+    nearest; ``clip`` outside the image."""
     h, w = dist.shape
     x = np.rint(q[..., 0]).astype(int)
     y = np.rint(q[..., 1]).astype(int)
     inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
     d = np.where(inside, dist[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)], clip)
+    if keep < 1:
+        k = max(1, int(round(keep * d.shape[-1])))
+        d = np.partition(d, k - 1, axis=-1)[..., :k]
     return d.mean(axis=-1)
 
 
@@ -695,7 +703,7 @@ class LocalField:
         As :attr:`Registration.displacement`, over the window (points outside
         it take the nearest window pixel's).
     cost : float
-        Mean clipped distance from the segment's moved ink to the target's ink.
+        As :attr:`RigidMotion.cost`.
     """
 
     origin: np.ndarray
@@ -783,6 +791,6 @@ def arap_segments(source, target, labels, motions, *, spacing=4, margin=None, cl
         if len(px):
             p = np.stack([px, py], axis=1).astype(float) + origin
             dist = np.minimum(ndimage.distance_transform_edt(tgt < 0.5), clip)
-            local.cost = float(_chamfer(dist, (local.apply(p) - origin)[None], clip)[0])
+            local.cost = float(_chamfer(dist, (local.apply(p) - origin)[None], clip, _KEEP)[0])
         out[int(k)] = local
     return out
