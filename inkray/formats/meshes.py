@@ -258,7 +258,7 @@ def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center", name="relief",
     _check_frame(units_per_pixel, anchor)
     relief = _backed(relief, back)
     return _glb_bytes(relief, _scene_meshes(relief, units_per_pixel, anchor), units_per_pixel,
-                      anchor, name, double_sided=back == "double-sided")
+                      anchor, name)
 
 
 def _backed(relief, back):
@@ -270,6 +270,10 @@ def _backed(relief, back):
         from inkray.relief.backing import back_plate
 
         relief = back_plate(relief)
+    elif back == "double-sided":
+        from inkray.relief.backing import back_sheet
+
+        relief = back_sheet(relief)
     return relief
 
 
@@ -457,18 +461,39 @@ def _check_relief(relief):
 
 class _SceneMesh(NamedTuple):
     name: str
-    vertices: np.ndarray  # scene frame
-    faces: np.ndarray
+    vertices: np.ndarray  # scene frame, one row per written vertex
+    faces: np.ndarray  # into the written vertices
     normals: np.ndarray  # unit, scene frame
     uv: np.ndarray  # (u, v), v up (OpenGL / OBJ convention)
     pixels: np.ndarray  # (x, y) drawing pixels, for colour sampling
+    source: np.ndarray  # the part's vertex each written vertex copies (row i < n: vertex i)
+
+
+#: A face whose normal makes an angle with the view direction (+Z) of more than
+#: arccos(_STEEP), about 84 degrees, is a steep rim, a wall or a back: it shows the
+#: part's paper. Planar texture coordinates stretch the drawing over such a face by
+#: 1 / cos(angle), ten times or more, and it covers a tenth of its area or less in the
+#: front view, where the drawing is already seen on the faces around it.
+_STEEP = 0.1
+_FRONT, _RIM, _BEHIND = 0, 1, 2  # faces: drawing; paper, front surface; paper, back or wall
 
 
 def _scene_meshes(relief, units_per_pixel, anchor):
-    meshes = []
+    """Every part in the scene frame, its vertices split where the drawing meets the paper.
+
+    A vertex that faces of two kinds share is written once per kind: the
+    drawing's copy has its planar texture coordinates, the paper's copy those
+    of the part's paper texel (:func:`_paper_texels`), so that no face blends
+    the two. Normals are smooth over the front surface (drawing and steep rim
+    alike, as they were before any back was added) and over the back and
+    walls, each on its own.
+    """
     texture = _texture(relief)
-    plainness = _plainness(texture)
-    for part in relief.parts:
+    kinds = [_face_kinds(p.vertices, p.faces) for p in relief.parts]
+    texels = (_paper_texels(relief, texture) if any((k != _FRONT).any() for k in kinds)
+              else None)
+    meshes = []
+    for i, part in enumerate(relief.parts):
         px = np.asarray(part.vertices, float)
         faces = np.asarray(part.faces, np.int64)
         v = scene_coordinates(px, relief.size, units_per_pixel=units_per_pixel, anchor=anchor)
@@ -477,59 +502,114 @@ def _scene_meshes(relief, units_per_pixel, anchor):
                              f"beyond finite 32-bit scene coordinates")
         # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
         # down) into counter-clockwise seen from +Z, so faces are kept as they are.
-        # backs and walls show the part's paper, not the drawing mirrored or smeared:
-        # the vertices of theirs that no front face shares (all of a closed part's
-        # back) take the texture coordinates (and PLY colours) of a plain texel. A
-        # vertex is not copied for that, so solids stay watertight by index in files.
         tex = px[:, :2] if part.texcoords is None else np.asarray(part.texcoords, float)[:, :2]
-        sample = tex.copy()
-        plain = _plain_faces(px, faces)
-        if plain.any() and not plain.all():
-            front = np.zeros(len(px), bool)
-            front[faces[~plain].ravel()] = True
-            behind = np.zeros(len(px), bool)
-            behind[faces[plain].ravel()] = True
-            sample[behind & ~front] = _paper_texel(texture, plainness, sample[front])
-        uv = np.clip(relief.uv(sample), 0.0, 1.0)
-        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, sample))
+        kind = kinds[i]
+        source, kept, faces = _split_vertices(len(px), faces, kind)
+        original = np.asarray(part.faces, np.int64)
+        n_front = _scene_normals(px, original[kind != _BEHIND])
+        n_behind = _scene_normals(px, original[kind == _BEHIND])
+        normals = np.where((kept == _BEHIND)[:, None], n_behind[source], n_front[source])
+        pixels = tex[source]
+        if texels is not None:
+            pixels[kept != _FRONT] = texels[i]
+        uv = np.clip(relief.uv(pixels), 0.0, 1.0)
+        meshes.append(_SceneMesh(part.name, v[source], faces, normals, uv, pixels, source))
     return meshes
 
 
-#: Faces turned further than this from the viewer (the cosine of their normal's angle
-#: with +Z) are backs or walls: they take the part's paper colour.
-_FACING = 0.1
-_PLAIN_WINDOW = 9  # px: a plain texel is the centre of a window this wide of one colour
-
-
-def _plain_faces(pixel_vertices, faces):
-    """Faces whose normal turns more than ``arccos(_FACING)`` away from the viewer."""
-    q = np.asarray(pixel_vertices, float)[faces] * [1.0, -1.0, 1.0]  # scene frame: z toward us
-    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+def _face_kinds(pixel_vertices, faces):
+    """Per face: ``_FRONT`` (the drawing), ``_RIM`` (steep) or ``_BEHIND`` (turned away)."""
+    q = np.asarray(pixel_vertices, float)[np.asarray(faces, np.int64)] * [1.0, -1.0, 1.0]
+    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])  # scene frame: z toward the viewer
     length = np.linalg.norm(n, axis=1)
-    return (length > 0) & (n[:, 2] < _FACING * length)
+    kind = np.full(len(n), _FRONT, np.int8)  # a face without area shows nothing
+    kind[(length > 0) & (n[:, 2] < _STEEP * length)] = _RIM
+    kind[(length > 0) & (n[:, 2] <= 0)] = _BEHIND
+    return kind
 
 
-def _plainness(texture):
-    """Per pixel, the colour spread (summed standard deviations) over a window around it."""
-    from scipy.ndimage import uniform_filter
+def _split_vertices(n, faces, kind):
+    """``(source, kinds, faces)``: a copy of each vertex per kind of face using it.
 
-    t = np.asarray(texture, float)
-    size = (_PLAIN_WINDOW, _PLAIN_WINDOW, 1)
-    mean = uniform_filter(t, size, mode="nearest")
-    var = uniform_filter(t * t, size, mode="nearest") - mean * mean
-    return np.sqrt(np.clip(var, 0.0, None)).sum(axis=2)
+    Row ``i < n`` is vertex ``i`` for the first kind that uses it (the
+    drawing's, when any), so a part without paper faces is written as it is;
+    further copies follow, ordered by vertex, then kind.
+    """
+    used = np.zeros((n, 3), bool)
+    used[faces, kind[:, None]] = True
+    first = np.argmax(used, axis=1)  # a vertex no face uses: a drawing vertex
+    extra = used.copy()
+    extra[np.arange(n), first] = False
+    ev, ek = np.nonzero(extra)
+    index = np.full((n, 3), -1, np.int64)
+    index[np.arange(n), first] = np.arange(n)
+    index[ev, ek] = n + np.arange(len(ev))
+    return (np.concatenate([np.arange(n), ev]), np.concatenate([first, ek]),
+            index[faces, kind[:, None]])
 
 
-def _paper_texel(texture, plainness, pixels):
-    """The pixel (x, y) among ``pixels`` (a part's front) most like its paper: the
-    median colour there, in a window of one colour."""
-    h, w = plainness.shape
-    xy = np.rint(np.asarray(pixels, float)).astype(np.int64)
-    xy = np.unique(np.clip(xy, 0, [w - 1, h - 1]), axis=0)
-    colours = np.asarray(texture, float)[xy[:, 1], xy[:, 0]]
-    paper = np.median(colours, axis=0)
-    score = plainness[xy[:, 1], xy[:, 0]] + np.abs(colours - paper).sum(axis=1)
-    return xy[int(np.argmin(score))].astype(float)
+#: Ink, as the renderer separates it: darker in its brightest channel than this
+#: fraction of the paper's level.
+_INK_LEVEL = 0.6
+_PAPER_TOLERANCE = 24  # summed over R, G, B: a texel this close to the estimate is paper
+
+
+def _paper_texels(relief, texture):
+    """Per part, the drawing pixel ``(x, y)`` whose colour the part shows as its paper.
+
+    The part's paper colour is the median colour of the drawing's non-ink
+    pixels where the part is seen in the front view (at its rest place, for a
+    posed part); its texel is, among the part's pixels within
+    ``_PAPER_TOLERANCE`` of that colour, the one farthest from any other
+    (ink, another colour, another part). A part seen nowhere takes the
+    drawing's paper.
+    """
+    from scipy import ndimage
+
+    from inkray.view.rasterization import rasterize
+
+    h, w = texture.shape[:2]
+    rest = [Part(p.name, np.column_stack([(p.vertices if p.texcoords is None else p.texcoords)
+                                          [:, :2], np.asarray(p.vertices, float)[:, 2]]),
+                 p.faces) for p in relief.parts]
+    raster = rasterize(Relief(rest, relief.size), size=(w, h), scale=1.0, offset=(0.0, 0.0))
+    owner = np.where(raster.mask, raster.part, -1)
+    colours = texture.astype(np.int64)
+    value = colours.max(axis=2)
+    paper = value >= _INK_LEVEL * max(float(np.percentile(value, 95)), 1.0)
+    # a pixel beside another part's is no part's safe paper
+    edge = np.zeros((h, w), bool)
+    edge[:, 1:] |= owner[:, 1:] != owner[:, :-1]
+    edge[:, :-1] |= owner[:, 1:] != owner[:, :-1]
+    edge[1:] |= owner[1:] != owner[:-1]
+    edge[:-1] |= owner[1:] != owner[:-1]
+
+    def estimate(where):
+        pick = where & paper
+        pick = pick if pick.any() else where
+        return np.median(colours[pick], axis=0) if pick.any() else None
+
+    everywhere = np.ones((h, w), bool)
+    overall = estimate(everywhere)
+    estimates = []
+    close = np.zeros((h, w), bool)
+    for i in range(len(relief.parts)):
+        seen = owner == i
+        c = estimate(seen)
+        estimates.append((seen, overall if c is None else c))
+        if c is not None:
+            close |= seen & (np.abs(colours - c).sum(axis=2) <= _PAPER_TOLERANCE)
+    depth = ndimage.distance_transform_edt(close & ~edge)
+    texels = np.empty((len(relief.parts), 2))
+    for i, (seen, c) in enumerate(estimates):
+        where = seen if seen.any() else everywhere
+        miss = np.abs(colours - c).sum(axis=2)
+        good = where & (miss <= _PAPER_TOLERANCE) & (depth > 0)
+        # deepest in the part's paper; failing that, the part's pixel nearest in colour
+        score = np.where(good, -depth, np.inf) if good.any() else np.where(where, miss, np.inf)
+        r, col = np.unravel_index(int(np.argmin(score)), score.shape)
+        texels[i] = (col, r)
+    return texels
 
 
 def _turned(meshes, up):
@@ -573,7 +653,7 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _SAMPLER = {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}
 
 
-def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing", *, double_sided=False):
+def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing"):
     """A glTF 2.0 binary: one node per part (its vertices about their box's centre,
     the centre as the node's translation), one textured material, one buffer.
 
@@ -629,7 +709,8 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing", *, doubl
                                           "units_per_pixel": float(units_per_pixel),
                                           "anchor": anchor}}}],
         "nodes": nodes, "meshes": gltf_meshes,
-        "materials": [{"name": name, "doubleSided": bool(double_sided),
+        # single-sided: a part's back is geometry of its own (see export_relief's back)
+        "materials": [{"name": name, "doubleSided": False,
                        "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
                                                 "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
                                                 "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
@@ -708,15 +789,19 @@ def _obj_files(relief, meshes, path, name="drawing", up="y"):
         "X right, Z up, -Y toward the viewer"
     chunks = [f"# inkray relief: {frame}\n",
               f"mtllib {mtl_path.name}\n"]
-    base = 1
+    base = corner = 1
     for m in meshes:
+        # a vertex is written once (solids stay closed by index); where the drawing
+        # meets the paper its corners take one of two texture coordinates
+        own = int(np.count_nonzero(m.source == np.arange(len(m.source))))
+        corners = np.stack([m.source[m.faces] + base, m.faces + corner, m.faces + corner], axis=2)
         chunks += [f"o {m.name}\ng {m.name}\nusemtl {name}\n",
-                   _format_rows("v %.9g %.9g %.9g\n", m.vertices),
+                   _format_rows("v %.9g %.9g %.9g\n", m.vertices[:own]),
                    _format_rows("vt %.9g %.9g\n", m.uv),
                    _format_rows("vn %.6f %.6f %.6f\n", m.normals),
-                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n",
-                                np.repeat(m.faces + base, 3, axis=1))]
-        base += len(m.vertices)
+                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n", corners.reshape(-1, 9))]
+        base += own
+        corner += len(m.vertices)
     mtl = ["# inkray relief material: the drawing, matte",
            f"newmtl {name}",
            "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
