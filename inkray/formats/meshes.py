@@ -33,8 +33,8 @@ from inkray.input.limits import DEFAULT_LIMITS
 from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
-__all__ = ["ANCHORS", "BACKS", "UPS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes", "pixel_coordinates",
-           "read_meshes", "read_relief", "scene_coordinates"]
+__all__ = ["ANCHORS", "BACKS", "UPS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes",
+           "mesh_counts", "pixel_coordinates", "read_meshes", "read_relief", "scene_coordinates"]
 
 ANCHORS = ("center", "top-left")
 FORMATS = (".glb", ".obj", ".ply")
@@ -261,6 +261,41 @@ def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center", name="relief",
                       anchor, name)
 
 
+def mesh_counts(relief, *, suffix=".glb", back="double-sided"):
+    """``(vertices, faces)`` that :func:`export_relief` writes for ``relief``.
+
+    The faces of the relief with its back; the vertices with those copied
+    where the drawing meets the paper (GLB and PLY vertices, OBJ texture
+    coordinates: an OBJ's ``v`` lines are the relief's own vertices).
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    suffix : {".glb", ".obj", ".ply"}, default ".glb"
+    back : {"double-sided", "plate", "none"}, default "double-sided"
+
+    Returns
+    -------
+    (int, int)
+
+    Examples
+    --------
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10))
+    >>> mesh_counts(r, back="none"), mesh_counts(r), mesh_counts(r, suffix=".obj")
+    ((3, 1), (9, 8), (6, 8))
+    """
+    relief = _backed(relief, back)
+    vertices = faces = 0
+    for part in relief.parts:
+        n, f = len(part.vertices), np.asarray(part.faces, np.int64)
+        source = _split_vertices(n, f, _face_kinds(part.vertices, f))[0]
+        vertices += n if suffix.lower() == ".obj" else len(source)
+        faces += len(f)
+    return vertices, faces
+
+
 def _backed(relief, back):
     """The relief checked, with its back plate when ``back`` asks for one."""
     if back not in BACKS:
@@ -309,7 +344,7 @@ def read_meshes(path):
     >>> from inkray.relief.model import Part, Relief
     >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
-    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb", back="none")[0]
     >>> [(m.name, len(m.vertices), len(m.faces)) for m in read_meshes(p)]
     [('a', 3, 1)]
     """
@@ -963,7 +998,7 @@ def read_relief(path, *, inputs=None):
     >>> from inkray.relief.model import Part, Relief
     >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
-    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb", back="none")[0]
     >>> back = read_relief(p)
     >>> back.size, (np.round(back.parts[0].vertices, 3) + 0.0).tolist()
     ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
