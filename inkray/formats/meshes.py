@@ -982,7 +982,9 @@ def read_relief(path, *, inputs=None):
     Returns
     -------
     inkray.relief.model.Relief
-        A referenced texture that is missing leaves it untextured, with a
+        One part per mesh, its vertices at one position merged (a file copies
+        a vertex where its texture coordinates change: one surface). A
+        referenced texture that is missing leaves it untextured, with a
         warning naming the file in its ``warnings``.
 
     Raises
@@ -1049,12 +1051,29 @@ def read_relief(path, *, inputs=None):
             # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
             return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
                              v[:, 2] / s], axis=1)
-    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
+    parts, colours = [], []
+    for m in meshes:
+        keep, faces = _welded(m.vertices, m.faces)
+        parts.append(Part(m.name, to_pixels(m.vertices[keep]), faces))
+        colours.append(None if m.colors is None else m.colors[keep])
     size = (int(size[0]), int(size[1]))
     if texture is None and path.suffix.lower() == ".ply":
-        texture = _ply_colour_texture(parts, [m.colors for m in meshes], size)
+        texture = _ply_colour_texture(parts, colours, size)
     return Relief(parts, size=size, texture=texture,
                   warnings=[] if texture is not None else _texture_problems(path, read[1:]))
+
+
+def _welded(vertices, faces):
+    """``(keep, faces)``: the first vertex at each position, in order, and the faces on them.
+
+    Files copy a vertex where its texture coordinates or normal change (inkray's
+    where the drawing meets the paper); the surface is one.
+    """
+    _, first, inverse = np.unique(vertices, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty(len(first), np.int64)
+    rank[order] = np.arange(len(first))
+    return first[order], rank[inverse.reshape(-1)][faces]
 
 
 def _texture_problems(path, read):
