@@ -62,12 +62,16 @@ class NamedMesh(NamedTuple):
         Vertex indices, in the file's winding.
     colors : (n, 3) uint8 array or None
         Vertex colours, where the file has them (PLY).
+    normals : (n, 3) float array or None
+        Vertex normals as the file stores them (GLB, PLY, OBJ), in the frame
+        of ``vertices``; None where it has none.
     """
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
     colors: np.ndarray = None
+    normals: np.ndarray = None
 
 
 def scene_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
@@ -220,7 +224,8 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
     else:
         relief = _backed(relief, back)
         meshes = _turned(_scene_meshes(relief, units_per_pixel, anchor), up)
-        files = (_obj_files(relief, meshes, path, name, up) if suffix == ".obj" else
+        files = (_obj_files(relief, meshes, path, name, up, units_per_pixel, anchor)
+                 if suffix == ".obj" else
                  {path: _ply_bytes(relief, meshes, units_per_pixel, anchor, up)})
     if outputs is None:
         with atomic_outputs() as out:
@@ -816,13 +821,19 @@ def export_files(path):
     return [path]
 
 
-def _obj_files(relief, meshes, path, name="drawing", up="y"):
+def _obj_files(relief, meshes, path, name="drawing", up="y", units_per_pixel=0.001,
+               anchor="center"):
     # trimesh's OBJ writer names objects only from metadata and rewrites the
     # material; a direct writer gives groups per part and stable file names.
     _, mtl_path, png_path = export_files(path)
     frame = "X right, Y up, Z toward the viewer" if up == "y" else \
         "X right, Z up, -Y toward the viewer"
+    w, h = relief.size
+    # the frame, as in the PLY header: backs show one texel of paper, so texture
+    # coordinates alone do not place the relief
     chunks = [f"# inkray relief: {frame}\n",
+              f"# inkray drawing_size {int(w)} {int(h)} units_per_pixel "
+              f"{float(units_per_pixel)!r} anchor {anchor}\n",
               f"mtllib {mtl_path.name}\n"]
     base = corner = 1
     for m in meshes:
@@ -912,7 +923,10 @@ def _scene_to_named(scene):
             f = np.asarray(geom.faces, np.int64)
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node flips the winding
                 f = f[:, ::-1]
-            meshes.append(NamedMesh(str(node), v, f))
+            stored = geom._cache.cache.get("vertex_normals")  # the file's, not computed
+            n = None if stored is None or len(stored) != len(v) else \
+                np.asarray(stored, float) @ transform[:3, :3].T
+            meshes.append(NamedMesh(str(node), v, f, normals=n))
     return meshes
 
 
@@ -945,18 +959,24 @@ def _read_ply(path):
         rgb = np.stack([np.asarray(columns[c]).reshape(-1) for c in ("red", "green", "blue")],
                        axis=1).astype(np.uint8)
         rgb = rgb if len(rgb) == len(v) else None
+    normals = None
+    if {"nx", "ny", "nz"} <= fields:
+        normals = np.stack([np.asarray(columns[c], float).reshape(-1) for c in ("nx", "ny", "nz")],
+                           axis=1)
+        normals = normals if len(normals) == len(v) else None
     raw = mesh.metadata.get("_ply_raw", {}).get("face", {}).get("data")
     part = None
     if names and raw is not None and raw.dtype.names and "part" in raw.dtype.names:
         part = np.asarray(raw["part"]).reshape(-1)
     if part is None or len(part) != len(f):
-        return [NamedMesh(path.stem, v, f, rgb)]
+        return [NamedMesh(path.stem, v, f, rgb, normals)]
     meshes = []
     for i in sorted(set(part.tolist())):
         sub = f[part == i]
         used, inverse = np.unique(sub, return_inverse=True)
         meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3),
-                                None if rgb is None else rgb[used]))
+                                None if rgb is None else rgb[used],
+                                None if normals is None else normals[used]))
     return meshes
 
 
@@ -982,8 +1002,8 @@ def read_relief(path, *, inputs=None):
     Returns
     -------
     inkray.relief.model.Relief
-        One part per mesh, its vertices at one position merged (a file copies
-        a vertex where its texture coordinates change: one surface). A
+        One part per mesh, its vertices at one position and normal merged (a
+        file copies a vertex where its texture coordinates change). A
         referenced texture that is missing leaves it untextured, with a
         warning naming the file in its ``warnings``.
 
@@ -1053,7 +1073,7 @@ def read_relief(path, *, inputs=None):
                              v[:, 2] / s], axis=1)
     parts, colours = [], []
     for m in meshes:
-        keep, faces = _welded(m.vertices, m.faces)
+        keep, faces = _welded(m.vertices, m.faces, m.normals)
         parts.append(Part(m.name, to_pixels(m.vertices[keep]), faces))
         colours.append(None if m.colors is None else m.colors[keep])
     size = (int(size[0]), int(size[1]))
@@ -1063,13 +1083,16 @@ def read_relief(path, *, inputs=None):
                   warnings=[] if texture is not None else _texture_problems(path, read[1:]))
 
 
-def _welded(vertices, faces):
-    """``(keep, faces)``: the first vertex at each position, in order, and the faces on them.
+def _welded(vertices, faces, normals=None):
+    """``(keep, faces)``: the first vertex of each position (and normal), in order, and the
+    faces on them.
 
-    Files copy a vertex where its texture coordinates or normal change (inkray's
-    where the drawing meets the paper); the surface is one.
+    Files copy a vertex where its texture coordinates change (inkray's where the
+    drawing meets the paper) on one smooth surface; copies with a normal of
+    their own (a crease: a front and its wall) stay apart.
     """
-    _, first, inverse = np.unique(vertices, axis=0, return_index=True, return_inverse=True)
+    key = vertices if normals is None else np.column_stack([vertices, normals])
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
     order = np.argsort(first)
     rank = np.empty(len(first), np.int64)
     rank[order] = np.arange(len(first))
@@ -1129,13 +1152,13 @@ def _frame(scene, path):
     """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
     meta = scene.metadata or {}
     info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
-    if info is None and path.suffix.lower() == ".ply":
+    if info is None and path.suffix.lower() in (".ply", ".obj"):
         with open(path, "rb") as fh:
             for raw in fh:
                 line = raw.decode("ascii", "replace").strip()
-                if line == "end_header":
+                if line == "end_header" or line.startswith(("v ", "mtllib", "o ", "g ")):
                     break
-                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
+                m = re.match(r"(?:comment|#) inkray drawing_size (\d+) (\d+) units_per_pixel "
                              r"(\S+)(?: anchor (\S+))?$", line)
                 if m:
                     info = {"drawing_size": [int(m[1]), int(m[2])],
