@@ -608,3 +608,23 @@ def test_front_view_is_the_same_for_every_back(suffix, tmp_path):
     assert np.abs(views[0][mask] - relief.texture[mask]).max(axis=1).mean() < 3.0
     ring = disk_mask(disks=DISKS[1:]) & ~disk_mask(disks=DISKS[1:], inset=4.0)
     assert (np.abs(views[0][ring] - HEAD).max(axis=1) < 1).mean() > 0.1
+
+
+@pytest.mark.parametrize("back", BACKS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_read_relief_gives_back_each_part_with_its_back(suffix, back, tmp_path):
+    relief = _two_papers()  # the head with a steep rim: copies on its front surface
+    read = read_relief(export_relief(relief, tmp_path / f"r{suffix}", back=back)[0])
+    assert read.size == relief.size
+    by_name = {p.name: p for p in read.parts}
+    for original, part in zip(relief.parts, BACKED[back](relief).parts):
+        got = by_name[part.name]
+        assert len(got.faces) == len(part.faces)
+        n, m = len(original.vertices), len(original.faces)
+        if suffix == ".obj":  # trimesh orders an OBJ's vertices by the faces' corners
+            _sources(part, scene_coordinates(got.vertices, SIZE, units_per_pixel=S))
+            continue
+        # the front merged back into one surface where the drawing meets the paper,
+        # first and in order, as it was
+        np.testing.assert_allclose(got.vertices[:n], original.vertices, atol=1e-3)
+        np.testing.assert_array_equal(got.faces[:m], original.faces)
