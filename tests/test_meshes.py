@@ -9,8 +9,8 @@ import trimesh
 
 from _reliefs import DISKS, SIZE, disk_mask, disk_part, disk_relief, drawing, grid_part
 from inkray.errors import InputError
-from inkray.formats.meshes import (BACKS, FORMATS, export_relief, pixel_coordinates, read_meshes, read_relief,
-                           scene_coordinates)
+from inkray.formats.meshes import (BACKS, FORMATS, export_relief, mesh_counts, pixel_coordinates,
+                                   read_meshes, read_relief, scene_coordinates)
 from inkray.formats.atomic import atomic_outputs
 from inkray.view.rasterization import rasterize
 from inkray.relief.backing import back_plate, back_sheet
@@ -338,9 +338,10 @@ def test_large_glb_passes_khronos_validator(tmp_path):
     xs = np.linspace(0.0, SIZE[0] - 1.0, 300)
     ys = np.linspace(0.0, SIZE[1] - 1.0, 230)
     part = grid_part("sheet", xs, ys, z=3.0)
-    report = _validate(export_relief(Relief([part], SIZE, drawing()), tmp_path / "big.glb")[0])
+    relief = Relief([part], SIZE, drawing())
+    report = _validate(export_relief(relief, tmp_path / "big.glb")[0])
     assert report["issues"]["numErrors"] == 0 and report["issues"]["numWarnings"] == 0
-    assert report["info"]["totalVertexCount"] == len(part.vertices)
+    assert report["info"]["totalVertexCount"] == mesh_counts(relief)[0] > 2 * len(part.vertices)
 
 
 def test_glb_without_texture_passes_khronos_validator(tmp_path):
@@ -628,3 +629,17 @@ def test_read_relief_gives_back_each_part_with_its_back(suffix, back, tmp_path):
         # first and in order, as it was
         np.testing.assert_allclose(got.vertices[:n], original.vertices, atol=1e-3)
         np.testing.assert_array_equal(got.faces[:m], original.faces)
+
+
+@pytest.mark.parametrize("back", BACKS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_mesh_counts_are_what_the_file_holds(suffix, back, tmp_path):
+    relief = _two_papers()
+    path = export_relief(relief, tmp_path / f"r{suffix}", back=back)[0]
+    if suffix == ".obj":
+        lines = path.read_text().splitlines()
+        held = (sum(ln.startswith("v ") for ln in lines), sum(ln.startswith("f ") for ln in lines))
+    else:
+        meshes = _load(path).values()
+        held = (sum(len(m.vertices) for m in meshes), sum(len(m.faces) for m in meshes))
+    assert mesh_counts(relief, suffix=suffix, back=back) == held
