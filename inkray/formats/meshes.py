@@ -530,7 +530,7 @@ def _scene_meshes(relief, units_per_pixel, anchor):
     """
     texture = _texture(relief)
     kinds = [_face_kinds(p.vertices, p.faces) for p in relief.parts]
-    texels = (_paper_texels(relief, texture) if any((k != _FRONT).any() for k in kinds)
+    texels = (_paper_texels(relief, kinds, texture) if any((k != _FRONT).any() for k in kinds)
               else None)
     meshes = []
     for i, part in enumerate(relief.parts):
@@ -592,9 +592,10 @@ def _split_vertices(n, faces, kind):
 #: fraction of the paper's level.
 _INK_LEVEL = 0.6
 _PAPER_TOLERANCE = 24  # summed over R, G, B: a texel this close to the estimate is paper
+_PAPER_PIXELS = 1 << 18  # the front view is looked at with at most this many pixels
 
 
-def _paper_texels(relief, texture):
+def _paper_texels(relief, kinds, texture):
     """Per part, the drawing pixel ``(x, y)`` whose colour the part shows as its paper.
 
     The part's paper colour is the median colour of the drawing's non-ink
@@ -602,53 +603,58 @@ def _paper_texels(relief, texture):
     posed part); its texel is, among the part's pixels within
     ``_PAPER_TOLERANCE`` of that colour, the one farthest from any other
     (ink, another colour, another part). A part seen nowhere takes the
-    drawing's paper.
+    drawing's paper. The view is rasterized at most ``_PAPER_PIXELS`` large,
+    each of its pixels standing for the drawing pixel at its centre.
     """
     from scipy import ndimage
 
     from inkray.view.rasterization import rasterize
 
     h, w = texture.shape[:2]
+    scale = min(1.0, float(np.sqrt(_PAPER_PIXELS / (w * h))))
     rest = [Part(p.name, np.column_stack([(p.vertices if p.texcoords is None else p.texcoords)
                                           [:, :2], np.asarray(p.vertices, float)[:, 2]]),
-                 p.faces) for p in relief.parts]
-    raster = rasterize(Relief(rest, relief.size), size=(w, h), scale=1.0, offset=(0.0, 0.0))
+                 np.asarray(p.faces)[k != _BEHIND]) for p, k in zip(relief.parts, kinds)]
+    raster = rasterize(Relief(rest, relief.size), scale=scale, offset=(0.0, 0.0))
+    rh, rw = raster.mask.shape
+    rows = np.clip(np.rint((np.arange(rh) + 0.5) / scale - 0.5), 0, h - 1).astype(np.intp)
+    cols = np.clip(np.rint((np.arange(rw) + 0.5) / scale - 0.5), 0, w - 1).astype(np.intp)
+    colours = texture[rows[:, None], cols[None, :]].astype(np.int64).reshape(-1, 3)
     owner = np.where(raster.mask, raster.part, -1)
-    colours = texture.astype(np.int64)
-    value = colours.max(axis=2)
+    value = colours.max(axis=1)
     paper = value >= _INK_LEVEL * max(float(np.percentile(value, 95)), 1.0)
     # a pixel beside another part's is no part's safe paper
-    edge = np.zeros((h, w), bool)
+    edge = np.zeros((rh, rw), bool)
     edge[:, 1:] |= owner[:, 1:] != owner[:, :-1]
     edge[:, :-1] |= owner[:, 1:] != owner[:, :-1]
     edge[1:] |= owner[1:] != owner[:-1]
     edge[:-1] |= owner[1:] != owner[:-1]
+    owner = owner.ravel()
+    order = np.argsort(owner, kind="stable")
+    bounds = np.searchsorted(owner[order], np.arange(-1, len(relief.parts) + 1))
+    pixels = [order[bounds[i + 1]:bounds[i + 2]] for i in range(len(relief.parts))]
 
     def estimate(where):
-        pick = where & paper
-        pick = pick if pick.any() else where
-        return np.median(colours[pick], axis=0) if pick.any() else None
+        pick = where[paper[where]]
+        pick = pick if len(pick) else where
+        return np.median(colours[pick], axis=0)
 
-    everywhere = np.ones((h, w), bool)
+    everywhere = np.arange(len(owner))
     overall = estimate(everywhere)
-    estimates = []
-    close = np.zeros((h, w), bool)
-    for i in range(len(relief.parts)):
-        seen = owner == i
-        c = estimate(seen)
-        estimates.append((seen, overall if c is None else c))
-        if c is not None:
-            close |= seen & (np.abs(colours - c).sum(axis=2) <= _PAPER_TOLERANCE)
-    depth = ndimage.distance_transform_edt(close & ~edge)
+    estimates = [estimate(px) if len(px) else overall for px in pixels]
+    close = np.zeros(len(owner), bool)
+    for px, c in zip(pixels, estimates):
+        close[px[np.abs(colours[px] - c).sum(axis=1) <= _PAPER_TOLERANCE]] = True
+    depth = ndimage.distance_transform_edt((close.reshape(rh, rw) & ~edge)).ravel()
     texels = np.empty((len(relief.parts), 2))
-    for i, (seen, c) in enumerate(estimates):
-        where = seen if seen.any() else everywhere
-        miss = np.abs(colours - c).sum(axis=2)
-        good = where & (miss <= _PAPER_TOLERANCE) & (depth > 0)
+    for i, (px, c) in enumerate(zip(pixels, estimates)):
+        where = px if len(px) else everywhere
+        miss = np.abs(colours[where] - c).sum(axis=1)
+        good = (miss <= _PAPER_TOLERANCE) & (depth[where] > 0)
         # deepest in the part's paper; failing that, the part's pixel nearest in colour
-        score = np.where(good, -depth, np.inf) if good.any() else np.where(where, miss, np.inf)
-        r, col = np.unravel_index(int(np.argmin(score)), score.shape)
-        texels[i] = (col, r)
+        k = where[np.argmax(np.where(good, depth[where], -1.0))] if good.any() else \
+            where[np.argmin(miss)]
+        texels[i] = (cols[k % rw], rows[k // rw])
     return texels
 
 

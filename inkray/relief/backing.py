@@ -153,7 +153,8 @@ def _close(part, z):
     # Boundary edges: used by one face only, kept in that face's direction.
     edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     key = np.sort(edges, axis=1)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    _, inverse, counts = np.unique(key[:, 0] * n + key[:, 1], return_inverse=True,
+                                   return_counts=True)
     rim = edges[counts[inverse.ravel()] == 1]
     a, b = rim[:, 0], rim[:, 1]
     # The wall runs down from each boundary edge: same orientation as the front's
