@@ -643,3 +643,28 @@ def test_mesh_counts_are_what_the_file_holds(suffix, back, tmp_path):
         meshes = _load(path).values()
         held = (sum(len(m.vertices) for m in meshes), sum(len(m.faces) for m in meshes))
     assert mesh_counts(relief, suffix=suffix, back=back) == held
+
+
+def test_paper_is_the_median_of_the_parts_seen_non_ink_pixels_posed_or_not(tmp_path):
+    # the noisy drawing: no pixel has the median colour; the texel comes within 24 levels
+    relief = disk_relief()
+    tex = relief.texture.astype(int)
+    w, h = SIZE
+    y, x = np.mgrid[0:h, 0:w]
+    ink = tex.max(axis=2) < 0.6 * np.percentile(tex.max(axis=2), 95)
+    (_, bx, by, br, _), (_, hx, hy, hr, _) = DISKS
+    seen = {"body": (np.hypot(x - bx, y - by) < br - 1) & (np.hypot(x - hx, y - hy) > hr + 1),
+            "head": np.hypot(x - hx, y - hy) < hr - 1}
+    # posed: moved right, textured from where they rest
+    posed = Relief([Part(p.name, p.vertices + [8.0, 0, 0], p.faces, texcoords=p.vertices[:, :2])
+                    for p in relief.parts], (w + 8, h), np.pad(relief.texture, ((0, 0), (0, 8),
+                                                                                 (0, 0))))
+    for r in (relief, posed):
+        mesh = _load(export_relief(r, tmp_path / f"r{len(r.parts)}{r.size[0]}.glb")[0])
+        for part in r.parts:
+            m = mesh[part.name]
+            uv = np.asarray(m.visual.uv)[m.faces[len(part.faces):].ravel()]  # the back
+            (texel,) = np.unique(np.rint(uv * [r.size[0], r.size[1]] - 0.5).astype(int), axis=0)
+            colour = tex[r.size[1] - 1 - texel[1], texel[0]]
+            median = np.median(tex[seen[part.name] & ~ink], axis=0)
+            assert np.abs(colour - median).sum() <= 24, (part.name, colour, median)
