@@ -144,11 +144,12 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
       the part's centre (its vertices relative to it, so a part turns about
       itself in an editor); positions, vertex normals, planar UVs
       (``TEXCOORD_0``); one material (roughness 1, metallic 0) with the
-      drawing embedded as PNG base-colour texture, both named ``name``; scene
+      drawing embedded as PNG base-colour texture, both named ``name``, single-sided; scene
       ``extras = {"inkray": {"drawing_size": [W, H], "units_per_pixel": s,
       "anchor": anchor}}``. Indices are unsigned 32-bit; the texture sampler
       filters linearly (mipmapped) and clamps to the edge.
-    - ``.obj``: ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
+    - ``.obj``: a header comment ``# inkray drawing_size W H units_per_pixel
+      s anchor a``; ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
       ``f v/vt/vn``; beside it ``<stem>.mtl`` and the texture
       ``<stem>_drawing.png``.
     - ``.ply``: binary little-endian, one mesh of all parts; per vertex
@@ -173,12 +174,15 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
         Name of the material and the texture image (default: the file's stem),
         so that several imported reliefs keep their own.
     back : {"double-sided", "plate", "none"}, default "double-sided"
-        What an open part shows from behind. ``"double-sided"``: GLB materials
-        are marked double-sided (three.js and Blender then draw the back
-        faces; OBJ and PLY have no such flag and viewers choose).
-        ``"plate"``: every open part is closed down to one flat plane behind
-        the relief (:func:`inkray.relief.backing.back_plate`): watertight, seen
-        from any side. ``"none"``: single-sided, as the surface is.
+        What an open part shows from behind. ``"double-sided"``: a back of its
+        own, one pixel behind its front (:func:`inkray.relief.backing.back_sheet`).
+        ``"plate"``: closed by a flat plate just behind it
+        (:func:`inkray.relief.backing.back_plate`). Both are watertight, seen
+        from any side. ``"none"``: the surface alone. In every mode materials
+        are single-sided, and faces turned more than about 84 degrees from the
+        viewer (backs, walls, steep rims) show one texel of the part's paper
+        (PLY: its colour) while the front shows the drawing; vertices shared
+        by the two are written twice (OBJ: with two texture coordinates).
     up : {"y", "z"}, default "y"
         Up axis of OBJ and PLY files: ``"z"`` for importers that assume Z up
         (Blender's PLY importer), turning the scene so that the relief stands
