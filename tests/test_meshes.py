@@ -668,3 +668,15 @@ def test_paper_is_the_median_of_the_parts_seen_non_ink_pixels_posed_or_not(tmp_p
             colour = tex[r.size[1] - 1 - texel[1], texel[0]]
             median = np.median(tex[seen[part.name] & ~ink], axis=0)
             assert np.abs(colour - median).sum() <= 24, (part.name, colour, median)
+
+
+def test_a_part_too_small_for_the_paper_view_takes_the_colour_under_it(tmp_path):
+    # a 1.5 px dot of dark blue paper on a 1024 x 768 drawing (seen at a quarter scale)
+    tex = np.full((768, 1024, 3), 250, np.uint8)
+    tex[400:404, 500:504] = (20, 40, 160)
+    dot = grid_part("dot", [501.0, 502.0], [401.0, 402.0], z=2.0)
+    relief = Relief([grid_part("sheet", [0.0, 1023.0], [0.0, 767.0]), dot], (1024, 768), tex)
+    mesh = _load(export_relief(relief, tmp_path / "r.glb")[0])["dot"]
+    uv = np.asarray(mesh.visual.uv)[mesh.faces[len(dot.faces):].ravel()]  # its back
+    (texel,) = np.unique(np.rint(uv * [1024, 768] - 0.5).astype(int), axis=0)
+    assert tuple(tex[767 - texel[1], texel[0]]) == (20, 40, 160)

@@ -596,7 +596,7 @@ def _split_vertices(n, faces, kind):
 #: fraction of the paper's level.
 _INK_LEVEL = 0.6
 _PAPER_TOLERANCE = 24  # summed over R, G, B: a texel this close to the estimate is paper
-_PAPER_PIXELS = 1 << 18  # the front view is looked at with at most this many pixels
+_PAPER_PIXELS = 1 << 16  # the front view is looked at with at most this many pixels
 
 
 def _paper_texels(relief, kinds, texture):
@@ -606,9 +606,10 @@ def _paper_texels(relief, kinds, texture):
     pixels where the part is seen in the front view (at its rest place, for a
     posed part); its texel is, among the part's pixels within
     ``_PAPER_TOLERANCE`` of that colour, the one farthest from any other
-    (ink, another colour, another part). A part seen nowhere takes the
-    drawing's paper. The view is rasterized at most ``_PAPER_PIXELS`` large,
-    each of its pixels standing for the drawing pixel at its centre.
+    (ink, another colour, another part). The view is rasterized at most
+    ``_PAPER_PIXELS`` large, each of its pixels standing for the drawing pixel
+    at its centre; a part too small to cover one of them is judged by the
+    drawing's pixels at its front vertices.
     """
     from scipy import ndimage
 
@@ -643,16 +644,17 @@ def _paper_texels(relief, kinds, texture):
         pick = pick if len(pick) else where
         return np.median(colours[pick], axis=0)
 
-    everywhere = np.arange(len(owner))
-    overall = estimate(everywhere)
-    estimates = [estimate(px) if len(px) else overall for px in pixels]
+    estimates = [estimate(px) if len(px) else None for px in pixels]
     close = np.zeros(len(owner), bool)
     for px, c in zip(pixels, estimates):
         close[px[np.abs(colours[px] - c).sum(axis=1) <= _PAPER_TOLERANCE]] = True
     depth = ndimage.distance_transform_edt((close.reshape(rh, rw) & ~edge)).ravel()
     texels = np.empty((len(relief.parts), 2))
     for i, (px, c) in enumerate(zip(pixels, estimates)):
-        where = px if len(px) else everywhere
+        if c is None:  # unseen at this resolution: the drawing under its vertices
+            texels[i] = _vertex_paper(rest[i], texture)
+            continue
+        where = px
         miss = np.abs(colours[where] - c).sum(axis=1)
         good = (miss <= _PAPER_TOLERANCE) & (depth[where] > 0)
         # deepest in the part's paper; failing that, the part's pixel nearest in colour
@@ -660,6 +662,20 @@ def _paper_texels(relief, kinds, texture):
             where[np.argmin(miss)]
         texels[i] = (cols[k % rw], rows[k // rw])
     return texels
+
+
+def _vertex_paper(part, texture):
+    """The drawing pixel under a front vertex of ``part`` nearest its median non-ink colour."""
+    h, w = texture.shape[:2]
+    used = np.unique(np.asarray(part.faces).ravel())
+    xy = np.rint(np.asarray(part.vertices, float)[used, :2] if len(used) else
+                 np.asarray(part.vertices, float)[:, :2]).astype(np.intp)
+    xy = np.clip(xy, 0, [w - 1, h - 1])
+    colours = texture[xy[:, 1], xy[:, 0]].astype(np.int64)
+    value = colours.max(axis=1)
+    paper = colours[value >= _INK_LEVEL * max(float(value.max()), 1.0)]
+    c = np.median(paper if len(paper) else colours, axis=0)
+    return xy[int(np.argmin(np.abs(colours - c).sum(axis=1)))].astype(float)
 
 
 def _turned(meshes, up):
