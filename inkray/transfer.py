@@ -325,9 +325,14 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         kind = "order" if e in order else "equal"
         check(f"{kind}[{e.index}]", mv, min([mt] + [part_match[p] for p in parts]))
 
+    def move_beside(points, pair):
+        # A boundary beside a part that moved on its own moves with that part.
+        own = [k for k in pair if k in motions]
+        return motions[own[0]].apply(points) if own else warp_points(reg, points)
+
     boundaries = []
     for b in annotations.boundaries:
-        path, mv, mt = _carry_boundary(b.path, key_labels, labels, reg, conf, reach)
+        path, mv, mt = _carry_boundary(b.path, key_labels, labels, move_beside, conf, reach)
         boundaries.append(replace(b, path=_inside(path, size)))
         check(f"boundaries[{b.index}]", mv, mt)
 
@@ -482,21 +487,28 @@ def _labels_near(labels, points, far, radius):
 
 
 def _outline(labels, a, b):
-    """Pixels of label ``a`` next to label ``b`` (4-neighbours), and the reverse."""
+    """Pixels of label ``a`` next to label ``b`` (4-neighbours), and the reverse; with
+    ``a`` and ``b`` None, pixels of a part (label ``>= 0``) next to any other label."""
     out = np.zeros(labels.shape, bool)
     for axis in (0, 1):
         lo = [slice(None)] * 2
         hi = [slice(None)] * 2
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
         p, q = labels[tuple(lo)], labels[tuple(hi)]
-        hit = ((p == a) & (q == b)) | ((p == b) & (q == a))
+        if a is None:
+            hit = (p != q) & ((p >= 0) | (q >= 0))
+        else:
+            hit = ((p == a) & (q == b)) | ((p == b) & (q == a))
         out[tuple(lo)] |= hit
         out[tuple(hi)] |= hit
     return out
 
 
-def _carry_boundary(path, key_labels, labels, reg, conf, reach):
-    """A boundary path carried and put back on the frame's outline between its two parts."""
+def _carry_boundary(path, key_labels, labels, move, conf, reach):
+    """A boundary path carried and put back on the frame's outline between its two parts.
+
+    ``move(points, pair)`` carries key points beside the two parts ``pair``.
+    """
     dense = resample_polyline(path, _STEP)
     h, w = key_labels.shape
     # The two parts the path separates in the key: the commonest labels near it.
@@ -505,26 +517,34 @@ def _carry_boundary(path, key_labels, labels, reg, conf, reach):
         x0, y0 = int(np.clip(round(x), 0, w - 1)), int(np.clip(round(y), 0, h - 1))
         seen.append(key_labels[max(0, y0 - 3):y0 + 4, max(0, x0 - 3):x0 + 4].ravel())
     values, counts = np.unique(np.concatenate(seen), return_counts=True)
-    pair = values[np.argsort(-counts)][:2]
-    moved = warp_points(reg, dense)
+    pair = [int(v) for v in values[np.argsort(-counts)][:2]]
+    moved = move(dense, pair)
     match = _sample(conf, dense)
-    if len(pair) == 2:
-        line = _outline(labels, pair[0], pair[1])
-    else:
-        line = np.zeros(labels.shape, bool)
-    if not line.any():
-        return _simplify(moved, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()), 0.0
-    dist, (iy, ix) = ndimage.distance_transform_edt(~line, return_indices=True)
+    moved_by = float(np.linalg.norm(moved - dense, axis=1).mean())
+    outlines = _outline(labels, None, None)
+    if not outlines.any():
+        return _simplify(moved, 1.0), moved_by, 0.0
     qx = np.clip(np.rint(moved[:, 0]), 0, w - 1).astype(int)
     qy = np.clip(np.rint(moved[:, 1]), 0, h - 1).astype(int)
-    d = dist[qy, qx]
-    near = d <= reach
-    snapped = np.where(near[:, None], np.stack([ix[qy, qx], iy[qy, qx]], axis=1).astype(float), moved)
-    match = match * np.where(near, np.exp(-(d / reach) ** 2), 0.0)
+    line = _outline(labels, *pair) if len(pair) == 2 else np.zeros(labels.shape, bool)
+    snapped = np.empty_like(moved)
+    near = np.zeros(len(moved), bool)
+    if line.any():
+        dist, (iy, ix) = ndimage.distance_transform_edt(~line, return_indices=True)
+        d = dist[qy, qx]
+        near = d <= reach
+        snapped[near] = np.stack([ix[qy, qx], iy[qy, qx]], axis=1)[near]
+        match = match * np.where(near, np.exp(-(d / reach) ** 2), 0.0)
+    else:
+        match = np.zeros(len(moved))
+    if not near.all():
+        # No outline of its two parts within reach: onto the nearest outline at
+        # all, so that the relief can still be built (and scored 0).
+        _, (iy, ix) = ndimage.distance_transform_edt(~outlines, return_indices=True)
+        snapped[~near] = np.stack([ix[qy, qx], iy[qy, qx]], axis=1)[~near]
     # Keep the path's order and drop repeats where several samples snapped together.
     keep = np.r_[True, np.any(np.diff(snapped, axis=0) != 0, axis=1)]
     snapped = snapped[keep]
     if len(snapped) < 2:
         snapped = np.vstack([snapped, snapped + [1.0, 0.0]])
-    return (_simplify(snapped, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()),
-            float(match.mean()))
+    return _simplify(snapped, 1.0), moved_by, float(match.mean())
