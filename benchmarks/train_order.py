@@ -12,7 +12,7 @@ annotated ``order`` entry. The drawings with seeds ``= 4 (mod 5)`` are the
 validation split; the rest train. Each of :data:`CANDIDATES` is fitted:
 
 1. an L2-regularized logistic model on some features (penalty 10 on the
-   standardized weights), then (for some) gradient-boosted trees of depth 2
+   standardized weights; the cues' weights not negative, :data:`SIGNED`), then (for some) gradient-boosted trees of depth 2
    on some features from its scores on the logistic loss (Newton steps, rate
    0.1, each feature cut at 32 quantiles of the training split, plain numpy),
    fitted on both orientations of every place (``x`` in front: label 1, the
@@ -67,6 +67,8 @@ DEPTH, RATE, BINS, L2, LINEAR_L2 = 2, 0.1, 32, 1.0, 10.0
 DEVELOPMENT = ("balls", "donkey", "fox", "man", "shots/horse_gallop")
 #: The real drawings scored once at the end, never looked at while choosing.
 HELD_OUT = ("dragon", "frog", "gingerbread", "turtle", "shots/krita_walkcycle")
+#: The features made as evidence that ``x`` is in front: their weights are not negative.
+SIGNED = CUES + ("continuation_raw",)
 #: ``name: keyword arguments of train``: the features of the logistic term, the number of
 #: trees, the features they split on, the calibration.
 _RAW = CUES + ("continuation_raw",)
@@ -153,10 +155,13 @@ def _rows(batch):
     return np.concatenate([f[:, 0], f[:, 1]]), np.concatenate([y, 1.0 - y])
 
 
-def fit_linear(X, y, *, l2=LINEAR_L2):
+def fit_linear(X, y, *, l2=LINEAR_L2, positive=None):
     """L2-regularized logistic weights (no intercept) of rows ``X`` with labels 0/1; the
-    penalty is on the weights of standardized features."""
+    penalty is on the weights of standardized features. ``positive``: a bool per column,
+    True where the weight may not be negative."""
     scale = X.std(0) + 1e-9
+    bounds = [(0.0, None) if p else (None, None)
+              for p in (positive if positive is not None else [False] * X.shape[1])]
     Z, s = X / scale, 2.0 * y - 1.0
 
     def loss(w):
@@ -164,7 +169,8 @@ def fit_linear(X, y, *, l2=LINEAR_L2):
         return (np.logaddexp(0.0, -m).sum() + l2 * w @ w,
                 Z.T @ (-s * np.exp(-np.logaddexp(0.0, m))) + 2.0 * l2 * w)
 
-    return minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B").x / scale
+    return minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B",
+                    bounds=bounds).x / scale
 
 
 def fit_trees(X, y, *, trees=30, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, start=None):
@@ -220,7 +226,8 @@ def train(batch, validation, *, linear=FEATURES, trees=100, split=FEATURES, cali
     X, y = _rows(batch)
     cols = [FEATURES.index(k) for k in linear]
     weights = np.zeros(len(FEATURES))
-    weights[cols] = fit_linear(X[:, cols], y)
+    # A cue says "x in front" by its sign: it is never read the other way round.
+    weights[cols] = fit_linear(X[:, cols], y, positive=[k in SIGNED for k in linear])
     weights = np.round(weights, 7)
     among = np.array([FEATURES.index(k) for k in split])
     feature, threshold, leaf = fit_trees(X[:, among], y, trees=max(trees, 1), start=X @ weights,
@@ -282,11 +289,11 @@ def log_loss(model, batch):
 def choose(fit, val, dev):
     """The candidate of least log-loss on ``dev``: ``(name, model)``; prints each."""
     best = None
-    print(f"{'candidate':<36} {'validation':>16} {'development':>16}")
+    print(f"{'candidate':<52} {'validation':>16} {'development':>16}")
     for name, candidate in CANDIDATES.items():
         model = train(fit, val, **candidate)
         (lv, rv), (ld, rd) = log_loss(model, val), log_loss(model, dev)
-        print(f"{name:<36} {lv:>8.3f} {rv:>7.1%} {ld:>8.3f} {rd:>7.1%}")
+        print(f"{name:<52} {lv:>8.3f} {rv:>7.1%} {ld:>8.3f} {rd:>7.1%}")
         if best is None or ld < best[0]:
             best = (ld, name, model)
     return best[1], best[2]

@@ -100,7 +100,7 @@ class OrderModel:
         --------
         >>> import numpy as np
         >>> m = load_order_model()
-        >>> f = np.zeros((1, 2, m.feature.max() + 1))
+        >>> f = np.zeros((1, 2, len(FEATURES)))
         >>> float(m.probability(f)[0])        # the same both ways: a coin toss
         0.5
         """

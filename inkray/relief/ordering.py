@@ -15,12 +15,15 @@ be acyclic.
 Prediction, per place of a pair ``a``/``b``, from the cues of
 :mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
 of each part's outline the contact is, which part's outline continues the
-contact line). By default the model learned from generated drawings
+contact line). By default, given the drawing's ink style, the model learned
+from generated drawings
 (:func:`inkray.relief.order_model.load_order_model`) reads the measures of
 :func:`inkray.relief.order_cues.place_features` and gives ``p``, the
 calibrated probability that ``a`` is in front: ``confidence = |2 p - 1|`` (0
 for a coin toss, towards 1 when sure). Given ``weights`` (e.g.
-:data:`WEIGHTS`), the cues are combined as a logistic model instead,
+:data:`WEIGHTS`), or without the ink style (a label image alone: the learned
+model was trained on drawings with their lines, and without them it reads
+no continuation), the cues are combined as a logistic model instead,
 ``score = sum(weights[cue] * cue)``, the ``continuation`` cue trusted as far as
 the drawing's lines are clean; its sign says who is in front and
 ``confidence = 2 * sigmoid(|score|) - 1``. :data:`WEIGHTS`,
@@ -157,8 +160,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
         same completion, ``seams`` and parameters, and a new arrow costs no
         cue (at 1 Mpx all the fox's places take about 0.1 s of CPU).
     model : inkray.relief.order_model.OrderModel, optional
-        The learned model (default, without ``weights``: the shipped one), see
-        :func:`predict_place`.
+        The learned model (default, without ``weights`` and given ``ink``: the
+        shipped one), see :func:`predict_place`.
 
     Returns
     -------
@@ -216,7 +219,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
             if place.index not in memo:
                 if outlines is None:
                     outlines = outline_lengths(labels)
-                    stats = region_stats(labels) if weights is None else None
+                    stats = region_stats(labels) if weights is None and ink is not None else None
                 memo[place.index] = predict_place(
                     completion, place, weights=weights, junction_radius=junction_radius,
                     seams=paths, outlines=outlines, ink=ink,
@@ -251,8 +254,9 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     place : inkray.relief.completion.Place
     weights : dict, optional
         ``{cue: weight}`` for the cues of
-        :func:`inkray.relief.order_cues.order_cues` (e.g. :data:`WEIGHTS`),
-        used instead of the learned model. The score is the weighted sum; its
+        :func:`inkray.relief.order_cues.order_cues` (e.g. :data:`WEIGHTS`, the
+        default without ``ink``), used instead of the learned model. The
+        score is the weighted sum; its
         sign says who is in front and ``2 * sigmoid(|score|) - 1`` is the
         confidence.
     junction_radius : float, optional
@@ -275,7 +279,7 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
     model : inkray.relief.order_model.OrderModel, optional
-        The learned model (default, without ``weights``:
+        The learned model (default, without ``weights`` and given ``ink``:
         :func:`inkray.relief.order_model.load_order_model`; ``weights`` must
         then be None): ``p`` the probability that ``place.a`` is in front,
         ``confidence = |2 p - 1|``. It was trained with the default radii and
@@ -298,17 +302,22 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     >>> labels = np.where((yy - 20) ** 2 + (xx - 20) ** 2 < 300, 0, -1).astype(np.int32)
     >>> labels[(yy - 20) ** 2 + (xx - 20) ** 2 < 30] = 1      # an eye inside a head
     >>> c = complete_regions(labels, names=["head", "eye"])
-    >>> r = predict_place(c, c.places[0])                      # the learned model
+    >>> r = predict_place(c, c.places[0])      # no ink style: the weighted cues
     >>> (r.front_name, r.back_name)
     ('eye', 'head')
-    >>> cues = predict_place(c, c.places[0], weights=WEIGHTS)  # the weighted cues
-    >>> (cues.front_name, cues.back_name)
+    >>> from inkray.relief.ink_style import InkStyle
+    >>> learned = predict_place(c, c.places[0], ink=InkStyle(width=2.0, stroke_ends=0.0))
+    >>> (learned.front_name, learned.back_name)
     ('eye', 'head')
     """
     if model is not None and weights is not None:
         raise InputError("weights: give cue weights or a learned model, not both")
     if weights is None and model is None:
-        model = load_order_model()
+        # The learned model read drawings with their ink; a bare label image gets the cues.
+        if ink is None:
+            weights = WEIGHTS
+        else:
+            model = load_order_model()
     unknown = sorted(set(weights or ()) - set(CUES))
     if unknown:
         raise InputError(f"weights: unknown cue {unknown[0]!r} (expected {', '.join(CUES)})")
