@@ -599,3 +599,30 @@ def test_scribble_region_is_the_part_under_the_scribble(turtle):
     assert names[shell] == "shell" and names[head] == "head" and paper is None
     assert edge and not inner
     assert bad[0] == 422 and b"[x, y] points" in bad[2]
+
+
+def test_the_first_scribble_after_opening_updates_the_depth_fill(turtle):
+    from inkray.depthmap.estimation import depth
+
+    doc = json.loads(turtle.read_text())
+    session = EditSession(turtle)
+    with running(session) as url:
+        for name in ("depth.png", "relief.glb"):
+            assert call(url + f"/api/preview/{name}")[0] == 200
+        # After the relief the depth session's fill is factored again, in the background,
+        # keeping what an update reuses (the cold open's factorization keeps none).
+        fill = session._chain._cache.session[1]._fills[False]
+        if fill._preparing is not None:
+            fill._preparing[0].join(120)
+        fill._adopt(wait=True)
+        assert fill._chol.updatable
+        fronts = fill._chol.fronts
+        doc["regions"].append({"name": "band", "scribbles": [[[300, 362], [400, 366]]]})
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200
+        assert call(url + "/api/preview/depth.png")[0] == 200
+        chain = session._chain
+        assert 0 < chain._cache.session[1].refactored_fronts < fronts
+        ann, drawing = load_input(turtle)
+        fresh = depth(parse_annotations(doc), drawing, method="fast",
+                      segmentation=chain.segmentation.labels)
+        assert np.abs(chain.depth_map.depth - fresh.depth).max() < 1e-9
