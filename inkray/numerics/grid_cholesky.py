@@ -534,11 +534,8 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
                 continue
             sel = slice(None) if dirty.all() else np.flatnonzero(dirty)
             nb = nb if isinstance(sel, slice) else len(sel)
-        # The children's fronts that feed these, indexed block by block in the
-        # extend-add (copying a child's whole update stack first cost a tenth of
-        # a cold factorization at 1 Mpx).
-        kids = [(updates[gid], pos if isinstance(sel, slice) else
-                 np.arange(len(updates[gid]))[pos][sel], runs)
+        kids = [(updates[gid][pos] if isinstance(sel, slice) else
+                 updates[gid][np.arange(len(updates[gid]))[pos][sel]], runs)
                 for gid, pos, runs in g.children]
         out = None
         if previous is not None and isinstance(sel, slice) and _in_place(g.s, g.r):
@@ -570,8 +567,7 @@ def _factorize(plan, values, *, keep_updates=False, previous=None, changed=None,
 def _assemble(g, values, sel, kids, nb, out=None):
     """The fronts ``sel`` of group ``g`` in three blocks: F_SS and F_RS (lower
     triangle of the eliminated rows) and the ring block, which accumulates the
-    children's updates ``kids`` (``[(U_child, fronts, runs)]``: the child group's
-    update stack, which of its fronts feed these, and the runs) and becomes the fronts'
+    children's updates ``kids`` (``[(U_child, runs)]``) and becomes the fronts'
     update in place. Fronts and updates are symmetric: only their lower
     triangles are formed and read. ``out``: the three blocks' arrays to reuse."""
     s, r = g.s, g.r
@@ -585,15 +581,15 @@ def _assemble(g, values, sel, kids, nb, out=None):
     Fss[:, g.li[g.in_s], g.lj[g.in_s]] = vals[:, g.in_s]
     Frs[:, g.li[~g.in_s] - s, g.lj[~g.in_s]] = vals[:, ~g.in_s]
     # Extend-add, one block per pair of contiguous runs on or below the diagonal.
-    for Uc, fronts, runs in kids:
+    for Uc, runs in kids:
         for a0, b0, na in runs:
             for c0, d0, nc in runs:
                 if b0 < d0:
                     continue
                 if a0 >= c0:
-                    blk = Uc[fronts, a0:a0 + na, c0:c0 + nc]
+                    blk = Uc[:, a0:a0 + na, c0:c0 + nc]
                 else:  # the source block lies above Uc's diagonal: read its mirror
-                    blk = Uc[fronts, c0:c0 + nc, a0:a0 + na].transpose(0, 2, 1)
+                    blk = Uc[:, c0:c0 + nc, a0:a0 + na].transpose(0, 2, 1)
                 if b0 < s:
                     Fss[:, b0:b0 + na, d0:d0 + nc] += blk
                 elif d0 < s:
