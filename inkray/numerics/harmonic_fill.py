@@ -101,7 +101,7 @@ class HarmonicFill:
         self.box = None
         self._factored = None   # the box's pixels it holds as identity rows
         self._operator = None   # the factored operator (diag, east, south), kept in step
-        self._preparing = None  # a prepare(): (its thread, its outcome, the factorization before)
+        self._preparing = None  # a background prepare(): (thread, outcome, stop, base)
         self.refactored_fronts = 0
 
     def solve(self, fixed, values):
@@ -145,12 +145,12 @@ class HarmonicFill:
                                             out[crop].flat[pins])
                 out[crop] = np.where(free[crop], x.reshape(known.shape), out[crop])
                 return out
-        if self._preparing is not None and not (kept and self._chol.updatable):
-            # The background prepare() covers the whole grid with update matrices:
-            # the rest of it costs less than the factorization it saves.
+        if kept and not self._chol.updatable:
+            # A prepare() under way has the update matrices this change needs: the
+            # rest of it costs less than the factorization it saves.
             self._adopt(wait=True)
-            if self._chol.updatable:
-                return self.solve(fixed, values)
+        elif not kept:
+            self._stop_preparing()
         if kept and self._chol.updatable:
             rows = known ^ self._factored
             self._rewrite(known, rows, box)
@@ -171,18 +171,16 @@ class HarmonicFill:
         return out
 
     def prepare(self, *, background=False, progress=None):
-        """Factor the whole grid's system again, keeping its update matrices.
+        """Factor the kept system again, keeping its update matrices.
 
-        After a cold solve the kept factorization covers only the box of the
-        pixels the fixed values left free, and keeps no update matrices
-        (about half the time). This factors the same system over the whole
-        grid (the pixels outside the box as the identity rows they are)
-        keeping them, so that the next change pinning cannot follow is an
-        update of the fronts it touches, wherever it lies, instead of a
-        whole factorization. The answers stay the same. It costs about twice
-        a cold solve of the whole grid, and three times its memory, so it
-        belongs where nothing waits for it. An exception from ``progress``
-        stops it and leaves the fill as it was.
+        A cold solve's factorization keeps no update matrices (about half the
+        time). This factors the same system again keeping them, so that the
+        next change pinning cannot follow is an update of the fronts it
+        touches instead of a whole factorization (unless its free pixels
+        leave the box). The answers stay the same. It costs about twice the
+        cold solve and three times its memory, so it belongs where nothing
+        waits for it. An exception from ``progress`` stops it and leaves the
+        fill as it was.
 
         Parameters
         ----------
@@ -190,7 +188,8 @@ class HarmonicFill:
             Factor in a thread of its own and return at once. The next
             :meth:`solve` that pinning can follow does not wait (it solves
             with the kept factorization, or the new one when it is done);
-            one that would factor or update waits for it, then updates.
+            one that needs an update waits for it, then updates; one whose
+            free pixels leave the box stops it and factors afresh.
         progress : object with ``update(done, total)``, optional
             Told the progress while factoring; it may raise to stop.
 
@@ -218,26 +217,22 @@ class HarmonicFill:
         if self._chol is None or self._chol.updatable or not self._incremental or \
                 self._preparing is not None:
             return False
-        h, w = self.shape
-        r0, r1, c0, c1 = self.box
-        known = np.ones(self.shape, bool)
-        known[r0:r1, c0:c1] = self._factored
-        operator = self._system(known, (0, h, 0, w))
-        outcome = {"system": ((0, h, 0, w), known, operator)}
+        operator = self._operator
         if not background:
-            outcome["chol"] = GridCholesky(*operator, updatable=True, progress=progress)
-            self._preparing = (None, outcome, self._chol)
-            self._adopt(wait=True)
+            self._chol = GridCholesky(*operator, updatable=True, progress=progress)
             return True
+        outcome = {}
+        stop = threading.Event()
 
         def run():
             try:
-                outcome["chol"] = GridCholesky(*operator, updatable=True, progress=progress)
+                outcome["chol"] = GridCholesky(*operator, updatable=True,
+                                               progress=_Stoppable(stop, progress))
             except Exception as e:  # noqa: BLE001 - the solve that needs it factors instead
                 outcome["error"] = e
 
         thread = threading.Thread(target=run, name="HarmonicFill.prepare", daemon=True)
-        self._preparing = (thread, outcome, self._chol)
+        self._preparing = (thread, outcome, stop, self._chol)
         thread.start()
         return True
 
@@ -247,19 +242,23 @@ class HarmonicFill:
         return 0 if self._chol is None else self._chol.fronts
 
     def _adopt(self, *, wait):
-        """Take the :meth:`prepare`'s factorization once it is done (waiting for it
-        with ``wait``), unless the kept system changed since it started."""
+        """Take the background :meth:`prepare`'s factorization once it is done
+        (waiting for it with ``wait``); a failed one is dropped."""
         if self._preparing is None:
             return
-        thread, outcome, base = self._preparing
-        if thread is not None:
-            if not wait and thread.is_alive():
-                return
-            thread.join()
+        thread, outcome, _, base = self._preparing
+        if not wait and thread.is_alive():
+            return
+        thread.join()
         self._preparing = None
         if "chol" in outcome and base is self._chol:
             self._chol = outcome["chol"]
-            self.box, self._factored, self._operator = outcome["system"]
+
+    def _stop_preparing(self):
+        """Stop a background :meth:`prepare` whose system is being replaced."""
+        if self._preparing is not None:
+            self._preparing[2].set()
+            self._preparing = None
 
     def pending(self, fixed, values):
         """The pixels of the box the next :meth:`solve` works on for these fixed values
@@ -474,6 +473,24 @@ class DraftFill:
         np.copyto(d, values, where=fixed)
         return d
 
+
+
+class _Stoppable:
+    """A factorization's progress that stops it once ``stop`` is set, and passes the
+    rest on to ``progress`` (optional)."""
+
+    def __init__(self, stop, progress):
+        self._stop, self._progress = stop, progress
+
+    def update(self, done, total):
+        if self._stop.is_set():
+            raise _Stopped()
+        if self._progress is not None:
+            self._progress.update(done, total)
+
+
+class _Stopped(Exception):
+    """A background factorization no longer wanted."""
 
 
 def _settled(fixed, values):
