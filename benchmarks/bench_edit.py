@@ -8,9 +8,9 @@ Three tables (``--tables open,edits,methods``, default all three):
   page's first request to the end of that preview's answer. Targets at ~1 Mpx:
   the full depth map <= 2 s, the relief <= 3 s after it. Beside the wall
   times, the server's CPU seconds (user and system, all its threads, from
-  ``/proc``) spent from the first request to the depth map's answer and to
-  the relief's: on a shared machine the wall times stretch with the load,
-  the CPU times much less.
+  ``/proc``) spent from the first request until the depth map's answer and
+  until the relief's: on a shared machine the wall times stretch with the
+  load, the CPU times much less.
 - **edits**: how soon each preview is ready after an edit (below).
 - **methods**: the fast depth method's cold solve against the exact method's:
   in process (``inkray.depth`` with the grid factorization's symbolic plans
@@ -297,7 +297,7 @@ def _methods(name, megapixels, repeats, where=("in process", "process")):
 def _open_table(names, sizes, repeats, **_):
     previews = (DRAFT, "depth.png", "labels.png", "relations", "relief.glb")
     print("| drawing | size | depth draft s | depth s | labels s | relations s | relief s "
-          "| relief - depth s | server CPU s to depth / relief | targets at ~1 Mpx |")
+          "| relief - depth s | server CPU s by depth / relief | targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for mpx in sizes:
         for name in names:

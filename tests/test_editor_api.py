@@ -601,6 +601,7 @@ def test_scribble_region_is_the_part_under_the_scribble(turtle):
     assert bad[0] == 422 and b"[x, y] points" in bad[2]
 
 
+@pytest.mark.slow
 def test_the_first_scribble_after_opening_updates_the_depth_fill(tmp_path):
     from inkray.depthmap.estimation import depth
 
