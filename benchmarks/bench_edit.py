@@ -1,6 +1,6 @@
 """Benchmark of ``inkray edit``: how soon each preview is ready on opening and after an edit.
 
-Three tables (``--tables open,edits,methods``, default all three):
+Four tables (``--tables open,edits,methods,first``, default the first three):
 
 - **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
   page asks on opening (the depth draft and then the depth map, beside the
@@ -19,6 +19,12 @@ Three tables (``--tables open,edits,methods``, default all three):
   ``--repeats`` runs (at least 3), fast and exact alternating; the ratio is
   the median of the pairwise fast / exact ratios (target: below 1 on every
   drawing).
+
+- **first**: in process (no server), the CPU seconds of the fast depth map on
+  the edits table's cold document, of :meth:`ReliefChain.prepare_depth` (what
+  the editor does after the relief), and of the depth map after the +arrow
+  and +scribble edits, once without and once with that preparation, with
+  the fronts of the fill each edit refactored.
 
 The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
@@ -50,7 +56,8 @@ slow on).
 Usage::
 
     python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
-        [--repeats 3] [--tables open,edits,methods] [--pause 0] [--where "in process,process"]
+        [--repeats 3] [--tables open,edits,methods,first] [--pause 0]
+        [--where "in process,process"]
 """
 
 import argparse
@@ -340,6 +347,73 @@ def _methods_table(names, sizes, repeats, where=("in process", "process"), **_):
             print(f"| {name} | {size} | {' | '.join(cells)} |", flush=True)
 
 
+def _first(name, megapixels):
+    """``{prepared: [(label, CPU s, refactored fronts, fronts)]}`` for the cold depth
+    map, the preparation and the +arrow and +scribble edits, in process."""
+    import resource
+
+    import inkray
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.input.annotations import parse_annotations
+
+    ann_path, doc = _folder(name, megapixels)
+    ann, drawing = inkray.load_input(ann_path)
+    edits = dict(_edits(doc))
+
+    def annotations(d):
+        a = parse_annotations(d)
+        a.drawing, a.source = ann.drawing, ann.source
+        return a
+
+    def cpu():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    out = {}
+    try:
+        for prepared in (False, True):
+            chain = ReliefChain(annotations(edits["cold"]), drawing,
+                                options=ChainOptions(interactive=True, depth_method="fast"))
+            steps = [("cold", chain)]
+            if prepared:
+                steps.append(("prepare", chain))
+            steps += [(label, None) for label in ("+arrow", "+scribble") if label in edits]
+            rows = []
+            for label, step in steps:
+                if step is None:
+                    chain = chain.edit(annotations=annotations(edits[label]))
+                chain.segmentation  # the labels come first, as in the editor
+                start = cpu()
+                if label == "prepare":
+                    chain.prepare_depth(background=False)
+                else:
+                    chain.depth_map
+                session = chain._cache.session[1]
+                fill = session._fills[False]
+                rows.append((label, cpu() - start, fill.refactored_fronts, fill.fronts))
+            out[prepared] = rows
+            del chain, session, fill
+    finally:
+        shutil.rmtree(ann_path.parent, ignore_errors=True)
+    return out
+
+
+def _first_table(names, sizes, repeats, **_):
+    print("| drawing | size | prepared | cold depth CPU s | prepare CPU s | +arrow depth CPU s "
+          "(fronts) | +scribble depth CPU s (fronts) |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            size = _folder_size(name, mpx)
+            for prepared, rows in _first(name, mpx).items():
+                cell = {label: (f"{t:.2f}" if label in ("cold", "prepare") else
+                                f"{t:.2f} ({redone}/{fronts})")
+                        for label, t, redone, fronts in rows}
+                print(f"| {name} | {size} | {'yes' if prepared else 'no'} | "
+                      + " | ".join(cell.get(k, "-") for k in ("cold", "prepare", "+arrow",
+                                                              "+scribble")) + " |", flush=True)
+
+
 def _folder_size(name, megapixels):
     ann, doc = _folder(name, megapixels)
     shutil.rmtree(ann.parent, ignore_errors=True)
@@ -406,7 +480,8 @@ def main():
     names = args.names.split(",") if args.names else _drawings()
     sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
     repeats = max(args.repeats, 1)
-    tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table}
+    tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table,
+              "first": _first_table}
     for k, table in enumerate(args.tables.split(",")):
         if table not in tables:
             parser.error(f"--tables: unknown table {table!r} (expected {', '.join(tables)})")
