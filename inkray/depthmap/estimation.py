@@ -357,11 +357,11 @@ class DepthSession:
         (:func:`inkray.segmentation.segment`'s, the relief's: regions
         ``0..R-1``, background ``-1``).
     incremental : bool, default True
-        Keep what a re-solve reuses: the fill's factorization and, once a
-        change needed more than pinning, its update matrices (up to about
-        0.4 GB for a 512x512 drawing, 2 GB at 1024x1024; see
-        :class:`~inkray.numerics.harmonic_fill.HarmonicFill`). Without it
-        every :meth:`solve` factors the fill afresh.
+        Keep what a re-solve reuses: the fill's factorization and, after
+        :meth:`prepare` or once a change needed more than pinning, its
+        update matrices (up to about 0.4 GB for a 512x512 drawing, 2 GB at
+        1024x1024; see :class:`~inkray.numerics.harmonic_fill.HarmonicFill`).
+        Without it every :meth:`solve` factors the fill afresh.
     progress : inkray.progress.Progress, optional
         Its ``update(done, total)`` while the fill is factored afresh.
 
