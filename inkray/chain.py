@@ -364,6 +364,11 @@ class ReliefChain:
         (:meth:`~inkray.depthmap.estimation.DepthSession.prepare`), in time
         nobody waits on: after a cold open its fill has no update matrices.
 
+        Parameters
+        ----------
+        background : bool, default True
+            Factor in a thread of its own and return at once.
+
         Returns
         -------
         bool
