@@ -229,10 +229,12 @@ def train(batch, validation, *, linear=FEATURES, trees=100, split=FEATURES, cali
     # A cue says "x in front" by its sign: it is never read the other way round.
     weights[cols] = fit_linear(X[:, cols], y, positive=[k in SIGNED for k in linear])
     weights = np.round(weights, 7)
-    among = np.array([FEATURES.index(k) for k in split])
-    feature, threshold, leaf = fit_trees(X[:, among], y, trees=max(trees, 1), start=X @ weights,
-                                         rate=RATE if trees else 0.0)
-    feature = among[feature]
+    if trees:
+        among = np.array([FEATURES.index(k) for k in split])
+        feature, threshold, leaf = fit_trees(X[:, among], y, trees=trees, start=X @ weights)
+        feature = among[feature]
+    else:  # the linear term alone: one stump that adds nothing
+        feature, threshold, leaf = np.zeros((1, 1), np.int64), np.full((1, 1), np.inf), np.zeros((1, 2))
     # Rounded as the JSON file keeps them, so the trained and the shipped model agree.
     threshold = np.array([[float(f"{v:.7g}") for v in row] for row in threshold])
     leaf = np.round(leaf, 7)
