@@ -254,7 +254,9 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         relation applies.
     seams : sequence of inkray.input.annotations.Boundary, default ()
         The ``boundaries`` entries (``stitch``, ``graft``; ``flat`` needs no
-        offset), found on the meshes by their index.
+        offset), found on the meshes by their index, and the open joins
+        (:class:`~inkray.relief.joins.OpenJoin`, grafts between their own two
+        regions, named by their ``label``).
     epsilon : float, optional
         Depth step of an inequality in px; default
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
@@ -510,9 +512,11 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
     for entry in seams:
         if entry.type == "flat":
             continue
-        key = f"boundaries[{entry.index}]"
+        # An open join (inkray.relief.joins) names itself and joins its own two regions.
+        key = getattr(entry, "label", f"boundaries[{entry.index}]")
         holders = [i for i, r in enumerate(regions)
-                   if r is not None and len(r.mesh.station_vertices(entry.index))]
+                   if r is not None and len(r.mesh.station_vertices(entry.index))
+                   and i in getattr(entry, "regions", (i,))]
         if not holders:
             continue  # reported by the outline stage (no outline within reach)
         front = holders[0]
@@ -539,8 +543,9 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
             seam = blocks[front].v[st]
             length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
             width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        lift = _graft_rows(rows, blocks, front, other, st, width, epsilon, key)
-        zones.append((front, other, blocks[front].v[st], width, key, lift))
+        seam = _seam_vertices(regions[front].mesh, entry.index, blocks[front].v[st])
+        lift = _graft_rows(rows, blocks, front, other, seam, width, epsilon, key)
+        zones.append((front, other, blocks[front].v[seam], width, key, lift))
     return zones
 
 
@@ -550,6 +555,22 @@ def _in_front(relations, a, b, blocks):
         if r.kind == "order" and {r.front, r.back} == {a, b}:
             return r.front == a
     return len(blocks[a].h) < len(blocks[b].h)
+
+
+def _seam_vertices(mesh, index, stations):
+    """Every outline vertex of a marked stretch (its stations and the points the
+    triangulation put between them), in order along the stations' polyline."""
+    sel = np.flatnonzero(mesh.boundary_index == index)
+    if len(stations) < 2 or len(sel) <= len(stations):
+        return mesh.station_vertices(index)
+    a, b = stations[:-1], stations[1:]
+    ab = b - a
+    p = mesh.vertices[sel]
+    t = np.clip(((p[:, None] - a[None]) * ab[None]).sum(-1)
+                / np.maximum((ab * ab).sum(-1), 1e-12), 0.0, 1.0)
+    near = a[None] + t[..., None] * ab[None]
+    k = np.argmin(((p[:, None] - near) ** 2).sum(-1), axis=1)
+    return sel[np.argsort(k + t[np.arange(len(sel)), k], kind="stable")]
 
 
 def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
@@ -605,7 +626,7 @@ def _blend(g, blocks, front, base, seam, width, lift):
     under, dist = _height(g, b, p)
     e = np.where(dist <= _INSIDE, np.maximum(e, under), e)
     t = d / width
-    w = t * t * (3.0 - 2.0 * t)
+    w = t ** 3 * (10.0 - 15.0 * t + 6.0 * t * t)
     z = f.h[sel] + g[f.start + sel]
     g[f.start + sel] = e + lift + w * (z - e - lift) - f.h[sel]
 
