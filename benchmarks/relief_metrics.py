@@ -19,7 +19,7 @@ what a viewer sees, not on the solver's own variables:
   the body, a leg open at the top between two stroke tips), the two parts
   join along an ink-free stretch of their common outline. Such joins are
   found in the front view's part image (:mod:`inkray.relief.joins`: ink-free
-  cuts between two parts at least two stroke widths and 20 px long; a
+  cuts between two parts at least 1.5 stroke widths and 20 px long; a
   shorter one is a gap in a drawn line, where one part is in front of the
   other). There the surfaces must join, so every ink-free pixel pair across
   the join counts, a step between the two surfaces included (a cliff's wall
@@ -103,7 +103,7 @@ def open_joins(part, gray, *, reach=1.0):
 
     The joins are :func:`inkray.relief.joins.open_joins` of ``part`` (-1
     nothing, else the part; every join, the ones a ``graft`` entry marks
-    included): ink-free cuts between two parts, at least two stroke widths
+    included): ink-free cuts between two parts, at least 1.5 stroke widths
     and 20 px long.
     """
     part = np.asarray(part)

@@ -35,7 +35,7 @@ from inkray.relief.silhouette import ink_pixels, stroke_width
 __all__ = ["OpenJoin", "open_joins", "OPEN_WIDTHS", "OPEN_MIN"]
 
 #: An ink-free cut this many stroke widths long is an open join; a shorter one is a gap.
-OPEN_WIDTHS = 2.0
+OPEN_WIDTHS = 1.5
 #: And at least this long (px): a pen lifted for a moment leaves a gap, not an opening.
 OPEN_MIN = 20.0
 _SMOOTH = 2.0  # px (Gaussian sigma along the cut): the cut's pixel steps smoothed away

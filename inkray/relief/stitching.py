@@ -67,6 +67,7 @@ _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
+_RISE = 1.0  # and at least this times the grafted part's own height at the seam
 _REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
@@ -535,15 +536,17 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
         if other in holders and _in_front(relations, other, front, blocks):
             front, other = other, front  # the graft grows out of the region behind
             st = regions[front].mesh.station_vertices(entry.index)
+        seam = _seam_vertices(regions[front].mesh, entry.index, blocks[front].v[st])
         if band is not None:
             width = band
         else:
             # The grafted part rises epsilon above its base over the band: a band as
             # wide as half the seam keeps that tilt (about 3 epsilon / length) unseen.
-            seam = blocks[front].v[st]
-            length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
-            width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        seam = _seam_vertices(regions[front].mesh, entry.index, blocks[front].v[st])
+            # It also comes down from its own height (its inflation at the seam) to
+            # the base's: a band at least that wide keeps the descent gentle.
+            length = float(np.linalg.norm(np.diff(blocks[front].v[st], axis=0), axis=1).sum())
+            width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length,
+                        _RISE * float(blocks[front].h[seam].max()))
         lift = _graft_rows(rows, blocks, front, other, seam, width, epsilon, key)
         zones.append((front, other, blocks[front].v[seam], width, key, lift))
     return zones
