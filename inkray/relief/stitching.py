@@ -14,17 +14,19 @@ gets an offset field ``g_i`` on its mesh so that the heights
   ``z_A - z_B`` is linear: the order holds over the whole overlap), plus the
   user's entry points;
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
-- **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
-  outline carries the entry, inflated with a Neumann condition there) meets
-  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and
-  ``z_F >= z_K`` plus a margin growing to ``epsilon`` on every vertex of
-  ``F`` within ``band`` pixels of them that lies over ``K``'s mesh (no
-  z-fighting); after the solve ``F`` is blended over that band onto ``K``'s
-  tangent plane across the seam, with a weight of zero value and slope at
-  the seam, so ``F`` leaves ``K`` with its height and slope (no crease, no
-  rim), as the single smooth surface of Dvořožňák et al. 2018, "Seamless
-  reconstruction of part-based high-relief models from hand-drawn images",
-  would;
+- **smooth grafts**: along a ``graft`` entry, or an open join of
+  :mod:`inkray.relief.joins` (outline without ink between two regions), the
+  front region ``F`` (whose outline carries the seam, inflated with a
+  Neumann condition there) meets the region ``K`` behind: ``z_F = z_K`` at
+  every vertex of its seam (no crack; rows at the stations alone let ``F``
+  bulge between them) and ``z_F >= z_K`` plus a margin growing to
+  ``epsilon`` on every vertex of ``F`` within ``band`` pixels of them that
+  lies over ``K``'s mesh (no z-fighting); after the solve ``F`` is blended
+  over that band onto ``K``'s tangent plane across the seam, with a weight
+  of zero value, slope and curvature at the seam, so ``F`` leaves ``K`` with
+  its height and slope (no crease, no rim), as the single smooth surface of
+  Dvořožňák et al. 2018, "Seamless reconstruction of part-based
+  high-relief models from hand-drawn images", would;
 - ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
 
 with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
@@ -579,14 +581,15 @@ def _seam_vertices(mesh, index, stations):
 def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
     """The front region grows out of ``base``: no crack, no z-fighting.
 
-    At the stations ``z_front = z_base`` (C0, lifted by the base's bulge:
+    At the seam's vertices ``stations`` (all of them, in order along the
+    seam) ``z_front = z_base`` (C0, lifted by the base's bulge:
     :func:`_sagitta`). Where ``base`` continues under ``front`` (it was
     completed there), every other vertex of ``front`` within ``width`` of the
-    stations, at distance ``d``, lies above ``base`` by the margin ``epsilon
+    seam, at distance ``d``, lies above ``base`` by the margin ``epsilon
     (d / width)^2``: zero at the seam, ``epsilon`` (the order step) at the end
     of the band. The base thus stays below the grafted part all the way, and
     :func:`_blend` then makes the grafted part leave the seam with the
-    base's slope. Returns the largest lift of a station.
+    base's slope. Returns the largest lift of a seam vertex.
     """
     blk = blocks[front]
     seam = blk.v[stations]
@@ -601,16 +604,18 @@ def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
 
 
 def _blend(g, blocks, front, base, seam, width, lift):
-    """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
+    """Make the grafted part ``front`` leave ``base`` with its height and slope.
 
     Over the band the grafted part's height becomes ``e + lift + w(d / width)
-    (z_front - e - lift)`` with ``w(t) = 3 t^2 - 2 t^3``, ``d`` the distance
-    to the seam and ``e`` the base continued across the seam by its tangent
-    plane (its slope from the last :data:`_REACH` px before the seam):
-    ``w(0) = w'(0) = 0``, so at the seam the grafted part has the base's
-    height (lifted by the base's bulge between stations) and slope; ``w(1) =
-    1, w'(1) = 0``, so it joins its solved surface with no crease at the
-    band's end. The tangent plane, not the base's own surface where it was
+    (z_front - e - lift)`` with ``w(t) = 10 t^3 - 15 t^4 + 6 t^5``, ``d`` the
+    distance to the seam and ``e`` the base continued across the seam by its
+    tangent plane (its slope from the last :data:`_REACH` px before the
+    seam): ``w(0) = w'(0) = w''(0) = 0``, so at the seam the grafted part has
+    the base's height (lifted by the base's bulge between seam vertices) and
+    slope, and bends away from it gently (a pixel beside the seam its normal
+    is still the base's, where a cubic weight turned it by the rise over the
+    band); ``w(1) = 1, w'(1) = w''(1) = 0``, so it joins its solved surface
+    with no crease at the band's end. The tangent plane, not the base's own surface where it was
     completed under the grafted part: that surface falls to zero height at
     its invented outline, wherever the completion ended. Where the base is
     above its tangent plane (a concave base) its own surface is taken, so
@@ -651,10 +656,10 @@ def _foot(points, line):
 
 
 def _sagitta(base, seam):
-    """Per station, how far the base bulges above the straight seam edges beside it.
+    """Per seam vertex, how far the base bulges above the straight seam edges beside it.
 
-    The grafted part's seam runs straight from station to station while the
-    base's surface is curved along it; lifting each station by this much (a
+    The grafted part's seam runs straight from vertex to vertex while the
+    base's surface is curved along it; lifting each vertex by this much (a
     fraction of a pixel) keeps the base from showing through between them.
     """
     if len(seam) < 2:
