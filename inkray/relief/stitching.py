@@ -549,8 +549,11 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
             length = float(np.linalg.norm(np.diff(blocks[front].v[st], axis=0), axis=1).sum())
             width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length,
                         _RISE * float(blocks[front].h[seam].max()))
-        lift = _graft_rows(rows, blocks, front, other, seam, width, epsilon, key)
-        zones.append((front, other, blocks[front].v[seam], width, key, lift))
+        # The stations' polyline is the seam's (the other vertices lie on its edges),
+        # with far fewer edges to measure distances to.
+        line = blocks[front].v[st]
+        lift = _graft_rows(rows, blocks, front, other, seam, line, width, epsilon, key)
+        zones.append((front, other, line, width, key, lift))
     return zones
 
 
@@ -578,11 +581,11 @@ def _seam_vertices(mesh, index, stations):
     return sel[np.argsort(k + t[np.arange(len(sel)), k], kind="stable")]
 
 
-def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
+def _graft_rows(rows, blocks, front, base, stations, line, width, epsilon, key):
     """The front region grows out of ``base``: no crack, no z-fighting.
 
     At the seam's vertices ``stations`` (all of them, in order along the
-    seam) ``z_front = z_base`` (C0, lifted by the base's bulge:
+    seam, whose polyline is ``line``) ``z_front = z_base`` (C0, lifted by the base's bulge:
     :func:`_sagitta`). Where ``base`` continues under ``front`` (it was
     completed there), every other vertex of ``front`` within ``width`` of the
     seam, at distance ``d``, lies above ``base`` by the margin ``epsilon
@@ -596,7 +599,7 @@ def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    dist = point_polyline_distance(blk.v, seam)
+    dist = point_polyline_distance(blk.v, line)
     sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
                 _margin(dist[sel], width, epsilon), True, key, graft=True)
