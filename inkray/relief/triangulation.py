@@ -6,7 +6,8 @@ inflated as a 2D triangle mesh. This module meshes a
 :class:`~inkray.relief.outline.RegionOutline` with a constrained conforming Delaunay
 triangulation: minimum angle 20 degrees (except next to sharper input corners),
 maximum area from the resolution knob ``max_area`` (px^2), and finer
-triangles near the seams of ``graft`` entries, so that a grafted part can
+triangles near the seams of ``graft`` entries (and of the open joins of
+:mod:`inkray.relief.joins`, which are grafts too), so that a grafted part can
 leave its base with the base's slope and its interpolated normals stay
 smooth across the seam (the triangles grow with the distance to the seam).
 
