@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _closed_manifold, _envelope_solid,
+from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _envelope_solid,
                                     _min_angles, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions

@@ -41,7 +41,7 @@ __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
 _RINGS = 2  # rings of faces remeshed around each sliver (see remesh_solid)
-_ROUNDS = 3  # of remeshing, one more ring each, while faces are left bad
+_ROUNDS = 3  # of remeshing, two more rings each, while faces are left bad
 _ITERATIONS = 4  # of that remeshing
 
 
@@ -134,7 +134,6 @@ def close_part(part, back_z):
     """
     v = np.asarray(part.vertices, float)
     f = np.asarray(part.faces, np.int64)
-    n = len(v)
     back_z = np.asarray(back_z, float)
     if (v[:, 2] - back_z <= 0).any():
         raise StageError(f"part {part.name}: the back does not lie below the front")
@@ -299,9 +298,9 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
         Edge length to aim for (same units as the vertices).
     min_angle : float, default 10
     rings : int, default 2
-        Rings of faces remeshed around each sliver.
+        Rings of faces remeshed around each sliver in the first round.
     iterations : int, default 4
-        Of the remeshing.
+        Of the first round's remeshing.
 
     Returns
     -------
