@@ -24,7 +24,7 @@ from inkray.input.loading import load_input
 # solid's height under a pixel wide (the donkey's forelock and ear, the dragon's
 # eyes and head), which the local remeshing cannot shape.
 SLIVERS = {"donkey": 0.0, "dragon": 0.0}
-CROSSINGS = {"donkey": 31, "dragon": 44}
+CROSSINGS = {"donkey": 58, "dragon": 44}
 
 
 @lru_cache(maxsize=None)
