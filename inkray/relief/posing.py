@@ -38,7 +38,7 @@ from inkray.errors import InputError
 from inkray.numerics.arap import Arap, pieces, signed_areas
 from inkray.relief.model import Part, Relief
 
-__all__ = ["Rig", "Join", "Posing", "rig_relief", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
+__all__ = ["Rig", "Join", "Posing", "rig_relief", "front_mesh", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
 
 #: A hidden area is a part's root when its cut to the part's visible pixels is below this share
 #: of its border.
@@ -335,24 +335,14 @@ def rig_relief(relief, completion, *, boundaries=()):
         if p.name not in names:
             raise InputError(f"relief: part {p.name!r} is not a region of the drawing (a union "
                              f"of all parts cannot be posed)")
-        v = np.asarray(p.vertices, float)
-        f = np.asarray(p.faces, np.int64)
-        # A closed part's back copies its front's (x, y): one rig vertex for both.
-        xy, first, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_index=True,
-                                       return_inverse=True)
-        inverse = inverse.reshape(-1)
-        top = np.full(len(xy), -np.inf)
-        np.maximum.at(top, inverse, v[:, 2])
-        front = f[np.all(v[f, 2] >= top[inverse[f]] - 1e-9, axis=1)] if p.closed else f
-        tri = inverse[front]
-        tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+        first, inverse, top, tri = front_mesh(p)
         base = offsets[-1]
-        verts.append(v[first, :2])
+        verts.append(np.asarray(p.vertices, float)[first, :2])
         heights.append(top)
         faces.append(tri + base)
         part_of_face.append(np.full(len(tri), i))
         index.append(inverse + base)
-        offsets.append(base + len(xy))
+        offsets.append(base + len(first))
     vertices = np.concatenate(verts)
     rig = Rig(names=[p.name for p in relief.parts], vertices=vertices,
               heights=np.concatenate(heights), faces=np.concatenate(faces),
@@ -383,6 +373,49 @@ def rig_relief(relief, completion, *, boundaries=()):
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
     return rig
+
+
+def front_mesh(part):
+    """A relief part's front surface as a 2D triangle mesh: one vertex per ``(x, y)``.
+
+    A closed part's back copies its front's ``(x, y)``; both become one
+    vertex, at the front's height, and only the front's faces are kept.
+
+    Parameters
+    ----------
+    part : inkray.relief.model.Part
+
+    Returns
+    -------
+    first : (k,) int array
+        The part's front vertex at each mesh vertex.
+    inverse : (n,) int array
+        The mesh vertex of each vertex of the part.
+    top : (k,) float array
+        The front surface's height at each mesh vertex.
+    faces : (m, 3) int array
+        Front faces into the mesh vertices, none degenerate.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 1], [4, 0, 1], [0, 4, 1], [0, 0, -1], [4, 0, -1], [0, 4, -1]], float)
+    >>> front = front_mesh(Part("p", v, np.array([[0, 1, 2], [3, 5, 4]]), closed=True))
+    >>> front[0].tolist(), front[2].tolist(), front[3].tolist()
+    ([0, 2, 1], [1.0, 1.0, 1.0], [[0, 2, 1]])
+    """
+    v = np.asarray(part.vertices, float)
+    f = np.asarray(part.faces, np.int64).reshape(-1, 3)
+    xy, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    top = np.full(len(xy), -np.inf)
+    np.maximum.at(top, inverse, v[:, 2])
+    on_top = v[:, 2] >= top[inverse] - 1e-9
+    _, copy = np.unique(inverse[on_top], return_index=True)
+    first = np.flatnonzero(on_top)[copy]  # each mesh vertex's first front copy
+    front = f[np.all(on_top[f], axis=1)] if part.closed else f
+    tri = inverse[front]
+    tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+    return first, inverse, top, tri
 
 
 def _joined_areas(completion):
