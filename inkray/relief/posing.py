@@ -104,6 +104,7 @@ class Rig:
     glue: object
     joins: list = field(default_factory=list)
     relief: Relief = None
+    _rest_sign: np.ndarray = field(default=None, repr=False, compare=False)
 
     def locate(self, points):
         """The front-most part under each point and the point as a combination of rig vertices.
@@ -167,9 +168,9 @@ class Rig:
 
     def folded(self, positions):
         """Indices of the faces whose orientation flipped against the rest shape."""
-        rest = signed_areas(self.vertices, self.faces)
-        now = signed_areas(positions, self.faces)
-        return np.flatnonzero(np.sign(rest) * now <= 0)
+        if self._rest_sign is None:
+            self._rest_sign = np.sign(signed_areas(self.vertices, self.faces))
+        return np.flatnonzero(self._rest_sign * signed_areas(positions, self.faces) <= 0)
 
 
 class Posing:

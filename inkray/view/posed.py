@@ -180,27 +180,29 @@ def _draw(posed, sources, *, scale=1.0):
         colours.append(rgba)
         owners.append(np.full(len(pix), i, np.int32))
         # pixels are distinct within a part; equal heights go to the later part (in front)
-        old1, old2 = z1[pix], z2[pix]
+        old1 = z1[pix]
         top = z >= old1
-        second = ~top & (z >= old2)
-        z2[pix] = np.where(top, old1, np.where(second, z, old2))
-        i2[pix] = np.where(top, i1[pix], np.where(second, ids, i2[pix]))
-        z1[pix] = np.where(top, z, old1)
-        i1[pix] = np.where(top, ids, i1[pix])
+        second = np.flatnonzero(~top & (z >= z2[pix]))
+        top = np.flatnonzero(top)
+        at, was = pix[top], i1[pix[top]]
+        z2[at], i2[at] = old1[top], was
+        z1[at], i1[at] = z[top], ids[top]
+        z2[pix[second]], i2[pix[second]] = z[second], ids[second]
     out = np.zeros((h * w, 4), np.uint8)
     shown = np.full(h * w, -1, np.int32)
     covered = np.flatnonzero(i1 >= 0)
     if covered.size:
         store = np.concatenate(colours)
         shown[covered] = np.concatenate(owners)[i1[covered]]
-        c1 = np.take(store, i1[covered], axis=0)
+        c = np.take(store, i1[covered], axis=0)  # premultiplied, alpha in 0..255
         under = i2[covered]
-        c2 = np.where((under >= 0)[:, None], np.take(store, np.maximum(under, 0), axis=0), 0.0)
-        premult = c1 + (1.0 - c1[:, 3:] / 255.0) * c2  # premultiplied, alpha in 0..255
-        alpha = np.clip(np.rint(premult[:, 3]), 0, 255)
-        colour = premult[:, :3] * (255.0 / np.maximum(premult[:, 3:], 1e-12))
-        out[covered, 3] = alpha
-        out[covered, :3] = np.where(alpha[:, None] > 0, np.clip(np.rint(colour), 0, 255), 0)
+        blend = np.flatnonzero((under >= 0) & (c[:, 3] < 255))
+        c[blend] += (1.0 - c[blend, 3:] / 255.0) * np.take(store, under[blend], axis=0)
+        soft = np.flatnonzero(c[:, 3] < 255)
+        c[soft, :3] *= 255.0 / np.maximum(c[soft, 3:], 1e-12)
+        rgba = np.clip(np.rint(c), 0, 255).astype(np.uint8)
+        rgba[rgba[:, 3] == 0, :3] = 0
+        out[covered] = rgba
     return out.reshape(h, w, 4), shown.reshape(h, w)
 
 
@@ -232,10 +234,13 @@ def _scan(points, triangles, size):
     m = len(triangles)
     if not m:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    corners = points[triangles]
-    order = np.argsort(corners[..., 1], axis=1, kind="stable")
-    corners = np.take_along_axis(corners, order[..., None], axis=1)
-    (x0, x1, x2), (y0, y1, y2) = corners[..., 0].T, corners[..., 1].T
+    px, py = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    x, y = list(px[triangles].T), list(py[triangles].T)
+    for a, b in ((0, 1), (1, 2), (0, 1)):  # the corners ordered by y
+        swap = y[b] < y[a]
+        x[a], x[b] = np.where(swap, x[b], x[a]), np.where(swap, x[a], x[b])
+        y[a], y[b] = np.where(swap, y[b], y[a]), np.where(swap, y[a], y[b])
+    (x0, x1, x2), (y0, y1, y2) = x, y
 
     def slope(xa, ya, xb, yb):
         return np.divide(xb - xa, yb - ya, out=np.zeros(m), where=yb > ya)
@@ -264,17 +269,21 @@ def _ramp(counts):
 
 def _affine(points, triangles, values):
     """Per triangle, ``values`` (n, c) as affine functions of (x, y): (m, 3c) ``[d/dx, d/dy, at 0]``."""
-    p = points[triangles]
-    v = values[triangles]
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e2[:, 0] * e1[:, 1]
-    ok = np.abs(det) > 1e-12
-    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)[:, None]
-    d1, d2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-    gx = (d1 * e2[:, 1:2] - d2 * e1[:, 1:2]) * inv
-    gy = (d2 * e1[:, 0:1] - d1 * e2[:, 0:1]) * inv
-    c = v[:, 0] - gx * p[:, 0, 0:1] - gy * p[:, 0, 1:2]
-    return np.concatenate([gx, gy, c], axis=1)
+    a, b, c = (np.ascontiguousarray(t) for t in np.asarray(triangles).T)
+    px, py = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    x0, y0 = px[a], py[a]
+    e1x, e1y, e2x, e2y = px[b] - x0, py[b] - y0, px[c] - x0, py[c] - y0
+    det = e1x * e2y - e2x * e1y
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=np.abs(det) > 1e-12)
+    k = values.shape[1]
+    out = np.empty((len(a), 3 * k))
+    for j in range(k):
+        v = np.ascontiguousarray(values[:, j])
+        v0 = v[a]
+        d1, d2 = v[b] - v0, v[c] - v0
+        gx, gy = (d1 * e2y - d2 * e1y) * inv, (d2 * e1x - d1 * e2x) * inv
+        out[:, j], out[:, k + j], out[:, 2 * k + j] = gx, gy, v0 - gx * x0 - gy * y0
+    return out
 
 
 def posed_layers(posed, rest, layers, drawing_rgb):
@@ -404,7 +413,7 @@ class _PartSource:
         bw, bh = hi - lo
         local = out - lo
         # the skirt first: where the part's own triangles cover a pixel, they draw it
-        frags = np.full(bw * bh, -1, np.int64)
+        frags = np.full(bw * bh, -1, np.int32)
         inner = len(self.faces)
         for chosen in (slice(inner, None), slice(0, inner)):
             pix, tri = _scan(local, faces[chosen], (bw, bh))
@@ -413,14 +422,16 @@ class _PartSource:
         if not pix.size:
             return None
         tri = frags[pix]
-        col, row = (pix % bw).astype(float), (pix // bw).astype(float)
-        coef = np.take(_affine(local, faces, np.column_stack([z, rest])), tri, axis=0)
-        at = coef[:, :3] * col[:, None] + coef[:, 3:6] * row[:, None] + coef[:, 6:]
+        row, col = np.divmod(pix, bw)
         tx, ty, tex = self.texture
-        rgba = _bilinear(tex, at[:, 1:] - [tx, ty])
+        # per fragment: height and texture position, affine in the pixel's position
+        k = np.take(_affine(local, faces, np.column_stack([z, rest - [tx, ty]])), tri, axis=0)
+        x, y = col.astype(float), row.astype(float)
+        at = k[:, :3] * x[:, None] + k[:, 3:6] * y[:, None] + k[:, 6:]
+        rgba = _bilinear(tex, at[:, 1:])
         # what is fully transparent is not there: the surface under it shows
         keep = rgba[:, 3] > 0
-        flat = (pix[keep] // bw + lo[1]) * w + pix[keep] % bw + lo[0]
+        flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
         return flat, at[keep, 0], rgba[keep]
 
 
