@@ -87,21 +87,56 @@ def _turn(p, about, degrees):
     return about + r @ (p - about)
 
 
-def _holes(alpha):
-    """Transparent pixels no 8-connected path of transparent pixels joins to the outside."""
-    solid = alpha > 0
-    return int((ndimage.binary_fill_holes(solid, structure=np.ones((3, 3))) & ~solid).sum())
+def _holes(posed, x, img, rest):
+    """Tears: transparent pixels enclosed by the posed silhouette whose place in the drawing
+    is opaque.
+
+    A pixel is taken back to the drawing through the posed triangle nearest to it (its
+    affine map, extrapolated outside the triangle). Paper that a pose encloses (a leg closing
+    on the other, a notch between two parts closing) is paper in the drawing too: no hole.
+    """
+    import igl
+
+    solid = img[..., 3] > 0
+    ys, xs = np.nonzero(ndimage.binary_fill_holes(solid, structure=np.ones((3, 3))) & ~solid)
+    if not len(xs):
+        return 0
+    rig = posed.rig
+    p = np.column_stack([xs, ys]).astype(float)
+    flat = np.column_stack([x, np.zeros(len(x))])
+    _, face, _ = igl.point_mesh_squared_distance(np.column_stack([p, np.zeros(len(p))]), flat,
+                                                 rig.faces.astype(np.int64))
+    t = x[rig.faces[face]]
+    e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    home = rig.vertices[rig.faces[face]]
+    q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
+    h, w = rest.shape[:2]
+    col = np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1)
+    row = np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1)
+    return int((rest[row, col, 3] > 0).sum())
 
 
 def _visibility(posed, relief, part):
+    """Share of the pixels two or more parts draw (a surface there and its layer not
+    transparent) where the part drawn is the highest of them; heights from the relief's own
+    rasterization, what each part draws from its picture alone."""
     from inkray.relief.model import Relief
+    from inkray.view.posed import posed_image
     from inkray.view.rasterization import rasterize
 
+    rest = posed.rig.relief
     depth = np.stack([rasterize(Relief([p], size=relief.size)).depth for p in relief.parts])
-    covered = np.isfinite(depth).sum(axis=0) >= 2
-    if not covered.any():
+    for k, (p, r) in enumerate(zip(relief.parts, rest.parts)):
+        alone = posed_image(Relief([p], size=relief.size), Relief([r], size=rest.size),
+                            posed.cutout, posed.drawing.rgb)[0]
+        depth[k][alone[..., 3] == 0] = -np.inf
+    drawn = np.isfinite(depth).sum(axis=0) >= 2
+    if not drawn.any():
         return 1.0
-    return float(np.mean(np.argmax(depth, axis=0)[covered] == part[covered]))
+    return float(np.mean(np.argmax(depth, axis=0)[drawn] == part[drawn]))
 
 
 def _http_drags(name, megapixels, handles, targets):
@@ -179,7 +214,7 @@ def one(name, megapixels, http=True):
     moved = posed.relief(x)
     img, part = posed_image(moved, relief, posed.cutout, drawing.rgb)
     rest = posed.image(rig.vertices)
-    holes = max(0, _holes(img[..., 3]) - _holes(rest[..., 3]))
+    holes = _holes(posed, x, img, rest)
     visibility = _visibility(posed, moved, part)
     t0 = time.perf_counter()
     posed.posing.solver.reset()
@@ -199,6 +234,32 @@ def one(name, megapixels, http=True):
 TUNED = ("man", "figure", "turtle", "rings", "gingerbread")
 
 
+def _turned_pieces(chain, ann, drawing, rig):
+    """Opaque 8-connected pieces of the picture at rest and turned: the largest part's two
+    pins turned by 30 degrees about their middle, its largest limb's tip by 30 more about
+    where it joins (parts no join reaches stay behind)."""
+    from inkray.view.posed import PosedDrawing
+
+    pins, tip, join = _scenario(chain, rig)
+    handles = pins if tip is None else np.vstack([pins, tip])
+    centre = pins.mean(axis=0)
+    targets = np.array([_turn(p, centre, 30.0) for p in pins])
+    if tip is not None:
+        targets = np.vstack([targets, _turn(_turn(tip, join, 30.0), centre, 30.0)])
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing, handles,
+                         boundaries=ann.boundaries)
+
+    def count(rgba):
+        found, n = ndimage.label(rgba[..., 3] > 0, structure=np.ones((3, 3)))
+        return int((np.bincount(found.ravel())[1:] >= _SPECK).sum())
+
+    x, _ = posed.posing.pose(targets, iterations=8)
+    return count(posed.image(posed.rig.vertices)), count(posed.image(x))
+
+
+_SPECK = 20  # px: smaller opaque pieces are specks of the drawing, not parts
+
+
 def joins_table():
     from collections import Counter
 
@@ -206,8 +267,9 @@ def joins_table():
     from inkray.numerics.arap import pieces
     from inkray.relief.posing import rig_relief
 
-    print("| drawing | set | parts | joins (rooted / on top / seams) | pieces |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| drawing | set | parts | joins (rooted / on top / overlap / seams) | rig pieces "
+          "| picture pieces at rest | turned |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     names = sorted(p.name for p in EXAMPLES.iterdir() if (p / "drawing.inkray.json").is_file())
     for name in names:
         ann, drawing = _load(name, 0.0)
@@ -215,9 +277,11 @@ def joins_table():
         rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
         kinds = Counter(j.kind for j in rig.joins)
         piece = pieces(len(rig.vertices), rig.faces, rig.glue)
+        rest, turned = _turned_pieces(chain, ann, drawing, rig)
         print(f"| {name} | {'tuned' if name in TUNED else 'held out'} | {len(rig.names)} | "
-              f"{kinds['rooted']} / {kinds['on top']} / {kinds['stitch'] + kinds['graft']} | "
-              f"{len(np.unique(piece))} |", flush=True)
+              f"{kinds['rooted']} / {kinds['on top']} / {kinds['overlap']} / "
+              f"{kinds['stitch'] + kinds['graft']} | {len(np.unique(piece))} | {rest} | {turned} |",
+              flush=True)
 
 
 def main():

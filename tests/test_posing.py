@@ -80,14 +80,14 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
                          [[150.0, 330.0], [150.0, 250.0]])
     img = posed.image(rig.vertices)
+    # soft edges as the layers have them: the picture is the flattened layer stack, exactly
+    assert np.array_equal(img, posed.cutout.flatten())
     opaque = img[..., 3] == 255
     assert opaque.sum() > 0.85 * (chain.completion.labels >= 0).sum()
     same = np.all(img[..., :3] == chain.drawing.rgb, axis=2)
-    # the relief's order and the layers' agree but where three surfaces meet at an outline
-    assert same[opaque].mean() > 0.997
-    # soft edges as the layers have them: the picture is the flattened layer stack
-    flat = posed.cutout.flatten()
-    assert np.mean(np.all(img == flat, axis=2)[flat[..., 3] > 0]) > 0.99
+    # the stack is the drawing but where a layer's soft edge lies over the completed layer
+    # under it (28 of the 44 000 pixels)
+    assert same[opaque].mean() > 0.999
 
 
 def test_posed_relief_keeps_parts_vertices_faces_and_heights(man):

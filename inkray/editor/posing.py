@@ -22,6 +22,8 @@ from inkray.view.posed import PosedDrawing
 
 __all__ = ["PoseSession"]
 
+_STORED = 300_000  # px: pictures up to this size are sent uncompressed
+
 
 class PoseSession:
     """Posed pictures and pose files of an :class:`~inkray.editor.session.EditSession`.
@@ -77,9 +79,10 @@ class PoseSession:
                     self._posed = cached = (digest, key, posed)
                 posed = cached[2]
                 rgba = posed.image(posed.positions(doc.keys[0].to), scale=scale)
-            # while a handle moves the picture is stored: deflating it took longer than the
-            # loopback takes to carry it
-            return _png(rgba, level=0 if scale < 1 else 1), "image/png"
+            # a picture of a quarter megapixel (what the page asks while a handle moves) is
+            # stored: deflating it takes longer than the loopback takes to carry it
+            return _png(rgba, level=0 if rgba.shape[0] * rgba.shape[1] <= _STORED else 1), \
+                "image/png"
 
         start = time.perf_counter()
         p = self.session.newest(compute, lock="relief")

@@ -349,13 +349,17 @@ def rig_relief(relief, completion, *, boundaries=()):
               heights=np.concatenate(heights), faces=np.concatenate(faces),
               part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
-    rows, joins = [], []
+    rows, joins, overlaps = [], [], []
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
             pb, pa = region_part[b], region_part[a]
             got = _glue_rows(rig, pb, pa, lambda xy, m=mask: _inside(m, xy))
-            if got.shape[0]:
+            if not got.shape[0]:
+                continue
+            if kind == "overlap":
+                overlaps.append((got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0])))
+            else:
                 rows.append(got)
                 joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
     for seam in boundaries:
@@ -370,6 +374,26 @@ def rig_relief(relief, completion, *, boundaries=()):
                 if got.shape[0]:
                     rows.append(got)
                     joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
+    # An overlap joins two pieces that nothing else joins: the smallest overlaps first (the
+    # most joint-like), none between parts already connected, so that a limb in front of the
+    # body stays free to swing where it is rooted elsewhere.
+    piece = pieces(len(vertices), rig.faces, sp.vstack(rows) if rows else None)
+    root = list(range(piece.max() + 1))
+
+    def find(k):
+        while root[k] != k:
+            root[k] = root[root[k]]
+            k = root[k]
+        return k
+
+    for got, join in overlaps:
+        touched = {find(int(k)) for k in np.unique(piece[got.tocoo().col])}
+        if len(touched) > 1:
+            first, *others = touched
+            for k in others:
+                root[k] = first
+            rows.append(got)
+            joins.append(join)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
@@ -420,11 +444,15 @@ def front_mesh(part):
 
 
 def _joined_areas(completion):
-    """``(part, to, kind, mask)``: the areas where one region is glued to another."""
+    """``(part, to, kind, mask)``: the areas where one region is glued to another.
+
+    ``overlap`` areas (a single cut that neither rule takes) come last, the
+    smallest against the smaller part's area first.
+    """
     labels, owner = completion.labels, completion.owner
     area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
     area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
-    out = []
+    out, overlaps = [], []
     for b in range(completion.count):
         pieces, n = ndimage.label(owner == b)
         if not n:
@@ -440,12 +468,18 @@ def _joined_areas(completion):
             a = int(np.bincount(labels[grown][piece]).argmax())
             mask = np.zeros(labels.shape, bool)
             mask[grown] = piece
-            if cuts == 1 and share < ROOT_CONTACT and area[b] < area[a]:
+            if cuts != 1:
+                continue  # crossing only (interlocking rings): not joined
+            if share < ROOT_CONTACT and area[b] < area[a]:
                 out.append((b, a, "rooted", mask))
-            elif cuts == 1 and area[a] < area[b] and (share >= ON_TOP_CONTACT
+            elif area[a] < area[b] and (share >= ON_TOP_CONTACT
                                         or piece.sum() <= JOINT_AREA * area[a]):
                 out.append((a, b, "on top", mask))
-    return out
+            else:  # the smaller part glued to the larger over the overlap
+                small, large = (b, a) if area[b] < area[a] else (a, b)
+                overlaps.append((piece.sum() / area[small], small, large, mask))
+    overlaps.sort(key=lambda o: o[0])
+    return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
 
 
 def _glue_rows(rig, pb, pa, where):
