@@ -37,6 +37,20 @@ def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
     assert np.abs(rig.glue @ rig.vertices).max() < 1e-9
 
 
+def test_overlaps_join_the_pieces_nothing_else_joins(man):
+    from inkray.numerics.arap import pieces
+
+    # the snowman's balls and hat overlap along one cut each, none small or mostly enclosed
+    ann, drawing = load_input(EXAMPLES / "snowman" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+    assert len(np.unique(pieces(len(rig.vertices), rig.faces, rig.glue))) == 1
+    overlaps = {(j.part, j.to) for j in rig.joins if j.kind == "overlap"}
+    assert ("ball_middle", "ball_bottom") in overlaps and len(overlaps) == 4
+    # the man hangs together by his other joins: no overlap glued
+    assert all(j.kind != "overlap" for j in man[1].joins)
+
+
 def test_rings_are_not_glued_at_their_crossings(rings):
     chain, ann, _ = rings
     assert rig_relief(chain.relief, chain.completion).joins == []

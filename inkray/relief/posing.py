@@ -20,7 +20,13 @@ them:
   border), or covering only a small area of it (a head on its neck: at most
   ``JOINT_AREA`` of the smaller part's area) is glued to it where it covers it;
 - *seams*: along ``stitch`` and ``graft`` boundaries both parts are glued to
-  each other.
+  each other;
+- *overlap*: where two parts overlap along one cut that neither rule above
+  takes (a head on a body, a ball on the one below it, a hat's brim on its
+  crown) and nothing else connects them, the smaller is glued to the larger
+  over the overlap: the smallest overlaps (against the smaller part) first,
+  each only if it joins two pieces the joins so far leave apart, so that a
+  limb in front of the body that is rooted elsewhere stays free to swing.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest, so the rest shape has no glue energy.
