@@ -2,7 +2,9 @@
 
 Hostile annotation files (through ``validate`` and ``relief``), drawings
 (``validate``), meshes (``check`` and ``render``) and kills at random moments
-of a relief (SIGTERM, SIGHUP, SIGKILL). Each run is a fresh ``inkray``
+of a relief (SIGTERM, SIGHUP, SIGKILL), also deep inside the finest meshing of
+a big drawing, where a signal must end the command within its watchdog's
+grace (2 s; longer counts as a hang). Each run is a fresh ``inkray``
 process with a time limit; the table counts exit codes, internal errors,
 hangs, messages that are not one line, files left behind and the largest
 peak memory. The generators are in ``tests/_hostile.py`` (the test suite
@@ -19,7 +21,8 @@ and chunked request bodies to the editor server (peak memory of the server).
 Usage::
 
     python benchmarks/fuzz.py [--annotations 1000] [--images 100] [--meshes 100]
-                              [--reliefs 20] [--kills 20] [--seed 0] [--timeout 60]
+                              [--reliefs 20] [--kills 20] [--deep-kills 4] [--seed 0]
+                              [--timeout 60]
                               [--no-limits]
 """
 
@@ -303,6 +306,9 @@ def main(argv=None):
     parser.add_argument("--reliefs", type=int, default=20,
                         help="hostile annotation files also run through relief")
     parser.add_argument("--kills", type=int, default=20)
+    parser.add_argument("--deep-kills", type=int, default=4,
+                        help="SIGTERM/SIGHUP 5-40 s into the frog's relief at the finest "
+                             "--max-area")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--timeout", type=float, default=60.0)
     parser.add_argument("--no-limits", dest="limits", action="store_false",
@@ -371,12 +377,37 @@ def main(argv=None):
             files = sorted(p.name for p in out.iterdir())
             complete = files == ["r.mtl", "r.obj", "r_drawing.png"]
             left = [] if (not files or complete) else files
-            expected = (0, 128 + sig, -sig)
+            expected = (0, 128 + sig, -sig, -signal.SIGKILL)
             result = (code if code not in expected else 0, err if code > 0 else "", 0.0)
             k.add([sig.name], result, left)
             for p in out.iterdir():
                 p.unlink()
         tallies.append(k)
+
+        d = Tally("kills deep in meshing")
+        frog = ROOT / "examples" / "frog" / "drawing.inkray.json"
+        slowest = 0.0
+        for i in range(args.deep_kills):
+            sig = [signal.SIGTERM, signal.SIGHUP][i % 2]
+            proc = subprocess.Popen([sys.executable, "-m", "inkray", "--quiet", "relief",
+                                     str(frog), "-o", "killed/f.glb", "--max-area", "1.5"],
+                                    cwd=work, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                    text=True)
+            time.sleep(float(rng.uniform(5.0, 40.0)))
+            start = time.monotonic()
+            proc.send_signal(sig)
+            _, err = proc.communicate(timeout=args.timeout)
+            took = time.monotonic() - start
+            slowest = max(slowest, took)
+            code = proc.returncode
+            left = sorted(p.name for p in out.iterdir())
+            ok = code in (0, 128 + sig, -signal.SIGKILL) and (code == 0 or not left)
+            result = ("hang" if took > 3.0 else 0 if ok else code, err if code > 0 else "", 0.0)
+            d.add([sig.name, f"{took:.1f} s"], result, [] if code == 0 else left)
+            for p in out.iterdir():
+                p.unlink()
+        print(f"kills deep in meshing: slowest end {slowest:.1f} s after the signal", flush=True)
+        tallies.append(d)
 
         if args.limits:
             bound = Tally("annotations: inflating memory")

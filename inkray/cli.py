@@ -7,10 +7,13 @@ its whole input before it writes anything, and writes through
 """
 
 import argparse
+import atexit
 import contextlib
+import os
 import signal
 import sys
 import threading
+import time
 import traceback
 import warnings
 from pathlib import Path
@@ -831,10 +834,18 @@ def _parser():
     return parser
 
 
-def _run(argv, progress=None):
+#: Commands that wait in Python while their work runs elsewhere (so a signal is
+#: handled at once) and clean up after themselves (a Dask cluster, a server):
+#: the watchdog's kill would skip that.
+_UNWIND_THEMSELVES = {"batch", "edit"}
+
+
+def _run(argv, progress=None, *, watchdog=False):
     args = _parser().parse_args(argv)
     if progress is None:
         progress = Progress(quiet=args.quiet, timings=args.timings)
+    if watchdog and args.command not in _UNWIND_THEMSELVES:
+        _arm_watchdog()
     return _COMMANDS[args.command][0](args, progress)
 
 
@@ -851,13 +862,17 @@ def main(argv=None):
     int
         0 ok, 1 failed on valid input, 2 bad input or usage.
     """
+    return _main(argv)
+
+
+def _main(argv=None, *, watchdog=False):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     try:
         with _terminate_as_interrupt(), warnings.catch_warnings():
             if not debug:  # library warnings are not one line; inkray's own are printed
                 warnings.simplefilter("ignore")
-            return _run(argv)
+            return _run(argv, watchdog=watchdog)
     except SystemExit as e:  # --help and --version
         return e.code if isinstance(e.code, int) else 0
     except _UsageError as e:
@@ -912,6 +927,70 @@ def _terminate_as_interrupt():
             signal.signal(n, h)
 
 
+#: Seconds a signalled command has to end before its watchdog kills it.
+_GRACE = 2.0
+
+
+def _arm_watchdog(grace=_GRACE):
+    """Kill the process if it has not ended ``grace`` s after SIGTERM, SIGHUP or SIGINT.
+
+    Python runs a signal handler only between bytecodes, so a command inside one
+    long native call (a sparse factorization, a triangulation) would ignore the
+    signal until the call returns, minutes on a big drawing; so would the exit's
+    wait for worker threads still inside such calls. A forked process learns of
+    the signal through the interpreter's wakeup file (written by the C handler
+    at once) and sends SIGKILL after the grace period, waiting while output
+    files are being written into place. Outputs are only written at the end, so
+    a kill before that leaves nothing behind. The watchdog lives as long as the
+    process: it ends when its pipe does.
+    """
+    if not hasattr(os, "fork") or threading.current_thread() is not threading.main_thread():
+        return
+    from inkray.formats.atomic import COMMITTING
+
+    read_end, write_end = os.pipe()
+    os.set_blocking(write_end, False)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    parent = os.getpid()
+    child = os.fork()
+    if child == 0:  # pragma: no cover (runs in the forked process)
+        _watch(read_end, write_end, parent, grace, COMMITTING)
+    os.close(read_end)
+    signal.set_wakeup_fd(write_end, warn_on_full_buffer=False)
+
+    def reap():  # at a normal exit, after the wait for threads
+        signal.set_wakeup_fd(-1)
+        os.close(write_end)
+        os.waitpid(child, 0)
+
+    atexit.register(reap)
+
+
+def _watch(read_end, write_end, parent, grace, committing):  # pragma: no cover
+    try:
+        os.close(write_end)
+        for n in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            if n is not None:  # a signal to the process group is the parent's to handle
+                signal.signal(n, signal.SIG_IGN)
+        if not os.read(read_end, 1):
+            os._exit(0)  # the command ended
+        os.set_blocking(read_end, False)
+        deadline = time.monotonic() + grace
+        while time.monotonic() < deadline or committing[0]:
+            time.sleep(0.02)
+            try:
+                if os.read(read_end, 4096) == b"":
+                    os._exit(0)
+            except BlockingIOError:
+                pass
+        os.write(2, b"inkray: killed: still busy %g s after the signal; nothing was written\n"
+                 % grace)
+        os.kill(parent, signal.SIGKILL)
+    finally:
+        os._exit(0)
+
+
 #: Library parameters whose flag is not their name with dashes.
 _FLAGS = {"limits.pixels": "--max-pixels", "limits.points": "--max-points",
           "frames": "--turntable"}
@@ -930,4 +1009,4 @@ def _one_line(e):
 
 def entry():
     """Console-script entry point."""
-    sys.exit(main())
+    sys.exit(_main(watchdog=True))

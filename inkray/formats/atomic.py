@@ -12,13 +12,34 @@ one-line :class:`~inkray.errors.InputError`.
 
 import contextlib
 import io
+import mmap
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 from inkray.errors import InputError
 
-__all__ = ["atomic_outputs", "check_targets", "memory_outputs", "write_bytes", "write_text"]
+__all__ = ["COMMITTING", "atomic_outputs", "check_targets", "memory_outputs", "write_bytes",
+           "write_text"]
+
+#: ``COMMITTING[0]`` counts the groups whose files are being written into
+#: place. A shared one-byte map, so a forked watchdog (the command line's,
+#: which kills a process a signal cannot reach inside a long native call) sees
+#: it and waits for a commit to end rather than leave temporaries behind.
+COMMITTING = mmap.mmap(-1, 1)
+_COMMITTING_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _committing():
+    with _COMMITTING_LOCK:
+        COMMITTING[0] = min(255, COMMITTING[0] + 1)
+    try:
+        yield
+    finally:
+        with _COMMITTING_LOCK:
+            COMMITTING[0] = max(0, COMMITTING[0] - 1)
 
 
 def _same(a, b):
@@ -116,6 +137,10 @@ class _Outputs:
         self.write_bytes(target, buffer.getvalue())
 
     def _commit(self):
+        with _committing():
+            self._write_all()
+
+    def _write_all(self):
         mode = _default_mode()
         temps = []
         try:
