@@ -177,6 +177,7 @@ def _http_drags(name, megapixels, handles, targets):
         # as pose.js asks while a handle moves: at most a quarter megapixel
         w, h = json.loads(ann.read_text())["size"]
         scale = min(1.0, (250_000 / (w * h)) ** 0.5)
+        _idle(proc.pid)  # the editor computes its other previews in the background at first
         before = _cpu(proc.pid)
         runs = [post(targets + [[0, 0], [0, 0], [2.0 * ((-1) ** k), 1.0]], scale)
                 for k in range(_DRAGS)]
@@ -190,6 +191,18 @@ def _http_drags(name, megapixels, handles, targets):
 
 
 _DRAGS = 9
+
+
+def _idle(pid, timeout=120.0):
+    """Wait until a process has used no CPU for half a second (or ``timeout`` s)."""
+    end = time.monotonic() + timeout
+    last = _cpu(pid)
+    while time.monotonic() < end:
+        time.sleep(0.5)
+        now = _cpu(pid)
+        if now - last < 0.01:
+            return
+        last = now
 
 
 def _cpu(pid):

@@ -8,10 +8,14 @@ of Igarashi et al. ("As-rigid-as-possible shape manipulation", SIGGRAPH
 z-buffer over the relief's heights, so local order such as interlocking
 rings holds pixel by pixel), and its colour is the part's completed cut-out
 layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
-through the barycentric coordinates of the triangle that covers it. The
-layers' soft edges are kept: per pixel the two highest surfaces are
+through the affine map of the triangle that covers it. Each part's front
+mesh is scan-converted on its own so that it covers every pixel centre in it
+exactly once (no cracks between its triangles), and a band of ``_SKIRT`` px
+around it carries the part's layer beyond its triangles (the triangles follow
+the outline, the layer the ink's anti-aliasing). The layers' soft edges are
+kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
-silhouette (transparent as the layer is there).
+silhouette; at rest the picture is the flattened layer stack.
 """
 
 import numpy as np
