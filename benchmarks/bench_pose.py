@@ -159,8 +159,10 @@ def _http_drags(name, megapixels, handles, targets):
     ann, _ = _folder(name, megapixels)
     code = "import sys; from inkray.cli import main; sys.exit(main())"
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
+    # in ROOT, whose inkray the server imports (python -c puts the working folder first)
     proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
-                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env)
+                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env,
+                            cwd=str(ROOT))
     try:
         url = proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/") + "/api/pose"
 
