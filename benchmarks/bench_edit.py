@@ -1,12 +1,16 @@
 """Benchmark of ``inkray edit``: how soon each preview is ready on opening and after an edit.
 
-Three tables (``--tables open,edits,methods``, default all three):
+Four tables (``--tables open,edits,methods,first``, default the first three):
 
 - **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
   page asks on opening (the depth draft and then the depth map, beside the
   labels, the relations and then the relief); each preview's time is from the
   page's first request to the end of that preview's answer. Targets at ~1 Mpx:
-  the full depth map <= 2 s, the relief <= 3 s after it.
+  the full depth map <= 2 s, the relief <= 3 s after it. Beside the wall
+  times, the server's CPU seconds (user and system, all its threads, from
+  ``/proc``) spent from the first request until the depth map's answer and
+  until the relief's: on a shared machine the wall times stretch with the
+  load, the CPU times much less.
 - **edits**: how soon each preview is ready after an edit (below).
 - **methods**: the fast depth method's cold solve against the exact method's:
   in process (``inkray.depth`` with the grid factorization's symbolic plans
@@ -15,6 +19,12 @@ Three tables (``--tables open,edits,methods``, default all three):
   ``--repeats`` runs (at least 3), fast and exact alternating; the ratio is
   the median of the pairwise fast / exact ratios (target: below 1 on every
   drawing).
+
+- **first**: in process (no server), the CPU seconds of the fast depth map on
+  the edits table's cold document, of :meth:`ReliefChain.prepare_depth` (what
+  the editor does after the relief), and of the depth map after the +arrow
+  and +scribble edits, once without and once with that preparation, with
+  the fronts of the fill each edit refactored.
 
 The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
@@ -35,7 +45,9 @@ Targets at ~1 Mpx: depth (the draft, the page's first answer) <= 0.15 s after an
 after undo. ``/ cold`` is each time against the cold time of the same preview.
 
 With ``--repeats N`` each drawing is run on N fresh servers and every cell is
-the median of the N times.
+the median of the N times. ``--pause S`` waits S seconds after each edit's
+previews before the next edit, as a user looks at them (the editor uses that
+time to ready the depth map's factorization for the next edit).
 
 Every table runs at the drawings' own size and upscaled to about ``--mpx``
 megapixels (``--mpx 1.15`` for the size of the drawing the editor was found
@@ -44,7 +56,8 @@ slow on).
 Usage::
 
     python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
-        [--repeats 3] [--tables open,edits,methods]
+        [--repeats 3] [--tables open,edits,methods,first] [--pause 0]
+        [--where "in process,process"]
 """
 
 import argparse
@@ -165,6 +178,16 @@ def _server(ann):
         raise
 
 
+def _cpu(pid):
+    """CPU seconds (user and system, all threads) of process ``pid`` so far; NaN where
+    ``/proc`` is missing."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _open(name, megapixels):
     """The cold open: the page's first requests to a fresh server, timed from the first."""
     ann, doc = _folder(name, megapixels)
@@ -172,6 +195,7 @@ def _open(name, megapixels):
     row = {"edit": "open"}
     try:
         start = time.perf_counter()
+        cpu = _cpu(proc.pid)
 
         def fetch(previews):
             for preview in previews:
@@ -180,6 +204,7 @@ def _open(name, megapixels):
                 row[preview] = (time.perf_counter() - start if status == 200 else
                                 json.loads(body).get("error", str(status)),
                                 float(headers.get("X-Inkray-Compute-Ms", "nan")))
+                row[f"cpu {preview}"] = (_cpu(proc.pid) - cpu, 0.0)
 
         beside = threading.Thread(target=fetch, args=([DRAFT, "depth.png"],))
         beside.start()
@@ -192,12 +217,14 @@ def _open(name, megapixels):
     return {"name": name, "size": doc["size"], "rows": [row]}
 
 
-def _one(name, megapixels):
+def _one(name, megapixels, pause=0.0):
     ann, doc = _folder(name, megapixels)
     proc, url = _server(ann)
     rows = []
     try:
-        for label, edit in _edits(doc):
+        for k, (label, edit) in enumerate(_edits(doc)):
+            if k:
+                time.sleep(pause)
             start = time.perf_counter()
             status, _, body = _request(url + "/api/annotations", "PUT", json.dumps(edit).encode())
             if status != 200:
@@ -237,9 +264,10 @@ def _median(runs, previews=PREVIEWS):
     return out
 
 
-def _methods(name, megapixels, repeats):
-    """Cold seconds of the fast and the exact method, in process and whole process:
-    ``{(where, method): [seconds, ...]}``, the runs alternating fast and exact."""
+def _methods(name, megapixels, repeats, where=("in process", "process")):
+    """Cold seconds of the fast and the exact method, in process and whole process
+    (those of ``where``): ``{(where, method): [seconds, ...]}``, the runs alternating
+    fast and exact."""
     import inkray
     import inkray.segmentation  # noqa: F401 - imported before the first timed run
     from inkray.numerics import grid_cholesky
@@ -252,11 +280,15 @@ def _methods(name, megapixels, repeats):
         env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
         for _ in range(repeats):
             for method in ("fast", "exact"):
-                grid_cholesky._plan.cache_clear()
-                grid_cholesky._front.cache_clear()
-                start = time.perf_counter()
-                inkray.depth(ann, drawing, method=method)
-                times.setdefault(("in process", method), []).append(time.perf_counter() - start)
+                if "in process" in where:
+                    grid_cholesky._plan.cache_clear()
+                    grid_cholesky._front.cache_clear()
+                    start = time.perf_counter()
+                    inkray.depth(ann, drawing, method=method)
+                    times.setdefault(("in process", method), []).append(
+                        time.perf_counter() - start)
+                if "process" not in where:
+                    continue
                 start = time.perf_counter()
                 subprocess.run([sys.executable, "-m", "inkray", "--quiet", "depth", str(ann_path),
                                 "-o", str(out), "--method", method], check=True, env=env,
@@ -269,15 +301,16 @@ def _methods(name, megapixels, repeats):
     return times
 
 
-def _open_table(names, sizes, repeats):
+def _open_table(names, sizes, repeats, **_):
     previews = (DRAFT, "depth.png", "labels.png", "relations", "relief.glb")
     print("| drawing | size | depth draft s | depth s | labels s | relations s | relief s "
-          "| relief - depth s | targets at ~1 Mpx |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "| relief - depth s | server CPU s by depth / relief | targets at ~1 Mpx |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for mpx in sizes:
         for name in names:
             try:
-                r = _median([_open(name, mpx) for _ in range(repeats)], previews)
+                r = _median([_open(name, mpx) for _ in range(repeats)],
+                            previews + ("cpu depth.png", "cpu relief.glb"))
             except (RuntimeError, OSError, IndexError) as e:
                 print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
                 continue
@@ -290,25 +323,95 @@ def _open_table(names, sizes, repeats):
             if mpx and after is not None:
                 notes = [f"depth <= 2 {'ok' if depth <= 2 else 'MISSED'}",
                          f"relief - depth <= 3 {'ok' if after <= 3 else 'MISSED'}"]
+            cpu = f"{row['cpu depth.png'][0]:.2f} / {row['cpu relief.glb'][0]:.2f}"
             print(f"| {name} | {r['size'][0]}x{r['size'][1]} | {' | '.join(cells)} | "
-                  f"{'-' if after is None else f'{after:.3f}'} | {', '.join(notes)} |", flush=True)
+                  f"{'-' if after is None else f'{after:.3f}'} | {cpu} | {', '.join(notes)} |",
+                  flush=True)
 
 
-def _methods_table(names, sizes, repeats):
-    print("| drawing | size | fast s, in process | exact s, in process | ratio | "
-          "fast s, process | exact s, process | ratio |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+def _methods_table(names, sizes, repeats, where=("in process", "process"), **_):
+    print("| drawing | size | " + " | ".join(
+        f"fast s, {w} | exact s, {w} | ratio" for w in where) + " |")
+    print("| --- | --- |" + " --- | --- | --- |" * len(where))
     for mpx in sizes:
         for name in names:
             size = _folder_size(name, mpx)
-            t = _methods(name, mpx, max(repeats, 3))
+            t = _methods(name, mpx, max(repeats, 3), where)
             cells = []
-            for where in ("in process", "process"):
-                fast, exact = (float(np.median(t[(where, m)])) for m in ("fast", "exact"))
+            for where_ in where:
+                fast, exact = (float(np.median(t[(where_, m)])) for m in ("fast", "exact"))
                 # the median of the pairwise ratios: pairs ran next to each other
-                ratio = float(np.median(np.array(t[(where, "fast")]) / np.array(t[(where, "exact")])))
+                ratio = float(np.median(np.array(t[(where_, "fast")]) /
+                                        np.array(t[(where_, "exact")])))
                 cells += [f"{fast:.3f}", f"{exact:.3f}", f"**{ratio:.2f}**"]
             print(f"| {name} | {size} | {' | '.join(cells)} |", flush=True)
+
+
+def _first(name, megapixels):
+    """``{prepared: [(label, CPU s, refactored fronts, fronts)]}`` for the cold depth
+    map, the preparation and the +arrow and +scribble edits, in process."""
+    import resource
+
+    import inkray
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.input.annotations import parse_annotations
+
+    ann_path, doc = _folder(name, megapixels)
+    ann, drawing = inkray.load_input(ann_path)
+    edits = dict(_edits(doc))
+
+    def annotations(d):
+        a = parse_annotations(d)
+        a.drawing, a.source = ann.drawing, ann.source
+        return a
+
+    def cpu():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    out = {}
+    try:
+        for prepared in (False, True):
+            chain = ReliefChain(annotations(edits["cold"]), drawing,
+                                options=ChainOptions(interactive=True, depth_method="fast"))
+            steps = [("cold", chain)]
+            if prepared:
+                steps.append(("prepare", chain))
+            steps += [(label, None) for label in ("+arrow", "+scribble") if label in edits]
+            rows = []
+            for label, step in steps:
+                if step is None:
+                    chain = chain.edit(annotations=annotations(edits[label]))
+                chain.segmentation  # the labels come first, as in the editor
+                start = cpu()
+                if label == "prepare":
+                    chain.prepare_depth(background=False)
+                else:
+                    chain.depth_map
+                session = chain._cache.session[1]
+                fill = session._fills[False]
+                rows.append((label, cpu() - start, fill.refactored_fronts, fill.fronts))
+            out[prepared] = rows
+            del chain, session, fill
+    finally:
+        shutil.rmtree(ann_path.parent, ignore_errors=True)
+    return out
+
+
+def _first_table(names, sizes, repeats, **_):
+    print("| drawing | size | prepared | cold depth CPU s | prepare CPU s | +arrow depth CPU s "
+          "(fronts) | +scribble depth CPU s (fronts) |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            size = _folder_size(name, mpx)
+            for prepared, rows in _first(name, mpx).items():
+                cell = {label: (f"{t:.2f}" if label in ("cold", "prepare") else
+                                f"{t:.2f} ({redone}/{fronts})")
+                        for label, t, redone, fronts in rows}
+                print(f"| {name} | {size} | {'yes' if prepared else 'no'} | "
+                      + " | ".join(cell.get(k, "-") for k in ("cold", "prepare", "+arrow",
+                                                              "+scribble")) + " |", flush=True)
 
 
 def _folder_size(name, megapixels):
@@ -317,14 +420,14 @@ def _folder_size(name, megapixels):
     return f"{doc['size'][0]}x{doc['size'][1]}"
 
 
-def _edits_table(names, sizes, repeats):
+def _edits_table(names, sizes, repeats, pause=0.0, **_):
     print("| drawing | size | edit | labels s (/ cold) | depth draft s (/ cold) | depth s (/ cold) "
           "| relief s (/ cold) | targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for mpx in sizes:
         for name in names:
             try:
-                r = _median([_one(name, mpx) for _ in range(repeats)])
+                r = _median([_one(name, mpx, pause) for _ in range(repeats)])
             except (RuntimeError, OSError, IndexError) as e:
                 print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
                 continue
@@ -365,17 +468,26 @@ def main():
                              "is the median (default 1)")
     parser.add_argument("--tables", default="open,edits,methods",
                         help="which tables, comma-separated (default open,edits,methods)")
+    parser.add_argument("--pause", type=float, default=0.0,
+                        help="seconds between an edit's previews and the next edit (default 0)")
+    parser.add_argument("--where", default="in process,process",
+                        help="the methods table's runs, comma-separated (default "
+                             "'in process,process')")
     args = parser.parse_args()
+    where = tuple(args.where.split(","))
+    if not where or set(where) - {"in process", "process"}:
+        parser.error(f"--where: expected 'in process' and/or 'process', got {args.where!r}")
     names = args.names.split(",") if args.names else _drawings()
     sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
     repeats = max(args.repeats, 1)
-    tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table}
+    tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table,
+              "first": _first_table}
     for k, table in enumerate(args.tables.split(",")):
         if table not in tables:
             parser.error(f"--tables: unknown table {table!r} (expected {', '.join(tables)})")
         if k:
             print()
-        tables[table](names, sizes, repeats)
+        tables[table](names, sizes, repeats, pause=args.pause, where=where)
 
 
 if __name__ == "__main__":

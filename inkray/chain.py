@@ -359,6 +359,24 @@ class ReliefChain:
             segmentation=self.segmentation.labels if ann.regions else None,
             progress=self.progress), timed=False)
 
+    def prepare_depth(self, *, background=True):
+        """Ready the kept fast depth session for the next edit
+        (:meth:`~inkray.depthmap.estimation.DepthSession.prepare`), in time
+        nobody waits on: after a cold open its fill has no update matrices.
+
+        Parameters
+        ----------
+        background : bool, default True
+            Factor in a thread of its own and return at once.
+
+        Returns
+        -------
+        bool
+            Whether there was a session with anything to do.
+        """
+        kept = self._cache.session
+        return kept is not None and kept[1].prepare(background=background)
+
     @property
     def warnings(self):
         """Warnings of the stages computed so far (segmentation, then order)."""

@@ -284,13 +284,11 @@ def _cmd_relief(args, progress):
         write=dict(units_per_pixel=args.units_per_pixel, anchor=args.anchor, back=args.back,
                    up=up, images=images),
         warn=lambda chain, relief: chain.warnings)
-    if args.back == "plate":  # the counts of what the file holds
-        from inkray.relief.backing import back_plate
+    from inkray.formats.meshes import mesh_counts
 
-        relief = back_plate(relief)
-    parts = relief.parts
-    print(f"{out}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices, "
-          f"{sum(len(p.faces) for p in parts)} faces ({', '.join(str(w) for w in written[1:]) or 'no extra files'})")
+    vertices, faces = mesh_counts(relief, suffix=out.suffix, back=args.back)  # what the file holds
+    print(f"{out}: {len(relief.parts)} parts, {vertices} vertices, {faces} faces "
+          f"({', '.join(str(w) for w in written[1:]) or 'no extra files'})")
     return 0
 
 

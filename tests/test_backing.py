@@ -1,4 +1,4 @@
-"""Back plates and depth scaling: closed solids, order kept."""
+"""Back sheets, back plates and depth scaling: closed solids, order kept."""
 
 from dataclasses import replace
 
@@ -8,7 +8,8 @@ import trimesh
 
 from _reliefs import disk_relief, grid_part
 from inkray.errors import InputError
-from inkray.relief.backing import back_plate, depth_scaled
+from inkray.relief.backing import back_plate, back_sheet, depth_scaled
+from inkray.relief.model import Relief
 
 
 def _solid(part):
@@ -65,3 +66,34 @@ def test_depth_scale_keeps_every_order_and_rejects_nonsense():
     for bad in (0, -1, np.nan, 11):
         with pytest.raises(InputError, match="depth scale"):
             depth_scaled(relief, bad)
+
+
+def test_back_sheet_is_a_thin_closed_copy_behind_the_front():
+    relief = disk_relief(closed=False)
+    sheet = back_sheet(relief, gap=0.5)
+    for before, part in zip(relief.parts, sheet.parts):
+        n, m = len(before.vertices), len(before.faces)
+        np.testing.assert_array_equal(part.vertices[:n], before.vertices)  # the front as it was
+        np.testing.assert_array_equal(part.faces[:m], before.faces)
+        # the back: every front vertex exactly the gap behind, faces reversed
+        np.testing.assert_array_equal(part.vertices[n:], before.vertices - [0, 0, 0.5])
+        np.testing.assert_array_equal(part.faces[m:2 * m], before.faces[:, ::-1] + n)
+        mesh = _solid(part)
+        assert part.closed and mesh.is_watertight and mesh.is_winding_consistent
+        # thin: its volume the front's projected area times the gap
+        projected = trimesh.Trimesh(np.column_stack([before.vertices[:, :2], np.zeros(n)]),
+                                    before.faces, process=False).area
+        np.testing.assert_allclose(mesh.volume, projected * 0.5, rtol=1e-9)
+    closed = disk_relief(closed=True)
+    assert back_sheet(closed).parts[0] is closed.parts[0]  # closed parts kept
+    for bad in (0.0, -1.0, np.nan):
+        with pytest.raises(InputError, match="positive"):
+            back_sheet(relief, gap=bad)
+
+
+def test_backs_keep_a_posed_parts_texture_coordinates():
+    part = grid_part("a", [2.0, 3.0, 4.0], [5.0, 6.0], z=1.0)
+    part = replace(part, vertices=part.vertices + [10, 0, 0], texcoords=part.vertices[:, :2])
+    for backed in (back_sheet, back_plate):
+        out = backed(Relief([part], (40, 20))).parts[0]
+        np.testing.assert_array_equal(out.texcoords, np.concatenate([part.texcoords] * 2))

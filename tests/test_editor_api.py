@@ -599,3 +599,31 @@ def test_scribble_region_is_the_part_under_the_scribble(turtle):
     assert names[shell] == "shell" and names[head] == "head" and paper is None
     assert edge and not inner
     assert bad[0] == 422 and b"[x, y] points" in bad[2]
+
+
+@pytest.mark.slow
+def test_the_first_scribble_after_opening_updates_the_depth_fill(tmp_path):
+    from inkray.depthmap.estimation import depth
+
+    fox = copy_example("fox", tmp_path)            # gappy ink: the fill spans the whole grid
+    doc = json.loads(fox.read_text())
+    opened = json.loads(fox.read_text())
+    body = next(r for r in opened["regions"] if r["name"] == "body")
+    body["scribbles"] = body["scribbles"][:-1]
+    fox.write_text(json.dumps(opened))
+    session = EditSession(fox)
+    with running(session) as url:
+        for name in ("depth.png", "relief.glb"):
+            assert call(url + f"/api/preview/{name}")[0] == 200
+        # After the relief the depth session's fill is factored again, in the background,
+        # keeping what an update reuses (the cold open's factorization keeps none).
+        fill = session._chain._cache.session[1]._fills[False]
+        fill._adopt(wait=True)
+        assert fill._chol.updatable
+        assert call(url + "/api/annotations", "PUT", doc)[0] == 200   # the scribble back
+        assert call(url + "/api/preview/depth.png")[0] == 200
+        chain = session._chain
+        assert 0 < chain._cache.session[1].refactored_fronts < fill.fronts / 10
+        fresh = depth(parse_annotations(doc), load_input(fox)[1], method="fast",
+                      segmentation=chain.segmentation.labels)
+        assert np.abs(chain.depth_map.depth - fresh.depth).max() < 1e-9

@@ -487,6 +487,26 @@ def test_fast_cuts_a_region_holding_both_points_of_an_entry_on_the_dragon():
     assert (d[p[ineq]] - d[q[ineq]] >= 1 - 1e-6).all()
 
 
+def test_prepared_session_keeps_its_answers():
+    gray, seeds = _three_boxes(gap=True)
+    arrows = [((30, 25), (90, 25)), ((60, 70), (5, 90))]
+    s = DepthSession(gray, seeds=seeds)
+    for front, back in arrows:
+        s.add(front, back)
+    before = s.solve()
+    assert not s._fills[False]._chol.updatable       # a cold solve keeps no update matrices
+    assert s.prepare() and s._fills[False]._chol.updatable
+    assert np.abs(s.solve() - before).max() < 1e-12
+    fewer = np.where(seeds == 0, -2, seeds)
+    s.reseed(fewer)
+    d = s.solve()
+    fresh = DepthSession(gray, seeds=fewer, incremental=False)
+    for front, back in arrows:
+        fresh.add(front, back)
+    assert np.abs(d - fresh.solve()).max() < 1e-9
+    assert not fresh.prepare()
+
+
 def test_session_reseeded_keeps_its_factorization_and_matches_a_fresh_one():
     gray, seeds = _three_boxes(gap=True)
     arrows = [((30, 25), (90, 25)), ((60, 70), (5, 90))]

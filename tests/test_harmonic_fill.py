@@ -84,6 +84,48 @@ def test_updates_match_fresh_factorizations():
     assert not once._chol.updatable
 
 
+@pytest.mark.parametrize("background", [False, True])
+def test_prepared_fill_updates_its_first_change(background):
+    gray, fixed, values = _rings()
+    wx, wy, _ = edge_weights(gray)
+    fill = HarmonicFill(wx, wy)
+    cold = fill.solve(fixed, values)
+    full = fill.refactored_fronts
+    assert not fill._chol.updatable
+    assert fill.prepare(background=background)
+    assert not fill.prepare(background=background)      # already prepared or under way
+    # A few more fixed pixels: pinned, whether or not the new factorization is done.
+    pins = fixed.copy()
+    pins[5, 5:25] = True
+    d = fill.solve(pins, values)
+    assert fill.refactored_fronts == 0
+    assert np.abs(d - _reference(wx, wy, pins, values)).max() < 1e-9
+    # The square's inside freed: the first change pinning cannot follow is an update.
+    moved = fixed & (values != 1.0)
+    d = fill.solve(moved, values)
+    assert fill._chol.updatable and 0 < fill.refactored_fronts < full
+    assert np.abs(d - _reference(wx, wy, moved, values)).max() < 1e-9
+    assert np.abs(fill.solve(fixed, values) - cold).max() < 1e-9
+
+
+def test_a_change_outside_the_box_stops_the_prepare():
+    gray, fixed, values = _rings()
+    wx, wy, _ = edge_weights(gray)
+    inner = fixed.copy()
+    inner[:, :90] = True                                 # only the square's side is left
+    fill = HarmonicFill(wx, wy)
+    fill.solve(inner, values)
+    cold = fill.box
+    assert cold[2] >= 90 and fill.prepare(background=True)
+    d = fill.solve(fixed, values)                        # the circle's side too: a new box
+    assert fill._preparing is None and fill.box != cold and fill._chol.updatable
+    assert np.abs(d - _reference(wx, wy, fixed, values)).max() < 1e-9
+    # A fill that keeps nothing has nothing to prepare.
+    once = HarmonicFill(wx, wy, incremental=False)
+    once.solve(fixed, values)
+    assert not once.prepare()
+
+
 def test_draft_is_close_to_the_full_fill_and_keeps_the_steps():
     gray, fixed, values = _rings()
     wx, wy, _ = edge_weights(gray)

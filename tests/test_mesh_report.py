@@ -224,22 +224,30 @@ def test_shells_and_bounds():
 
 # -- files: inkray's and others' ------------------------------------------------------
 
+@pytest.mark.parametrize("back", ["double-sided", "plate", "none"])
 @pytest.mark.parametrize("suffix", FORMATS)
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
-def test_check_reads_inkray_exports(suffix, closed, tmp_path):
+def test_check_reads_inkray_exports(suffix, closed, back, tmp_path):
+    from inkray.relief.backing import back_plate, back_sheet
+
     relief = disk_relief(closed=closed)
     s = 0.001
-    report = check_file(export_relief(relief, tmp_path / f"r{suffix}", units_per_pixel=s)[0])
+    report = check_file(export_relief(relief, tmp_path / f"r{suffix}", units_per_pixel=s,
+                                      back=back)[0])
     by_name = {p["name"]: p for p in report["parts"]}
     assert sorted(by_name) == sorted(p.name for p in relief.parts)
-    for part in relief.parts:
+    solid = closed or back != "none"
+    backed = {"double-sided": back_sheet, "plate": back_plate}.get(back, lambda r: r)(relief)
+    for part in backed.parts:
         q = by_name[part.name]
-        assert (q["vertices"], q["faces"]) == (len(part.vertices), len(part.faces))
+        # vertices where the drawing meets the paper are written twice, one surface
+        assert (q["welded_vertices"], q["faces"]) == (len(part.vertices), len(part.faces))
+        assert q["vertices"] >= len(part.vertices)
         assert q["edge_manifold"] and q["vertex_manifold"] and q["consistently_oriented"]
         assert q["self_intersecting_faces"] == 0 and q["degenerate_faces"] == 0
         assert q["min_angle_deg"] > 5.0  # triangle's quality bound (30 deg) on the disk
-        assert q["watertight"] == closed
-        assert q["boundary_loops"] == (0 if closed else 1)
+        assert q["watertight"] == solid
+        assert q["boundary_loops"] == (0 if solid else 1)
     if closed:
         # Each closed disk is a sphere (front and mirrored back hemispheres): outward, and
         # its volume that of the ball, less the polygonal approximation.

@@ -7,12 +7,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from _reliefs import SIZE, disk_mask, disk_relief, drawing, grid_part
+from _reliefs import DISKS, SIZE, disk_mask, disk_part, disk_relief, drawing, grid_part
 from inkray.errors import InputError
-from inkray.formats.meshes import (FORMATS, export_relief, pixel_coordinates, read_meshes, read_relief,
-                           scene_coordinates)
+from inkray.formats.meshes import (BACKS, FORMATS, export_relief, mesh_counts, pixel_coordinates,
+                                   read_meshes, read_relief, scene_coordinates)
 from inkray.formats.atomic import atomic_outputs
 from inkray.view.rasterization import rasterize
+from inkray.relief.backing import back_plate, back_sheet
 from inkray.relief.model import Part, Relief
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,15 +42,29 @@ def _glb_json(path):
     return json.loads(data[20:20 + length])
 
 
-def _front_vertices(part):
-    """Which vertices a face toward the viewer uses (the others show the part's paper)."""
+BACKED = {"double-sided": back_sheet, "plate": back_plate, "none": lambda relief: relief}
+
+
+def _drawing_faces(part):
+    """Faces that show the drawing: turned less than arccos(0.1) from the viewer."""
     v = part.vertices * [1.0, -1.0, 1.0]  # scene frame: z toward the viewer
     t = v[part.faces]
     n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    facing = n[:, 2] >= 0.1 * np.linalg.norm(n, axis=1)
-    out = np.zeros(len(v), bool)
-    out[part.faces[facing].ravel()] = True
-    return out
+    return n[:, 2] >= 0.1 * np.linalg.norm(n, axis=1)
+
+
+def _sources(part, written, s=S):
+    """For each written vertex, the part's vertex at its position.
+
+    GLB and PLY write the part's own vertices first, in order (trimesh orders an
+    OBJ's vertices by the faces' corners).
+    """
+    from scipy.spatial import cKDTree
+
+    dist, index = cKDTree(scene_coordinates(part.vertices, SIZE, units_per_pixel=s)).query(written)
+    assert dist.max() < 1e-6
+    assert len(np.unique(index)) == len(part.vertices)
+    return index
 
 
 def _concat(relief, key):
@@ -63,24 +78,25 @@ def relief(request):
 
 # -- round trip through trimesh -------------------------------------------------
 
+@pytest.mark.parametrize("back", BACKS)
 @pytest.mark.parametrize("suffix", [".glb", ".obj"])
-def test_textured_formats_round_trip_per_part(relief, suffix, tmp_path):
-    path = export_relief(relief, tmp_path / f"r{suffix}", units_per_pixel=S)[0]
+def test_textured_formats_round_trip_per_part(relief, suffix, back, tmp_path):
+    path = export_relief(relief, tmp_path / f"r{suffix}", units_per_pixel=S, back=back)[0]
     meshes = _load(path)
     assert sorted(meshes) == sorted(p.name for p in relief.parts)
-    for part in relief.parts:
+    for part in BACKED[back](relief).parts:
         mesh = meshes[part.name]
-        assert len(mesh.vertices) == len(part.vertices)
-        assert len(mesh.faces) == len(part.faces)
-        np.testing.assert_array_equal(mesh.faces, part.faces)
-        np.testing.assert_allclose(mesh.vertices, scene_coordinates(part.vertices, SIZE,
-                                                                     units_per_pixel=S),
-                                   atol=1e-7)
+        # the part's vertices, then copies of those where the drawing meets the paper
+        source = _sources(part, mesh.vertices)
+        np.testing.assert_array_equal(source[mesh.faces], part.faces)
         uv = np.asarray(mesh.visual.uv)
         assert uv.min() >= 0.0 and uv.max() <= 1.0
-        front = _front_vertices(part)
-        np.testing.assert_allclose(uv[front], relief.uv(part.vertices[front]), atol=1e-6)
-        assert len(np.unique(uv[~front].round(7), axis=0)) <= 1  # backs: one plain texel
+        drawn = _drawing_faces(part)
+        corners = mesh.faces[drawn].ravel()
+        np.testing.assert_allclose(uv[corners], relief.uv(part.vertices[source[corners]]),
+                                   atol=1e-6)
+        paper = uv[mesh.faces[~drawn].ravel()]
+        assert len(np.unique(paper.round(7), axis=0)) == (0 if drawn.all() else 1)
         material = mesh.visual.material
         image = material.baseColorTexture if suffix == ".glb" else material.image
         assert image is not None, "texture missing"
@@ -88,19 +104,26 @@ def test_textured_formats_round_trip_per_part(relief, suffix, tmp_path):
 
 
 def test_ply_round_trip_counts_colours_and_uvs(relief, tmp_path):
-    path = export_relief(relief, tmp_path / "r.ply", units_per_pixel=S)[0]
+    path = export_relief(relief, tmp_path / "r.ply", units_per_pixel=S, back="none")[0]
     assert path.read_bytes().startswith(b"ply\nformat binary_little_endian 1.0\n")
     mesh = _load(path)["ply"]
-    n = sum(len(p.vertices) for p in relief.parts)
-    assert len(mesh.vertices) == n
     assert len(mesh.faces) == sum(len(p.faces) for p in relief.parts)
     raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
     uv = np.stack([raw["s"], raw["t"]], axis=1)
     assert uv.min() >= 0.0 and uv.max() <= 1.0
-    front = np.concatenate([_front_vertices(p) for p in relief.parts])
-    np.testing.assert_allclose(uv[front], relief.uv(_concat(relief, "vertices")[front]), atol=1e-6)
     colours = np.stack([raw[c] for c in ("red", "green", "blue", "alpha")], axis=1)
+    n = len(mesh.vertices)
     assert colours.shape == (n, 4) and np.all(colours[:, 3] == 255)
+    start = 0
+    for part in relief.parts:  # the parts one after the other, each as in the GLB
+        faces = mesh.faces[start:start + len(part.faces)]
+        start += len(part.faces)
+        first, last = faces.min(), faces.max()
+        source = _sources(part, mesh.vertices[first:last + 1])
+        np.testing.assert_array_equal(source[faces - first], part.faces)
+        drawn = faces[_drawing_faces(part)].ravel()
+        np.testing.assert_allclose(uv[drawn], relief.uv(part.vertices[source[drawn - first]]),
+                                   atol=1e-6)
     # The disks' rims sit on dark ink, their inside on bright colour: the
     # samples vary like the drawing does.
     assert colours[:, :3].std() > 20
@@ -113,7 +136,8 @@ def test_ply_colours_are_the_drawing_at_pixel_centres(tmp_path):
     mesh = _load(export_relief(relief, tmp_path / "g.ply")[0])["ply"]
     raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
     colours = np.stack([raw[c] for c in ("red", "green", "blue")], axis=1)
-    np.testing.assert_array_equal(colours, tex[20:45, 10:50].reshape(-1, 3))
+    front = colours[:len(xs) * len(ys)]  # then the sheet's back, in the paper's colour
+    np.testing.assert_array_equal(front, tex[20:45, 10:50].reshape(-1, 3))
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
@@ -121,11 +145,10 @@ def test_read_meshes_returns_each_part(relief, suffix, tmp_path):
     path = export_relief(relief, tmp_path / f"r{suffix}", units_per_pixel=S)[0]
     meshes = {m.name: m for m in read_meshes(path)}
     assert sorted(meshes) == sorted(p.name for p in relief.parts)
-    for part in relief.parts:
+    for part in back_sheet(relief).parts:
         m = meshes[part.name]
-        np.testing.assert_array_equal(m.faces, part.faces)
-        np.testing.assert_allclose(m.vertices, scene_coordinates(part.vertices, SIZE,
-                                                                 units_per_pixel=S), atol=1e-7)
+        source = _sources(part, m.vertices)
+        np.testing.assert_array_equal(source[m.faces], part.faces)
 
 
 # -- GLB structure ----------------------------------------------------------------
@@ -153,14 +176,29 @@ def test_glb_nodes_material_extras(relief, tmp_path):
     assert tree["images"][0]["mimeType"] == "image/png"
 
 
-def test_glb_normals_and_winding_face_the_viewer(tmp_path):
+@pytest.mark.parametrize("back", BACKS)
+def test_glb_normals_and_winding_face_the_viewer(back, tmp_path):
     relief = disk_relief(closed=False)
-    for mesh in _load(export_relief(relief, tmp_path / "r.glb")[0]).values():
+    alone = _load(export_relief(relief, tmp_path / "none.glb", back="none")[0])
+    for part in relief.parts:
+        mesh = _load(export_relief(relief, tmp_path / f"{back}.glb", back=back)[0])[part.name]
         # Spherical caps seen from the front: every face and vertex normal has +Z.
-        assert np.all(mesh.face_normals[:, 2] > 0)
+        front = np.unique(mesh.faces[:len(part.faces)])
+        assert np.all(mesh.face_normals[:len(part.faces), 2] > 0)
         normals = mesh.vertex_normals  # as stored in the file (process=False keeps them)
         np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
-        assert np.all(normals[:, 2] > 0)
+        assert np.all(normals[front, 2] > 0)
+        # the front is shaded as it is without a back: its normals ignore the back and walls
+        np.testing.assert_allclose(normals[front], alone[part.name].vertex_normals[front],
+                                   atol=1e-6)
+        if back != "none":  # a closed solid, its faces outward
+            assert (mesh.face_normals[len(part.faces):, 2] <= 1e-6).all()  # backs, walls
+            assert _welded(mesh).is_watertight and _welded(mesh).volume > 0
+
+
+def _welded(mesh):
+    """The mesh with vertices at one position merged, as a slicer or ``inkray check`` sees it."""
+    return trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
 
 
 def test_closed_glb_faces_point_outward(tmp_path):
@@ -169,7 +207,7 @@ def test_closed_glb_faces_point_outward(tmp_path):
         centre = mesh.bounds.mean(axis=0)
         outward = np.einsum("ij,ij->i", mesh.face_normals, mesh.triangles_center - centre)
         assert np.all(outward > 0), name
-        assert mesh.is_watertight and mesh.volume > 0
+        assert _welded(mesh).is_watertight and _welded(mesh).volume > 0
 
 
 def test_large_part_keeps_32_bit_indices(tmp_path):
@@ -178,8 +216,8 @@ def test_large_part_keeps_32_bit_indices(tmp_path):
     part = grid_part("sheet", xs, ys, z=3.0)
     path = export_relief(Relief([part], SIZE, drawing()), tmp_path / "big.glb")[0]
     (mesh,) = _load(path).values()
-    assert mesh.faces.max() == len(part.vertices) - 1 > 65535
-    np.testing.assert_array_equal(mesh.faces, part.faces)
+    assert mesh.faces.max() >= 2 * len(part.vertices) - 1 > 65535  # the front and the back
+    np.testing.assert_array_equal(mesh.faces[:len(part.faces)], part.faces)
 
 
 # -- frame --------------------------------------------------------------------------
@@ -190,7 +228,7 @@ def test_frame_anchor_and_scale(anchor, tmp_path):
     # The drawing's corners: pixel centres are integers, so it spans [-0.5, W - 0.5].
     corners = grid_part("sheet", [-0.5, w - 0.5], [-0.5, h - 0.5], z=10.0)
     path = export_relief(Relief([corners], SIZE, drawing()), tmp_path / "c.obj",
-                         units_per_pixel=0.01, anchor=anchor)[0]
+                         units_per_pixel=0.01, anchor=anchor, back="none")[0]
     (mesh,) = _load(path).values()
     lo, hi = mesh.bounds
     if anchor == "center":
@@ -300,9 +338,10 @@ def test_large_glb_passes_khronos_validator(tmp_path):
     xs = np.linspace(0.0, SIZE[0] - 1.0, 300)
     ys = np.linspace(0.0, SIZE[1] - 1.0, 230)
     part = grid_part("sheet", xs, ys, z=3.0)
-    report = _validate(export_relief(Relief([part], SIZE, drawing()), tmp_path / "big.glb")[0])
+    relief = Relief([part], SIZE, drawing())
+    report = _validate(export_relief(relief, tmp_path / "big.glb")[0])
     assert report["issues"]["numErrors"] == 0 and report["issues"]["numWarnings"] == 0
-    assert report["info"]["totalVertexCount"] == len(part.vertices)
+    assert report["info"]["totalVertexCount"] == mesh_counts(relief)[0] > 2 * len(part.vertices)
 
 
 def test_glb_without_texture_passes_khronos_validator(tmp_path):
@@ -432,27 +471,30 @@ def test_export_never_writes_non_finite_geometry(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_glb_names_nodes_at_part_centres_and_double_sided_materials(tmp_path):
+def test_glb_names_nodes_at_part_centres_and_single_sided_materials(tmp_path):
     relief = disk_relief(closed=False)
     path = export_relief(relief, tmp_path / "turtle.glb", units_per_pixel=S)[0]
     tree = _glb_json(path)
     assert [m["name"] for m in tree["materials"]] == ["turtle"]
     assert [i["name"] for i in tree["images"]] == ["turtle"]
-    assert all(m.get("doubleSided") for m in tree["materials"])
     for node in tree["nodes"]:
         part = next((p for p in relief.parts if p.name == node.get("name")), None)
         if part is None:
             continue
-        v = scene_coordinates(part.vertices, SIZE, units_per_pixel=S)
+        v = scene_coordinates(back_sheet(relief).parts[relief.parts.index(part)].vertices, SIZE,
+                              units_per_pixel=S)
         np.testing.assert_allclose(node["translation"], (v.min(0) + v.max(0)) / 2, atol=1e-6)
-    tree = _glb_json(export_relief(relief, tmp_path / "one.glb", back="none")[0])
-    assert not any(m.get("doubleSided") for m in tree["materials"])
+    # a part's back is geometry of its own: no material shows the drawing from behind
+    for back in BACKS:
+        tree = _glb_json(export_relief(relief, tmp_path / f"{back}.glb", back=back)[0])
+        assert [m["doubleSided"] for m in tree["materials"]] == [False]
 
 
 def test_back_plate_makes_watertight_parts_seen_from_every_side(tmp_path):
     relief = disk_relief(closed=False)
     path = export_relief(relief, tmp_path / "r.glb", back="plate")[0]
     for name, mesh in _load(path).items():
+        mesh = _welded(mesh)
         assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0, name
 
 
@@ -500,30 +542,141 @@ def test_read_relief_reports_every_file_it_read(tmp_path):
         assert all(p.is_file() for p in inputs)
 
 
-@pytest.mark.parametrize("suffix", [".glb", ".ply"])
-def test_backs_and_walls_show_the_parts_paper_not_the_drawing(suffix, tmp_path):
-    # a flat square on paper of one colour, inked at its outline, closed by a plate:
-    # from behind (the plate) and from the side (the walls' lower corners) the file
-    # shows the paper colour, from the front the drawing
-    tex = np.full((60, 80, 3), (200, 180, 150), np.uint8)
-    tex[10:50, 20:24] = tex[10:50, 56:60] = tex[10:14, 20:60] = tex[46:50, 20:60] = 10
-    tex[25:35, 35:45] = (200, 30, 30)  # a red patch in the middle of the front
-    relief = Relief([grid_part("sq", np.arange(20.0, 60.0), np.arange(10.0, 50.0), z=5.0)],
-                    (80, 60), tex)
-    path = export_relief(relief, tmp_path / f"r{suffix}", back="plate")[0]
-    back = read_relief(path)  # pixel frame, as the parts were
-    part = back.parts[0]
-    mesh = _load(path)["sq" if suffix == ".glb" else "ply"]
-    n = len(relief.parts[0].vertices)
-    if suffix == ".glb":
-        uv = np.asarray(mesh.visual.uv)
-        texel = np.stack([uv[:, 0] * 80 - 0.5, (1 - uv[:, 1]) * 60 - 0.5], axis=1)
-        colours = tex[np.rint(texel[:, 1]).astype(int), np.rint(texel[:, 0]).astype(int)]
+BODY, HEAD = (200, 180, 150), (90, 160, 220)  # the two disks' paper
+
+
+def _two_papers():
+    """The disks on paper of two colours, inked at their outlines, a red patch on the body."""
+    w, h = SIZE
+    y, x = np.mgrid[0:h, 0:w].astype(float)
+    tex = np.full((h, w, 3), 250, np.uint8)
+    for colour, (_, cx, cy, radius, _) in zip((BODY, HEAD), DISKS):
+        tex[np.hypot(x - cx, y - cy) < radius] = colour
+    for _, cx, cy, radius, _ in DISKS:
+        tex[np.abs(np.hypot(x - cx, y - cy) - (radius - 2.0)) < 1.5] = 10
+    tex[60:70, 60:70] = (200, 30, 30)
+    name, cx, cy, radius, base = DISKS[1]  # the head three times as tall: a steep rim
+    head = disk_part(name, cx, cy, radius, base=base, height=3 * radius)
+    return Relief([disk_relief().parts[0], head], SIZE, tex)
+
+
+@pytest.mark.parametrize("back", BACKS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_backs_walls_and_steep_rims_show_the_parts_paper_the_front_the_drawing(suffix, back,
+                                                                             tmp_path):
+    relief = _two_papers()
+    tex = relief.texture
+    path = export_relief(relief, tmp_path / f"r{suffix}", back=back, units_per_pixel=S)[0]
+    if suffix == ".ply":
+        meshes = {m.name: m for m in read_meshes(path)}
     else:
-        raw = mesh.metadata["_ply_raw"]["vertex"]["data"]
-        colours = np.stack([raw[c] for c in ("red", "green", "blue")], axis=1)
-    plate = part.vertices[:, 2] < 4.5  # the plate one pixel behind z = 5
-    assert plate.sum() == n and (colours[plate] == (200, 180, 150)).all()
-    front = ~plate
-    np.testing.assert_array_equal(colours[front], tex[np.rint(part.vertices[front, 1]).astype(int),
-                                                      np.rint(part.vertices[front, 0]).astype(int)])
+        meshes = _load(path)
+    for original, part, paper in zip(relief.parts, BACKED[back](relief).parts, (BODY, HEAD)):
+        mesh = meshes[part.name]
+        source = _sources(part, mesh.vertices)
+        if suffix == ".ply":
+            colours = mesh.colors
+        else:  # the texel each corner's texture coordinates land on
+            uv = np.asarray(mesh.visual.uv)
+            col = np.rint(uv[:, 0] * SIZE[0] - 0.5).astype(int)
+            row = np.rint((1 - uv[:, 1]) * SIZE[1] - 0.5).astype(int)
+            colours = tex[row, col]
+        drawn = _drawing_faces(part)
+        assert back == "none" or (~drawn).sum() >= len(original.faces)  # a whole back
+        assert part.name == "body" or (~drawn[:len(original.faces)]).sum() > 100  # a steep rim
+        # backs, walls and steep rims: the part's paper, on all three corners of every face
+        plain = colours[mesh.faces[~drawn]]
+        assert (plain == paper).all(), (part.name, np.unique(plain.reshape(-1, 3), axis=0))
+        # the front: the drawing where each vertex is
+        corners = mesh.faces[drawn].ravel()
+        xy = part.vertices[source[corners], :2]
+        expected = _bilinear(tex.astype(float), xy[:, 0] + 0.5, xy[:, 1] + 0.5)
+        if suffix == ".ply":
+            np.testing.assert_allclose(colours[corners], expected, atol=1.0)
+        else:
+            np.testing.assert_allclose(uv[corners], relief.uv(xy), atol=1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".obj"])
+def test_front_view_is_the_same_for_every_back(suffix, tmp_path):
+    relief = _two_papers()
+    views = [_front_view_of_file(export_relief(relief, tmp_path / back / f"r{suffix}",
+                                               back=back)[0])[0] for back in BACKS]
+    for view in views[1:]:  # backs and walls lie behind the front, under its outline
+        np.testing.assert_array_equal(view, views[0])
+    # the drawing, but where the head's steep rim shows its paper (a thin ring)
+    mask = disk_mask(disks=DISKS[:1]) & ~disk_mask(disks=DISKS[1:], inset=-1.0)
+    assert np.abs(views[0][mask] - relief.texture[mask]).max(axis=1).mean() < 3.0
+    ring = disk_mask(disks=DISKS[1:]) & ~disk_mask(disks=DISKS[1:], inset=4.0)
+    assert (np.abs(views[0][ring] - HEAD).max(axis=1) < 1).mean() > 0.1
+
+
+@pytest.mark.parametrize("back", BACKS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_read_relief_gives_back_each_part_with_its_back(suffix, back, tmp_path):
+    relief = _two_papers()  # the head with a steep rim: copies on its front surface
+    read = read_relief(export_relief(relief, tmp_path / f"r{suffix}", back=back)[0])
+    assert read.size == relief.size
+    by_name = {p.name: p for p in read.parts}
+    for original, part in zip(relief.parts, BACKED[back](relief).parts):
+        got = by_name[part.name]
+        assert len(got.faces) == len(part.faces)
+        n, m = len(original.vertices), len(original.faces)
+        if suffix == ".obj":  # trimesh orders an OBJ's vertices by the faces' corners
+            _sources(part, scene_coordinates(got.vertices, SIZE, units_per_pixel=S))
+            continue
+        # the front merged back into one surface where the drawing meets the paper,
+        # first and in order, as it was
+        np.testing.assert_allclose(got.vertices[:n], original.vertices, atol=1e-3)
+        np.testing.assert_array_equal(got.faces[:m], original.faces)
+
+
+@pytest.mark.parametrize("back", BACKS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_mesh_counts_are_what_the_file_holds(suffix, back, tmp_path):
+    relief = _two_papers()
+    path = export_relief(relief, tmp_path / f"r{suffix}", back=back)[0]
+    if suffix == ".obj":
+        lines = path.read_text().splitlines()
+        held = (sum(ln.startswith("v ") for ln in lines), sum(ln.startswith("f ") for ln in lines))
+    else:
+        meshes = _load(path).values()
+        held = (sum(len(m.vertices) for m in meshes), sum(len(m.faces) for m in meshes))
+    assert mesh_counts(relief, suffix=suffix, back=back) == held
+
+
+def test_paper_is_the_median_of_the_parts_seen_non_ink_pixels_posed_or_not(tmp_path):
+    # the noisy drawing: no pixel has the median colour; the texel comes within 24 levels
+    relief = disk_relief()
+    tex = relief.texture.astype(int)
+    w, h = SIZE
+    y, x = np.mgrid[0:h, 0:w]
+    ink = tex.max(axis=2) < 0.6 * np.percentile(tex.max(axis=2), 95)
+    (_, bx, by, br, _), (_, hx, hy, hr, _) = DISKS
+    seen = {"body": (np.hypot(x - bx, y - by) < br - 1) & (np.hypot(x - hx, y - hy) > hr + 1),
+            "head": np.hypot(x - hx, y - hy) < hr - 1}
+    # posed: moved right, textured from where they rest
+    posed = Relief([Part(p.name, p.vertices + [8.0, 0, 0], p.faces, texcoords=p.vertices[:, :2])
+                    for p in relief.parts], (w + 8, h), np.pad(relief.texture, ((0, 0), (0, 8),
+                                                                                 (0, 0))))
+    for r in (relief, posed):
+        mesh = _load(export_relief(r, tmp_path / f"r{len(r.parts)}{r.size[0]}.glb")[0])
+        for part in r.parts:
+            m = mesh[part.name]
+            uv = np.asarray(m.visual.uv)[m.faces[len(part.faces):].ravel()]  # the back
+            (texel,) = np.unique(np.rint(uv * [r.size[0], r.size[1]] - 0.5).astype(int), axis=0)
+            colour = tex[r.size[1] - 1 - texel[1], texel[0]]
+            median = np.median(tex[seen[part.name] & ~ink], axis=0)
+            assert np.abs(colour - median).sum() <= 24, (part.name, colour, median)
+
+
+def test_a_part_too_small_for_the_paper_view_takes_the_colour_under_it(tmp_path):
+    # a 1.5 px dot of dark blue paper on a 1024 x 768 drawing (seen at a quarter scale)
+    tex = np.full((768, 1024, 3), 250, np.uint8)
+    tex[400:404, 500:504] = (20, 40, 160)
+    dot = grid_part("dot", [501.0, 502.0], [401.0, 402.0], z=2.0)
+    relief = Relief([grid_part("sheet", [0.0, 1023.0], [0.0, 767.0]), dot], (1024, 768), tex)
+    mesh = _load(export_relief(relief, tmp_path / "r.glb")[0])["dot"]
+    uv = np.asarray(mesh.visual.uv)[mesh.faces[len(dot.faces):].ravel()]  # its back
+    (texel,) = np.unique(np.rint(uv * [1024, 768] - 0.5).astype(int), axis=0)
+    assert tuple(tex[767 - texel[1], texel[0]]) == (20, 40, 160)

@@ -43,7 +43,7 @@ def _measure(name, tmp_path):
     chain = ReliefChain(ann, drawing)
     result = chain.result()
     path = tmp_path / f"{name}.glb"
-    export_relief(result.relief, path)
+    export_relief(result.relief, path, back="none")  # the surface, as stitched
     relief = read_relief(path)
     return ann, drawing, chain, result, relief
 

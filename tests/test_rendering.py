@@ -341,7 +341,7 @@ def test_cli_renders_an_exported_glb(tmp_path):
 @pytest.mark.parametrize("suffix", [".glb", ".obj", ".ply"])
 def test_read_relief_places_inkray_files_in_drawing_pixels(tmp_path, suffix):
     relief = _figure()
-    path = export_relief(relief, tmp_path / f"fig{suffix}", anchor="top-left")[0]
+    path = export_relief(relief, tmp_path / f"fig{suffix}", anchor="top-left", back="none")[0]
     back = read_relief(path)
     assert back.size == relief.size
     by_name = {p.name: p for p in back.parts}

@@ -357,11 +357,11 @@ class DepthSession:
         (:func:`inkray.segmentation.segment`'s, the relief's: regions
         ``0..R-1``, background ``-1``).
     incremental : bool, default True
-        Keep what a re-solve reuses: the fill's factorization and, once a
-        change needed more than pinning, its update matrices (up to about
-        0.4 GB for a 512x512 drawing, 2 GB at 1024x1024; see
-        :class:`~inkray.numerics.harmonic_fill.HarmonicFill`). Without it
-        every :meth:`solve` factors the fill afresh.
+        Keep what a re-solve reuses: the fill's factorization and, after
+        :meth:`prepare` or once a change needed more than pinning, its
+        update matrices (up to about 0.4 GB for a 512x512 drawing, 2 GB at
+        1024x1024; see :class:`~inkray.numerics.harmonic_fill.HarmonicFill`).
+        Without it every :meth:`solve` factors the fill afresh.
     progress : inkray.progress.Progress, optional
         Its ``update(done, total)`` while the fill is factored afresh.
 
@@ -406,6 +406,40 @@ class DepthSession:
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
+
+    def prepare(self, *, background=False, progress=None):
+        """Ready the kept fill for the next change, in time nobody waits on.
+
+        A cold :meth:`solve` factors the fill without what an update reuses
+        (about half the time); this factors it again keeping that, so that
+        the next change that pinning cannot follow (a new scribble, a new
+        part's level) refactors only the fronts it touches. The answers do
+        not change. See :meth:`inkray.numerics.harmonic_fill.HarmonicFill.prepare`.
+
+        Parameters
+        ----------
+        background : bool, default False
+            Factor in a thread and return at once: the next :meth:`solve`
+            waits for it only when it needs the update matrices.
+        progress : object with ``update(done, total)``, optional
+            May raise to stop (the session stays as it was).
+
+        Returns
+        -------
+        bool
+            Whether there was anything to do.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> gray = np.ones((20, 20)); gray[4:, 10] = 0.0          # a line with a gap
+        >>> s = DepthSession(gray)
+        >>> k = s.add((3, 15), (15, 15)); d = s.solve()
+        >>> s.prepare(), s.prepare()
+        (True, False)
+        """
+        fill = self._fills.get(False)
+        return fill is not None and fill.prepare(background=background, progress=progress)
 
     def reseed(self, seeds=None, *, labels=None):
         """Replace the region and background scribbles (``seeds`` or their ``labels``,

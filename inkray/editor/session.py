@@ -442,9 +442,13 @@ class EditSession:
         elif name == "depth.png" and draft:
             params = dict(draft=True)
         key = (name, *sorted(params.items()))
-        return self.newest(lambda chain, digest: (self._encoded(
-            (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
-            lock="depth" if name == "depth.png" else "relief")
+        try:
+            return self.newest(lambda chain, digest: (self._encoded(
+                (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
+                lock="depth" if name == "depth.png" else "relief")
+        finally:
+            if name == "relief.glb":
+                self._prepare_depth()
 
     def relations(self):
         """The user's and the predicted relations and the warnings of the newest document.
@@ -535,6 +539,27 @@ class EditSession:
                 except Exception:  # noqa: BLE001 - its own request reports it
                     pass
                 return
+
+    def _prepare_depth(self):
+        """Ready the depth session for the next edit while the user looks at the
+        previews (the relief is the last an edit asks for).
+
+        A cold open factors the depth map's fill without the update matrices
+        that make a later scribble's re-solve an update (half the time, and
+        the open is what the user waits for); this factors it again keeping
+        them, in a thread of its own, unless a depth map is being computed.
+        An arrow meanwhile does not wait for it; a change that needs it does.
+        """
+        lock = self._locks["depth"]
+        if not lock.acquire(blocking=False):
+            return
+        try:
+            with self._state:
+                chain = None if self._closed else self._chain
+            if chain is not None:
+                chain.prepare_depth(background=True)
+        finally:
+            lock.release()
 
     def _depth_first(self):
         """Wait a little for a depth map being computed before starting a relief.

@@ -33,8 +33,8 @@ from inkray.input.limits import DEFAULT_LIMITS
 from inkray.relief.model import Part, Relief
 from inkray.view.rasterization import vertex_normals
 
-__all__ = ["ANCHORS", "BACKS", "UPS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes", "pixel_coordinates",
-           "read_meshes", "read_relief", "scene_coordinates"]
+__all__ = ["ANCHORS", "BACKS", "UPS", "FORMATS", "NamedMesh", "export_relief", "export_files", "glb_bytes",
+           "mesh_counts", "pixel_coordinates", "read_meshes", "read_relief", "scene_coordinates"]
 
 ANCHORS = ("center", "top-left")
 FORMATS = (".glb", ".obj", ".ply")
@@ -62,12 +62,16 @@ class NamedMesh(NamedTuple):
         Vertex indices, in the file's winding.
     colors : (n, 3) uint8 array or None
         Vertex colours, where the file has them (PLY).
+    normals : (n, 3) float array or None
+        Vertex normals as the file stores them (GLB, PLY, OBJ), in the frame
+        of ``vertices``; None where it has none.
     """
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
     colors: np.ndarray = None
+    normals: np.ndarray = None
 
 
 def scene_coordinates(points, size, *, units_per_pixel=0.001, anchor="center"):
@@ -140,11 +144,12 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
       the part's centre (its vertices relative to it, so a part turns about
       itself in an editor); positions, vertex normals, planar UVs
       (``TEXCOORD_0``); one material (roughness 1, metallic 0) with the
-      drawing embedded as PNG base-colour texture, both named ``name``; scene
+      drawing embedded as PNG base-colour texture, both named ``name``, single-sided; scene
       ``extras = {"inkray": {"drawing_size": [W, H], "units_per_pixel": s,
       "anchor": anchor}}``. Indices are unsigned 32-bit; the texture sampler
       filters linearly (mipmapped) and clamps to the edge.
-    - ``.obj``: ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
+    - ``.obj``: a header comment ``# inkray drawing_size W H units_per_pixel
+      s anchor a``; ``o``/``g`` per part, ``v``/``vt``/``vn`` and faces
       ``f v/vt/vn``; beside it ``<stem>.mtl`` and the texture
       ``<stem>_drawing.png``.
     - ``.ply``: binary little-endian, one mesh of all parts; per vertex
@@ -169,12 +174,15 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
         Name of the material and the texture image (default: the file's stem),
         so that several imported reliefs keep their own.
     back : {"double-sided", "plate", "none"}, default "double-sided"
-        What an open part shows from behind. ``"double-sided"``: GLB materials
-        are marked double-sided (three.js and Blender then draw the back
-        faces; OBJ and PLY have no such flag and viewers choose).
-        ``"plate"``: every open part is closed down to one flat plane behind
-        the relief (:func:`inkray.relief.backing.back_plate`): watertight, seen
-        from any side. ``"none"``: single-sided, as the surface is.
+        What an open part shows from behind. ``"double-sided"``: a back of its
+        own, one pixel behind its front (:func:`inkray.relief.backing.back_sheet`).
+        ``"plate"``: closed by a flat plate just behind it
+        (:func:`inkray.relief.backing.back_plate`). Both are watertight, seen
+        from any side. ``"none"``: the surface alone. In every mode materials
+        are single-sided, and faces turned more than about 84 degrees from the
+        viewer (backs, walls, steep rims) show one texel of the part's paper
+        (PLY: its colour) while the front shows the drawing; vertices shared
+        by the two are written twice (OBJ: with two texture coordinates).
     up : {"y", "z"}, default "y"
         Up axis of OBJ and PLY files: ``"z"`` for importers that assume Z up
         (Blender's PLY importer), turning the scene so that the relief stands
@@ -220,7 +228,8 @@ def export_relief(relief, path, *, units_per_pixel=0.001, anchor="center", name=
     else:
         relief = _backed(relief, back)
         meshes = _turned(_scene_meshes(relief, units_per_pixel, anchor), up)
-        files = (_obj_files(relief, meshes, path, name, up) if suffix == ".obj" else
+        files = (_obj_files(relief, meshes, path, name, up, units_per_pixel, anchor)
+                 if suffix == ".obj" else
                  {path: _ply_bytes(relief, meshes, units_per_pixel, anchor, up)})
     if outputs is None:
         with atomic_outputs() as out:
@@ -258,7 +267,42 @@ def glb_bytes(relief, *, units_per_pixel=0.001, anchor="center", name="relief",
     _check_frame(units_per_pixel, anchor)
     relief = _backed(relief, back)
     return _glb_bytes(relief, _scene_meshes(relief, units_per_pixel, anchor), units_per_pixel,
-                      anchor, name, double_sided=back == "double-sided")
+                      anchor, name)
+
+
+def mesh_counts(relief, *, suffix=".glb", back="double-sided"):
+    """``(vertices, faces)`` that :func:`export_relief` writes for ``relief``.
+
+    The faces of the relief with its back; the vertices with those copied
+    where the drawing meets the paper (GLB and PLY vertices, OBJ texture
+    coordinates: an OBJ's ``v`` lines are the relief's own vertices).
+
+    Parameters
+    ----------
+    relief : inkray.relief.model.Relief
+    suffix : {".glb", ".obj", ".ply"}, default ".glb"
+    back : {"double-sided", "plate", "none"}, default "double-sided"
+
+    Returns
+    -------
+    (int, int)
+
+    Examples
+    --------
+    >>> from inkray.relief.model import Part, Relief
+    >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
+    >>> r = Relief([tri], (10, 10))
+    >>> mesh_counts(r, back="none"), mesh_counts(r), mesh_counts(r, suffix=".obj")
+    ((3, 1), (9, 8), (6, 8))
+    """
+    relief = _backed(relief, back)
+    vertices = faces = 0
+    for part in relief.parts:
+        n, f = len(part.vertices), np.asarray(part.faces, np.int64)
+        source = _split_vertices(n, f, _face_kinds(part.vertices, f))[0]
+        vertices += n if suffix.lower() == ".obj" else len(source)
+        faces += len(f)
+    return vertices, faces
 
 
 def _backed(relief, back):
@@ -270,6 +314,10 @@ def _backed(relief, back):
         from inkray.relief.backing import back_plate
 
         relief = back_plate(relief)
+    elif back == "double-sided":
+        from inkray.relief.backing import back_sheet
+
+        relief = back_sheet(relief)
     return relief
 
 
@@ -305,7 +353,7 @@ def read_meshes(path):
     >>> from inkray.relief.model import Part, Relief
     >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 0], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
-    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb", back="none")[0]
     >>> [(m.name, len(m.vertices), len(m.faces)) for m in read_meshes(p)]
     [('a', 3, 1)]
     """
@@ -457,18 +505,39 @@ def _check_relief(relief):
 
 class _SceneMesh(NamedTuple):
     name: str
-    vertices: np.ndarray  # scene frame
-    faces: np.ndarray
+    vertices: np.ndarray  # scene frame, one row per written vertex
+    faces: np.ndarray  # into the written vertices
     normals: np.ndarray  # unit, scene frame
     uv: np.ndarray  # (u, v), v up (OpenGL / OBJ convention)
     pixels: np.ndarray  # (x, y) drawing pixels, for colour sampling
+    source: np.ndarray  # the part's vertex each written vertex copies (row i < n: vertex i)
+
+
+#: A face whose normal makes an angle with the view direction (+Z) of more than
+#: arccos(_STEEP), about 84 degrees, is a steep rim, a wall or a back: it shows the
+#: part's paper. Planar texture coordinates stretch the drawing over such a face by
+#: 1 / cos(angle), ten times or more, and it covers a tenth of its area or less in the
+#: front view, where the drawing is already seen on the faces around it.
+_STEEP = 0.1
+_FRONT, _RIM, _BEHIND = 0, 1, 2  # faces: drawing; paper, front surface; paper, back or wall
 
 
 def _scene_meshes(relief, units_per_pixel, anchor):
-    meshes = []
+    """Every part in the scene frame, its vertices split where the drawing meets the paper.
+
+    A vertex that faces of two kinds share is written once per kind: the
+    drawing's copy has its planar texture coordinates, the paper's copy those
+    of the part's paper texel (:func:`_paper_texels`), so that no face blends
+    the two. Normals are smooth over the front surface (drawing and steep rim
+    alike, as they were before any back was added) and over the back and
+    walls, each on its own.
+    """
     texture = _texture(relief)
-    plainness = _plainness(texture)
-    for part in relief.parts:
+    kinds = [_face_kinds(p.vertices, p.faces) for p in relief.parts]
+    texels = (_paper_texels(relief, kinds, texture) if any((k != _FRONT).any() for k in kinds)
+              else None)
+    meshes = []
+    for i, part in enumerate(relief.parts):
         px = np.asarray(part.vertices, float)
         faces = np.asarray(part.faces, np.int64)
         v = scene_coordinates(px, relief.size, units_per_pixel=units_per_pixel, anchor=anchor)
@@ -477,59 +546,136 @@ def _scene_meshes(relief, units_per_pixel, anchor):
                              f"beyond finite 32-bit scene coordinates")
         # Flipping y turns the relief's pixel-frame winding (clockwise in x, y
         # down) into counter-clockwise seen from +Z, so faces are kept as they are.
-        # backs and walls show the part's paper, not the drawing mirrored or smeared:
-        # the vertices of theirs that no front face shares (all of a closed part's
-        # back) take the texture coordinates (and PLY colours) of a plain texel. A
-        # vertex is not copied for that, so solids stay watertight by index in files.
         tex = px[:, :2] if part.texcoords is None else np.asarray(part.texcoords, float)[:, :2]
-        sample = tex.copy()
-        plain = _plain_faces(px, faces)
-        if plain.any() and not plain.all():
-            front = np.zeros(len(px), bool)
-            front[faces[~plain].ravel()] = True
-            behind = np.zeros(len(px), bool)
-            behind[faces[plain].ravel()] = True
-            sample[behind & ~front] = _paper_texel(texture, plainness, sample[front])
-        uv = np.clip(relief.uv(sample), 0.0, 1.0)
-        meshes.append(_SceneMesh(part.name, v, faces, _scene_normals(px, faces), uv, sample))
+        kind = kinds[i]
+        source, kept, faces = _split_vertices(len(px), faces, kind)
+        original = np.asarray(part.faces, np.int64)
+        n_front = _scene_normals(px, original[kind != _BEHIND])
+        n_behind = _scene_normals(px, original[kind == _BEHIND])
+        normals = np.where((kept == _BEHIND)[:, None], n_behind[source], n_front[source])
+        pixels = tex[source]
+        if texels is not None:
+            pixels[kept != _FRONT] = texels[i]
+        uv = np.clip(relief.uv(pixels), 0.0, 1.0)
+        meshes.append(_SceneMesh(part.name, v[source], faces, normals, uv, pixels, source))
     return meshes
 
 
-#: Faces turned further than this from the viewer (the cosine of their normal's angle
-#: with +Z) are backs or walls: they take the part's paper colour.
-_FACING = 0.1
-_PLAIN_WINDOW = 9  # px: a plain texel is the centre of a window this wide of one colour
-
-
-def _plain_faces(pixel_vertices, faces):
-    """Faces whose normal turns more than ``arccos(_FACING)`` away from the viewer."""
-    q = np.asarray(pixel_vertices, float)[faces] * [1.0, -1.0, 1.0]  # scene frame: z toward us
-    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+def _face_kinds(pixel_vertices, faces):
+    """Per face: ``_FRONT`` (the drawing), ``_RIM`` (steep) or ``_BEHIND`` (turned away)."""
+    q = np.asarray(pixel_vertices, float)[np.asarray(faces, np.int64)] * [1.0, -1.0, 1.0]
+    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])  # scene frame: z toward the viewer
     length = np.linalg.norm(n, axis=1)
-    return (length > 0) & (n[:, 2] < _FACING * length)
+    kind = np.full(len(n), _FRONT, np.int8)  # a face without area shows nothing
+    kind[(length > 0) & (n[:, 2] < _STEEP * length)] = _RIM
+    kind[(length > 0) & (n[:, 2] <= 0)] = _BEHIND
+    return kind
 
 
-def _plainness(texture):
-    """Per pixel, the colour spread (summed standard deviations) over a window around it."""
-    from scipy.ndimage import uniform_filter
+def _split_vertices(n, faces, kind):
+    """``(source, kinds, faces)``: a copy of each vertex per kind of face using it.
 
-    t = np.asarray(texture, float)
-    size = (_PLAIN_WINDOW, _PLAIN_WINDOW, 1)
-    mean = uniform_filter(t, size, mode="nearest")
-    var = uniform_filter(t * t, size, mode="nearest") - mean * mean
-    return np.sqrt(np.clip(var, 0.0, None)).sum(axis=2)
+    Row ``i < n`` is vertex ``i`` for the first kind that uses it (the
+    drawing's, when any), so a part without paper faces is written as it is;
+    further copies follow, ordered by vertex, then kind.
+    """
+    used = np.zeros((n, 3), bool)
+    used[faces, kind[:, None]] = True
+    first = np.argmax(used, axis=1)  # a vertex no face uses: a drawing vertex
+    extra = used.copy()
+    extra[np.arange(n), first] = False
+    ev, ek = np.nonzero(extra)
+    index = np.full((n, 3), -1, np.int64)
+    index[np.arange(n), first] = np.arange(n)
+    index[ev, ek] = n + np.arange(len(ev))
+    return (np.concatenate([np.arange(n), ev]), np.concatenate([first, ek]),
+            index[faces, kind[:, None]])
 
 
-def _paper_texel(texture, plainness, pixels):
-    """The pixel (x, y) among ``pixels`` (a part's front) most like its paper: the
-    median colour there, in a window of one colour."""
-    h, w = plainness.shape
-    xy = np.rint(np.asarray(pixels, float)).astype(np.int64)
-    xy = np.unique(np.clip(xy, 0, [w - 1, h - 1]), axis=0)
-    colours = np.asarray(texture, float)[xy[:, 1], xy[:, 0]]
-    paper = np.median(colours, axis=0)
-    score = plainness[xy[:, 1], xy[:, 0]] + np.abs(colours - paper).sum(axis=1)
-    return xy[int(np.argmin(score))].astype(float)
+#: Ink, as the renderer separates it: darker in its brightest channel than this
+#: fraction of the paper's level.
+_INK_LEVEL = 0.6
+_PAPER_TOLERANCE = 24  # summed over R, G, B: a texel this close to the estimate is paper
+_PAPER_PIXELS = 1 << 16  # the front view is looked at with at most this many pixels
+
+
+def _paper_texels(relief, kinds, texture):
+    """Per part, the drawing pixel ``(x, y)`` whose colour the part shows as its paper.
+
+    The part's paper colour is the median colour of the drawing's non-ink
+    pixels where the part is seen in the front view (at its rest place, for a
+    posed part); its texel is, among the part's pixels within
+    ``_PAPER_TOLERANCE`` of that colour, the one farthest from any other
+    (ink, another colour, another part). The view is rasterized at most
+    ``_PAPER_PIXELS`` large, each of its pixels standing for the drawing pixel
+    at its centre; a part too small to cover one of them is judged by the
+    drawing's pixels at its front vertices.
+    """
+    from scipy import ndimage
+
+    from inkray.view.rasterization import rasterize
+
+    h, w = texture.shape[:2]
+    scale = min(1.0, float(np.sqrt(_PAPER_PIXELS / (w * h))))
+    rest = [Part(p.name, np.column_stack([(p.vertices if p.texcoords is None else p.texcoords)
+                                          [:, :2], np.asarray(p.vertices, float)[:, 2]]),
+                 np.asarray(p.faces)[k != _BEHIND]) for p, k in zip(relief.parts, kinds)]
+    raster = rasterize(Relief(rest, relief.size), scale=scale, offset=(0.0, 0.0))
+    rh, rw = raster.mask.shape
+    rows = np.clip(np.rint((np.arange(rh) + 0.5) / scale - 0.5), 0, h - 1).astype(np.intp)
+    cols = np.clip(np.rint((np.arange(rw) + 0.5) / scale - 0.5), 0, w - 1).astype(np.intp)
+    colours = texture[rows[:, None], cols[None, :]].astype(np.int64).reshape(-1, 3)
+    owner = np.where(raster.mask, raster.part, -1)
+    value = colours.max(axis=1)
+    paper = value >= _INK_LEVEL * max(float(np.percentile(value, 95)), 1.0)
+    # a pixel beside another part's is no part's safe paper
+    edge = np.zeros((rh, rw), bool)
+    edge[:, 1:] |= owner[:, 1:] != owner[:, :-1]
+    edge[:, :-1] |= owner[:, 1:] != owner[:, :-1]
+    edge[1:] |= owner[1:] != owner[:-1]
+    edge[:-1] |= owner[1:] != owner[:-1]
+    owner = owner.ravel()
+    order = np.argsort(owner, kind="stable")
+    bounds = np.searchsorted(owner[order], np.arange(-1, len(relief.parts) + 1))
+    pixels = [order[bounds[i + 1]:bounds[i + 2]] for i in range(len(relief.parts))]
+
+    def estimate(where):
+        pick = where[paper[where]]
+        pick = pick if len(pick) else where
+        return np.median(colours[pick], axis=0)
+
+    estimates = [estimate(px) if len(px) else None for px in pixels]
+    close = np.zeros(len(owner), bool)
+    for px, c in zip(pixels, estimates):
+        close[px[np.abs(colours[px] - c).sum(axis=1) <= _PAPER_TOLERANCE]] = True
+    depth = ndimage.distance_transform_edt((close.reshape(rh, rw) & ~edge)).ravel()
+    texels = np.empty((len(relief.parts), 2))
+    for i, (px, c) in enumerate(zip(pixels, estimates)):
+        if c is None:  # unseen at this resolution: the drawing under its vertices
+            texels[i] = _vertex_paper(rest[i], texture)
+            continue
+        where = px
+        miss = np.abs(colours[where] - c).sum(axis=1)
+        good = (miss <= _PAPER_TOLERANCE) & (depth[where] > 0)
+        # deepest in the part's paper; failing that, the part's pixel nearest in colour
+        k = where[np.argmax(np.where(good, depth[where], -1.0))] if good.any() else \
+            where[np.argmin(miss)]
+        texels[i] = (cols[k % rw], rows[k // rw])
+    return texels
+
+
+def _vertex_paper(part, texture):
+    """The drawing pixel under a front vertex of ``part`` nearest its median non-ink colour."""
+    h, w = texture.shape[:2]
+    used = np.unique(np.asarray(part.faces).ravel())
+    xy = np.rint(np.asarray(part.vertices, float)[used, :2] if len(used) else
+                 np.asarray(part.vertices, float)[:, :2]).astype(np.intp)
+    xy = np.clip(xy, 0, [w - 1, h - 1])
+    colours = texture[xy[:, 1], xy[:, 0]].astype(np.int64)
+    value = colours.max(axis=1)
+    paper = colours[value >= _INK_LEVEL * max(float(value.max()), 1.0)]
+    c = np.median(paper if len(paper) else colours, axis=0)
+    return xy[int(np.argmin(np.abs(colours - c).sum(axis=1)))].astype(float)
 
 
 def _turned(meshes, up):
@@ -573,7 +719,7 @@ _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _SAMPLER = {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071}
 
 
-def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing", *, double_sided=False):
+def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing"):
     """A glTF 2.0 binary: one node per part (its vertices about their box's centre,
     the centre as the node's translation), one textured material, one buffer.
 
@@ -629,7 +775,8 @@ def _glb_bytes(relief, meshes, units_per_pixel, anchor, name="drawing", *, doubl
                                           "units_per_pixel": float(units_per_pixel),
                                           "anchor": anchor}}}],
         "nodes": nodes, "meshes": gltf_meshes,
-        "materials": [{"name": name, "doubleSided": bool(double_sided),
+        # single-sided: a part's back is geometry of its own (see export_relief's back)
+        "materials": [{"name": name, "doubleSided": False,
                        "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
                                                 "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
                                                 "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
@@ -700,23 +847,33 @@ def export_files(path):
     return [path]
 
 
-def _obj_files(relief, meshes, path, name="drawing", up="y"):
+def _obj_files(relief, meshes, path, name="drawing", up="y", units_per_pixel=0.001,
+               anchor="center"):
     # trimesh's OBJ writer names objects only from metadata and rewrites the
     # material; a direct writer gives groups per part and stable file names.
     _, mtl_path, png_path = export_files(path)
     frame = "X right, Y up, Z toward the viewer" if up == "y" else \
         "X right, Z up, -Y toward the viewer"
+    w, h = relief.size
+    # the frame, as in the PLY header: backs show one texel of paper, so texture
+    # coordinates alone do not place the relief
     chunks = [f"# inkray relief: {frame}\n",
+              f"# inkray drawing_size {int(w)} {int(h)} units_per_pixel "
+              f"{float(units_per_pixel)!r} anchor {anchor}\n",
               f"mtllib {mtl_path.name}\n"]
-    base = 1
+    base = corner = 1
     for m in meshes:
+        # a vertex is written once (solids stay closed by index); where the drawing
+        # meets the paper its corners take one of two texture coordinates
+        own = int(np.count_nonzero(m.source == np.arange(len(m.source))))
+        corners = np.stack([m.source[m.faces] + base, m.faces + corner, m.faces + corner], axis=2)
         chunks += [f"o {m.name}\ng {m.name}\nusemtl {name}\n",
-                   _format_rows("v %.9g %.9g %.9g\n", m.vertices),
+                   _format_rows("v %.9g %.9g %.9g\n", m.vertices[:own]),
                    _format_rows("vt %.9g %.9g\n", m.uv),
                    _format_rows("vn %.6f %.6f %.6f\n", m.normals),
-                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n",
-                                np.repeat(m.faces + base, 3, axis=1))]
-        base += len(m.vertices)
+                   _format_rows("f %d/%d/%d %d/%d/%d %d/%d/%d\n", corners.reshape(-1, 9))]
+        base += own
+        corner += len(m.vertices)
     mtl = ["# inkray relief material: the drawing, matte",
            f"newmtl {name}",
            "Ka 0 0 0", "Kd 1 1 1", "Ks 0 0 0", "Ns 0", "d 1", "illum 1",
@@ -792,7 +949,10 @@ def _scene_to_named(scene):
             f = np.asarray(geom.faces, np.int64)
             if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node flips the winding
                 f = f[:, ::-1]
-            meshes.append(NamedMesh(str(node), v, f))
+            stored = geom._cache.cache.get("vertex_normals")  # the file's, not computed
+            n = None if stored is None or len(stored) != len(v) else \
+                np.asarray(stored, float) @ transform[:3, :3].T
+            meshes.append(NamedMesh(str(node), v, f, normals=n))
     return meshes
 
 
@@ -825,18 +985,24 @@ def _read_ply(path):
         rgb = np.stack([np.asarray(columns[c]).reshape(-1) for c in ("red", "green", "blue")],
                        axis=1).astype(np.uint8)
         rgb = rgb if len(rgb) == len(v) else None
+    normals = None
+    if {"nx", "ny", "nz"} <= fields:
+        normals = np.stack([np.asarray(columns[c], float).reshape(-1) for c in ("nx", "ny", "nz")],
+                           axis=1)
+        normals = normals if len(normals) == len(v) else None
     raw = mesh.metadata.get("_ply_raw", {}).get("face", {}).get("data")
     part = None
     if names and raw is not None and raw.dtype.names and "part" in raw.dtype.names:
         part = np.asarray(raw["part"]).reshape(-1)
     if part is None or len(part) != len(f):
-        return [NamedMesh(path.stem, v, f, rgb)]
+        return [NamedMesh(path.stem, v, f, rgb, normals)]
     meshes = []
     for i in sorted(set(part.tolist())):
         sub = f[part == i]
         used, inverse = np.unique(sub, return_inverse=True)
         meshes.append(NamedMesh(names.get(i, f"part{i}"), v[used], inverse.reshape(-1, 3),
-                                None if rgb is None else rgb[used]))
+                                None if rgb is None else rgb[used],
+                                None if normals is None else normals[used]))
     return meshes
 
 
@@ -862,7 +1028,9 @@ def read_relief(path, *, inputs=None):
     Returns
     -------
     inkray.relief.model.Relief
-        A referenced texture that is missing leaves it untextured, with a
+        One part per mesh, its vertices at one position and normal merged (a
+        file copies a vertex where its texture coordinates change). A
+        referenced texture that is missing leaves it untextured, with a
         warning naming the file in its ``warnings``.
 
     Raises
@@ -878,7 +1046,7 @@ def read_relief(path, *, inputs=None):
     >>> from inkray.relief.model import Part, Relief
     >>> tri = Part("a", np.array([[0., 0, 0], [0, 9, 2], [9, 0, 0]]), np.array([[0, 1, 2]]))
     >>> r = Relief([tri], (10, 10), np.zeros((10, 10, 3), np.uint8))
-    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb")[0]
+    >>> p = export_relief(r, pathlib.Path(tempfile.mkdtemp()) / "r.glb", back="none")[0]
     >>> back = read_relief(p)
     >>> back.size, (np.round(back.parts[0].vertices, 3) + 0.0).tolist()
     ((10, 10), [[0.0, 0.0, 0.0], [0.0, 9.0, 2.0], [9.0, 0.0, 0.0]])
@@ -929,12 +1097,32 @@ def read_relief(path, *, inputs=None):
             # from the drawing's top-left edge at (-0.5, -0.5): pixel centres are integers
             return np.stack([(v[:, 0] - lo[0]) / s - 0.5, (hi[1] - v[:, 1]) / s - 0.5,
                              v[:, 2] / s], axis=1)
-    parts = [Part(m.name, to_pixels(m.vertices), m.faces) for m in meshes]
+    parts, colours = [], []
+    for m in meshes:
+        keep, faces = _welded(m.vertices, m.faces, m.normals)
+        parts.append(Part(m.name, to_pixels(m.vertices[keep]), faces))
+        colours.append(None if m.colors is None else m.colors[keep])
     size = (int(size[0]), int(size[1]))
     if texture is None and path.suffix.lower() == ".ply":
-        texture = _ply_colour_texture(parts, [m.colors for m in meshes], size)
+        texture = _ply_colour_texture(parts, colours, size)
     return Relief(parts, size=size, texture=texture,
                   warnings=[] if texture is not None else _texture_problems(path, read[1:]))
+
+
+def _welded(vertices, faces, normals=None):
+    """``(keep, faces)``: the first vertex of each position (and normal), in order, and the
+    faces on them.
+
+    Files copy a vertex where its texture coordinates change (inkray's where the
+    drawing meets the paper) on one smooth surface; copies with a normal of
+    their own (a crease: a front and its wall) stay apart.
+    """
+    key = vertices if normals is None else np.column_stack([vertices, normals])
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty(len(first), np.int64)
+    rank[order] = np.arange(len(first))
+    return first[order], rank[inverse.reshape(-1)][faces]
 
 
 def _texture_problems(path, read):
@@ -990,13 +1178,13 @@ def _frame(scene, path):
     """``((W, H), units_per_pixel, anchor)`` recorded by inkray's exporter, or None."""
     meta = scene.metadata or {}
     info = meta.get("inkray") or (meta.get("extras") or {}).get("inkray")
-    if info is None and path.suffix.lower() == ".ply":
+    if info is None and path.suffix.lower() in (".ply", ".obj"):
         with open(path, "rb") as fh:
             for raw in fh:
                 line = raw.decode("ascii", "replace").strip()
-                if line == "end_header":
+                if line == "end_header" or line.startswith(("v ", "mtllib", "o ", "g ")):
                     break
-                m = re.match(r"comment inkray drawing_size (\d+) (\d+) units_per_pixel "
+                m = re.match(r"(?:comment|#) inkray drawing_size (\d+) (\d+) units_per_pixel "
                              r"(\S+)(?: anchor (\S+))?$", line)
                 if m:
                     info = {"drawing_size": [int(m[1]), int(m[2])],

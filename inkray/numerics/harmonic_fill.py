@@ -15,6 +15,8 @@ set moves. :class:`DraftFill` solves the same problem on a grid half as fine
 and interpolates back, for previews at about a third of the cost.
 """
 
+import threading
+
 import numpy as np
 from scipy import ndimage
 
@@ -47,8 +49,11 @@ class HarmonicFill:
     system pins them by point sources (:meth:`GridCholesky.solve_pinned`),
     one solve. Components that outgrow the box make a new factorization
     over the union of both boxes. The first factorization keeps no update
-    matrices (a cold solve takes about half the time); the first change that
-    pinning cannot follow factors afresh, keeping them from then on.
+    matrices (a cold solve takes about half the time); :meth:`prepare`, run
+    while nothing else waits (an editor between edits), factors the same
+    system again keeping them, so that the next change is an update. A
+    change that pinning cannot follow before that factors afresh, keeping
+    them from then on.
 
     Parameters
     ----------
@@ -96,6 +101,7 @@ class HarmonicFill:
         self.box = None
         self._factored = None   # the box's pixels it holds as identity rows
         self._operator = None   # the factored operator (diag, east, south), kept in step
+        self._preparing = None  # a background prepare(): (thread, outcome, stop, base)
         self.refactored_fronts = 0
 
     def solve(self, fixed, values):
@@ -117,6 +123,7 @@ class HarmonicFill:
         self.refactored_fronts = 0
         if not free.any():
             return out
+        self._adopt(wait=False)
         box = _bounds(free)
         kept = self._chol is not None and self._incremental
         if kept and not _inside(box, self.box):
@@ -138,14 +145,20 @@ class HarmonicFill:
                                             out[crop].flat[pins])
                 out[crop] = np.where(free[crop], x.reshape(known.shape), out[crop])
                 return out
+        if kept and not self._chol.updatable:
+            # A prepare() under way has the update matrices this change needs: the
+            # rest of it costs less than the factorization it saves.
+            self._adopt(wait=True)
+        elif not kept:
+            self._stop_preparing()
         if kept and self._chol.updatable:
             rows = known ^ self._factored
             self._rewrite(known, rows, box)
             self.refactored_fronts = self._chol.update(*self._operator, rows=rows)
         else:
             # The first factorization keeps no update matrices (half the time and a
-            # third of the memory; pinning needs none); the first change that pinning
-            # cannot follow makes one that keeps them.
+            # third of the memory; pinning needs none); prepare() or the first change
+            # that pinning cannot follow makes one that keeps them.
             self._operator = self._system(known, box)
             self._chol = GridCholesky(*self._operator,
                                       updatable=self._incremental and self._chol is not None,
@@ -156,6 +169,96 @@ class HarmonicFill:
         x = self._chol.solve(self._rhs(fixed, out, free[crop], box)).reshape(known.shape)
         out[crop] = np.where(known, out[crop], x)
         return out
+
+    def prepare(self, *, background=False, progress=None):
+        """Factor the kept system again, keeping its update matrices.
+
+        A cold solve's factorization keeps no update matrices (about half the
+        time). This factors the same system again keeping them, so that the
+        next change pinning cannot follow is an update of the fronts it
+        touches instead of a whole factorization (unless its free pixels
+        leave the box). The answers stay the same. It costs about twice the
+        cold solve and three times its memory, so it belongs where nothing
+        waits for it. An exception from ``progress`` stops it and leaves the
+        fill as it was.
+
+        Parameters
+        ----------
+        background : bool, default False
+            Factor in a thread of its own and return at once. The next
+            :meth:`solve` that pinning can follow does not wait (it solves
+            with the kept factorization, or the new one when it is done);
+            one that needs an update waits for it, then updates; one whose
+            free pixels leave the box stops it and factors afresh.
+        progress : object with ``update(done, total)``, optional
+            Told the progress while factoring; it may raise to stop.
+
+        Returns
+        -------
+        bool
+            Whether it factored or started to (False when there was nothing to
+            do: no kept system, one already updatable or being prepared, or the
+            fill not incremental).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> fill = HarmonicFill(np.ones((16, 15)), np.ones((15, 16)))
+        >>> fixed = np.zeros((16, 16), bool); fixed[:, [0, 8, 15]] = True
+        >>> ramp = np.where(fixed, np.arange(16.0), 0.0)
+        >>> d = fill.solve(fixed, ramp)
+        >>> fill.prepare(), fill.prepare()
+        (True, False)
+        >>> fixed[12:, 8] = False                # pixels freed: no pinning, an update
+        >>> d = fill.solve(fixed, ramp)
+        >>> 0 < fill.refactored_fronts < fill.fronts
+        True
+        """
+        if self._chol is None or self._chol.updatable or not self._incremental or \
+                self._preparing is not None:
+            return False
+        operator = self._operator
+        if not background:
+            self._chol = GridCholesky(*operator, updatable=True, progress=progress)
+            return True
+        outcome = {}
+        stop = threading.Event()
+
+        def run():
+            try:
+                outcome["chol"] = GridCholesky(*operator, updatable=True,
+                                               progress=_Stoppable(stop, progress))
+            except Exception as e:  # noqa: BLE001 - the solve that needs it factors instead
+                outcome["error"] = e
+
+        thread = threading.Thread(target=run, name="HarmonicFill.prepare", daemon=True)
+        self._preparing = (thread, outcome, stop, self._chol)
+        thread.start()
+        return True
+
+    @property
+    def fronts(self):
+        """Fronts of the kept factorization (0 before the first solve that needed one)."""
+        return 0 if self._chol is None else self._chol.fronts
+
+    def _adopt(self, *, wait):
+        """Take the background :meth:`prepare`'s factorization once it is done
+        (waiting for it with ``wait``); a failed one is dropped."""
+        if self._preparing is None:
+            return
+        thread, outcome, _, base = self._preparing
+        if not wait and thread.is_alive():
+            return
+        thread.join()
+        self._preparing = None
+        if "chol" in outcome and base is self._chol:
+            self._chol = outcome["chol"]
+
+    def _stop_preparing(self):
+        """Stop a background :meth:`prepare` whose system is being replaced."""
+        if self._preparing is not None:
+            self._preparing[2].set()
+            self._preparing = None
 
     def pending(self, fixed, values):
         """The pixels of the box the next :meth:`solve` works on for these fixed values
@@ -370,6 +473,24 @@ class DraftFill:
         np.copyto(d, values, where=fixed)
         return d
 
+
+
+class _Stoppable:
+    """A factorization's progress that stops it once ``stop`` is set, and passes the
+    rest on to ``progress`` (optional)."""
+
+    def __init__(self, stop, progress):
+        self._stop, self._progress = stop, progress
+
+    def update(self, done, total):
+        if self._stop.is_set():
+            raise _Stopped()
+        if self._progress is not None:
+            self._progress.update(done, total)
+
+
+class _Stopped(Exception):
+    """A background factorization no longer wanted."""
 
 
 def _settled(fixed, values):
