@@ -8,9 +8,9 @@ handles nudged by 2 px, the factorization reused, 4 warm-started rounds: the
 deformation only, then the picture), a 24-frame animation (rest to the swing,
 every frame solved and drawn), the ARAP energy, the worst handle error (px),
 folded triangles, holes (transparent pixels enclosed by the posed silhouette
-whose place in the drawing, through the nearest posed triangle, is opaque:
-paper that a pose encloses, a leg closing on the other, is paper in the
-drawing and no hole) and visibility agreement (pixels that two or more posed
+whose place in the drawing is opaque through every part within 2 px: paper
+that a pose encloses, a leg closing on the other, is paper in the drawing and
+no hole) and visibility agreement (pixels that two or more posed
 parts draw, a surface there and their layer not transparent, whose drawn part
 is the one highest in the relief).
 Through HTTP, as the editor's Pose mode sees it: ``inkray edit`` serves the
@@ -101,9 +101,11 @@ def _holes(posed, x, img, rest):
     """Tears: transparent pixels enclosed by the posed silhouette whose place in the drawing
     is opaque.
 
-    A pixel is taken back to the drawing through the posed triangle nearest to it (its
-    affine map, extrapolated outside the triangle). Paper that a pose encloses (a leg closing
-    on the other, a notch between two parts closing) is paper in the drawing too: no hole.
+    A pixel is taken back to the drawing by every part whose posed mesh comes within
+    ``_REACH`` px of it (else by the nearest part), through that part's nearest triangle
+    (its affine map, extrapolated outside the triangle). If one of them takes it to paper,
+    the pixel is paper the pose carried (a leg closing on the other, a notch between two
+    parts closing): no hole.
     """
     import igl
 
@@ -114,19 +116,30 @@ def _holes(posed, x, img, rest):
     rig = posed.rig
     p = np.column_stack([xs, ys]).astype(float)
     flat = np.column_stack([x, np.zeros(len(x))])
-    _, face, _ = igl.point_mesh_squared_distance(np.column_stack([p, np.zeros(len(p))]), flat,
-                                                 rig.faces.astype(np.int64))
-    t = x[rig.faces[face]]
-    e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
-    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-    home = rig.vertices[rig.faces[face]]
-    q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
+    query = np.column_stack([p, np.zeros(len(p))])
     h, w = rest.shape[:2]
-    col = np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1)
-    row = np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1)
-    return int((rest[row, col, 3] > 0).sum())
+    dist, paper = [], []
+    for i in range(len(rig.names)):
+        faces = rig.faces[rig.part_of_face == i].astype(np.int64)
+        if not len(faces):
+            continue
+        d2, face, _ = igl.point_mesh_squared_distance(query, flat, faces)
+        t, home = x[faces[face]], rig.vertices[faces[face]]
+        e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
+        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+        l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+        q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
+        col = np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1)
+        row = np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1)
+        dist.append(np.sqrt(d2))
+        paper.append(rest[row, col, 3] == 0)
+    dist, paper = np.array(dist), np.array(paper)
+    near = (dist <= _REACH) | (dist == dist.min(axis=0))
+    return int((~np.any(near & paper, axis=0)).sum())
+
+
+_REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
 
 
 def _visibility(posed, relief, part):
