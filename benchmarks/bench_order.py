@@ -3,30 +3,32 @@
 Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
-    python benchmarks/bench_order.py --generated 330 [--cache DIR] [--styles] [--real A.inkray.json]
+    python benchmarks/bench_order.py --generated 360 [--cache DIR] [--styles] [--real A.inkray.json]
     python benchmarks/bench_order.py --timing [--drawings fox,man]
 
 ``--generated N`` (the learned model's protocol): train on N generated drawings
 only (``benchmarks/train_order.py``: the model of
-:mod:`inkray.relief.order_model`, the candidate chosen on the drawings made
-for inkray, and the same four-cue logistic as below fitted on the same
-generated drawings), then test on the real drawings, none of them seen in
-training or in choosing: the bundled drawings not made for inkray
-(:data:`REAL`) and the annotations given with ``--real`` (e.g. the first
-frames of real shots). Per drawing and per confidence bin: right, right at
-confidence 0.5 or more, and the share of relations reaching 0.5, for the
-learned model, the
-logistic fitted on the generated drawings, and the shipped logistic
-(:data:`inkray.relief.ordering.WEIGHTS`, fitted on all bundled drawings, so
-not held out: shown for reference); then the prediction time of every
-place at about 1 Mpx (the fox upscaled,
+:mod:`inkray.relief.order_model`, the candidate chosen on the development
+drawings, and the same four-cue logistic as below fitted on the same
+generated drawings), then test on the real drawings: the bundled drawings
+not made for inkray and the first frames of the bundled real shots, split
+once by name into ``train_order.DEVELOPMENT`` (looked at while deciding the
+generator's styles and the features, and choosing the candidate; never
+fitted on) and ``train_order.HELD_OUT`` (with the annotations given with
+``--real``: scored only here). Per drawing, per set and per confidence bin:
+right, right at confidence 0.5 or more, and the share of relations reaching
+0.5, for the learned model, the logistic fitted on the generated drawings,
+and the shipped logistic (:data:`inkray.relief.ordering.WEIGHTS`, fitted on
+all bundled drawings, so not held out: shown for reference); then the
+prediction time of every place at about 1 Mpx (the fox upscaled,
 :func:`inkray.relief.ordering.depth_order` with an empty memo, the learned
 model and the weighted cues), and each against its target. ``--styles``
 adds what each generator style does: the model trained on the generated
 drawings that do not use the style, against one trained on as many drawings
-drawn with every style, each scored on the real drawings' places (without
-the consistency step). The table of the run is in docs/regions.md. ``--cache``
-keeps each generated drawing's features (about 1 s a drawing to make again).
+drawn with every style, each scored on the development and the held-out
+drawings' places (without the consistency step). The table of the run is in
+docs/regions.md. ``--cache`` keeps each generated drawing's features (about
+1 s a drawing to make again).
 
 ``--timing``: only the prediction time of every place
 (:func:`inkray.relief.ordering.depth_order`, empty memo, median of 5 wall and
@@ -86,7 +88,7 @@ BINS = (0.0, 0.25, 0.5, 0.75, 1.0)
 TARGET = 0.2  # seconds for one fast re-solve after adding an entry
 TARGET_ACCURACY = 0.90  # leave-one-out, all counted entries
 TARGET_SURE = 0.95  # accuracy of the predictions with confidence >= 0.5
-#: The bundled drawings not made for inkray: the learned model's test set.
+#: The bundled drawings not made for inkray (the default of ``--timing``).
 REAL = ("balls", "donkey", "dragon", "fox", "frog", "gingerbread", "man", "turtle")
 TARGET_REAL = 0.85  # right, on the real drawings
 TARGET_REACH = 0.60  # share of the relations reaching confidence 0.5
@@ -263,10 +265,13 @@ def bench_resolve():
     return worst
 
 
-def _real_drawings(extra):
-    """The test drawings: :data:`REAL` and the ``extra`` annotation files."""
-    return [_Drawing(EXAMPLES / n) for n in REAL] + [_Drawing(Path(p).parent, annotation=p)
-                                                    for p in extra]
+def _real_drawings(names, extra=()):
+    """The real drawings ``names`` (``examples/NAME``, a shot's first frame) and the
+    ``extra`` annotation files."""
+    import train_order
+
+    return ([_Drawing(EXAMPLES / n, annotation=train_order.real_annotation(n)) for n in names]
+            + [_Drawing(Path(p).parent, annotation=p) for p in extra])
 
 
 def _cue_rows(batch):
@@ -301,9 +306,7 @@ def bench_generated(args):
     """Train on generated drawings, test on the real ones (see the module docstring)."""
     import train_order
 
-    pool = []
-    for seed in range(args.generated):
-        pool.append(train_order.generated_samples(seed, cache=args.cache))
+    pool = [train_order.generated_samples(seed, cache=args.cache) for seed in range(args.generated)]
     fit, val = train_order.split(pool)
     start = time.perf_counter()
     chosen, model = train_order.choose(fit, val, train_order.development_samples())
@@ -316,87 +319,112 @@ def bench_generated(args):
     default = (40.0, 6.0, 10.0)
     predictors = (("learned", None, model), ("cues, generated", cues, None),
                   ("cues, shipped*", WEIGHTS, None))
-    drawings = _real_drawings(args.real)
-    scored = {name: [] for name, _, _ in predictors}
-    head = f"{'drawing':<14} {'entries':>7}" + "".join(
+    sets = (("development", _real_drawings(train_order.DEVELOPMENT)),
+            ("held out", _real_drawings(train_order.HELD_OUT, args.real)))
+    head = f"{'drawing':<22} {'entries':>7}" + "".join(
         f" | {name:>15}: right  sure  >=0.5" for name, _, _ in predictors)
     print(head)
     print("-" * len(head))
-    for d in drawings:
-        line = f"{d.name:<14} {len(d.truth):>7}"
-        for name, weights, m in predictors:
-            s = d.score(weights, default, model=m)
-            scored[name] += s
-            acc, sure, reach, _, k = _summary(s)
-            sure = f"{sure:.0%}" if k else "-"
-            line += f" | {'':>15}  {acc:>5.0%} {sure:>5} {reach:>6.0%}"
-        print(line)
-    line = f"{'all':<14} {len(scored['learned']):>7}"
+    scored = {}
+    for what, drawings in sets:
+        scored[what] = {name: [] for name, _, _ in predictors}
+        for d in drawings:
+            line = f"{d.name:<22} {len(d.truth):>7}"
+            for name, weights, m in predictors:
+                s = d.score(weights, default, model=m)
+                scored[what][name] += s
+                acc, sure, reach, _, k = _summary(s)
+                line += f" | {'':>15}  {acc:>5.0%} {f'{sure:.0%}' if k else '-':>5} {reach:>6.0%}"
+            print(line)
+        _total_line(f"all {what}", scored[what], predictors)
+    scored["all"] = {name: scored["development"][name] + scored["held out"][name]
+                     for name, _, _ in predictors}
+    _total_line("all", scored["all"], predictors)
+    print("* the shipped logistic was fitted on all bundled drawings, the real shots excepted\n")
+    for what in ("development", "held out"):
+        print(f"{what + ', confidence':<22}" + "".join(f" | {name:>15}: entries right"
+                                                        for name, _, _ in predictors))
+        for lo, hi in zip(BINS[:-1], BINS[1:]):
+            line = f"{f'{lo:.2f}-{hi:.2f}':<22}"
+            for name, _, _ in predictors:
+                inbin = [ok for ok, c in scored[what][name]
+                         if lo <= c < hi or (hi == 1.0 and c == 1.0)]
+                acc = f"{sum(inbin) / len(inbin):.0%}" if inbin else "-"
+                line += f" | {'':>15}  {len(inbin):>7} {acc:>5}"
+            print(line)
+        print()
+    seconds = bench_time_1mpx(model)
+    print()
+    print(f"{'target (learned model)':<40} {'measured':>9} {'target':>7} {'measured / target':>18}")
+    for what in ("development", "held out"):
+        acc, sure, reach, _, _ = _summary(scored[what]["learned"])
+        for name, measured, target, ratio in (
+                ("right", f"{acc:.1%}", f"{TARGET_REAL:.0%}", acc / TARGET_REAL),
+                ("right at confidence >= 0.5", f"{sure:.1%}", f"{TARGET_SURE:.0%}",
+                 sure / TARGET_SURE),
+                ("relations reaching 0.5", f"{reach:.1%}", f"{TARGET_REACH:.0%}",
+                 reach / TARGET_REACH)):
+            print(f"{what + ': ' + name:<40} {measured:>9} {target:>7} {ratio:>18.2f}")
+    print(f"{'prediction at 1 Mpx (median of 3)':<40} {f'{seconds:.3f} s':>9} "
+          f"{f'{TARGET_TIME:g} s':>7} {seconds / TARGET_TIME:>18.2f}")
+    if args.styles:
+        bench_styles(pool, sets, train_order.CANDIDATES[chosen])
+
+
+def _total_line(label, scored, predictors):
+    line = f"{label:<22} {len(scored[predictors[0][0]]):>7}"
     for name, _, _ in predictors:
-        acc, sure, reach, n, k = _summary(scored[name])
+        acc, sure, reach, _, _ = _summary(scored[name])
         line += f" | {'':>15}  {acc:>5.1%} {sure:>5.1%} {reach:>6.1%}"
     print(line)
-    print("* the shipped logistic was fitted on all bundled drawings, these included\n")
-    print(f"{'confidence':<12}" + "".join(f" | {name:>15}: entries right" for name, _, _ in predictors))
-    for lo, hi in zip(BINS[:-1], BINS[1:]):
-        line = f"{f'{lo:.2f}-{hi:.2f}':<12}"
-        for name, _, _ in predictors:
-            inbin = [ok for ok, c in scored[name] if lo <= c < hi or (hi == 1.0 and c == 1.0)]
-            acc = f"{sum(inbin) / len(inbin):.0%}" if inbin else "-"
-            line += f" | {'':>15}  {len(inbin):>7} {acc:>5}"
-        print(line)
-    seconds = bench_time_1mpx(model)
-    acc, sure, reach, _, _ = _summary(scored["learned"])
-    print()
-    print(f"{'target (learned model)':<34} {'measured':>9} {'target':>7} {'measured / target':>18}")
-    for name, measured, target, ratio in (
-            ("right, real drawings", f"{acc:.1%}", f"{TARGET_REAL:.0%}", acc / TARGET_REAL),
-            ("right at confidence >= 0.5", f"{sure:.1%}", f"{TARGET_SURE:.0%}", sure / TARGET_SURE),
-            ("relations reaching 0.5", f"{reach:.1%}", f"{TARGET_REACH:.0%}", reach / TARGET_REACH),
-            ("prediction at 1 Mpx (median of 3)", f"{seconds:.3f} s", f"{TARGET_TIME:g} s",
-             seconds / TARGET_TIME)):
-        print(f"{name:<34} {measured:>9} {target:>7} {ratio:>18.2f}")
-    if args.styles:
-        bench_styles(pool, drawings, train_order.CANDIDATES[chosen])
 
 
-def bench_styles(pool, drawings, candidate):
-    """Each generator style left out of training, against as many drawings with every style."""
+def bench_styles(pool, sets, candidate):
+    """Each generator style left out of training, against as many drawings with every style,
+    scored on the development and on the held-out drawings."""
     import train_order
 
-    real = [train_order.place_samples(d.completion, d.truth, ink=d.ink, seams=d.seams, name=d.name)
-            for d in drawings]
-    f = np.concatenate([s.features for s in real])
-    y = np.concatenate([s.y for s in real])
-
-    linear, trees = candidate
+    places = []
+    for _, drawings in sets:
+        real = [train_order.place_samples(d.completion, d.truth, ink=d.ink, seams=d.seams,
+                                          name=d.name) for d in drawings]
+        places.append((np.concatenate([s.features for s in real]),
+                       np.concatenate([s.y for s in real])))
 
     def scored(batch):
         fit, val = train_order.split(batch)
-        p = train_order.train(fit, val, linear=linear, trees=trees).probability(f)
-        conf = np.abs(2 * p - 1)
-        return _summary(list(zip(((p > 0.5) == (y > 0.5)).tolist(), conf.tolist())))
+        model = train_order.train(fit, val, **candidate)
+        out = []
+        for f, y in places:
+            p = model.probability(f)
+            out += list(_summary(list(zip(((p > 0.5) == (y > 0.5)).tolist(),
+                                          np.abs(2 * p - 1).tolist())))[:3])
+        return out
 
-    print(f"\ngenerator styles, scored on the {len(y)} places of the real drawings' entries "
-          f"(no consistency step):")
-    print(f"{'trained on':<28} {'drawings':>8} {'right':>6} {'sure':>6} {'>=0.5':>6}")
+    print(f"\ngenerator styles, scored on the places of the real drawings' entries "
+          f"(development {len(places[0][1])}, held out {len(places[1][1])}; no consistency "
+          f"step): right, sure, >= 0.5")
+    print(f"{'trained on':<28} {'drawings':>8} {'development':>21} {'held out':>21}")
     rng = np.random.default_rng(0)
+
+    def row(what, count, values, note=""):
+        print(f"{what:<28} {count:>8} " + " ".join(f"{v:>6.1%}" for v in values[:3]) + "  "
+              + " ".join(f"{v:>6.1%}" for v in values[3:]) + note)
+
     for style in (None,) + train_order.STYLES:
         if style is None:
-            batch, what = pool, "every style, all drawings"
-        else:
-            batch = [s for s in pool if style not in s.styles]
-            # As many drawings with every style, three random draws, averaged: the spread
-            # between draws is the noise of this table.
-            runs = np.array([scored([pool[i] for i in np.sort(rng.choice(len(pool), len(batch),
-                                                                          replace=False))])[:3]
-                             for _ in range(3)])
-            acc, sure, reach = runs.mean(0)
-            print(f"{'  every style, as many (3x)':<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} "
-                  f"{reach:>6.1%}   right {runs[:, 0].min():.0%}-{runs[:, 0].max():.0%}")
-            what = f"without {style}"
-        acc, sure, reach, _, _ = scored(batch)
-        print(f"{what:<28} {len(batch):>8} {acc:>6.1%} {sure:>6.1%} {reach:>6.1%}")
+            row("every style, all drawings", len(pool), scored(pool))
+            continue
+        batch = [s for s in pool if style not in s.styles]
+        # As many drawings with every style, three random draws, averaged: the spread between
+        # draws is the noise of this table.
+        runs = np.array([scored([pool[i] for i in np.sort(rng.choice(len(pool), len(batch),
+                                                                      replace=False))])
+                         for _ in range(3)])
+        row("  every style, as many (3x)", len(batch), runs.mean(0),
+            f"   right {runs[:, 0].min():.0%}-{runs[:, 0].max():.0%} / "
+            f"{runs[:, 3].min():.0%}-{runs[:, 3].max():.0%}")
+        row(f"without {style}", len(batch), scored(batch))
 
 
 def _prepared(name, upscaled):

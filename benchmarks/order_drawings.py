@@ -27,7 +27,7 @@ the same drawing, byte for byte):
    draws its outline. The visible part of each shape is what the painter left
    of it: that is the true segmentation, and a part painted later that
    overlaps another is in front of it.
-3. In the styles real drawings have, each switchable (:data:`STYLES`) and, when
+3. In the styles and with the shapes real drawings have, each switchable (:data:`STYLES`) and, when
    enabled, used in a drawing with probability one half:
 
    ``width``      stroke width varying along the stroke (smooth noise);
@@ -40,7 +40,13 @@ the same drawing, byte for byte):
    ``marker``     thick grey strokes;
    ``antialias``  ink rendered at twice the size and averaged down (else
                   thresholded, aliased);
-   ``paper``      scanned paper: uneven shading, grain, slight blur.
+   ``paper``      scanned paper: uneven shading, grain, slight blur;
+   ``lobes``      the blobs (bodies, heads, paws, tufts, bushes, stacked pieces)
+                  one time in two with 4 to 9 bumps round them: concave outlines,
+                  so the contact does not always bend round the part in front;
+   ``crowd``      each near leg beside a far one and over it (the pairs of legs
+                  of a side view), and arms hanging down over the body and the
+                  legs.
 
 The scribbles: one polyline along the middle of every visible piece of a part
 larger than a few stroke widths, and background scribbles in the empty
@@ -59,7 +65,8 @@ from scipy import ndimage
 from skimage.measure import find_contours
 
 #: The drawing styles :func:`generate` can use (all by default).
-STYLES = ("width", "taper", "gaps", "overshoot", "sketchy", "marker", "antialias", "paper")
+STYLES = ("width", "taper", "gaps", "overshoot", "sketchy", "marker", "antialias", "paper",
+          "lobes", "crowd")
 _SS = 2  # supersampling of the painted masks and strokes
 
 
@@ -128,7 +135,7 @@ def generate(seed, *, styles=STYLES, size=None):
         size = (int(rng.integers(300, 461)), int(rng.integers(300, 461)))
     w, h = size
     used = tuple(s for s in STYLES if s in styles and rng.random() < 0.5)
-    scene = _Scene(rng, w * _SS, h * _SS)
+    scene = _Scene(rng, w * _SS, h * _SS, used)
     if rng.random() < 0.8:
         scene.character()
     else:
@@ -151,8 +158,10 @@ def generate(seed, *, styles=STYLES, size=None):
 class _Scene:
     """Parts of one scene, in supersampled pixels."""
 
-    def __init__(self, rng, w, h):
+    def __init__(self, rng, w, h, used=()):
         self.rng, self.w, self.h = rng, w, h
+        self.lobed = "lobes" in used
+        self.crowded = "crowd" in used
         self.parts = []
         self.yy, self.xx = np.mgrid[:h, :w].astype(np.float32)
 
@@ -166,10 +175,11 @@ class _Scene:
         x1, y1 = min(int(x1) + 3, self.w), min(int(y1) + 3, self.h)
         return (slice(y0, max(y1, y0)), slice(x0, max(x1, x0))), np.zeros((self.h, self.w), bool)
 
-    def blob(self, cx, cy, rx, ry, *, angle=0.0, wobble=0.12):
-        """A star-shaped blob: an ellipse with a random smooth radius."""
+    def blob(self, cx, cy, rx, ry, *, angle=0.0, wobble=0.12, lobes=0.0):
+        """A star-shaped blob: an ellipse with a random smooth radius, and ``lobes`` the
+        amplitude of 4 to 9 bumps round it (a cloud of hair, a fist: a concave outline)."""
         rng = self.rng
-        reach = max(rx, ry) * (1.0 + wobble)
+        reach = max(rx, ry) * (1.0 + wobble + lobes)
         box, mask = self._box(cx - reach, cx + reach, cy - reach, cy + reach)
         dx, dy = self.xx[box] - cx, self.yy[box] - cy
         t = np.arctan2(dy, dx) - angle
@@ -179,6 +189,8 @@ class _Scene:
         bump = np.ones_like(r)
         for k in (2, 3, 5):
             bump += wobble / k * rng.uniform(-1, 1) * np.cos(k * t + rng.uniform(0, 2 * np.pi))
+        if lobes > 0:
+            bump += lobes * np.cos(int(rng.integers(4, 10)) * t + rng.uniform(0, 2 * np.pi))
         mask[box] = r <= bump
         return mask
 
@@ -195,6 +207,10 @@ class _Scene:
         dist = np.hypot(xx - p[0] - t * d[0], yy - p[1] - t * d[1])
         mask[box] = dist <= r0 + (r1 - r0) * t
         return mask
+
+    def lobes(self):
+        """Amplitude of the bumps round a blob: none, or one time in two some with ``lobes``."""
+        return float(self.rng.uniform(0.04, 0.16)) if self.lobed and self.rng.random() < 0.5 else 0.0
 
     def bent(self, p, q, r0, r1, bend):
         """A limb with a knee: two capsules bent by ``bend`` times its length."""
@@ -216,21 +232,29 @@ class _Scene:
         upright = rng.random() < 0.4
         if upright:
             rx, ry = ry * 0.8, rx * 1.1
-        self.add("body", self.blob(cx, cy, rx, ry, angle=rng.uniform(-0.3, 0.3)), 10.0)
-        # Legs: down from the body's lower half; far ones behind, near ones over it.
+        self.add("body", self.blob(cx, cy, rx, ry, angle=rng.uniform(-0.3, 0.3),
+                                   lobes=self.lobes()), 10.0)
+        # Legs: down from the body's lower half; far ones behind, near ones over it. Crowded:
+        # each near leg beside a far one, over it (a side view's pairs of legs).
         n_legs = int(rng.choice([2, 2, 4]))
+        fx = cx
         for i in range(n_legs):
             near = i % 2 == 1 if n_legs == 4 else i == 1 and rng.random() < 0.7
-            fx = cx + rx * (rng.uniform(-0.7, -0.2) if i < max(n_legs // 2, 1) else rng.uniform(0.2, 0.7))
+            r0 = s * rng.uniform(0.03, 0.06)
+            if self.crowded and i % 2 == 1:
+                fx = fx + rng.choice([-1, 1]) * r0 * rng.uniform(1.1, 2.0)
+                near = True
+            else:
+                fx = cx + rx * (rng.uniform(-0.7, -0.2) if i < max(n_legs // 2, 1)
+                                else rng.uniform(0.2, 0.7))
             top = (fx, cy + ry * rng.uniform(0.1, 0.6))
             foot = (fx + s * rng.uniform(-0.06, 0.06), min(cy + ry + s * rng.uniform(0.12, 0.28), h - 8))
-            r0 = s * rng.uniform(0.03, 0.06)
             mask = (self.bent(top, foot, r0, r0 * rng.uniform(0.6, 1.0), rng.uniform(-0.15, 0.15))
                     if rng.random() < 0.5 else self.capsule(top, foot, r0, r0 * rng.uniform(0.6, 1.0)))
             rank = 12.0 + i if near else 5.0 + i
             self.add(f"leg{i}_{'near' if near else 'far'}", mask, rank)
             if rng.random() < 0.5:
-                paw = self.blob(foot[0] + r0 * 0.5, foot[1], r0 * 1.4, r0 * 0.9)
+                paw = self.blob(foot[0] + r0 * 0.5, foot[1], r0 * 1.4, r0 * 0.9, lobes=self.lobes())
                 self.add(f"paw{i}", paw, rank + 0.5)
         # Arms (upright characters) or a tail.
         if upright or rng.random() < 0.3:
@@ -238,6 +262,9 @@ class _Scene:
                 near = rng.random() < 0.5
                 sh = (cx + side * rx * rng.uniform(0.3, 0.8), cy - ry * rng.uniform(0.3, 0.7))
                 hand = (sh[0] + side * s * rng.uniform(-0.05, 0.2), sh[1] + s * rng.uniform(-0.15, 0.25))
+                if self.crowded and rng.random() < 0.6:
+                    # Hanging down over the body and the legs.
+                    hand = (sh[0] + side * s * rng.uniform(-0.08, 0.06), cy + ry * rng.uniform(0.6, 1.4))
                 r0 = s * rng.uniform(0.025, 0.05)
                 rank = 14.0 + i if near else 4.0 + i
                 self.add(f"arm{i}_{'near' if near else 'far'}",
@@ -263,7 +290,7 @@ class _Scene:
             self.add("neck", self.capsule((hx, cy - ry * 0.5), (hx, hy), hr * 0.45, hr * 0.35),
                      head_rank - 0.5)
         hrx, hry = hr * rng.uniform(0.9, 1.3), hr * rng.uniform(0.8, 1.1)
-        self.add("head", self.blob(hx, hy, hrx, hry), head_rank)
+        self.add("head", self.blob(hx, hy, hrx, hry, lobes=self.lobes()), head_rank)
         if rng.random() < 0.85:
             over = rng.random() < 0.25
             for i, side in enumerate((-1, 1)):
@@ -295,7 +322,8 @@ class _Scene:
                     self.add(f"horn{i}", self.capsule(base, (base[0] + side * hr * 0.5, base[1] - hr * 0.9),
                                                       hr * 0.18, hr * 0.05), head_rank - 0.7)
             else:
-                self.add("tuft", self.blob(hx, hy - hry * 0.9, hrx * 0.5, hry * 0.35, wobble=0.3),
+                self.add("tuft", self.blob(hx, hy - hry * 0.9, hrx * 0.5, hry * 0.35, wobble=0.3,
+                                           lobes=self.lobes()),
                          head_rank + 0.9)
         for i in range(int(rng.integers(0, 4))):
             self.add(f"spot{i}", self.blob(cx + rx * rng.uniform(-0.5, 0.5), cy + ry * rng.uniform(-0.5, 0.5),
@@ -313,7 +341,7 @@ class _Scene:
             py = ground_y + s * rng.uniform(-0.02, 0.06)
             if rng.random() < 0.5:
                 plant = self.blob(px, py, s * rng.uniform(0.06, 0.14), s * rng.uniform(0.05, 0.1),
-                                  wobble=0.3)
+                                  wobble=0.3, lobes=self.lobes())
             else:
                 plant = np.zeros((h, w), bool)
                 for k in range(int(rng.integers(3, 6))):
@@ -330,7 +358,8 @@ class _Scene:
             if rng.random() < 0.3:
                 mask = (np.abs(self.xx - cx) < rx) & (np.abs(self.yy - cy) < ry)
             else:
-                mask = self.blob(cx, cy, rx, ry, angle=rng.uniform(0, np.pi), wobble=rng.uniform(0, 0.3))
+                mask = self.blob(cx, cy, rx, ry, angle=rng.uniform(0, np.pi), wobble=rng.uniform(0, 0.3),
+                                 lobes=self.lobes())
             self.add(f"piece{i}", mask, float(i))
 
 
@@ -473,18 +502,17 @@ def _annotation(labels, names, relations, size, width, rng):
         lines = []
         pieces, n = ndimage.label(labels == i)
         for k, box in enumerate(ndimage.find_objects(pieces), 1):
-            line = _scribble(pieces[box] == k, depth[box], margin, box)
-            if line is not None:
-                lines.append(line)
+            # Off the ink: at a margin from the outline, or for a thin piece just off it.
+            lines += (_scribbles(pieces[box] == k, depth[box], margin, box)
+                      or _scribbles(pieces[box] == k, depth[box], 0.5 * width, box))
         if lines:
             regions.append({"name": names[i], "scribbles": lines})
             shown.add(int(i))
     background = []
-    pieces, n = ndimage.label((labels < 0) & (depth > margin + 2))
+    # The paper apart where a narrow neck joins it, so that every pocket of it has a scribble.
+    pieces, n = ndimage.label((labels < 0) & (depth > 0.5 * width + 2.0))
     for k, box in enumerate(ndimage.find_objects(pieces), 1):
-        line = _scribble(pieces[box] == k, depth[box], 0.0, box)
-        if line is not None:
-            background.append(line)
+        background += _scribbles(pieces[box] == k, depth[box], 0.0, box)
     order = []
     for f, b in relations:
         if f in shown and b in shown:
@@ -496,32 +524,46 @@ def _annotation(labels, names, relations, size, width, rng):
             "order": order}
 
 
-def _scribble(piece, dist, margin, box):
-    """A polyline along the middle of one visible piece (a crop at ``box``), or None when it
-    is too thin."""
+def _scribbles(piece, dist, margin, box):
+    """Polylines along the middle of one visible piece (a crop at ``box``): through the
+    deepest pixel of every part of a slice across its main axis (five slices, more for a
+    piece longer than 200 pixels), a point joined to a line where the straight step to it
+    stays in the piece (a bent piece, the paper round a character: several lines); none
+    when the piece is too thin."""
     inner = piece & (dist > margin + 1.5)
     if inner.sum() < 6:
-        return None
+        return []
     ys, xs = np.nonzero(inner)
     pts = np.stack([xs, ys], 1).astype(float)
     centre = pts.mean(0)
     axis = np.linalg.svd(pts - centre, full_matrices=False)[2][0]
     t = (pts - centre) @ axis
-    line = []
-    for lo, hi in zip(np.linspace(t.min(), t.max(), 6)[:-1], np.linspace(t.min(), t.max(), 6)[1:]):
-        sel = (t >= lo) & (t <= hi)
-        if sel.any():
-            # The deepest pixel of the slice: a scribble along the piece's medial line.
-            k = np.flatnonzero(sel)[np.argmax(dist[ys[sel], xs[sel]])]
-            line.append(pts[k])
-    kept = [line[0]]
-    for p in line[1:]:
-        n = int(np.ceil(np.hypot(*(p - kept[-1])))) + 1
-        xs_, ys_ = np.linspace(kept[-1][0], p[0], n), np.linspace(kept[-1][1], p[1], n)
-        if inner[np.round(ys_).astype(int), np.round(xs_).astype(int)].all():
-            kept.append(p)
+    cuts = np.linspace(t.min(), t.max(), max(5, int((t.max() - t.min()) / 40.0)) + 1)
+    runs = []
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        sel = np.zeros_like(inner)
+        sel[ys[(t >= lo) & (t <= hi)], xs[(t >= lo) & (t <= hi)]] = True
+        parts, n = ndimage.label(sel, structure=np.ones((3, 3)))
+        if not n:
+            continue
+        # The deepest pixel of each part of the slice: a scribble along the medial line.
+        deepest = ndimage.maximum_position(np.where(sel, dist, -1.0), parts, range(1, n + 1))
+        sizes = ndimage.sum(sel, parts, range(1, n + 1))
+        for (y, x), size in zip(deepest, sizes):
+            if size < 6:
+                continue
+            p = np.array([x, y], float)
+            for run in runs:
+                q = run[-1]
+                k = int(np.ceil(np.hypot(*(p - q)))) + 1
+                line_x, line_y = np.linspace(q[0], p[0], k), np.linspace(q[1], p[1], k)
+                if inner[np.round(line_y).astype(int), np.round(line_x).astype(int)].all():
+                    run.append(p)
+                    break
+            else:
+                runs.append([p])
     y0, x0 = box[0].start, box[1].start
-    return [[float(x + x0), float(y + y0)] for x, y in kept]
+    return [[[float(x + x0), float(y + y0)] for x, y in run] for run in runs]
 
 
 def _entry(labels, depth, f, b, margin):

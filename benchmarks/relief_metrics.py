@@ -14,6 +14,16 @@ what a viewer sees, not on the solver's own variables:
   part is in front of the other through a gap in the ink: an occlusion step,
   not a seam (``epsilon=None`` counts those pixels too, as this figure
   first did).
+- **normal jump at open joins**: where a part's outline stroke stops short
+  inside the part behind it (a leg drawn with one open stroke that ends in
+  the body, a leg open at the top between two stroke tips), the two parts
+  join along an ink-free stretch of their common outline. Such joins are
+  found in the front view's part image (:mod:`inkray.relief.joins`: ink-free
+  cuts between two parts at least 1.5 stroke widths and 20 px long; a
+  shorter one is a gap in a drawn line, where one part is in front of the
+  other). There the surfaces must join, so every ink-free pixel pair across
+  the join counts, a step between the two surfaces included (a cliff's wall
+  seen from the front is a strip of steep facets).
 - **order held**: along the segment between an ``order`` entry's two points,
   and over its place's overlap, the front part's surface is above the back
   part's by the depth step (wherever both meshes are there, outside the band
@@ -41,6 +51,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from inkray.formats.mesh_report import mesh_quality
+from inkray.relief.joins import open_joins as find_joins
 from inkray.relief.model import Part
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.view.rasterization import rasterize
@@ -83,6 +94,50 @@ def normal_jumps(relief, gray, *, epsilon=None, margin=2, raster=None):
             sel[ys[step >= MEET * epsilon], xs[step >= MEET * epsilon]] = False
         na, nb = r.normal[tuple(a)][sel], r.normal[tuple(b)][sel]
         cos = np.clip((na * nb).sum(axis=1), -1.0, 1.0)
+        out.append(np.degrees(np.arccos(cos)))
+    return np.concatenate(out)
+
+
+def open_joins(part, gray, *, reach=1.0):
+    """Pixels of a part-label image within ``reach`` px of its open joins.
+
+    The joins are :func:`inkray.relief.joins.open_joins` of ``part`` (-1
+    nothing, else the part; every join, the ones a ``graft`` entry marks
+    included): ink-free cuts between two parts, at least 1.5 stroke widths
+    and 20 px long.
+    """
+    part = np.asarray(part)
+    out = np.zeros(part.shape, bool)
+    h, w = part.shape
+    for join in find_joins(part, gray):
+        lo = np.maximum(np.floor(join.path.min(axis=0) - reach).astype(int), 0)
+        hi = np.minimum(np.ceil(join.path.max(axis=0) + reach).astype(int) + 1, (w, h))
+        ys, xs = np.mgrid[lo[1]:hi[1], lo[0]:hi[0]]
+        pts = np.column_stack([xs.ravel(), ys.ravel()]).astype(float)
+        near = point_polyline_distance(pts, join.path) <= reach
+        out[ys.ravel()[near], xs.ravel()[near]] = True
+    return out
+
+
+def open_join_jumps(relief, gray, *, margin=2, raster=None):
+    """Angles (deg) between the normals of neighbouring pixels across an open join.
+
+    Every ink-free (``margin`` px) 4-neighbour pixel pair of two parts on an
+    open join (:func:`open_joins` of the front view), whatever the step
+    between their surfaces. Empty when the drawing has no open join.
+    """
+    r = raster if raster is not None else rasterize(relief)
+    join = open_joins(r.part, gray)
+    ink = binary_dilation(ink_mask(gray), iterations=margin) if margin else ink_mask(gray)
+    out = []
+    for axis in (0, 1):
+        a = [slice(None), slice(None)]
+        b = [slice(None), slice(None)]
+        a[axis], b[axis] = slice(None, -1), slice(1, None)
+        a, b = tuple(a), tuple(b)
+        pa, pb = r.part[a], r.part[b]
+        sel = (pa >= 0) & (pb >= 0) & (pa != pb) & join[a] & join[b] & ~ink[a] & ~ink[b]
+        cos = np.clip((r.normal[a][sel] * r.normal[b][sel]).sum(axis=1), -1.0, 1.0)
         out.append(np.degrees(np.arccos(cos)))
     return np.concatenate(out)
 
@@ -292,6 +347,7 @@ def relief_figures(result, gray):
     raster = rasterize(relief)
     jumps = normal_jumps(relief, gray, epsilon=result.layers.epsilon, raster=raster)
     steps = normal_jumps(relief, gray, raster=raster)
+    joins = open_join_jumps(relief, gray, raster=raster)
     margins = order_margins(relief, result.relations, result.layers.epsilon,
                             completion=result.completion, bands=result.layers.bands)
     seg = np.concatenate([m["segment"] for m in margins.values()] or [np.zeros(0)])
@@ -301,6 +357,8 @@ def relief_figures(result, gray):
         "jump_p90": float(np.percentile(jumps, 90)) if len(jumps) else 0.0,
         "seam_pixels": int(len(jumps)),
         "jump_p90_all": float(np.percentile(steps, 90)) if len(steps) else 0.0,
+        "open_p90": float(np.percentile(joins, 90)) if len(joins) else 0.0,
+        "open_pixels": int(len(joins)),
         "order_held": float((seg >= tol).mean()) if len(seg) else 1.0,
         "place_held": float((place >= tol).mean()) if len(place) else 1.0,
         "entries_broken": sorted(k for k, m in margins.items()

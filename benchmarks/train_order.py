@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/train_order.py [--count 400] [--cache DIR] [--out inkray/relief/order_model.json]
+    python benchmarks/train_order.py [--count 360] [--cache DIR] [--out inkray/relief/order_model.json]
 
 Draws ``--count`` drawings with :func:`order_drawings.generate` (seeds
 ``0..count-1``), runs the segmentation and the completion on each with its own
@@ -12,22 +12,25 @@ annotated ``order`` entry. The drawings with seeds ``= 4 (mod 5)`` are the
 validation split; the rest train. Each of :data:`CANDIDATES` is fitted:
 
 1. an L2-regularized logistic model on some features (penalty 10 on the
-   standardized weights), then gradient-boosted trees of depth 2 on all
-   features from its scores on the logistic loss (Newton steps, rate 0.1,
-   each feature cut at 32 quantiles of the training split, plain numpy),
+   standardized weights; the cues' weights not negative, :data:`SIGNED`), then (for some) gradient-boosted trees of depth 2
+   on some features from its scores on the logistic loss (Newton steps, rate
+   0.1, each feature cut at 32 quantiles of the training split, plain numpy),
    fitted on both orientations of every place (``x`` in front: label 1, the
    swapped row: label 0);
 2. a calibration on the validation split: the score ``s = (F(x, y) - F(y,
    x)) / 2``, so the answer does not depend on which region is named first,
    becomes ``P(x in front) = sigmoid(t * s)`` with the temperature ``t`` of
    least log-loss (Platt scaling without offset: the two orientations are
-   symmetric).
+   symmetric), or (``"isotonic"``) the isotonic regression of the share
+   right on ``|s|`` (:func:`isotonic`).
 
-The candidate kept is the one of least log-loss on the bundled drawings made
-for inkray (:data:`DEVELOPMENT`: drawn by this project's authors from
-ellipses, used to check the generator and to choose, never to fit); the
-drawings not made for inkray are the test set of ``benchmarks/bench_order.py
---generated`` and are not read here. The model
+The real drawings (the bundled drawings not made for inkray and the first
+frames of the bundled real shots) are split in two, once, by name:
+:data:`DEVELOPMENT` (looked at to decide the generator's styles and the
+features, and to choose among the candidates: the candidate kept is the one
+of least log-loss there, never fitted on them) and :data:`HELD_OUT` (scored
+once, at the end, by ``benchmarks/bench_order.py --generated``; not read
+here). The model
 (``inkray/relief/order_model.json``, a few kB) is read by
 :mod:`inkray.relief.order_model`. With the same count the file is the same,
 byte for byte.
@@ -59,16 +62,29 @@ from inkray.relief.order_model import OrderModel  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "inkray" / "relief" / "order_model.json"
 DEPTH, RATE, BINS, L2, LINEAR_L2 = 2, 0.1, 32, 1.0, 10.0
-#: The bundled drawings made for inkray: the choice among the candidates.
-DEVELOPMENT = ("bird", "cards", "cat", "figure", "fish", "rings", "snowman")
-#: ``name: (features of the linear term, number of trees)``.
+#: The real drawings the choice among the candidates is made on (``examples/NAME``; a shot:
+#: its first frame).
+DEVELOPMENT = ("balls", "donkey", "fox", "man", "shots/horse_gallop")
+#: The real drawings scored once at the end, never looked at while choosing.
+HELD_OUT = ("dragon", "frog", "gingerbread", "turtle", "shots/krita_walkcycle")
+#: The features made as evidence that ``x`` is in front: their weights are not negative.
+SIGNED = CUES + ("continuation_raw",)
+#: ``name: keyword arguments of train``: the features of the logistic term, the number of
+#: trees, the features they split on, the calibration.
+_RAW = CUES + ("continuation_raw",)
+_SIZES = ("log_area", "log_thickness", "share_x", "share_y", "enclosed_x", "enclosed_y",
+          "hidden_x", "hidden_y", "junctions", "clarity")
 CANDIDATES = {
-    "cues": (CUES, 0),
-    "cues, 30 trees": (CUES, 30),
-    "cues, raw continuation": (CUES + ("continuation_raw",), 0),
-    "cues, raw continuation, 30 trees": (CUES + ("continuation_raw",), 30),
-    "all features": (FEATURES, 0),
-    "all features, 100 trees": (FEATURES, 100),
+    "cues": dict(linear=CUES, trees=0),
+    "cues, raw continuation": dict(linear=_RAW, trees=0),
+    "cues, raw continuation, isotonic": dict(linear=_RAW, trees=0, calibration="isotonic"),
+    "cues, raw continuation, 30 trees on them": dict(linear=_RAW, trees=30, split=_RAW),
+    "cues, raw continuation, 30 trees on them, isotonic": dict(linear=_RAW, trees=30, split=_RAW,
+                                                              calibration="isotonic"),
+    "cues, raw continuation, 30 trees on them and sizes": dict(linear=_RAW, trees=30,
+                                                              split=_RAW + _SIZES),
+    "cues, raw continuation, 100 trees on all features": dict(linear=_RAW, trees=100),
+    "all features, 100 trees": dict(linear=FEATURES, trees=100),
 }
 
 
@@ -139,10 +155,13 @@ def _rows(batch):
     return np.concatenate([f[:, 0], f[:, 1]]), np.concatenate([y, 1.0 - y])
 
 
-def fit_linear(X, y, *, l2=LINEAR_L2):
+def fit_linear(X, y, *, l2=LINEAR_L2, positive=None):
     """L2-regularized logistic weights (no intercept) of rows ``X`` with labels 0/1; the
-    penalty is on the weights of standardized features."""
+    penalty is on the weights of standardized features. ``positive``: a bool per column,
+    True where the weight may not be negative."""
     scale = X.std(0) + 1e-9
+    bounds = [(0.0, None) if p else (None, None)
+              for p in (positive if positive is not None else [False] * X.shape[1])]
     Z, s = X / scale, 2.0 * y - 1.0
 
     def loss(w):
@@ -150,7 +169,8 @@ def fit_linear(X, y, *, l2=LINEAR_L2):
         return (np.logaddexp(0.0, -m).sum() + l2 * w @ w,
                 Z.T @ (-s * np.exp(-np.logaddexp(0.0, m))) + 2.0 * l2 * w)
 
-    return minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B").x / scale
+    return minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B",
+                    bounds=bounds).x / scale
 
 
 def fit_trees(X, y, *, trees=30, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, start=None):
@@ -198,17 +218,23 @@ def fit_trees(X, y, *, trees=30, depth=DEPTH, rate=RATE, bins=BINS, l2=L2, start
     return feature, threshold, leaf
 
 
-def train(batch, validation, *, linear=FEATURES, trees=100):
+def train(batch, validation, *, linear=FEATURES, trees=100, split=FEATURES, calibration="platt"):
     """An :class:`inkray.relief.order_model.OrderModel` fitted on ``batch`` and calibrated on
     ``validation`` (lists of :class:`Samples`): a logistic term on the features ``linear``,
-    then ``trees`` boosted trees."""
+    then ``trees`` boosted trees splitting on the features ``split``; ``calibration``
+    ``"platt"`` or ``"isotonic"``."""
     X, y = _rows(batch)
     cols = [FEATURES.index(k) for k in linear]
     weights = np.zeros(len(FEATURES))
-    weights[cols] = fit_linear(X[:, cols], y)
+    # A cue says "x in front" by its sign: it is never read the other way round.
+    weights[cols] = fit_linear(X[:, cols], y, positive=[k in SIGNED for k in linear])
     weights = np.round(weights, 7)
-    feature, threshold, leaf = fit_trees(X, y, trees=max(trees, 1), start=X @ weights,
-                                         rate=RATE if trees else 0.0)
+    if trees:
+        among = np.array([FEATURES.index(k) for k in split])
+        feature, threshold, leaf = fit_trees(X[:, among], y, trees=trees, start=X @ weights)
+        feature = among[feature]
+    else:  # the linear term alone: one stump that adds nothing
+        feature, threshold, leaf = np.zeros((1, 1), np.int64), np.full((1, 1), np.inf), np.zeros((1, 2))
     # Rounded as the JSON file keeps them, so the trained and the shipped model agree.
     threshold = np.array([[float(f"{v:.7g}") for v in row] for row in threshold])
     leaf = np.round(leaf, 7)
@@ -222,8 +248,36 @@ def train(batch, validation, *, linear=FEATURES, trees=100):
         return float(np.logaddexp(0.0, -(2 * yv - 1) * t * s).sum())
 
     temperature = float(minimize_scalar(loss, bounds=(0.05, 5.0), method="bounded").x)
+    knots = isotonic(np.abs(s), (s > 0) == (yv > 0.5)) if calibration == "isotonic" else None
     return OrderModel(feature=feature, threshold=threshold, leaf=leaf,
-                      temperature=round(temperature, 4), weights=weights)
+                      temperature=round(temperature, 4), weights=weights, calibration=knots)
+
+
+def isotonic(score, right):
+    """Knots ``(s, p)`` of the isotonic regression of ``right`` (bool) on ``score`` ``>= 0``
+    (pool adjacent violators, equal neighbours pooled too): one knot at the mean score of
+    every pooled block, its right
+    share smoothed as ``(k + 1) / (n + 2)`` (so below 1) and at least 0.501, from
+    ``(0, 0.5)``."""
+    order = np.argsort(score, kind="stable")
+    x, y = score[order], right[order].astype(float)
+    blocks = []  # [sum of right, count, sum of score]
+    for xi, yi in zip(x, y):
+        blocks.append([yi, 1.0, xi])
+        while len(blocks) > 1 and blocks[-2][0] / blocks[-2][1] >= blocks[-1][0] / blocks[-1][1]:
+            last = blocks.pop()
+            blocks[-1] = [a + b for a, b in zip(blocks[-1], last)]
+    k, n, sx = np.array(blocks).T
+    # Above one half: every score but 0 still says who is in front.
+    p = np.maximum.accumulate(np.maximum((k + 1.0) / (n + 2.0), 0.501))
+    knots = [(0.0, 0.5)]
+    for xi, pi in zip(np.round(sx / n, 7), np.round(p, 7)):
+        if xi > knots[-1][0]:
+            knots.append((float(xi), float(max(pi, knots[-1][1]))))
+    # A knot between two of the same value is no bend of the line.
+    keep = [i for i in range(len(knots)) if i in (0, len(knots) - 1)
+            or not knots[i - 1][1] == knots[i][1] == knots[i + 1][1]]
+    return np.array([knots[i] for i in keep])
 
 
 def log_loss(model, batch):
@@ -237,21 +291,27 @@ def log_loss(model, batch):
 def choose(fit, val, dev):
     """The candidate of least log-loss on ``dev``: ``(name, model)``; prints each."""
     best = None
-    print(f"{'candidate':<36} {'validation':>16} {'development':>16}")
-    for name, (linear, trees) in CANDIDATES.items():
-        model = train(fit, val, linear=linear, trees=trees)
+    print(f"{'candidate':<52} {'validation':>16} {'development':>16}")
+    for name, candidate in CANDIDATES.items():
+        model = train(fit, val, **candidate)
         (lv, rv), (ld, rd) = log_loss(model, val), log_loss(model, dev)
-        print(f"{name:<36} {lv:>8.3f} {rv:>7.1%} {ld:>8.3f} {rd:>7.1%}")
+        print(f"{name:<52} {lv:>8.3f} {rv:>7.1%} {ld:>8.3f} {rd:>7.1%}")
         if best is None or ld < best[0]:
             best = (ld, name, model)
     return best[1], best[2]
 
 
+def real_annotation(name):
+    """The annotation file of a real drawing of :data:`DEVELOPMENT` or :data:`HELD_OUT`."""
+    folder = ROOT / "examples" / name
+    return folder / ("0001.inkray.json" if name.startswith("shots/") else "drawing.inkray.json")
+
+
 def development_samples():
-    """:class:`Samples` of the bundled drawings made for inkray (:data:`DEVELOPMENT`)."""
+    """:class:`Samples` of the real drawings of :data:`DEVELOPMENT`."""
     out = []
     for name in DEVELOPMENT:
-        ann, drawing = load_input(ROOT / "examples" / name / "drawing.inkray.json")
+        ann, drawing = load_input(real_annotation(name))
         out.append(samples(ann, drawing, name))
     return out
 
@@ -264,7 +324,7 @@ def split(pool):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--count", type=int, default=400)
+    ap.add_argument("--count", type=int, default=360)
     ap.add_argument("--cache", type=Path, help="folder keeping each drawing's features")
     ap.add_argument("--out", type=Path, default=MODEL)
     args = ap.parse_args(argv)

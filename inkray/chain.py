@@ -35,6 +35,7 @@ from inkray.relief.assembly import assemble
 from inkray.relief.completion import Completion, complete_regions
 from inkray.relief.inflation import inflate_region
 from inkray.relief.ink_style import ink_style
+from inkray.relief.joins import open_joins
 from inkray.relief.model import Relief
 from inkray.relief.ordering import depth_order
 from inkray.relief.outline import DEFAULT_MAX_AREA, MeshOptions, check_boundaries
@@ -289,6 +290,21 @@ class ReliefChain:
                            lambda: _silhouettes(completion.labels, self.drawing.gray), timed=False)
 
     @property
+    def joins(self):
+        """The open joins (:class:`~inkray.relief.joins.OpenJoin`): ink-free cuts between two
+        regions that no ``boundaries`` entry marks, grafted like one."""
+        labels = self.silhouettes
+        ann = self.annotations
+        return self._stage("joins", ("joins", self._segment_key()), lambda: open_joins(
+            labels, self.drawing.gray, boundaries=ann.boundaries,
+            names=[r.name for r in ann.regions]), timed=False)
+
+    @property
+    def seams(self):
+        """The ``boundaries`` entries, then the open joins: every seam the relief stitches."""
+        return [*self.annotations.boundaries, *self.joins]
+
+    @property
     def meshes(self):
         """Per region, its :class:`~inkray.relief.inflation.InflatedRegion` (None when empty)."""
         if "meshes" in self._memo:
@@ -296,7 +312,7 @@ class ReliefChain:
         completion = self.completion
         labels = self.silhouettes
         regions = self.annotations.regions
-        seams = self.annotations.boundaries
+        entries, joins = self.annotations.boundaries, self.joins
         out, keys = [], []
         with self.progress.stage("inflate"):
             for i, region in enumerate(regions):
@@ -306,17 +322,20 @@ class ReliefChain:
                     out.append(None)
                     keys.append(None)
                     continue
+                # An open join marks the outlines of its own two regions only.
+                seams = [*entries, *(j for j in joins if i in j.regions)]
                 key = ("mesh", i, region.name, float(region.inflation), region.profile,
                        self.options.mesh, _digest(mask, _label_window(labels, mask), *(
-                           (b.type, b.path) for b in seams)))
+                           (b.type, b.path, b.index) for b in seams)))
                 keys.append(key)
-                out.append(self._stage(f"mesh:{region.name}", key, lambda i=i, mask=mask, r=region:
+                out.append(self._stage(f"mesh:{region.name}", key,
+                                       lambda i=i, mask=mask, r=region, seams=seams:
                                        inflate_region(mask, visible=labels == i,
                                                       labels=labels, region=i, name=r.name,
                                                       boundaries=seams, inflation=r.inflation,
                                                       profile=r.profile,
                                                       options=self.options.mesh), timed=False))
-            check_boundaries([r.mesh for r in out if r is not None], seams)
+            check_boundaries([r.mesh for r in out if r is not None], entries)
         self._memo["meshes"] = out
         self._memo["mesh_keys"] = keys
         return out
@@ -327,7 +346,7 @@ class ReliefChain:
         meshes = self.meshes
         key = ("stitch", self._relations_key(), tuple(self._memo["mesh_keys"]), self.options.epsilon)
         return self._stage("stitch", key, lambda: stitch(
-            meshes, self.relations, self.completion, seams=self.annotations.boundaries,
+            meshes, self.relations, self.completion, seams=self.seams,
             epsilon=self.options.epsilon, memo=self._cache.stitch, progress=self.progress))
 
     @property

@@ -3,8 +3,12 @@
 The key's drawing is registered onto the frame as rigidly as possible
 (:func:`inkray.numerics.registration.arap_register`, after Sýkora, Dingliana
 and Collins, "As-rigid-as-possible image registration for hand-drawn cartoon
-animations", NPAR 2009, the application its Fig. 1 names), and every entry of
-the annotation moves with the registration:
+animations", NPAR 2009, the application its Fig. 1 names). A part the smooth
+registration does not follow (a leg swinging far while the body stays) gets
+its own motion: a rigid chamfer search from the registration's fit, then the
+part's own ARAP registration (Borgefors, "Hierarchical chamfer matching",
+PAMI 1988, for the matching). Every entry of the annotation moves with its
+part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
@@ -16,11 +20,14 @@ the annotation moves with the registration:
   separate in the key (the frame segmented with the carried scribbles).
 
 Names, inflation and profile are kept. Each entry gets a match score: how
-well the drawings agree around its points after registration, lowered where a
+close its part's lines land to the frame's (and, where it moved with the
+registration, how well the drawings agree around its points), lowered where a
 point had to move far to find its part, and for a region by how much of the
-part carried from the key the frame's segmentation gives it; along a chain
-of frames the scores multiply. Entries scoring below a threshold are named
-in warnings, ``"order[3]: moved 14 px, match 0.41: check it"``.
+part carried from the key the frame's segmentation gives it; a relation is no
+surer than the parts it names, paper between parts no surer than the parts
+around it; along a chain of frames the scores multiply. Entries scoring below
+a threshold are named in warnings, ``"order[3]: moved 14 px, match 0.41:
+check it"``.
 """
 
 from dataclasses import dataclass, field, replace
@@ -31,7 +38,8 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
-from inkray.numerics.registration import arap_register, warp_points
+from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
+                                          rigid_segments, warp_points)
 from inkray.segmentation import INK_THRESHOLD, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
@@ -40,6 +48,9 @@ __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
 CHECK = 0.6
 #: Scribbles are carried as points this far apart (pixels), then simplified.
 _STEP = 3.0
+#: A part moves by its own rigid motion when that leaves its ink at most this
+#: share of the distance from the frame's ink the registration leaves it.
+_OWN = 0.7
 
 
 @dataclass
@@ -163,9 +174,34 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     key_ink = np.clip(1.0 - key.gray, 0, 1)
     frame_ink = np.clip(1.0 - frame.gray, 0, 1)
     reg = arap_register(key_ink, frame_ink, spacing=spacing)
-    carried = _pull_back(key_labels, reg.displacement)
+    # A part that swings further than the smooth registration follows moves
+    # by its own rigid motion, where that brings its ink clearly closer.
+    rigid = rigid_segments(key_ink, frame_ink, key_labels, reg, radius=reach)
+    moved = {k: m for k, m in rigid.items() if m.cost < m.base_cost}
+    local = arap_segments(key_ink, frame_ink, key_labels, moved, spacing=max(2, spacing // 2))
+    motions = {}
+    for k, m in moved.items():
+        best = min((m, local.get(k, m)), key=lambda x: x.cost)
+        if best.cost < _OWN * m.base_cost:
+            motions[k] = best
+    # How well each part's lines land on the frame's, from the mean distance
+    # of its ink to the frame's ink under the motion it moved by.
+    fit = {k: float(np.exp(-((motions[k].cost if k in motions else m.base_cost)
+                             / (spacing / 4)) ** 2)) for k, m in rigid.items()}
+    carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
     places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
+    nearest = {}
+
+    def nearest_paper(q):
+        if "index" not in nearest:  # rarely needed: computed once, when it is
+            nearest["index"] = ndimage.distance_transform_edt(
+                frame.gray < INK_THRESHOLD, return_distances=False, return_indices=True)
+        iy, ix = nearest["index"]
+        x = int(np.clip(np.rint(q[0]), 0, w - 1))
+        y = int(np.clip(np.rint(q[1]), 0, h - 1))
+        return np.array([ix[y, x], iy[y, x]], float)
     conf = reg.confidence
+    frame_far = (ndimage.distance_transform_edt(frame.gray >= INK_THRESHOLD) > spacing).astype(float)
     h, w = key_labels.shape
 
     def label_at(p):
@@ -177,11 +213,28 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         """Points carried into their parts: new points, distances moved, scores."""
         points = np.asarray(points, float).reshape(-1, 2)
         moved = warp_points(reg, points)
+        for lab in set(labels) & set(motions):
+            on = np.asarray(labels) == lab
+            moved[on] = motions[lab].apply(points[on])
         out = np.empty_like(moved)
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
             out[i], snap[i] = places.place(q, lab)
-        match = _sample(conf, points) * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
+            if not np.isfinite(snap[i]):
+                # No paper of its part within reach: off the ink at least (and
+                # scored 0), so that the frame can be segmented.
+                out[i] = nearest_paper(q)
+        # A point of a part matches as well as its part does (and no better than
+        # the drawings agree around it, where it moved with the registration);
+        # a background point far from any line of the frame is surely background.
+        local = _sample(conf, points)
+        labels = np.asarray(labels)
+        part = np.array([fit.get(lab, 1.0) for lab in labels])
+        own = np.isin(labels, list(motions))
+        match = np.where(own, part, np.minimum(local, part))
+        clear = _sample(frame_far, out, order=0) > 0.5
+        match = np.where((labels < 0) & clear, 1.0, match)
+        match = match * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
         return out, np.linalg.norm(out - points, axis=1), match
 
     entries, warnings = [], []
@@ -255,21 +308,31 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
         return out
 
+    named = [item[2] for item in order + equal]
     order = settle(order, order_scores, "front", "back")
     equal = settle(equal, equal_scores, "a", "b")
     draft = replace(draft, order=order, equal=equal)
+    part_match = {-1: 1.0}
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
-        check(f"regions[{i}]", mv, min(mt, _overlap(carried == i, labels == i)), name=r.name)
+        part_match[i] = min(mt, _overlap(carried == i, labels == i))
+        check(f"regions[{i}]", mv, part_match[i], name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
-        check(f"background[{j}]", mv, mt)
-    for e, (mv, mt) in zip(order, order_scores):
-        check(f"order[{e.index}]", mv, mt)
-    for e, (mv, mt) in zip(equal, equal_scores):
-        check(f"equal[{e.index}]", mv, mt)
+        # Paper between parts is as sure as the parts around it.
+        near = _labels_near(labels, background[j], frame_far, spacing)
+        check(f"background[{j}]", mv, min([mt] + [part_match[p] for p in near]))
+    # A relation is no surer than the parts it names.
+    for e, (mv, mt), parts in zip(order + equal, order_scores + equal_scores, named):
+        kind = "order" if e in order else "equal"
+        check(f"{kind}[{e.index}]", mv, min([mt] + [part_match[p] for p in parts]))
+
+    def move_beside(points, pair):
+        # A boundary beside a part that moved on its own moves with that part.
+        own = [k for k in pair if k in motions]
+        return motions[own[0]].apply(points) if own else warp_points(reg, points)
 
     boundaries = []
     for b in annotations.boundaries:
-        path, mv, mt = _carry_boundary(b.path, key_labels, labels, reg, conf, reach)
+        path, mv, mt = _carry_boundary(b.path, key_labels, labels, move_beside, conf, reach)
         boundaries.append(replace(b, path=_inside(path, size)))
         check(f"boundaries[{b.index}]", mv, mt)
 
@@ -302,6 +365,13 @@ class _Places:
         y0, x0 = max(y - r, 0), max(x - r, 0)
         window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
         mask = self.paper[window] & (self.carried[window] == label)
+        # Already well inside its part (what the erosion below would keep): stays.
+        ball = mask[max(y - y0 - 2, 0):y - y0 + 3, max(x - x0 - 2, 0):x - x0 + 3]
+        cy, cx = min(y - y0, 2), min(x - x0, 2)
+        near = np.abs(np.arange(ball.shape[0])[:, None] - cy) \
+            + np.abs(np.arange(ball.shape[1])[None, :] - cx) <= 2
+        if ball[near].all():
+            return q, 0.0
         # Aim a little inside the part, not onto the pixel next to its line.
         inner = ndimage.binary_erosion(mask, iterations=2, border_value=1)
         for m in (inner, mask):
@@ -314,6 +384,33 @@ class _Places:
                 p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
                 return p, float(np.hypot(*(p - q)))
         return q, np.inf
+
+
+def _paint_parts(carried, key_labels, motions):
+    """``carried`` with each part of ``motions`` put where its own motion takes it.
+
+    Larger parts first, so that a limb moved over the body stays on top.
+    """
+    out = carried.copy()
+    h, w = out.shape
+    area = {k: np.count_nonzero(key_labels == k) for k in motions}
+    for k in sorted(motions, key=lambda k: -area[k]):
+        out[out == k] = -2  # where the smooth registration put it: nobody's
+        ky, kx = np.nonzero(key_labels == k)
+        if not len(kx):
+            continue
+        q = np.rint(motions[k].apply(np.stack([kx, ky], axis=1).astype(float))).astype(int)
+        q = q[(q[:, 0] >= 0) & (q[:, 1] >= 0) & (q[:, 0] < w) & (q[:, 1] < h)]
+        if not len(q):
+            continue
+        x0, y0 = np.maximum(q.min(axis=0) - 2, 0)
+        x1, y1 = np.minimum(q.max(axis=0) + 3, [w, h])
+        mask = np.zeros((y1 - y0, x1 - x0), bool)
+        mask[q[:, 1] - y0, q[:, 0] - x0] = True
+        # Forward-moved pixels leave pinholes where the part stretches: close them.
+        mask = ndimage.binary_closing(mask, iterations=1)
+        out[y0:y1, x0:x1][mask] = k
+    return out
 
 
 def _pull_back(labels, displacement, iterations=8, step=4):
@@ -329,18 +426,15 @@ def _pull_back(labels, displacement, iterations=8, step=4):
         ux = ndimage.map_coordinates(displacement[..., 0], [py, px], order=1, mode="nearest")
         uy = ndimage.map_coordinates(displacement[..., 1], [py, px], order=1, mode="nearest")
         px, py = xs - ux, ys - uy
-    fy, fx = np.mgrid[:h, :w].astype(float)
-    coarse = [fy / step, fx / step]
-    vx = ndimage.map_coordinates(px - xs, coarse, order=1, mode="nearest")
-    vy = ndimage.map_coordinates(py - ys, coarse, order=1, mode="nearest")
-    ix = np.clip(np.rint(fx + vx), 0, w - 1).astype(int)
-    iy = np.clip(np.rint(fy + vy), 0, h - 1).astype(int)
+    v = lattice_interpolate(np.stack([px - xs, py - ys], axis=-1), step, (h, w))
+    ix = np.clip(np.rint(np.arange(w)[None, :] + v[..., 0]), 0, w - 1).astype(int)
+    iy = np.clip(np.rint(np.arange(h)[:, None] + v[..., 1]), 0, h - 1).astype(int)
     return labels[iy, ix]
 
 
-def _sample(image, points):
+def _sample(image, points, order=1):
     p = np.asarray(points, float).reshape(-1, 2)
-    return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=1, mode="nearest")
+    return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=order, mode="nearest")
 
 
 def _overlap(a, b):
@@ -378,22 +472,43 @@ def _simplify(points, tolerance):
     return points[keep]
 
 
+def _labels_near(labels, points, far, radius):
+    """The labels ``>= 0`` within ``radius`` of the ``points`` not on ``far``."""
+    h, w = labels.shape
+    r = int(np.ceil(radius))
+    found = set()
+    for x, y in np.rint(np.asarray(points, float)).astype(int):
+        x, y = min(max(x, 0), w - 1), min(max(y, 0), h - 1)
+        if far[y, x] > 0.5:
+            continue
+        window = labels[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1]
+        found.update(int(v) for v in np.unique(window) if v >= 0)
+    return sorted(found)
+
+
 def _outline(labels, a, b):
-    """Pixels of label ``a`` next to label ``b`` (4-neighbours), and the reverse."""
+    """Pixels of label ``a`` next to label ``b`` (4-neighbours), and the reverse; with
+    ``a`` and ``b`` None, pixels of a part (label ``>= 0``) next to any other label."""
     out = np.zeros(labels.shape, bool)
     for axis in (0, 1):
         lo = [slice(None)] * 2
         hi = [slice(None)] * 2
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
         p, q = labels[tuple(lo)], labels[tuple(hi)]
-        hit = ((p == a) & (q == b)) | ((p == b) & (q == a))
+        if a is None:
+            hit = (p != q) & ((p >= 0) | (q >= 0))
+        else:
+            hit = ((p == a) & (q == b)) | ((p == b) & (q == a))
         out[tuple(lo)] |= hit
         out[tuple(hi)] |= hit
     return out
 
 
-def _carry_boundary(path, key_labels, labels, reg, conf, reach):
-    """A boundary path carried and put back on the frame's outline between its two parts."""
+def _carry_boundary(path, key_labels, labels, move, conf, reach):
+    """A boundary path carried and put back on the frame's outline between its two parts.
+
+    ``move(points, pair)`` carries key points beside the two parts ``pair``.
+    """
     dense = resample_polyline(path, _STEP)
     h, w = key_labels.shape
     # The two parts the path separates in the key: the commonest labels near it.
@@ -402,26 +517,34 @@ def _carry_boundary(path, key_labels, labels, reg, conf, reach):
         x0, y0 = int(np.clip(round(x), 0, w - 1)), int(np.clip(round(y), 0, h - 1))
         seen.append(key_labels[max(0, y0 - 3):y0 + 4, max(0, x0 - 3):x0 + 4].ravel())
     values, counts = np.unique(np.concatenate(seen), return_counts=True)
-    pair = values[np.argsort(-counts)][:2]
-    moved = warp_points(reg, dense)
+    pair = [int(v) for v in values[np.argsort(-counts)][:2]]
+    moved = move(dense, pair)
     match = _sample(conf, dense)
-    if len(pair) == 2:
-        line = _outline(labels, pair[0], pair[1])
-    else:
-        line = np.zeros(labels.shape, bool)
-    if not line.any():
-        return _simplify(moved, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()), 0.0
-    dist, (iy, ix) = ndimage.distance_transform_edt(~line, return_indices=True)
+    moved_by = float(np.linalg.norm(moved - dense, axis=1).mean())
+    outlines = _outline(labels, None, None)
+    if not outlines.any():
+        return _simplify(moved, 1.0), moved_by, 0.0
     qx = np.clip(np.rint(moved[:, 0]), 0, w - 1).astype(int)
     qy = np.clip(np.rint(moved[:, 1]), 0, h - 1).astype(int)
-    d = dist[qy, qx]
-    near = d <= reach
-    snapped = np.where(near[:, None], np.stack([ix[qy, qx], iy[qy, qx]], axis=1).astype(float), moved)
-    match = match * np.where(near, np.exp(-(d / reach) ** 2), 0.0)
+    line = _outline(labels, *pair) if len(pair) == 2 else np.zeros(labels.shape, bool)
+    snapped = np.empty_like(moved)
+    near = np.zeros(len(moved), bool)
+    if line.any():
+        dist, (iy, ix) = ndimage.distance_transform_edt(~line, return_indices=True)
+        d = dist[qy, qx]
+        near = d <= reach
+        snapped[near] = np.stack([ix[qy, qx], iy[qy, qx]], axis=1)[near]
+        match = match * np.where(near, np.exp(-(d / reach) ** 2), 0.0)
+    else:
+        match = np.zeros(len(moved))
+    if not near.all():
+        # No outline of its two parts within reach: onto the nearest outline at
+        # all, so that the relief can still be built (and scored 0).
+        _, (iy, ix) = ndimage.distance_transform_edt(~outlines, return_indices=True)
+        snapped[~near] = np.stack([ix[qy, qx], iy[qy, qx]], axis=1)[~near]
     # Keep the path's order and drop repeats where several samples snapped together.
     keep = np.r_[True, np.any(np.diff(snapped, axis=0) != 0, axis=1)]
     snapped = snapped[keep]
     if len(snapped) < 2:
         snapped = np.vstack([snapped, snapped + [1.0, 0.0]])
-    return (_simplify(snapped, 1.0), float(np.linalg.norm(moved - dense, axis=1).mean()),
-            float(match.mean()))
+    return _simplify(snapped, 1.0), moved_by, float(match.mean())

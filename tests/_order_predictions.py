@@ -35,7 +35,7 @@ def predictions(name, *, upscaled=False):
     from inkray.input.loading import load_input
     from inkray.relief.ink_style import ink_style
     from inkray.relief.order_model import load_order_model
-    from inkray.relief.ordering import predict_place
+    from inkray.relief.ordering import WEIGHTS, predict_place
 
     folder = ROOT / "examples" / name
     ann, drawing = load_input(folder / "drawing.inkray.json")
@@ -51,10 +51,10 @@ def predictions(name, *, upscaled=False):
     ink = ink_style(drawing.gray)
     seams = [b.path for b in ann.boundaries if b.type in ("graft", "stitch")]
     out = {"size": list(completion.labels.shape[::-1])}
-    for key, model in (("cues", None), ("learned", load_order_model())):
+    for key, given in (("cues", {"weights": WEIGHTS}), ("learned", {"model": load_order_model()})):
         rows = []
         for place in completion.places:
-            r = predict_place(completion, place, seams=seams, ink=ink, model=model)
+            r = predict_place(completion, place, seams=seams, ink=ink, **given)
             rows.append([place.a, place.b, None if r is None else r.front,
                          None if r is None else r.confidence])
         out[key] = rows

@@ -34,7 +34,7 @@ def test_styles_switch_off():
             assert len(np.unique(g.gray)) > 20                  # shading and grain
     with pytest.raises(ValueError, match="unknown style 'ink'"):
         generate(0, styles=("ink",))
-    assert len(STYLES) == 8
+    assert len(STYLES) == 10
 
 
 def test_order_entries_point_into_their_parts():

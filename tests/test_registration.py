@@ -4,7 +4,7 @@ from PIL import Image
 from scipy import ndimage
 
 from inkray.errors import InputError
-from inkray.numerics.registration import arap_register, warp_points
+from inkray.numerics.registration import arap_register, arap_segments, rigid_segments, warp_points
 
 from conftest import EXAMPLES
 
@@ -84,3 +84,53 @@ def test_bad_input_is_one_line(kwargs, match):
     args = {"source": np.zeros((8, 8)), "target": np.zeros((8, 8))} | kwargs
     with pytest.raises(InputError, match=match):
         arap_register(**args)
+
+
+def _outline(mask):
+    return (mask & ~ndimage.binary_erosion(mask)).astype(float)
+
+
+def _limb_scene(angle_deg):
+    """A box (the body) with a bar (the limb) hinged at (60, 70), the bar turned by ``angle_deg``."""
+    h, w = 140, 160
+    ys, xs = np.mgrid[:h, :w].astype(float)
+    body = (xs >= 30) & (xs <= 90) & (ys >= 30) & (ys <= 70)
+    pivot = np.array([60.0, 70.0])
+    t = np.deg2rad(angle_deg)
+    # A frame pixel is on the turned bar when turning it back lands on the bar at rest.
+    dx, dy = xs - pivot[0], ys - pivot[1]
+    bx = np.cos(t) * dx + np.sin(t) * dy + pivot[0]
+    by = -np.sin(t) * dx + np.cos(t) * dy + pivot[1]
+    bar = (np.abs(bx - 60) <= 5) & (by >= 70) & (by <= 125)
+    labels = np.full((h, w), -1)
+    labels[body] = 0
+    labels[bar & ~body] = 1
+    return np.clip(_outline(body) + _outline(bar & ~body), 0, 1), labels, pivot
+
+
+def test_a_limb_turned_far_is_found_by_its_own_rigid_motion():
+    source, labels, pivot = _limb_scene(0)
+    target, _, _ = _limb_scene(35)
+    reg = arap_register(source, target)
+    motions = rigid_segments(source, target, labels, reg)
+    limb = motions[1]
+    tip = np.array([[60.0, 120.0]])
+    t = np.deg2rad(35)
+    truth = pivot + [[-np.sin(t) * 50, np.cos(t) * 50]]
+    # The smooth registration does not follow the bar; the rigid search does.
+    assert np.linalg.norm(warp_points(reg, tip) - truth) > 5
+    assert np.linalg.norm(limb.apply(tip) - truth) < 2.0
+    assert abs(np.rad2deg(limb.angle) - 35) < 2
+    assert limb.cost < 0.5 < 1.5 < limb.base_cost
+    assert np.allclose(limb.invert(limb.apply(tip)), tip)
+    # The body, which the registration already fits, keeps that fit.
+    assert motions[0].cost == motions[0].base_cost
+    local = arap_segments(source, target, labels, {1: limb})[1]
+    assert np.linalg.norm(local.apply(tip) - truth) < 2.0
+    assert local.cost <= limb.cost + 0.1
+
+
+def test_segments_need_labels_of_the_images_shape():
+    ink = np.zeros((20, 20))
+    with pytest.raises(InputError, match="one shape"):
+        rigid_segments(ink, ink, np.zeros((10, 10), int), arap_register(ink, ink))

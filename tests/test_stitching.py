@@ -11,6 +11,7 @@ from inkray.relief.completion import complete_regions
 from inkray.errors import InputError
 from inkray.relief.outline import MeshOptions
 from inkray.relief.inflation import inflate_region
+from inkray.relief.joins import open_joins
 from inkray.relief.ordering import depth_order
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.relief import stitching
@@ -299,3 +300,81 @@ def test_the_rows_that_held_start_the_next_working_set():
     assert first.rounds == cold.rounds and again.rounds < first.rounds
     for a, b in zip(again.offset, cold.offset):  # the same optimum, to round-off
         np.testing.assert_allclose(a, b, atol=1e-9)
+
+
+def _open_limb():
+    """The limb of :func:`_limb` drawn with 3 px strokes along its sides and end that
+    stop at its open end inside the body (x = 150), and the body's outline."""
+    labels = _limb()
+    h, w = labels.shape
+    yy, xx = np.mgrid[:h, :w]
+    gray = np.ones((h, w))
+    r = np.hypot(xx - 120, yy - 110)
+    gray[(np.abs(r - 89) <= 1.5) & (labels == 0)] = 0.0
+    gray[(xx >= 150) & (xx <= 320) & ((np.abs(yy - 86) <= 1) | (np.abs(yy - 134) <= 1))] = 0.0
+    gray[(np.abs(xx - 319) <= 1) & (np.abs(yy - 110) <= 25)] = 0.0
+    return labels, gray
+
+
+def _open_layers(joined=True, **kw):
+    labels, gray = _open_limb()
+    joins = open_joins(labels, gray, names=["body", "limb"]) if joined else []
+    ann = _doc((360, 220), order=[((250, 110), (100, 110))])
+    c = complete_regions(labels, names=["body", "limb"])
+    relations, _ = depth_order(constraints(ann), labels, c)
+    c = c.ordered(relations)
+    inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
+                               name=n, boundaries=joins, options=MeshOptions(max_area=30.0))
+                for i, n in enumerate(["body", "limb"])]
+    return stitch(inflated, relations, c, seams=joins, **kw), joins
+
+
+def test_an_open_join_grows_the_limb_out_of_the_body_along_the_whole_cut():
+    layers, joins = _open_layers()
+    (join,) = joins
+    assert join.regions == (0, 1)
+    B, F = layers.regions
+    (front, base, line, width), = layers.bands
+    assert (front, base) == (1, 0)
+    # every point of the seam, stations and the vertices between them, rests on the body
+    seam = F.mesh.vertices[F.mesh.boundary_index == join.index]
+    assert len(seam) > 2 * len(F.mesh.station_vertices(join.index))
+    zb, db = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), seam)
+    zf = layers.z(1)[F.mesh.boundary_index == join.index]
+    assert db.max() < 1e-9 and np.all(zf - zb >= -1e-6) and np.all(zf - zb < 0.25)
+    # and leaves it with its slope, a pixel in as well as along the seam
+    for y in np.arange(92.0, 129.0, 1.0):
+        zl, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), [[148.5, y], [149.5, y]])
+        zr, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), [[149.5, y], [150.5, y]])
+        assert abs((zr[1] - zr[0]) - (zl[1] - zl[0])) < 0.08, y
+
+
+def test_without_the_join_the_limb_stands_on_the_body_as_a_cliff():
+    layers, _ = _open_layers(joined=False)
+    B, F = layers.regions
+    pts = np.column_stack([np.full(9, 151.0), np.linspace(95, 125, 9)])
+    zf, _ = height_at(F.mesh.vertices, F.mesh.faces, layers.z(1), pts)
+    zb, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), pts)
+    assert np.all(zf - zb >= layers.epsilon - 1e-6)
+
+
+def _seam_gap(layers, join):
+    """Height of the grafted limb over the body at every vertex of the seam."""
+    B, F = layers.regions
+    on = F.mesh.boundary_index == join.index
+    zb, _ = height_at(B.mesh.vertices, B.mesh.faces, layers.z(0), F.mesh.vertices[on])
+    return layers.z(1)[on] - zb
+
+
+def test_between_the_stations_the_solved_seam_rests_on_the_base(monkeypatch):
+    # The QP alone (no blend) already puts the whole seam on the body; with rows at
+    # the stations only, the limb's offset, pinned at points 10 px apart, bulges
+    # between them: a sawtooth along the seam that the blend has to hide.
+    monkeypatch.setattr(stitching, "_blend", lambda *args: None)
+    layers, (join,) = _open_layers()
+    gap = _seam_gap(layers, join)
+    assert gap.min() >= -1e-6 and gap.max() < 0.25
+    monkeypatch.setattr(stitching, "_seam_vertices", lambda mesh, index, stations:
+                        mesh.station_vertices(index))
+    layers, (join,) = _open_layers()
+    assert _seam_gap(layers, join).max() > 1.0

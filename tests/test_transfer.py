@@ -2,6 +2,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from inkray import cli
 from inkray.chain import ReliefChain
@@ -112,3 +113,38 @@ def test_the_command_writes_the_annotation_and_its_report(tmp_path):
     assert not bad.exists()
     assert cli.main(["--quiet", "transfer", str(shot_dir / "0001.inkray.json"),
                      str(shot_dir / "0002.png"), "-o", str(shot_dir / "0002.png")]) == 2
+
+
+def test_a_limb_turned_further_than_the_registration_follows_keeps_its_entries():
+    # One frame with the far arm turned by 44 degrees: its scribbles, and the
+    # order entries naming it, go with the arm (its own motion), not with the
+    # body around it.
+    shot = make_shot("figure", 2, angle=44.0)
+    ann, key = shot.truths[0], shot.frames[0]
+    frame = shot.frames[1]
+    carried = transfer_annotations(ann, key, frame)
+    truth = segment(shot.truths[1], frame).labels
+    limb = ann.region_index(shot.limb)
+    points = np.vstack(carried.annotations.regions[limb].scribbles)
+    assert np.mean([_at(truth, p) == limb for p in points]) >= 0.9
+    got = segment(carried.annotations, frame).labels
+    assert (got == truth)[truth >= 0].mean() >= 0.98
+    key_labels = segment(ann, key).labels
+    for o, c in zip(ann.order, carried.annotations.order):
+        names = (_at(key_labels, o.front), _at(key_labels, o.back))
+        if limb in names and -1 not in names and names[0] != names[1]:
+            assert (_at(truth, c.front), _at(truth, c.back)) == names
+
+
+def test_a_part_inked_over_in_the_frame_is_flagged_and_its_scribbles_leave_the_ink():
+    ann, drawing = load_input(example_path("figure"))
+    labels = segment(ann, drawing).labels
+    gray = np.array(drawing.gray)
+    gray[ndimage.binary_dilation(labels == ann.region_index("leg_left"), iterations=6)] = 0.0
+    frame = drawing_from_array(gray, normalize=False)
+    t = transfer_annotations(ann, drawing, frame, key_labels=labels)
+    assert "leg_left" in {e.name for e in t.entries if e.flagged}
+    for s in t.annotations.regions[ann.region_index("leg_left")].scribbles:
+        x, y = np.rint(s).astype(int).T
+        assert (gray[y, x] > 0.5).all()
+    segment(t.annotations, frame)  # the carried annotation segments the frame

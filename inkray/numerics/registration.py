@@ -25,22 +25,32 @@ in their block take the harmonic interpolation of the others, and the dense
 field is the bilinear interpolation of the lattice. The match confidence of a
 pixel is the same agreement score of the registered drawings in a window
 around it (or of the nearest window that holds ink).
+
+Labelled segments of the source (a limb) can then be moved on their own
+(:func:`rigid_segments`: chamfer matching, after Borgefors, "Hierarchical
+chamfer matching: a parametric edge matching algorithm", PAMI 1988, over
+rigid motions; :func:`arap_segments`: the registration above from there).
 """
 
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from scipy import ndimage
 
 from inkray.errors import InputError
 from inkray.numerics.grid import grid_laplacian
-from inkray.numerics.spd import min_quad_with_fixed
+from inkray.numerics.spd import MinQuadWithFixed
 
-__all__ = ["Registration", "arap_register", "warp_points"]
+__all__ = ["LocalField", "Registration", "RigidMotion", "arap_register", "arap_segments",
+           "lattice_interpolate", "rigid_segments", "warp_points"]
 
 #: Blocks that agree less than this (the score of their best shift) are trimmed:
 #: they take no part in the rigid fits and follow their neighbours.
 TRIM = 0.35
+#: A segment's reported match distance is the mean over this share of its ink
+#: pixels, the nearest: the rest may be lines another part now hides or reveals.
+_KEEP = 0.75
 #: Offsets of the lattice neighbourhood of a rigid fit (5x5 control points):
 #: wide enough that a straight stroke's slide along itself is pinned by its ends.
 _OFFSETS = (-2, -1, 0, 1, 2)
@@ -74,7 +84,7 @@ class Registration:
 
 
 def arap_register(source, target, *, spacing=8, levels=None, radius=3, iterations=3,
-                  sigma=1.0, trim=TRIM, stiffness=0.02):
+                  sigma=1.0, trim=TRIM, stiffness=0.02, initial=None):
     """Register ``source`` onto ``target`` as rigidly as possible (Sýkora et al. 2009).
 
     Parameters
@@ -101,6 +111,10 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
     stiffness : float, default 0.02
         Cost of a shift, per squared pixel, relative to a block's ink energy:
         featureless or ambiguous blocks (a straight line) keep still.
+    initial : callable, optional
+        Where to start: a function taking ``(k, 2)`` points ``[x, y]`` to
+        their ``(k, 2)`` displacements (e.g. a rigid motion found by
+        :func:`rigid_segments`); by default none.
 
     Returns
     -------
@@ -146,8 +160,13 @@ def arap_register(source, target, *, spacing=8, levels=None, radius=3, iteration
         tgt = _level_image(target, f, sigma)
         lattice = _Lattice(src.shape, spacing)
         blocks = _Blocks(lattice, src.shape)
-        u = (np.zeros(lattice.shape + (2,)) if field is None
-             else field.sample(lattice.rest * f) / f)
+        if field is not None:
+            u = field.sample(lattice.rest * f) / f
+        elif initial is not None:
+            u = np.asarray(initial((lattice.rest * f).reshape(-1, 2)), float).reshape(
+                lattice.shape + (2,)) / f
+        else:
+            u = np.zeros(lattice.shape + (2,))
         rounds = iterations * 2 if field is None else iterations
         for _ in range(rounds):
             # The finest level only refines what the coarser ones found: a smaller search.
@@ -220,10 +239,37 @@ class _NodeField:
                          for c in (0, 1)], axis=-1)
 
     def dense(self, shape):
-        # Bilinear on a regular lattice is separable: two small matrix products.
-        ay = _hat_matrix(shape[0], self.u.shape[0], self.spacing)
-        ax = _hat_matrix(shape[1], self.u.shape[1], self.spacing)
-        return np.stack([ay @ self.u[..., c] @ ax.T for c in (0, 1)], axis=-1)
+        return lattice_interpolate(self.u, self.spacing, shape)
+
+
+def lattice_interpolate(values, spacing, shape):
+    """Bilinear interpolation of values on a lattice to every pixel.
+
+    Parameters
+    ----------
+    values : (ny, nx) or (ny, nx, c) float array
+        Values at the lattice points ``(x, y) = (j spacing, i spacing)``.
+    spacing : int
+    shape : (h, w)
+        The image; pixels beyond the last lattice point take its values.
+
+    Returns
+    -------
+    (h, w) or (h, w, c) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lattice_interpolate(np.array([[0.0, 4.0]]), 4, (1, 6)).tolist()
+    [[0.0, 1.0, 2.0, 3.0, 4.0, 4.0]]
+    """
+    values = np.asarray(values, float)
+    # Bilinear on a regular lattice is separable: two sparse matrix products.
+    ay = _hat_matrix(shape[0], values.shape[0], spacing)
+    ax = _hat_matrix(shape[1], values.shape[1], spacing)
+    if values.ndim == 2:
+        return (ax @ (ay @ values).T).T
+    return np.stack([(ax @ (ay @ values[..., c]).T).T for c in range(values.shape[2])], axis=-1)
 
 
 def _hat_matrix(n, nodes, spacing):
@@ -231,11 +277,10 @@ def _hat_matrix(n, nodes, spacing):
     t = np.minimum(np.arange(n) / spacing, nodes - 1)
     i = np.minimum(np.floor(t).astype(int), max(nodes - 2, 0))
     f = t - i
-    m = np.zeros((n, nodes))
-    m[np.arange(n), i] = 1 - f
-    if nodes > 1:
-        m[np.arange(n), i + 1] += f
-    return m
+    rows = np.arange(n)
+    if nodes == 1:
+        return sp.csr_matrix((np.ones(n), (rows, i)), shape=(n, nodes))
+    return sp.csr_matrix((np.r_[1 - f, f], (np.r_[rows, rows], np.r_[i, i + 1])), shape=(n, nodes))
 
 
 # -- the steps -----------------------------------------------------------------
@@ -311,19 +356,28 @@ def _match_blocks(src, tgt, blocks, u, radius, stiffness):
     """
     lattice = blocks.lattice
     h, w = src.shape
-    ys, xs = np.mgrid[:h, :w].astype(float)
-    du = _NodeField(lattice.rest, u, lattice.spacing).dense((h, w))
-    # Edge values beyond the border: a line the frame cuts does not end there.
-    warped = ndimage.map_coordinates(tgt, [ys + du[..., 1], xs + du[..., 0]], order=1,
-                                     mode="nearest")
-    r = radius
-    big = np.pad(warped, r, mode="edge")
-    table = _integral(big * big)
     ink = src > 1e-3 * max(src.max(), 1e-12)
     py, px = np.nonzero(ink)
     sv = src[py, px]
     src2 = blocks.sums(sv * sv, ink)
     active = src2 > 1e-3 * max(src2.max(), 1e-12)
+    # The target is looked at only in the blocks with ink and a cell around
+    # them (a cell is wider than any shift tried).
+    cells = np.zeros(blocks.cells, bool)
+    for oy in (0, 1):
+        for ox in (0, 1):
+            cells[oy:oy + active.shape[0], ox:ox + active.shape[1]] |= active
+    need = ndimage.binary_dilation(cells, iterations=1)[blocks.cell // blocks.cells[1],
+                                                        blocks.cell % blocks.cells[1]]
+    ys, xs = np.nonzero(need)
+    du = _NodeField(lattice.rest, u, lattice.spacing).dense((h, w))
+    warped = np.zeros((h, w))
+    # Edge values beyond the border: a line the frame cuts does not end there.
+    warped[ys, xs] = ndimage.map_coordinates(tgt, [ys + du[ys, xs, 1], xs + du[ys, xs, 0]],
+                                             order=1, mode="nearest")
+    r = radius
+    big = np.pad(warped, r, mode="edge")
+    table = _integral(big * big)
     shifts = [(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
     cost = np.empty((len(shifts),) + lattice.shape)
     energy = np.empty_like(cost)
@@ -416,11 +470,8 @@ def _fill(u, known):
     ny, nx = known.shape
     L = grid_laplacian(np.ones((ny, nx - 1)), np.ones((ny - 1, nx)))
     flat = known.reshape(-1)
-    out = np.empty_like(u)
-    for c in (0, 1):
-        values = u[..., c].reshape(-1)
-        out[..., c] = min_quad_with_fixed(L, np.zeros(flat.size), flat, values[flat]).reshape(ny, nx)
-    return out
+    # One factorization for both components.
+    return MinQuadWithFixed(L, flat).solve(Y=u.reshape(-1, 2)[flat]).reshape(u.shape)
 
 
 def _confidence(source, target, displacement, *, scale):
@@ -434,9 +485,12 @@ def _confidence(source, target, displacement, *, scale):
     blur = scale / 8
     a = ndimage.gaussian_filter(source, blur)
     b = ndimage.gaussian_filter(warped, blur)
-    sigma = scale / 2
-    num = ndimage.gaussian_filter(2 * a * b, sigma)
-    den = ndimage.gaussian_filter(a * a + b * b, sigma)
+    # The windows are wide and smooth: their sums are taken on a grid `step`
+    # times coarser and interpolated back.
+    step = max(1, int(scale // 8))
+    sigma = scale / 2 / step
+    num = ndimage.gaussian_filter(_level_image(2 * a * b, step, 0), sigma)
+    den = ndimage.gaussian_filter(_level_image(a * a + b * b, step, 0), sigma)
     # Where the window holds almost no ink the ratio says nothing: take the nearest
     # window that does.
     defined = den > 0.02 * max(den.max(), 1e-12)
@@ -444,4 +498,299 @@ def _confidence(source, target, displacement, *, scale):
     if defined.any() and not defined.all():
         _, (iy, ix) = ndimage.distance_transform_edt(~defined, return_indices=True)
         conf = conf[iy, ix]
+    if step > 1:
+        ys, xs = np.mgrid[:h, :w]
+        conf = ndimage.map_coordinates(conf, [(ys + 0.5) / step - 0.5, (xs + 0.5) / step - 0.5],
+                                       order=1, mode="nearest")
     return np.clip(conf, 0.0, 1.0)
+
+
+# -- segments moved rigidly ----------------------------------------------------
+
+@dataclass
+class RigidMotion:
+    """A rotation by ``angle`` (radians) about ``pivot`` followed by a ``translation``.
+
+    Attributes
+    ----------
+    angle : float
+    pivot, translation : (2,) float arrays
+        ``[x, y]``.
+    cost : float
+        Mean distance (pixels, clipped) from the segment's moved ink to the
+        target's ink under this motion, over the nearest three quarters of
+        its ink pixels (the rest may be lines another part hides or reveals).
+    base_cost : float
+        The same under the registration the search started from.
+    """
+
+    angle: float
+    pivot: np.ndarray
+    translation: np.ndarray
+    cost: float
+    base_cost: float
+
+    def apply(self, points):
+        """Where ``points`` ``(k, 2)`` ``[x, y]`` land."""
+        p = np.asarray(points, float).reshape(-1, 2) - self.pivot
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        return np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]], axis=1) \
+            + self.pivot + self.translation
+
+    def invert(self, points):
+        """The points that :meth:`apply` takes to ``points``."""
+        p = np.asarray(points, float).reshape(-1, 2) - self.pivot - self.translation
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        return np.stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]], axis=1) + self.pivot
+
+
+def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radius=32.0,
+                   clip=6.0, attach=0.3, samples=160, tolerance=0.75):
+    """Each labelled segment of ``source`` moved rigidly onto ``target``'s ink.
+
+    A smooth registration cannot follow a limb that swings far while the rest
+    barely moves. For every segment (pixels of one label ``>= 0``) this
+    searches the rotations within ``max_angle`` degrees and the translations
+    within ``radius`` pixels of the rigid motion that best fits the
+    registration on the segment, for the one that brings the segment's ink
+    (its pixels and the ink around them) closest to the target's ink
+    (chamfer matching: the mean distance to the target's nearest ink pixel,
+    clipped at ``clip``), coarse to fine. Where the segment meets other
+    segments it must stay attached: the distance of those pixels from where
+    the registration puts them costs ``attach`` per pixel.
+
+    Parameters
+    ----------
+    source, target : (H, W) float arrays
+        Ink darkness in [0, 1], same shape.
+    labels : (H, W) int array
+        Segments of ``source`` (``< 0``: none).
+    registration : Registration
+        Of ``source`` onto ``target`` (:func:`arap_register`).
+    max_angle, radius, clip, attach : float
+        See above.
+    samples : int, default 160
+        Ink pixels of a segment the cost is measured on (evenly picked).
+    tolerance : float, default 0.75
+        A segment whose ink the registration already leaves this close
+        (pixels, mean) to the target's is not searched: its motion is the
+        rigid fit of the registration.
+
+    Returns
+    -------
+    dict
+        Label -> :class:`RigidMotion`, for every label with ink.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> src = np.zeros((80, 80)); src[20:60, 20] = src[20:60, 30] = 1
+    >>> src[20, 20:31] = src[59, 20:31] = 1
+    >>> labels = np.full((80, 80), -1); labels[21:59, 21:30] = 0
+    >>> tgt = np.roll(src, 25, axis=1)
+    >>> m = rigid_segments(src, tgt, labels, arap_register(src, src))[0]
+    >>> np.round(m.apply([[25.0, 40.0]])).tolist(), round(m.cost, 2)
+    ([[50.0, 40.0]], 0.0)
+    """
+    source = _image(source, "source")
+    target = _image(target, "target")
+    labels = np.asarray(labels)
+    if source.shape != target.shape or labels.shape != source.shape:
+        raise InputError("registration: source, target and labels must have one shape")
+    edt = ndimage.distance_transform_edt(target < 0.5)
+    dist, far = np.minimum(edt, clip), np.minimum(edt, 3 * clip)
+    ink = source >= 0.5
+    out = {}
+    for k, window in _segment_windows(labels, 5):
+        mask = labels[window] == k
+        ring = ndimage.binary_dilation(mask, iterations=2)
+        py, px = np.nonzero(ink[window] & ring)
+        if len(px) < 3:
+            continue
+        pick = np.linspace(0, len(px) - 1, min(samples, len(px))).astype(int)
+        origin = np.array([window[1].start, window[0].start], float)
+        p = np.stack([px[pick], py[pick]], axis=1) + origin
+        g = warp_points(registration, p)
+        others = ndimage.binary_dilation((labels[window] >= 0) & ~mask, iterations=3) & mask
+        ay, ax = np.nonzero(others)
+        a = np.stack([ax, ay], axis=1)[::max(1, len(ax) // 60)] + origin
+        goal = warp_points(registration, a)
+        # A limb turns about where it is attached: rotations about there need
+        # the smallest translations.
+        pivot = a.mean(axis=0) if len(a) else p.mean(axis=0)
+        theta0 = _procrustes_angle(p - p.mean(axis=0), g - g.mean(axis=0))
+        t0 = g.mean(axis=0) - _rotate(p.mean(axis=0) - pivot, theta0) - pivot
+        base = float(_chamfer(dist, g[None], clip, _KEEP)[0])
+        if base <= tolerance:
+            out[int(k)] = RigidMotion(angle=theta0, pivot=pivot, translation=t0, cost=base,
+                                      base_cost=base)
+            continue
+
+        def search(centre, span_a, step_a, span_t, step_t, field, cut):
+            """The best (cost, angle, shift) per angle tried around ``centre``."""
+            r = np.arange(-span_t, span_t + 1e-9, step_t)
+            shifts = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2) + centre[2]
+            found = []
+            for th in centre[1] + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a)):
+                cost = _chamfer(field, _rotate(p - pivot, th)[None] + pivot + shifts[:, None], cut)
+                if len(a):
+                    qa = _rotate(a - pivot, th) + pivot
+                    gap = np.linalg.norm(qa[None] + shifts[:, None] - goal[None], axis=2)
+                    cost = cost + attach * np.minimum(gap, cut).mean(axis=1)
+                j = int(cost.argmin())
+                found.append((float(cost[j]), float(th), shifts[j].copy()))
+            return found
+
+        # Coarse steps on distances clipped far (a smooth cost, so that a thin
+        # line's narrow basin is not stepped over), then the few best angles
+        # refined on the near distances.
+        coarse = search((0.0, theta0, t0), max_angle, 5.0, radius, 4.0, far, 3 * clip)
+        best = (np.inf, theta0, t0)
+        for start in sorted(coarse, key=lambda c: c[0])[:3]:
+            best = min([best] + search(start, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
+        motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0,
+                             base_cost=base)
+        motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip, _KEEP)[0])
+        out[int(k)] = motion
+    return out
+
+
+def _segment_windows(labels, pad):
+    """``(label, window)`` for each label ``>= 0``: the slices of its bounding box plus ``pad``."""
+    h, w = labels.shape
+    found = ndimage.find_objects(np.where(labels >= 0, labels + 1, 0))
+    for k, box in enumerate(found):
+        if box is None:
+            continue
+        yield k, (slice(max(box[0].start - pad, 0), min(box[0].stop + pad, h)),
+                  slice(max(box[1].start - pad, 0), min(box[1].stop + pad, w)))
+
+
+def _rotate(d, theta):
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1]], axis=-1)
+
+
+def _procrustes_angle(a, b):
+    """The rotation angle best taking centred points ``a`` to centred points ``b``."""
+    return float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                            np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+
+
+def _chamfer(dist, q, clip, keep=1.0):
+    """Mean clipped distance at points ``q`` (..., n, 2), of the ``keep`` share of them
+    nearest; ``clip`` outside the image."""
+    h, w = dist.shape
+    x = np.rint(q[..., 0]).astype(int)
+    y = np.rint(q[..., 1]).astype(int)
+    inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
+    d = np.where(inside, dist[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)], clip)
+    if keep < 1:
+        k = max(1, int(round(keep * d.shape[-1])))
+        d = np.partition(d, k - 1, axis=-1)[..., :k]
+    return d.mean(axis=-1)
+
+
+@dataclass
+class LocalField:
+    """A displacement field over a window of the image.
+
+    Attributes
+    ----------
+    origin : (2,) int array
+        ``[x, y]`` of the window's top-left pixel.
+    displacement : (h, w, 2) float array
+        As :attr:`Registration.displacement`, over the window (points outside
+        it take the nearest window pixel's).
+    cost : float
+        As :attr:`RigidMotion.cost`.
+    """
+
+    origin: np.ndarray
+    displacement: np.ndarray
+    cost: float
+
+    def apply(self, points):
+        """Where ``points`` ``(k, 2)`` ``[x, y]`` land."""
+        p = np.asarray(points, float).reshape(-1, 2)
+        q = p - self.origin
+        d = self.displacement
+        return p + np.stack([ndimage.map_coordinates(d[..., c], [q[:, 1], q[:, 0]], order=1,
+                                                     mode="nearest") for c in (0, 1)], axis=1)
+
+
+def arap_segments(source, target, labels, motions, *, spacing=4, margin=None, clip=6.0):
+    """Each segment's own as-rigid-as-possible registration, started from its rigid motion.
+
+    A limb that bends (a knee) is not one rigid piece: from the motion found
+    by :func:`rigid_segments`, the segment's ink alone (its pixels and the two
+    pixels of ink around them) is registered onto the whole target by
+    :func:`arap_register`, in a window around the segment.
+
+    Parameters
+    ----------
+    source, target : (H, W) float arrays
+        Ink darkness in [0, 1], same shape.
+    labels : (H, W) int array
+        Segments of ``source``.
+    motions : dict
+        Label -> :class:`RigidMotion`; only these segments are registered.
+    spacing : int, default 4
+        Lattice spacing of the segments' registrations.
+    margin : int, optional
+        Pixels of the window beyond the segment and where its motion takes it;
+        by default four lattice spacings.
+    clip : float, default 6.0
+        As in :func:`rigid_segments`, for :attr:`LocalField.cost`.
+
+    Returns
+    -------
+    dict
+        Label -> :class:`LocalField`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ys, xs = np.mgrid[:90, :90]
+    >>> src = (np.abs(np.hypot(xs - 30, ys - 40) - 12) < 0.8).astype(float)
+    >>> labels = np.where(np.hypot(xs - 30, ys - 40) < 11, 0, -1)
+    >>> tgt = np.roll(src, (10, 20), axis=(0, 1))
+    >>> motions = rigid_segments(src, tgt, labels, arap_register(src, src))
+    >>> f = arap_segments(src, tgt, labels, motions)[0]
+    >>> np.round(f.apply([[30.0, 40.0]])).tolist()
+    [[50.0, 50.0]]
+    """
+    source = _image(source, "source")
+    target = _image(target, "target")
+    labels = np.asarray(labels)
+    h, w = source.shape
+    margin = 4 * spacing if margin is None else int(margin)
+    out = {}
+    for k, motion in motions.items():
+        ky, kx = np.nonzero(labels == k)
+        if not len(kx):
+            continue
+        box = np.array([[kx.min(), ky.min()], [kx.max(), ky.max()]], float)
+        corners = np.array([[box[i, 0], box[j, 1]] for i in (0, 1) for j in (0, 1)])
+        reach = np.vstack([corners, motion.apply(corners)])
+        x0, y0 = np.clip(np.floor(reach.min(axis=0)).astype(int) - margin, 0, [w, h])
+        x1, y1 = np.clip(np.ceil(reach.max(axis=0)).astype(int) + margin + 1, 0, [w, h])
+        window = (slice(y0, y1), slice(x0, x1))
+        ring = ndimage.binary_dilation(labels[window] == k, iterations=2)
+        src = np.where(ring, source[window], 0.0)
+        tgt = target[window]
+        origin = np.array([x0, y0])
+
+        def initial(points, motion=motion, origin=origin):
+            p = points + origin
+            return motion.apply(p) - p
+
+        reg = arap_register(src, tgt, spacing=spacing, levels=2, initial=initial)
+        local = LocalField(origin=origin, displacement=reg.displacement, cost=0.0)
+        py, px = np.nonzero(ring & (src >= 0.5))
+        if len(px):
+            p = np.stack([px, py], axis=1).astype(float) + origin
+            dist = np.minimum(ndimage.distance_transform_edt(tgt < 0.5), clip)
+            local.cost = float(_chamfer(dist, (local.apply(p) - origin)[None], clip, _KEEP)[0])
+        out[int(k)] = local
+    return out

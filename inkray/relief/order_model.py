@@ -8,12 +8,16 @@ regression trees (Friedman, "Greedy function approximation: a gradient
 boosting machine", Annals of Statistics 29(5), 2001) trained on line drawings
 generated with a known depth order (``benchmarks/order_drawings.py``, trained
 by ``benchmarks/train_order.py``; no hand-made drawing is used), and
-calibrated by Platt scaling (Platt, "Probabilistic outputs for support vector
-machines", 1999) on a held-out split of generated drawings.
+calibrated on a held-out split of generated drawings: by Platt scaling (Platt,
+"Probabilistic outputs for support vector machines", 1999) or by isotonic
+regression of the right share on the score (Zadrozny and Elkan, "Transforming
+classifier scores into accurate multiclass probability estimates", KDD 2002).
 
 The trees score both orientations of a place, ``F(x, y)`` with ``x`` supposed
 in front and ``F(y, x)``; ``s = (F(x, y) - F(y, x)) / 2`` and
-``P(x in front) = sigmoid(temperature * s)``, so the answer does not depend
+``P(x in front) = sigmoid(temperature * s)``, or with an isotonic
+calibration ``P = c(s)`` for ``s >= 0`` and ``1 - c(-s)`` below, ``c``
+piecewise linear through the model's knots, so the answer does not depend
 on which region is named first. The model is a small JSON file shipped in the
 package (:data:`MODEL_FILE`).
 """
@@ -55,6 +59,11 @@ class OrderModel:
     weights : (F,) float array, optional
         A linear term ``weights @ x`` added to the trees' sum (the trees are
         boosted from it); None: none.
+    calibration : (K, 2) float array, optional
+        Knots ``(s, p)`` of an isotonic calibration, ``s`` increasing from 0
+        and ``p`` non-decreasing from 0.5 below 1: ``P(x in front)`` for a
+        score ``s >= 0``, interpolated linearly (constant beyond the last
+        knot). None: Platt scaling by ``temperature``.
     """
 
     feature: np.ndarray
@@ -62,6 +71,7 @@ class OrderModel:
     leaf: np.ndarray
     temperature: float
     weights: np.ndarray = None
+    calibration: np.ndarray = None
 
     def trees_score(self, X):
         """``F``: the linear term plus the sum of the trees' values at the rows of ``X`` ``(n, F)``."""
@@ -90,11 +100,16 @@ class OrderModel:
         --------
         >>> import numpy as np
         >>> m = load_order_model()
-        >>> f = np.zeros((1, 2, m.feature.max() + 1))
+        >>> f = np.zeros((1, 2, len(FEATURES)))
         >>> float(m.probability(f)[0])        # the same both ways: a coin toss
         0.5
         """
-        return 1.0 / (1.0 + np.exp(-self.temperature * self.score(features)))
+        s = self.score(features)
+        if self.calibration is None:
+            return 1.0 / (1.0 + np.exp(-self.temperature * s))
+        knots, p = self.calibration[:, 0], self.calibration[:, 1]
+        front = np.interp(np.abs(s), knots, p)
+        return np.where(s >= 0, front, 1.0 - front)
 
     def to_json(self):
         """The model as a JSON-able dict (``inf`` thresholds as ``null``)."""
@@ -102,6 +117,7 @@ class OrderModel:
         return {"format": _FORMAT, "version": 1, "features": list(FEATURES),
                 "temperature": float(self.temperature),
                 "weights": None if self.weights is None else self.weights.tolist(),
+                "calibration": None if self.calibration is None else self.calibration.tolist(),
                 "feature": self.feature.tolist(),
                 "threshold": thr, "leaf": self.leaf.tolist()}
 
@@ -121,6 +137,8 @@ class OrderModel:
             temperature = float(data["temperature"])
             weights = data.get("weights")
             weights = None if weights is None else np.asarray(weights, float)
+            calibration = data.get("calibration")
+            calibration = None if calibration is None else np.asarray(calibration, float)
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"{where}: malformed model ({e})") from None
         inner = leaf.shape[1] - 1 if leaf.ndim == 2 else -1
@@ -129,8 +147,15 @@ class OrderModel:
                 or feature.min() < 0 or feature.max() >= len(FEATURES)
                 or (weights is not None and weights.shape != (len(FEATURES),))):
             raise InputError(f"{where}: the trees' arrays do not fit together")
+        if calibration is not None and (
+                calibration.ndim != 2 or calibration.shape[1] != 2 or len(calibration) < 2
+                or calibration[0, 0] != 0.0 or calibration[0, 1] != 0.5
+                or np.any(np.diff(calibration[:, 0]) <= 0) or np.any(np.diff(calibration[:, 1]) < 0)
+                or calibration[-1, 1] >= 1.0):
+            raise InputError(f"{where}: calibration: expected knots (s, p) from (0, 0.5), s "
+                             f"increasing, p non-decreasing below 1")
         return cls(feature=feature, threshold=threshold, leaf=leaf, temperature=temperature,
-                   weights=weights)
+                   weights=weights, calibration=calibration)
 
 
 @lru_cache(maxsize=1)

@@ -12,23 +12,27 @@ over B at one crossing, B over A at the other) are two consistent local
 relations. Places that touch form a *site*; within a site the relations must
 be acyclic.
 
-Prediction, per place of a pair ``a``/``b``: the cues of
+Prediction, per place of a pair ``a``/``b``, from the cues of
 :mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
 of each part's outline the contact is, which part's outline continues the
-contact line, trusted as far as the drawing's lines are clean) are combined as
-a logistic model, ``score = sum(weights[cue] * cue)``; its sign says who is in
-front and ``confidence = 2 * sigmoid(|score|) - 1`` (0 for a coin toss,
-towards 1 when sure). :data:`WEIGHTS`, :data:`JUNCTION_RADIUS`,
-:data:`CONTINUATION_WIDTHS` and :data:`STROKE_END_SCALE` were fitted on the
-bundled drawings; ``benchmarks/bench_order.py`` measures the prediction
-leave-one-out (weights fitted without the drawing scored) and how accuracy
-grows with confidence. Given a ``model``
-(:func:`inkray.relief.order_model.load_order_model`), a model learned from
-generated drawings reads the measures of
-:func:`inkray.relief.order_cues.place_features` instead and gives ``p``, the
-calibrated probability that ``a`` is in front: ``confidence = |2 p - 1|``
-(``benchmarks/bench_order.py --generated`` compares the two on the bundled
-drawings not made for inkray).
+contact line). By default, given the drawing's ink style, the model learned
+from generated drawings
+(:func:`inkray.relief.order_model.load_order_model`) reads the measures of
+:func:`inkray.relief.order_cues.place_features` and gives ``p``, the
+calibrated probability that ``a`` is in front: ``confidence = |2 p - 1|`` (0
+for a coin toss, towards 1 when sure). Given ``weights`` (e.g.
+:data:`WEIGHTS`), or without the ink style (a label image alone: the learned
+model was trained on drawings with their lines, and without them it reads
+no continuation), the cues are combined as a logistic model instead,
+``score = sum(weights[cue] * cue)``, the ``continuation`` cue trusted as far as
+the drawing's lines are clean; its sign says who is in front and
+``confidence = 2 * sigmoid(|score|) - 1``. :data:`WEIGHTS`,
+:data:`JUNCTION_RADIUS`, :data:`CONTINUATION_WIDTHS` and
+:data:`STROKE_END_SCALE` were fitted on the bundled drawings;
+``benchmarks/bench_order.py`` measures the weighted cues leave-one-out
+(weights fitted without the drawing scored), and with ``--generated`` both
+predictors on real drawings none of which was used in training: the learned
+model is the default because it is the better of the two there.
 A global consistency step follows: predictions are
 added strongest first, and one that would close a cycle within its site
 (with the user's entries or stronger predictions) is dropped.
@@ -48,6 +52,7 @@ from inkray.errors import InputError
 from inkray.numerics.order_graph import OrderGraph
 from inkray.relief.order_cues import (CUES, order_cues, outline_lengths, place_features,
                                       region_stats)
+from inkray.relief.order_model import load_order_model
 
 __all__ = ["CONTINUATION_WIDTHS", "JUNCTION_RADIUS", "Relation", "STROKE_END_SCALE", "WEIGHTS",
            "depth_order", "predict_place"]
@@ -137,7 +142,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
     predict : bool, default True
         Predict the order of the places the user's entries leave open.
     weights : dict, optional
-        Weight of each cue (default :data:`WEIGHTS`), see :func:`predict_place`.
+        Weight of each cue (e.g. :data:`WEIGHTS`): predict with the weighted cues
+        instead of the learned model, see :func:`predict_place`.
     junction_radius : float, optional
         Largest radius in pixels of the disk measured around a junction
         (default :data:`JUNCTION_RADIUS`).
@@ -154,8 +160,8 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
         same completion, ``seams`` and parameters, and a new arrow costs no
         cue (at 1 Mpx all the fox's places take about 0.1 s of CPU).
     model : inkray.relief.order_model.OrderModel, optional
-        Predict with this learned model instead of the weighted cues, see
-        :func:`predict_place`.
+        The learned model (default, without ``weights`` and given ``ink``: the
+        shipped one), see :func:`predict_place`.
 
     Returns
     -------
@@ -213,7 +219,7 @@ def depth_order(constraints, labels, completion, *, seams=(), predict=True, weig
             if place.index not in memo:
                 if outlines is None:
                     outlines = outline_lengths(labels)
-                    stats = region_stats(labels) if model is not None else None
+                    stats = region_stats(labels) if weights is None and ink is not None else None
                 memo[place.index] = predict_place(
                     completion, place, weights=weights, junction_radius=junction_radius,
                     seams=paths, outlines=outlines, ink=ink,
@@ -248,9 +254,11 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     place : inkray.relief.completion.Place
     weights : dict, optional
         ``{cue: weight}`` for the cues of
-        :func:`inkray.relief.order_cues.order_cues` (default :data:`WEIGHTS`).
-        The score is the weighted sum; its sign says who is in front and
-        ``2 * sigmoid(|score|) - 1`` is the confidence.
+        :func:`inkray.relief.order_cues.order_cues` (e.g. :data:`WEIGHTS`, the
+        default without ``ink``), used instead of the learned model. The
+        score is the weighted sum; its
+        sign says who is in front and ``2 * sigmoid(|score|) - 1`` is the
+        confidence.
     junction_radius : float, optional
         Largest radius of the disk measured around each junction (default
         :data:`JUNCTION_RADIUS`).
@@ -271,9 +279,9 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         How fast stroke ends discount the ``continuation`` cue (default
         :data:`STROKE_END_SCALE`).
     model : inkray.relief.order_model.OrderModel, optional
-        A learned model (e.g. :func:`inkray.relief.order_model.load_order_model`)
-        used instead of the weighted cues (``weights`` must then be None):
-        ``p`` the probability that ``place.a`` is in front,
+        The learned model (default, without ``weights`` and given ``ink``:
+        :func:`inkray.relief.order_model.load_order_model`; ``weights`` must
+        then be None): ``p`` the probability that ``place.a`` is in front,
         ``confidence = |2 p - 1|``. It was trained with the default radii and
         scale.
     stats : tuple, optional
@@ -294,17 +302,22 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
     >>> labels = np.where((yy - 20) ** 2 + (xx - 20) ** 2 < 300, 0, -1).astype(np.int32)
     >>> labels[(yy - 20) ** 2 + (xx - 20) ** 2 < 30] = 1      # an eye inside a head
     >>> c = complete_regions(labels, names=["head", "eye"])
-    >>> r = predict_place(c, c.places[0])
+    >>> r = predict_place(c, c.places[0])      # no ink style: the weighted cues
     >>> (r.front_name, r.back_name)
     ('eye', 'head')
-    >>> from inkray.relief.order_model import load_order_model
-    >>> learned = predict_place(c, c.places[0], model=load_order_model())
+    >>> from inkray.relief.ink_style import InkStyle
+    >>> learned = predict_place(c, c.places[0], ink=InkStyle(width=2.0, stroke_ends=0.0))
     >>> (learned.front_name, learned.back_name)
     ('eye', 'head')
     """
     if model is not None and weights is not None:
         raise InputError("weights: give cue weights or a learned model, not both")
-    weights = WEIGHTS if weights is None and model is None else weights
+    if weights is None and model is None:
+        # The learned model read drawings with their ink; a bare label image gets the cues.
+        if ink is None:
+            weights = WEIGHTS
+        else:
+            model = load_order_model()
     unknown = sorted(set(weights or ()) - set(CUES))
     if unknown:
         raise InputError(f"weights: unknown cue {unknown[0]!r} (expected {', '.join(CUES)})")
@@ -319,7 +332,8 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
                                   stroke_end_scale=scale, seam_distance=seam_distance)
         if features is None:
             return None
-        score = float(model.score(features[None])[0]) * model.temperature
+        p = float(model.probability(features[None])[0])
+        score, confidence = p - 0.5, abs(2.0 * p - 1.0)
     else:
         cues = order_cues(completion, place, outlines=outlines, seams=seams,
                           junction_radius=radius, seam_distance=seam_distance, ink=ink,
@@ -327,11 +341,11 @@ def predict_place(completion, place, *, weights=None, junction_radius=None, seam
         if cues is None:
             return None
         score = sum(float(w) * cues[k] for k, w in weights.items())
+        confidence = float(np.tanh(abs(score) / 2.0))  # 2 * sigmoid(|score|) - 1 = |2 p - 1|
     if score == 0:
         return None
     a, b = place.a, place.b
     front, back = (a, b) if score > 0 else (b, a)
-    confidence = float(np.tanh(abs(score) / 2.0))  # 2 * sigmoid(|score|) - 1 = |2 p - 1|
     names = completion.names
     return Relation(front=front, back=back, front_name=names[front], back_name=names[back],
                     where=tuple(float(v) for v in place.where), source="predicted",

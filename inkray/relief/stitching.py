@@ -14,17 +14,19 @@ gets an offset field ``g_i`` on its mesh so that the heights
   ``z_A - z_B`` is linear: the order holds over the whole overlap), plus the
   user's entry points;
 - **C0 stitches**: ``z_a = z_b`` at the shared stations of a ``stitch`` entry;
-- **C1 grafts**: along a ``graft`` entry the front region ``F`` (whose
-  outline carries the entry, inflated with a Neumann condition there) meets
-  the region ``K`` behind: ``z_F = z_K`` at its stations (no crack) and
-  ``z_F >= z_K`` plus a margin growing to ``epsilon`` on every vertex of
-  ``F`` within ``band`` pixels of them that lies over ``K``'s mesh (no
-  z-fighting); after the solve ``F`` is blended over that band onto ``K``'s
-  tangent plane across the seam, with a weight of zero value and slope at
-  the seam, so ``F`` leaves ``K`` with its height and slope (no crease, no
-  rim), as the single smooth surface of Dvořožňák et al. 2018, "Seamless
-  reconstruction of part-based high-relief models from hand-drawn images",
-  would;
+- **smooth grafts**: along a ``graft`` entry, or an open join of
+  :mod:`inkray.relief.joins` (outline without ink between two regions), the
+  front region ``F`` (whose outline carries the seam, inflated with a
+  Neumann condition there) meets the region ``K`` behind: ``z_F = z_K`` at
+  every vertex of its seam (no crack; rows at the stations alone let ``F``
+  bulge between them) and ``z_F >= z_K`` plus a margin growing to
+  ``epsilon`` on every vertex of ``F`` within ``band`` pixels of them that
+  lies over ``K``'s mesh (no z-fighting); after the solve ``F`` is blended
+  over that band onto ``K``'s tangent plane across the seam, with a weight
+  of zero value, slope and curvature at the seam, so ``F`` leaves ``K`` with
+  its height and slope (no crease, no rim), as the single smooth surface of
+  Dvořožňák et al. 2018, "Seamless reconstruction of part-based
+  high-relief models from hand-drawn images", would;
 - ``equal`` entries: ``z_A(a) = z_B(b)`` at the entry's two points,
 
 with minimal energy ``sum_i g_i^T (-L_i + lambda_i M_i) g_i`` (cotangent
@@ -67,6 +69,7 @@ _INSIDE = 0.75  # px: a point this close to a mesh counts as covered by it
 _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order row
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
+_RISE = 1.0  # and at least this times the grafted part's own height at the seam
 _REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
@@ -254,7 +257,9 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         relation applies.
     seams : sequence of inkray.input.annotations.Boundary, default ()
         The ``boundaries`` entries (``stitch``, ``graft``; ``flat`` needs no
-        offset), found on the meshes by their index.
+        offset), found on the meshes by their index, and the open joins
+        (:class:`~inkray.relief.joins.OpenJoin`, grafts between their own two
+        regions, named by their ``label``).
     epsilon : float, optional
         Depth step of an inequality in px; default
         :data:`DEFAULT_EPSILON_FRACTION` of the drawing's longer side.
@@ -510,9 +515,11 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
     for entry in seams:
         if entry.type == "flat":
             continue
-        key = f"boundaries[{entry.index}]"
+        # An open join (inkray.relief.joins) names itself and joins its own two regions.
+        key = getattr(entry, "label", f"boundaries[{entry.index}]")
         holders = [i for i, r in enumerate(regions)
-                   if r is not None and len(r.mesh.station_vertices(entry.index))]
+                   if r is not None and len(r.mesh.station_vertices(entry.index))
+                   and i in getattr(entry, "regions", (i,))]
         if not holders:
             continue  # reported by the outline stage (no outline within reach)
         front = holders[0]
@@ -531,16 +538,22 @@ def _boundary_rows(rows, blocks, regions, relations, seams, band, epsilon):
         if other in holders and _in_front(relations, other, front, blocks):
             front, other = other, front  # the graft grows out of the region behind
             st = regions[front].mesh.station_vertices(entry.index)
+        seam = _seam_vertices(regions[front].mesh, entry.index, blocks[front].v[st])
         if band is not None:
             width = band
         else:
             # The grafted part rises epsilon above its base over the band: a band as
             # wide as half the seam keeps that tilt (about 3 epsilon / length) unseen.
-            seam = blocks[front].v[st]
-            length = float(np.linalg.norm(np.diff(seam, axis=0), axis=1).sum())
-            width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length)
-        lift = _graft_rows(rows, blocks, front, other, st, width, epsilon, key)
-        zones.append((front, other, blocks[front].v[st], width, key, lift))
+            # It also comes down from its own height (its inflation at the seam) to
+            # the base's: a band at least that wide keeps the descent gentle.
+            length = float(np.linalg.norm(np.diff(blocks[front].v[st], axis=0), axis=1).sum())
+            width = max(2.0 * _mean_outline_edge(regions[front].mesh), _BAND_FRACTION * length,
+                        _RISE * float(blocks[front].h[seam].max()))
+        # The stations' polyline is the seam's (the other vertices lie on its edges),
+        # with far fewer edges to measure distances to.
+        line = blocks[front].v[st]
+        lift = _graft_rows(rows, blocks, front, other, seam, line, width, epsilon, key)
+        zones.append((front, other, line, width, key, lift))
     return zones
 
 
@@ -552,24 +565,41 @@ def _in_front(relations, a, b, blocks):
     return len(blocks[a].h) < len(blocks[b].h)
 
 
-def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
+def _seam_vertices(mesh, index, stations):
+    """Every outline vertex of a marked stretch (its stations and the points the
+    triangulation put between them), in order along the stations' polyline."""
+    sel = np.flatnonzero(mesh.boundary_index == index)
+    if len(stations) < 2 or len(sel) <= len(stations):
+        return mesh.station_vertices(index)
+    a, b = stations[:-1], stations[1:]
+    ab = b - a
+    p = mesh.vertices[sel]
+    t = np.clip(((p[:, None] - a[None]) * ab[None]).sum(-1)
+                / np.maximum((ab * ab).sum(-1), 1e-12), 0.0, 1.0)
+    near = a[None] + t[..., None] * ab[None]
+    k = np.argmin(((p[:, None] - near) ** 2).sum(-1), axis=1)
+    return sel[np.argsort(k + t[np.arange(len(sel)), k], kind="stable")]
+
+
+def _graft_rows(rows, blocks, front, base, stations, line, width, epsilon, key):
     """The front region grows out of ``base``: no crack, no z-fighting.
 
-    At the stations ``z_front = z_base`` (C0, lifted by the base's bulge:
+    At the seam's vertices ``stations`` (all of them, in order along the
+    seam, whose polyline is ``line``) ``z_front = z_base`` (C0, lifted by the base's bulge:
     :func:`_sagitta`). Where ``base`` continues under ``front`` (it was
     completed there), every other vertex of ``front`` within ``width`` of the
-    stations, at distance ``d``, lies above ``base`` by the margin ``epsilon
+    seam, at distance ``d``, lies above ``base`` by the margin ``epsilon
     (d / width)^2``: zero at the seam, ``epsilon`` (the order step) at the end
     of the band. The base thus stays below the grafted part all the way, and
     :func:`_blend` then makes the grafted part leave the seam with the
-    base's slope. Returns the largest lift of a station.
+    base's slope. Returns the largest lift of a seam vertex.
     """
     blk = blocks[front]
     seam = blk.v[stations]
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    dist = point_polyline_distance(blk.v, seam)
+    dist = point_polyline_distance(blk.v, line)
     sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
                 _margin(dist[sel], width, epsilon), True, key, graft=True)
@@ -577,16 +607,18 @@ def _graft_rows(rows, blocks, front, base, stations, width, epsilon, key):
 
 
 def _blend(g, blocks, front, base, seam, width, lift):
-    """Make the grafted part ``front`` leave ``base`` with its height and slope (C1).
+    """Make the grafted part ``front`` leave ``base`` with its height and slope.
 
     Over the band the grafted part's height becomes ``e + lift + w(d / width)
-    (z_front - e - lift)`` with ``w(t) = 3 t^2 - 2 t^3``, ``d`` the distance
-    to the seam and ``e`` the base continued across the seam by its tangent
-    plane (its slope from the last :data:`_REACH` px before the seam):
-    ``w(0) = w'(0) = 0``, so at the seam the grafted part has the base's
-    height (lifted by the base's bulge between stations) and slope; ``w(1) =
-    1, w'(1) = 0``, so it joins its solved surface with no crease at the
-    band's end. The tangent plane, not the base's own surface where it was
+    (z_front - e - lift)`` with ``w(t) = 10 t^3 - 15 t^4 + 6 t^5``, ``d`` the
+    distance to the seam and ``e`` the base continued across the seam by its
+    tangent plane (its slope from the last :data:`_REACH` px before the
+    seam): ``w(0) = w'(0) = w''(0) = 0``, so at the seam the grafted part has
+    the base's height (lifted by the base's bulge between seam vertices) and
+    slope, and bends away from it gently (a pixel beside the seam its normal
+    is still the base's, where a cubic weight turned it by the rise over the
+    band); ``w(1) = 1, w'(1) = w''(1) = 0``, so it joins its solved surface
+    with no crease at the band's end. The tangent plane, not the base's own surface where it was
     completed under the grafted part: that surface falls to zero height at
     its invented outline, wherever the completion ended. Where the base is
     above its tangent plane (a concave base) its own surface is taken, so
@@ -605,7 +637,7 @@ def _blend(g, blocks, front, base, seam, width, lift):
     under, dist = _height(g, b, p)
     e = np.where(dist <= _INSIDE, np.maximum(e, under), e)
     t = d / width
-    w = t * t * (3.0 - 2.0 * t)
+    w = t ** 3 * (10.0 - 15.0 * t + 6.0 * t * t)
     z = f.h[sel] + g[f.start + sel]
     g[f.start + sel] = e + lift + w * (z - e - lift) - f.h[sel]
 
@@ -627,10 +659,10 @@ def _foot(points, line):
 
 
 def _sagitta(base, seam):
-    """Per station, how far the base bulges above the straight seam edges beside it.
+    """Per seam vertex, how far the base bulges above the straight seam edges beside it.
 
-    The grafted part's seam runs straight from station to station while the
-    base's surface is curved along it; lifting each station by this much (a
+    The grafted part's seam runs straight from vertex to vertex while the
+    base's surface is curved along it; lifting each vertex by this much (a
     fraction of a pixel) keeps the base from showing through between them.
     """
     if len(seam) < 2:

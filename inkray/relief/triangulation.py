@@ -6,7 +6,8 @@ inflated as a 2D triangle mesh. This module meshes a
 :class:`~inkray.relief.outline.RegionOutline` with a constrained conforming Delaunay
 triangulation: minimum angle 20 degrees (except next to sharper input corners),
 maximum area from the resolution knob ``max_area`` (px^2), and finer
-triangles near the seams of ``graft`` entries, so that a grafted part can
+triangles near the seams of ``graft`` entries (and of the open joins of
+:mod:`inkray.relief.joins`, which are grafts too), so that a grafted part can
 leave its base with the base's slope and its interpolated normals stay
 smooth across the seam (the triangles grow with the distance to the seam).
 
@@ -36,7 +37,8 @@ import triangle
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.polyline import point_polyline_distance
-from inkray.relief.outline import DEFAULT_MAX_AREA, INTERIOR, MeshOptions, region_outline
+from inkray.relief.outline import (DEFAULT_MAX_AREA, INTERIOR, MeshOptions, check_triangle_count,
+                                   region_outline)
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
@@ -322,6 +324,7 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     159.0
     """
     o = options if options is not None else MeshOptions()
+    check_triangle_count(o.max_area, np.shape(mask)[::-1])  # the drawing's bound, before any work
     region_options = o.for_region(mask)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
                          boundaries=boundaries, options=region_options)
