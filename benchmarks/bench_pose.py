@@ -145,18 +145,22 @@ _REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
 def _visibility(posed, relief, part):
     """Share of the pixels two or more parts draw (a surface there and its layer not
     transparent) where the part drawn is the highest of them; heights from the relief's own
-    rasterization, what each part draws from its picture alone."""
+    rasterization, what each part draws from its picture alone. Pixels where a part draws
+    the soft edge of its layer beyond its triangles are left out: the relief has no height
+    for it there."""
     from inkray.relief.model import Relief
     from inkray.view.posed import posed_image
     from inkray.view.rasterization import rasterize
 
     rest = posed.rig.relief
     depth = np.stack([rasterize(Relief([p], size=relief.size)).depth for p in relief.parts])
+    edge = np.zeros(part.shape, bool)
     for k, (p, r) in enumerate(zip(relief.parts, rest.parts)):
         alone = posed_image(Relief([p], size=relief.size), Relief([r], size=rest.size),
                             posed.cutout, posed.drawing.rgb)[0]
+        edge |= (alone[..., 3] > 0) & ~np.isfinite(depth[k])
         depth[k][alone[..., 3] == 0] = -np.inf
-    drawn = np.isfinite(depth).sum(axis=0) >= 2
+    drawn = (np.isfinite(depth).sum(axis=0) >= 2) & ~edge
     if not drawn.any():
         return 1.0
     return float(np.mean(np.argmax(depth, axis=0)[drawn] == part[drawn]))
