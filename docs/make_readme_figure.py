@@ -22,7 +22,7 @@ OUT = Path(__file__).resolve().parent / "images" / "turtle-gi.png"
 
 def main():
     ann, drawing = load_input(example_path("turtle"))
-    relief = build_relief(ann, drawing)
+    relief = build_relief(ann, drawing).relief
     size = output_size(relief.size, max_side=GI_MAX_SIDE)
     image = render(relief, mode="gi", size=size, spp=GI_QUALITY["final"])
     write_renderings(image, OUT)

@@ -63,7 +63,9 @@ class Artefact:
     reads : tuple of str
         The :class:`~inkray.chain.ReliefChain` attributes its compute step reads.
     compute : callable
-        ``compute(chain, **params)``, its value.
+        ``compute(chain, **params)``, its value. The scene artefacts
+        (``composed``, ``composed-layers``, ``composed-relief``) take a
+        scene's :class:`~inkray.composition.Composition` in place of a chain.
     writers : mapping of str to Writer
         By output suffix (``""`` for a folder).
     encode : callable
@@ -106,7 +108,8 @@ class Artefact:
         InputError
             The chain's annotations cannot give it.
         """
-        self.check(chain.annotations)
+        if self.needs is not None:
+            self.check(chain.annotations)
         return self.compute(chain, **params)
 
     def preview(self, chain, **params):
@@ -453,6 +456,26 @@ def _encode_gif(frames):
     return buf.getvalue()
 
 
+def _composed_image(composition):
+    from inkray.view.rendering import Rendering
+
+    rgba = composition.image()
+    return Rendering("compose", rgba, rgba[..., 3] > 0)
+
+
+def _write_composed_relief(relief, target, *, chain, outputs):
+    from inkray.formats.meshes import export_relief
+
+    # vertices in scene pixels: the scene's top-left corner at the origin
+    return export_relief(relief, target, anchor="top-left", outputs=outputs)
+
+
+def _encode_composed_glb(relief):
+    from inkray.formats.meshes import glb_bytes
+
+    return glb_bytes(relief, anchor="top-left")
+
+
 _LAYERS = Writer(_write_layers)
 _POSED_RELIEF = Writer(_write_posed_relief)
 
@@ -491,6 +514,15 @@ ARTEFACTS = {a.name: a for a in (
              writers={"": Writer(_write_animation, _animation_files)},
              encode=lambda frames, **p: _encode_gif(frames), media_type="image/gif",
              needs="posing needs"),
+    Artefact("composed", reads=("placed",), compute=_composed_image,
+             writers={".png": Writer(_write_image)}, encode=lambda r: _encode_png(r.image),
+             media_type="image/png"),
+    Artefact("composed-layers", reads=("placed",), compute=lambda composition: composition.layers(),
+             writers={".psd": _LAYERS, ".ora": _LAYERS}, encode=_encode_psd,
+             media_type="image/vnd.adobe.photoshop"),
+    Artefact("composed-relief", reads=("placed",), compute=lambda composition: composition.relief(),
+             writers={s: Writer(_write_composed_relief) for s in (".glb", ".obj", ".ply")},
+             encode=_encode_composed_glb, media_type="model/gltf-binary"),
     Artefact("maps", reads=("relief", "segmentation"), compute=_maps,
              writers={"": Writer(_write_maps, lambda target, **p: [Path(target) / "maps.json"])},
              needs="sprite maps need"),

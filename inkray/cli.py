@@ -484,40 +484,30 @@ def _cmd_pose(args, progress):
 
 
 def _cmd_compose(args, progress):
+    from inkray.artefacts import ARTEFACTS
     from inkray.composition import compose
     from inkray.formats.atomic import atomic_outputs, check_targets
-    from inkray.formats.images import write_renderings
-    from inkray.formats.layer_files import LAYER_SUFFIXES, write_layers
-    from inkray.formats.meshes import FORMATS as MESH_SUFFIXES
-    from inkray.formats.meshes import export_relief
+    from inkray.formats.layer_files import LAYER_SUFFIXES
     from inkray.input.scene import load_scene
-    from inkray.view.rendering import Rendering
 
-    _check_output(args.output, (".png",) + tuple(LAYER_SUFFIXES) + tuple(MESH_SUFFIXES))
+    suffix = Path(args.output).suffix.lower()
+    name = "composed" if suffix == ".png" else \
+        "composed-layers" if suffix in LAYER_SUFFIXES else "composed-relief"
+    artefact = ARTEFACTS[name]
+    expected = ("composed", "composed-layers", "composed-relief")
+    _check_output(args.output, tuple(s for n in expected for s in ARTEFACTS[n].suffixes))
     try:
         limits = Limits(pixels=args.max_pixels)
     except InputError:
         raise InputError(f"--max-pixels {args.max_pixels}: expected a positive integer") from None
     scene = load_scene(args.scene, limits=limits)
     inputs = [args.scene] + [p for d in scene.drawings for p in (d.annotation, d.pose) if p]
-    check_targets([args.output], inputs=inputs)
+    check_targets(artefact.files(args.output), inputs=inputs)
     composition = compose(scene, progress=progress)
-    suffix = Path(args.output).suffix.lower()
     with progress.stage("compose"):
-        if suffix == ".png":
-            rgba = composition.image()
-            value = Rendering("compose", rgba, rgba[..., 3] > 0)
-        elif suffix in LAYER_SUFFIXES:
-            value = composition.layers()
-        else:
-            value = composition.relief()
+        value = artefact.make(composition)
     with progress.stage("write"), atomic_outputs(inputs=inputs) as group:
-        if suffix == ".png":
-            write_renderings(value, args.output, outputs=group)
-        elif suffix in LAYER_SUFFIXES:
-            write_layers(value, args.output, outputs=group)
-        else:  # vertices in scene pixels: the scene's top-left corner at the origin
-            export_relief(value, args.output, anchor="top-left", outputs=group)
+        artefact.write(value, args.output, chain=composition, outputs=group)
     progress.summary()
     print(f"{args.output}: {len(scene.drawings)} drawings composed")
     return 0

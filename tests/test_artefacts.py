@@ -65,3 +65,23 @@ def test_an_unknown_suffix_names_the_target_and_what_is_expected():
     assert ARTEFACTS["maps"].files("maps")[0].as_posix() == "maps/maps.json"
     assert [p.name for p in ARTEFACTS["depth"].files("d.png", npy="d.npy")] == \
         ["d.png", "d.json", "d.npy"]
+
+
+def test_compose_writes_the_scene_artefacts_of_the_table(tmp_path, capsys):
+    from inkray.composition import compose
+    from inkray.input.scene import load_scene
+
+    rings = example_path("rings")
+    scene = tmp_path / "two.scene.json"
+    scene.write_text(json.dumps({"format": "inkray-scene", "version": 1, "size": [640, 200],
+                                 "drawings": [{"annotation": str(rings), "at": [159.5, 99.5]},
+                                              {"annotation": str(rings), "at": [479.5, 99.5],
+                                               "rotate": 10}]}))
+    composition = compose(load_scene(scene))
+    for name, target in (("composed", "s.png"), ("composed-layers", "s.ora"),
+                         ("composed-relief", "s.glb")):
+        artefact = ARTEFACTS[name]
+        assert artefact.needs is None      # a scene has no regions of its own to check
+        assert cli.main(["compose", str(scene), "-o", str(tmp_path / target), "--quiet"]) == 0
+        files = artefact_files(artefact, artefact.make(composition), target, chain=composition)
+        assert files == {target: (tmp_path / target).read_bytes()}

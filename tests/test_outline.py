@@ -147,9 +147,25 @@ def test_empty_mask_names_the_region():
 def test_a_max_area_too_fine_for_the_drawing_is_refused_up_front():
     from inkray.relief.outline import MAX_TRIANGLES
 
+    from inkray.relief.triangulation import mesh_region
+
     mask = _disk(1000, 1000, 500, 500, 400)
-    with pytest.raises(InputError, match=r"^max_area: 0.001 px\^2 asks for up to 1e\+09") as e:
-        region_outline(mask, options=MeshOptions(max_area=0.001))
+    with pytest.raises(InputError, match=r"^max_area: 0.001 px\^2 asks for up to 1e\+09 "
+                                         r"triangles on a 1000x1000 drawing") as e:
+        mesh_region(mask, options=MeshOptions(max_area=0.001))
     assert e.value.option == "max_area" and "expected at least 1" in str(e.value)
+    with pytest.raises(InputError, match=r"on a region of \d+ px"):
+        region_outline(mask, options=MeshOptions(max_area=0.001))
     fine = 1000 * 1000 / MAX_TRIANGLES  # the finest allowed is still meshed
     assert len(region_outline(_disk(100, 100, 50, 50, 30), options=MeshOptions(max_area=fine)).points)
+
+
+def test_a_region_of_a_few_pixels_in_a_big_drawing_is_meshed():
+    """A small region's own triangles are finer (area / min_triangles): the bound
+    on their count is the region's, so a 2-pixel part of a 1 Mpx drawing meshes."""
+    from inkray.relief.triangulation import mesh_region
+
+    mask = np.zeros((1000, 1000), bool)
+    mask[500, 500:502] = True
+    mesh = mesh_region(mask, options=MeshOptions())
+    assert len(mesh.faces) >= 1

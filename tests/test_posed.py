@@ -90,3 +90,30 @@ def test_animation_frames_are_warm_started_and_single_frames_match(turtle):
     assert np.allclose(posed.at(pose, 3), frames[3][1])
     with pytest.raises(InputError, match="frame: 9 is not a frame of the pose"):
         posed.at(pose, 9)
+
+
+def test_scan_conversion_covers_every_pixel_centre_of_a_mesh_exactly_once():
+    from scipy.spatial import Delaunay
+    from skimage.measure import points_in_poly
+
+    from inkray.view.posed import _scan
+
+    rng = np.random.default_rng(3)
+    a = np.radians(17.0)
+    turn = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    square = np.array([[0.0, 0], [30, 0], [30, 30], [0, 30]])
+    inner = rng.uniform(1, 29, (120, 2))
+    points = np.vstack([square, inner]) @ turn.T + [12.3, 4.7]
+    tri = Delaunay(points).simplices
+    pix, face = _scan(points, tri, (50, 50))
+    assert len(np.unique(pix)) == len(pix)           # no pixel twice: no overlaps at edges
+    rows, cols = np.divmod(np.arange(2500), 50)
+    inside = points_in_poly(np.column_stack([cols, rows]), square @ turn.T + [12.3, 4.7])
+    assert np.array_equal(np.sort(pix), np.flatnonzero(inside))  # none missed: no cracks
+    # each pixel is in the triangle that claims it
+    t = points[tri[face]]
+    c = np.column_stack([pix % 50, pix // 50]).astype(float)
+    cross = [(t[:, (k + 1) % 3, 0] - t[:, k, 0]) * (c[:, 1] - t[:, k, 1])
+             - (t[:, (k + 1) % 3, 1] - t[:, k, 1]) * (c[:, 0] - t[:, k, 0]) for k in range(3)]
+    sign = np.sign(np.sum(cross, axis=0))
+    assert np.all(np.stack(cross) * sign >= -1e-9)

@@ -37,6 +37,20 @@ def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
     assert np.abs(rig.glue @ rig.vertices).max() < 1e-9
 
 
+def test_overlaps_join_the_pieces_nothing_else_joins(man):
+    from inkray.numerics.arap import pieces
+
+    # the snowman's balls and hat overlap along one cut each, none small or mostly enclosed
+    ann, drawing = load_input(EXAMPLES / "snowman" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+    assert len(np.unique(pieces(len(rig.vertices), rig.faces, rig.glue))) == 1
+    overlaps = {(j.part, j.to) for j in rig.joins if j.kind == "overlap"}
+    assert ("ball_middle", "ball_bottom") in overlaps and len(overlaps) == 4
+    # the man hangs together by his other joins: no overlap glued
+    assert all(j.kind != "overlap" for j in man[1].joins)
+
+
 def test_rings_are_not_glued_at_their_crossings(rings):
     chain, ann, _ = rings
     assert rig_relief(chain.relief, chain.completion).joins == []
@@ -80,14 +94,14 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
                          [[150.0, 330.0], [150.0, 250.0]])
     img = posed.image(rig.vertices)
+    # soft edges as the layers have them: the picture is the flattened layer stack, exactly
+    assert np.array_equal(img, posed.cutout.flatten())
     opaque = img[..., 3] == 255
     assert opaque.sum() > 0.85 * (chain.completion.labels >= 0).sum()
     same = np.all(img[..., :3] == chain.drawing.rgb, axis=2)
-    # the relief's order and the layers' agree but where three surfaces meet at an outline
-    assert same[opaque].mean() > 0.997
-    # soft edges as the layers have them: the picture is the flattened layer stack
-    flat = posed.cutout.flatten()
-    assert np.mean(np.all(img == flat, axis=2)[flat[..., 3] > 0]) > 0.99
+    # the stack is the drawing but where a layer's soft edge lies over the completed layer
+    # under it (28 of the 44 000 pixels)
+    assert same[opaque].mean() > 0.999
 
 
 def test_posed_relief_keeps_parts_vertices_faces_and_heights(man):

@@ -55,9 +55,11 @@ def signed_areas(vertices, faces):
     [0.5, -0.5]
     """
     v = np.asarray(vertices, float)
-    f = np.asarray(faces, np.int64)
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    # per coordinate: 1-D gathers are many times faster than gathering rows
+    x, y = np.ascontiguousarray(v[:, 0]), np.ascontiguousarray(v[:, 1])
+    ax, ay = x[f[:, 0]], y[f[:, 0]]
+    return 0.5 * ((x[f[:, 1]] - ax) * (y[f[:, 2]] - ay) - (x[f[:, 2]] - ax) * (y[f[:, 1]] - ay))
 
 
 def cotangent_weights(vertices, faces):

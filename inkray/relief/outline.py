@@ -79,7 +79,7 @@ DEFAULT_SNAP = 6.0
 MAX_TRIANGLES = 1_000_000
 
 
-def check_triangle_count(max_area, size):
+def check_triangle_count(max_area, size, *, pixels=None):
     """Refuse a ``max_area`` that would mesh a drawing of ``size`` too finely.
 
     Parameters
@@ -88,6 +88,8 @@ def check_triangle_count(max_area, size):
         Triangle area in px^2.
     size : (int, int)
         ``(width, height)`` of the drawing.
+    pixels : int, optional
+        The area meshed (one region's pixels); default the whole drawing.
 
     Raises
     ------
@@ -104,11 +106,13 @@ def check_triangle_count(max_area, size):
     inkray.errors.InputError: max_area: 0.001 px^2 asks for up to 1e+09 triangles on a 1000x1000 drawing (at most 1e+06: expected at least 1)
     """
     w, h = (int(v) for v in size)
-    count = w * h / float(max_area)
+    area = w * h if pixels is None else int(pixels)
+    count = area / float(max_area)
     if count > MAX_TRIANGLES:
-        least = w * h / MAX_TRIANGLES
+        least = area / MAX_TRIANGLES
+        where = f"a {w}x{h} drawing" if pixels is None else f"a region of {area} px"
         raise InputError(f"max_area: {float(max_area):g} px^2 asks for up to {count:.3g} triangles "
-                         f"on a {w}x{h} drawing (at most {MAX_TRIANGLES:.3g}: expected at least "
+                         f"on {where} (at most {MAX_TRIANGLES:.3g}: expected at least "
                          f"{least:.3g})", option="max_area")
 
 
@@ -334,7 +338,9 @@ def region_outline(mask, *, visible=None, labels=None, region=None, name=None, b
     mask, visible, labels = _check_arrays(mask, visible, labels, region)
     name = name if name is not None else f"region{region if region is not None else ''}"
     o = options if options is not None else MeshOptions()
-    check_triangle_count(o.max_area, mask.shape[::-1])  # before any work
+    # before any work; a small region's own options ask for finer triangles
+    # (MeshOptions.for_region), so the count is the region's, not the drawing's
+    check_triangle_count(o.max_area, mask.shape[::-1], pixels=np.count_nonzero(mask))
     spacing = float(o.spacing) if o.spacing is not None else edge_length(o.max_area)
     station_spacing = (float(o.station_spacing) if o.station_spacing is not None
                        else edge_length(o.max_area))

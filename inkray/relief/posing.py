@@ -20,7 +20,13 @@ them:
   border), or covering only a small area of it (a head on its neck: at most
   ``JOINT_AREA`` of the smaller part's area) is glued to it where it covers it;
 - *seams*: along ``stitch`` and ``graft`` boundaries both parts are glued to
-  each other.
+  each other;
+- *overlap*: where two parts overlap along one cut that neither rule above
+  takes (a head on a body, a ball on the one below it, a hat's brim on its
+  crown) and nothing else connects them, the smaller is glued to the larger
+  over the overlap: the smallest overlaps (against the smaller part) first,
+  each only if it joins two pieces the joins so far leave apart, so that a
+  limb in front of the body that is rooted elsewhere stays free to swing.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest, so the rest shape has no glue energy.
@@ -38,7 +44,7 @@ from inkray.errors import InputError
 from inkray.numerics.arap import Arap, pieces, signed_areas
 from inkray.relief.model import Part, Relief
 
-__all__ = ["Rig", "Join", "Posing", "rig_relief", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
+__all__ = ["Rig", "Join", "Posing", "rig_relief", "front_mesh", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
 
 #: A hidden area is a part's root when its cut to the part's visible pixels is below this share
 #: of its border.
@@ -104,6 +110,7 @@ class Rig:
     glue: object
     joins: list = field(default_factory=list)
     relief: Relief = None
+    _rest_sign: np.ndarray = field(default=None, repr=False, compare=False)
 
     def locate(self, points):
         """The front-most part under each point and the point as a combination of rig vertices.
@@ -167,9 +174,9 @@ class Rig:
 
     def folded(self, positions):
         """Indices of the faces whose orientation flipped against the rest shape."""
-        rest = signed_areas(self.vertices, self.faces)
-        now = signed_areas(positions, self.faces)
-        return np.flatnonzero(np.sign(rest) * now <= 0)
+        if self._rest_sign is None:
+            self._rest_sign = np.sign(signed_areas(self.vertices, self.faces))
+        return np.flatnonzero(self._rest_sign * signed_areas(positions, self.faces) <= 0)
 
 
 class Posing:
@@ -335,36 +342,30 @@ def rig_relief(relief, completion, *, boundaries=()):
         if p.name not in names:
             raise InputError(f"relief: part {p.name!r} is not a region of the drawing (a union "
                              f"of all parts cannot be posed)")
-        v = np.asarray(p.vertices, float)
-        f = np.asarray(p.faces, np.int64)
-        # A closed part's back copies its front's (x, y): one rig vertex for both.
-        xy, first, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_index=True,
-                                       return_inverse=True)
-        inverse = inverse.reshape(-1)
-        top = np.full(len(xy), -np.inf)
-        np.maximum.at(top, inverse, v[:, 2])
-        front = f[np.all(v[f, 2] >= top[inverse[f]] - 1e-9, axis=1)] if p.closed else f
-        tri = inverse[front]
-        tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+        first, inverse, top, tri = front_mesh(p)
         base = offsets[-1]
-        verts.append(v[first, :2])
+        verts.append(np.asarray(p.vertices, float)[first, :2])
         heights.append(top)
         faces.append(tri + base)
         part_of_face.append(np.full(len(tri), i))
         index.append(inverse + base)
-        offsets.append(base + len(xy))
+        offsets.append(base + len(first))
     vertices = np.concatenate(verts)
     rig = Rig(names=[p.name for p in relief.parts], vertices=vertices,
               heights=np.concatenate(heights), faces=np.concatenate(faces),
               part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
-    rows, joins = [], []
+    rows, joins, overlaps = [], [], []
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
             pb, pa = region_part[b], region_part[a]
             got = _glue_rows(rig, pb, pa, lambda xy, m=mask: _inside(m, xy))
-            if got.shape[0]:
+            if not got.shape[0]:
+                continue
+            if kind == "overlap":
+                overlaps.append((got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0])))
+            else:
                 rows.append(got)
                 joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
     for seam in boundaries:
@@ -379,18 +380,85 @@ def rig_relief(relief, completion, *, boundaries=()):
                 if got.shape[0]:
                     rows.append(got)
                     joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
+    # An overlap joins two pieces that nothing else joins: the smallest overlaps first (the
+    # most joint-like), none between parts already connected, so that a limb in front of the
+    # body stays free to swing where it is rooted elsewhere.
+    piece = pieces(len(vertices), rig.faces, sp.vstack(rows) if rows else None)
+    root = list(range(piece.max() + 1))
+
+    def find(k):
+        while root[k] != k:
+            root[k] = root[root[k]]
+            k = root[k]
+        return k
+
+    for got, join in overlaps:
+        touched = {find(int(k)) for k in np.unique(piece[got.tocoo().col])}
+        if len(touched) > 1:
+            first, *others = touched
+            for k in others:
+                root[k] = first
+            rows.append(got)
+            joins.append(join)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
     return rig
 
 
+def front_mesh(part):
+    """A relief part's front surface as a 2D triangle mesh: one vertex per ``(x, y)``.
+
+    A closed part's back copies its front's ``(x, y)``; both become one
+    vertex, at the front's height, and only the front's faces are kept.
+
+    Parameters
+    ----------
+    part : inkray.relief.model.Part
+
+    Returns
+    -------
+    first : (k,) int array
+        The part's front vertex at each mesh vertex.
+    inverse : (n,) int array
+        The mesh vertex of each vertex of the part.
+    top : (k,) float array
+        The front surface's height at each mesh vertex.
+    faces : (m, 3) int array
+        Front faces into the mesh vertices, none degenerate.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 1], [4, 0, 1], [0, 4, 1], [0, 0, -1], [4, 0, -1], [0, 4, -1]], float)
+    >>> front = front_mesh(Part("p", v, np.array([[0, 1, 2], [3, 5, 4]]), closed=True))
+    >>> front[0].tolist(), front[2].tolist(), front[3].tolist()
+    ([0, 2, 1], [1.0, 1.0, 1.0], [[0, 2, 1]])
+    """
+    v = np.asarray(part.vertices, float)
+    f = np.asarray(part.faces, np.int64).reshape(-1, 3)
+    xy, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    top = np.full(len(xy), -np.inf)
+    np.maximum.at(top, inverse, v[:, 2])
+    on_top = v[:, 2] >= top[inverse] - 1e-9
+    _, copy = np.unique(inverse[on_top], return_index=True)
+    first = np.flatnonzero(on_top)[copy]  # each mesh vertex's first front copy
+    front = f[np.all(on_top[f], axis=1)] if part.closed else f
+    tri = inverse[front]
+    tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+    return first, inverse, top, tri
+
+
 def _joined_areas(completion):
-    """``(part, to, kind, mask)``: the areas where one region is glued to another."""
+    """``(part, to, kind, mask)``: the areas where one region is glued to another.
+
+    ``overlap`` areas (a single cut that neither rule takes) come last, the
+    smallest against the smaller part's area first.
+    """
     labels, owner = completion.labels, completion.owner
     area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
     area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
-    out = []
+    out, overlaps = [], []
     for b in range(completion.count):
         pieces, n = ndimage.label(owner == b)
         if not n:
@@ -406,12 +474,18 @@ def _joined_areas(completion):
             a = int(np.bincount(labels[grown][piece]).argmax())
             mask = np.zeros(labels.shape, bool)
             mask[grown] = piece
-            if cuts == 1 and share < ROOT_CONTACT and area[b] < area[a]:
+            if cuts != 1:
+                continue  # crossing only (interlocking rings): not joined
+            if share < ROOT_CONTACT and area[b] < area[a]:
                 out.append((b, a, "rooted", mask))
-            elif cuts == 1 and area[a] < area[b] and (share >= ON_TOP_CONTACT
+            elif area[a] < area[b] and (share >= ON_TOP_CONTACT
                                         or piece.sum() <= JOINT_AREA * area[a]):
                 out.append((a, b, "on top", mask))
-    return out
+            else:  # the smaller part glued to the larger over the overlap
+                small, large = (b, a) if area[b] < area[a] else (a, b)
+                overlaps.append((piece.sum() / area[small], small, large, mask))
+    overlaps.sort(key=lambda o: o[0])
+    return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
 
 
 def _glue_rows(rig, pb, pa, where):

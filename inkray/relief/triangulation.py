@@ -37,7 +37,8 @@ import triangle
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.polyline import point_polyline_distance
-from inkray.relief.outline import DEFAULT_MAX_AREA, INTERIOR, MeshOptions, region_outline
+from inkray.relief.outline import (DEFAULT_MAX_AREA, INTERIOR, MeshOptions, check_triangle_count,
+                                   region_outline)
 
 __all__ = ["RegionMesh", "triangulate_outline", "mesh_region"]
 
@@ -323,6 +324,7 @@ def mesh_region(mask, *, visible=None, labels=None, region=None, name=None, boun
     159.0
     """
     o = options if options is not None else MeshOptions()
+    check_triangle_count(o.max_area, np.shape(mask)[::-1])  # the drawing's bound, before any work
     region_options = o.for_region(mask)
     out = region_outline(mask, visible=visible, labels=labels, region=region, name=name,
                          boundaries=boundaries, options=region_options)

@@ -8,10 +8,14 @@ of Igarashi et al. ("As-rigid-as-possible shape manipulation", SIGGRAPH
 z-buffer over the relief's heights, so local order such as interlocking
 rings holds pixel by pixel), and its colour is the part's completed cut-out
 layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
-through the barycentric coordinates of the triangle that covers it. The
-layers' soft edges are kept: per pixel the two highest surfaces are
+through the affine map of the triangle that covers it. Each part's front
+mesh is scan-converted on its own so that it covers every pixel centre in it
+exactly once (no cracks between its triangles), and a band of ``_SKIRT`` px
+around it carries the part's layer beyond its triangles (the triangles follow
+the outline, the layer the ink's anti-aliasing). The layers' soft edges are
+kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
-silhouette (transparent as the layer is there).
+silhouette; at rest the picture is the flattened layer stack.
 """
 
 import numpy as np
@@ -19,10 +23,11 @@ import numpy as np
 from inkray.errors import InputError
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 from inkray.relief.model import Relief
-from inkray.relief.posing import Posing, rig_relief
-from inkray.view.rasterization import zbuffer
+from inkray.relief.posing import Posing, front_mesh, rig_relief
 
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
+
+_SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
 
 
 class PosedDrawing:
@@ -152,78 +157,137 @@ def posed_image(posed, rest, layers, drawing_rgb):
 def _draw(posed, sources, *, scale=1.0):
     """The picture of ``posed`` coloured by ``sources`` at the rest positions, and its parts.
 
-    Every part is rasterized on its own; per pixel the two highest surfaces
-    are kept and composited, the upper over the lower, with their layers'
-    alpha (a soft edge of the upper part shows the part under it). At
-    ``scale`` (output pixels per drawing pixel) the output is
+    Every part's front triangles, and a skirt around them where it has a
+    layer, are scan-converted on their own; per pixel the two highest
+    surfaces whose colour is not fully transparent are kept and composited,
+    the upper over the lower, with their layers' alpha (a soft edge of the
+    upper part shows the part under it). Parts are taken back to front by
+    the stack, so that of two equally high surfaces the one in front shows.
+    At ``scale`` (output pixels per drawing pixel) the output is
     ``round(W * scale) x round(H * scale)``.
     """
     if not (np.isfinite(scale) and 0.01 <= scale <= 16):
         raise InputError(f"scale: expected a number within 0.01..16, got {scale!r}")
     w, h = (max(1, round(v * scale)) for v in posed.size)
-    verts = np.concatenate([np.asarray(p.vertices, float) for p in posed.parts])
-    # output pixel centres at integer coordinates, as the drawing's
-    xy_out = (verts[:, :2] + 0.5) * scale - 0.5
-    z1 = np.full((h, w), -np.inf)
-    z2 = np.full((h, w), -np.inf)
-    c1 = np.zeros((h, w, 4), np.float32)
-    c2 = np.zeros((h, w, 4), np.float32)
-    shown = np.full((h, w), -1, np.int32)
-    for i, faces in enumerate(sources.part_faces):
-        got = _part_surface(xy_out, verts[:, 2], faces, sources, i, (w, h))
+    z1 = np.full(h * w, -np.inf)
+    z2 = np.full(h * w, -np.inf)
+    i1 = np.full(h * w, -1, np.int64)
+    i2 = np.full(h * w, -1, np.int64)
+    colours, owners, count = [], [], 0
+    for i in sources.order:
+        got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
         if got is None:
             continue
-        (r0, c0), z, rgba = got
-        win = (slice(r0, r0 + z.shape[0]), slice(c0, c0 + z.shape[1]))
-        top, second = z > z1[win], (z <= z1[win]) & (z > z2[win])
-        z2[win] = np.where(top, z1[win], np.where(second, z, z2[win]))
-        c2[win] = np.where(top[..., None], c1[win], np.where(second[..., None], rgba, c2[win]))
-        z1[win] = np.where(top, z, z1[win])
-        c1[win] = np.where(top[..., None], rgba, c1[win])
-        shown[win] = np.where(top, i, shown[win])
-    a1 = c1[..., 3:] / 255.0
-    premult = c1 + (1.0 - a1) * c2   # both premultiplied: rgb * alpha, alpha in 0..255
-    alpha = premult[..., 3:] / 255.0
-    colour = np.divide(premult[..., :3], alpha, out=np.zeros_like(premult[..., :3]),
-                       where=alpha > 0)
-    out = np.zeros((h, w, 4), np.uint8)
-    out[..., 3] = np.clip(np.rint(alpha[..., 0] * 255), 0, 255)
-    out[..., :3] = np.where(out[..., 3:] > 0, np.clip(np.rint(colour), 0, 255), 0)
-    return out, shown
+        pix, z, rgba = got
+        ids = count + np.arange(len(pix))
+        count += len(pix)
+        colours.append(rgba)
+        owners.append(np.full(len(pix), i, np.int32))
+        # pixels are distinct within a part; equal heights go to the later part (in front)
+        old1 = z1[pix]
+        top = z >= old1
+        second = np.flatnonzero(~top & (z >= z2[pix]))
+        top = np.flatnonzero(top)
+        at, was = pix[top], i1[pix[top]]
+        z2[at], i2[at] = old1[top], was
+        z1[at], i1[at] = z[top], ids[top]
+        z2[pix[second]], i2[pix[second]] = z[second], ids[second]
+    out = np.zeros((h * w, 4), np.uint8)
+    shown = np.full(h * w, -1, np.int32)
+    covered = np.flatnonzero(i1 >= 0)
+    if covered.size:
+        store = np.concatenate(colours)
+        shown[covered] = np.concatenate(owners)[i1[covered]]
+        c = np.take(store, i1[covered], axis=0)  # premultiplied, alpha in 0..255
+        under = i2[covered]
+        blend = np.flatnonzero((under >= 0) & (c[:, 3] < 255))
+        c[blend] += (1.0 - c[blend, 3:] / 255.0) * np.take(store, under[blend], axis=0)
+        soft = np.flatnonzero(c[:, 3] < 255)
+        c[soft, :3] *= 255.0 / np.maximum(c[soft, 3:], 1e-12)
+        rgba = np.clip(np.rint(c), 0, 255).astype(np.uint8)
+        rgba[rgba[:, 3] == 0, :3] = 0
+        out[covered] = rgba
+    return out.reshape(h, w, 4), shown.reshape(h, w)
 
 
-def _part_surface(xy, z, faces, sources, part, size):
-    """One part's surface over its box: ``((row, col) of the box, height, premultiplied RGBA)``."""
+def _scan(points, triangles, size):
+    """Scan conversion: the pixels whose centres each triangle covers.
+
+    Pixel ``(row i, column j)`` is centred at ``(j, i)``. A pixel centre is
+    inside a triangle for rows ``ceil(y_top) <= i < ceil(y_bottom)`` and
+    columns ``ceil(x_left) <= j < ceil(x_right)``, the crossings of every
+    edge computed from its upper end, so two triangles sharing an edge
+    compute the same crossing: a triangle mesh covers every pixel centre in
+    it exactly once (no cracks, no doubles).
+
+    Parameters
+    ----------
+    points : (n, 2) float array
+    triangles : (m, 3) int array
+    size : (int, int)
+        ``(w, h)``.
+
+    Returns
+    -------
+    pix : (k,) int array
+        Flat pixel indices ``i * w + j``.
+    tri : (k,) int array
+        The triangle of each.
+    """
     w, h = size
-    if not len(faces):
-        return None
-    used = np.unique(faces)
-    lo = np.maximum(np.floor(xy[used].min(axis=0)).astype(int) - 1, 0)
-    hi = np.minimum(np.ceil(xy[used].max(axis=0)).astype(int) + 2, [w, h])
-    if (hi <= lo).any():
-        return None
-    bw, bh = hi - lo
-    local = xy - lo
-    tri = zbuffer(local + 0.5, z, faces, (bw, bh)).ravel()
-    pix = np.flatnonzero(tri >= 0)
-    height = np.full(bw * bh, -np.inf)
-    rgba = np.zeros((bw * bh, 4), np.float32)
-    if pix.size:
-        f = faces[tri[pix]]
-        corners = local[f]
-        cx, cy = (pix % bw).astype(float), (pix // bw).astype(float)
-        (x0, y0), (x1, y1), (x2, y2) = (corners[:, k].T for k in range(3))
-        det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-        b1 = ((y2 - y0) * (cx - x0) - (x2 - x0) * (cy - y0)) / det
-        b2 = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / det
-        bary = np.clip(np.column_stack([1.0 - b1 - b2, b1, b2]), 0.0, None)
-        bary /= bary.sum(axis=1, keepdims=True)
-        height[pix] = np.einsum("nk,nk->n", bary, z[f])
-        # the surface point's rest position: where on the part's layer it takes its colour
-        rest = np.einsum("nk,nkc->nc", bary, sources.rest[f])
-        tx, ty, tex = sources.textures[part]
-        rgba[pix] = _bilinear(tex, rest - [tx, ty])
-    return (int(lo[1]), int(lo[0])), height.reshape(bh, bw), rgba.reshape(bh, bw, 4)
+    m = len(triangles)
+    if not m:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    px, py = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    x, y = list(px[triangles].T), list(py[triangles].T)
+    for a, b in ((0, 1), (1, 2), (0, 1)):  # the corners ordered by y
+        swap = y[b] < y[a]
+        x[a], x[b] = np.where(swap, x[b], x[a]), np.where(swap, x[a], x[b])
+        y[a], y[b] = np.where(swap, y[b], y[a]), np.where(swap, y[a], y[b])
+    (x0, x1, x2), (y0, y1, y2) = x, y
+
+    def slope(xa, ya, xb, yb):
+        return np.divide(xb - xa, yb - ya, out=np.zeros(m), where=yb > ya)
+
+    s01, s12, s02 = slope(x0, y0, x1, y1), slope(x1, y1, x2, y2), slope(x0, y0, x2, y2)
+    first, middle, last = (np.clip(np.ceil(y), 0, h).astype(np.int64) for y in (y0, y1, y2))
+    rows = last - first
+    t = np.repeat(np.arange(m), rows)
+    r = np.repeat(first, rows) + _ramp(rows)
+    y = r.astype(float)
+    long_edge = x0[t] + (y - y0[t]) * s02[t]
+    upper = r < middle[t]
+    short_edge = np.where(upper, x0[t] + (y - y0[t]) * s01[t], x1[t] + (y - y1[t]) * s12[t])
+    left = np.clip(np.ceil(np.minimum(long_edge, short_edge)), 0, w).astype(np.int64)
+    right = np.clip(np.ceil(np.maximum(long_edge, short_edge)), 0, w).astype(np.int64)
+    span = np.maximum(right - left, 0)
+    pix = np.repeat(r * w + left, span) + _ramp(span)
+    return pix, np.repeat(t, span)
+
+
+def _ramp(counts):
+    """``0, 1, .., c - 1`` for every count ``c``, one after the other."""
+    total = int(counts.sum())
+    return np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _affine(points, triangles, values):
+    """Per triangle, ``values`` (n, c) as affine functions of (x, y): (m, 3c) ``[d/dx, d/dy, at 0]``."""
+    a, b, c = (np.ascontiguousarray(t) for t in np.asarray(triangles).T)
+    px, py = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    x0, y0 = px[a], py[a]
+    e1x, e1y, e2x, e2y = px[b] - x0, py[b] - y0, px[c] - x0, py[c] - y0
+    det = e1x * e2y - e2x * e1y
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=np.abs(det) > 1e-12)
+    k = values.shape[1]
+    out = np.empty((len(a), 3 * k))
+    for j in range(k):
+        v = np.ascontiguousarray(values[:, j])
+        v0 = v[a]
+        d1, d2 = v[b] - v0, v[c] - v0
+        gx, gy = (d1 * e2y - d2 * e1y) * inv, (d2 * e1x - d1 * e2x) * inv
+        out[:, j], out[:, k + j], out[:, 2 * k + j] = gx, gy, v0 - gx * x0 - gy * y0
+    return out
 
 
 def posed_layers(posed, rest, layers, drawing_rgb):
@@ -273,73 +337,176 @@ def _check(posed, rest):
 
 
 class _Sources:
-    """What a posed picture samples, prepared once per drawing.
-
-    Per part: the colours it carries over its rest box (its cut-out layer,
-    premultiplied RGBA; the drawing, opaque, for a part without a layer), and
-    all parts' faces and rest positions in one array each.
-    """
+    """What a posed picture samples, prepared once per drawing: one :class:`_PartSource` per
+    part, and the order to draw them in (back to front by the layer stack)."""
 
     @classmethod
     def join(cls, sources):
         """The sources of several reliefs' parts, one after the other."""
         out = cls.__new__(cls)
-        out.textures = [t for s in sources for t in s.textures]
-        out._topology([s.rest for s in sources], [s.part_faces for s in sources])
+        out.parts, out.order = [], []
+        for s in sources:
+            out.order += [len(out.parts) + i for i in s.order]
+            out.parts += s.parts
         return out
-
-    def _topology(self, rests, faces):
-        """All parts' faces in one array (into ``rest``), and the part of each face."""
-        self.rest = np.concatenate(rests) if rests else np.zeros((0, 2))
-        starts = np.cumsum([0] + [len(r) for r in rests])
-        self.part_faces = [f + base for group, base in zip(faces, starts) for f in group]
-        self.faces = (np.concatenate(self.part_faces) if self.part_faces
-                      else np.zeros((0, 3), np.int64))
-        self.tri_part = np.repeat(np.arange(len(self.part_faces)),
-                                  [len(f) for f in self.part_faces]).astype(np.int32)
 
     def __init__(self, rest, layers, rgb):
         by_name = {layer.name: layer for layer in layers.layers
                    if layer.region is None or layer.region >= 0}
+        self.parts = [_PartSource(part, by_name.get(part.name), rgb) for part in rest.parts]
+        stack = [layer.name for layer in layers.layers]
+        rank = {name: k for k, name in enumerate(stack)}
+        self.order = sorted(range(len(rest.parts)),
+                            key=lambda i: rank.get(rest.parts[i].name, -1))
+
+
+class _PartSource:
+    """One part's front mesh, its rest positions and colours, and the skirt of its layer.
+
+    Colours: the part's cut-out layer over its rest box, premultiplied RGBA
+    (the drawing, opaque, for a part without a layer). A layer's soft edge
+    reaches up to ``_SKIRT`` px beyond the part's triangles (they follow the
+    outline, the layer the ink's anti-aliasing): a band of that width along
+    the mesh's border, carried by the border's posed normals, draws it.
+    """
+
+    def __init__(self, part, layer, rgb):
+        first, _, _, self.faces = front_mesh(part)
+        self.vertex = first
+        v = np.asarray(part.vertices, float)
+        self.rest = (v[:, :2] if part.texcoords is None else
+                     np.asarray(part.texcoords, float))[first]
         h, w = rgb.shape[:2]
-        self.textures = []
-        for part in rest.parts:
-            v = np.asarray(part.vertices, float)[:, :2]
-            x0, y0 = (max(int(np.floor(c)) - 2, 0) for c in v.min(axis=0))
-            x1, y1 = (int(np.ceil(c)) + 3 for c in v.max(axis=0))
-            x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
-            layer = by_name.get(part.name)
-            if layer is None:  # no layer: the drawing, opaque
-                tex = np.dstack([rgb[y0:y1, x0:x1], np.full((y1 - y0, x1 - x0), 255)])
-                tex = tex.astype(np.float32)
-            else:
-                tex = np.zeros((y1 - y0, x1 - x0, 4), np.float32)
-                ly0, ly1, lx0, lx1 = layer.box
-                cy0, cy1, cx0, cx1 = max(ly0, y0), min(ly1, y1), max(lx0, x0), min(lx1, x1)
-                if cy0 < cy1 and cx0 < cx1:
-                    tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = layer.rgba[
-                        cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0]
-            # premultiplied, so that bilinear sampling does not bleed the colour of nothing
-            tex[..., :3] *= tex[..., 3:] / 255.0
-            self.textures.append((x0, y0, tex))
-        rest_xy, faces, base = [], [], 0
-        for part in rest.parts:
-            v = np.asarray(part.vertices, float)[:, :2]
-            rest_xy.append(v if part.texcoords is None else np.asarray(part.texcoords, float))
-            faces.append(np.asarray(part.faces, np.int64).reshape(-1, 3) + base)
-            base += len(v)
-        self._topology([np.concatenate(rest_xy) if rest_xy else np.zeros((0, 2))], [faces])
+        reach = _SKIRT + 2 if layer is not None else 2
+        x0, y0 = (max(int(np.floor(c - reach)), 0) for c in self.rest.min(axis=0))
+        x1, y1 = (int(np.ceil(c + reach)) + 1 for c in self.rest.max(axis=0))
+        x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
+        if layer is None:  # no layer: the drawing, opaque
+            tex = np.dstack([rgb[y0:y1, x0:x1], np.full((y1 - y0, x1 - x0), 255)])
+            tex = tex.astype(np.float32)
+        else:
+            tex = np.zeros((y1 - y0, x1 - x0, 4), np.float32)
+            ly0, ly1, lx0, lx1 = layer.box
+            cy0, cy1, cx0, cx1 = max(ly0, y0), min(ly1, y1), max(lx0, x0), min(lx1, x1)
+            if cy0 < cy1 and cx0 < cx1:
+                tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = layer.rgba[
+                    cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0]
+        # premultiplied, so that bilinear sampling does not bleed the colour of nothing
+        tex[..., :3] *= tex[..., 3:] / 255.0
+        # two pixels at least each way, as bilinear sampling reads them
+        tex = np.pad(tex, ((0, max(2 - tex.shape[0], 0)), (0, max(2 - tex.shape[1], 0)), (0, 0)),
+                     mode="edge")
+        self.texture = (x0, y0, tex)
+        self.skirt = None if layer is None or not len(self.faces) else _Skirt(self.faces, self.rest)
+
+    def surface(self, vertices, scale, size):
+        """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
+        ``vertices`` (the posed part's); None when it covers none."""
+        w, h = size
+        if not len(self.faces):
+            return None
+        xy, z = vertices[self.vertex, :2], vertices[self.vertex, 2]
+        rest, faces = self.rest, self.faces
+        if self.skirt is not None:
+            xy, z, rest, faces = self.skirt.around(xy, z, rest, faces)
+        out = (xy + 0.5) * scale - 0.5
+        lo = np.maximum(np.floor(out.min(axis=0)).astype(int), 0)
+        hi = np.minimum(np.ceil(out.max(axis=0)).astype(int) + 1, [w, h])
+        if (hi <= lo).any():
+            return None
+        bw, bh = hi - lo
+        local = out - lo
+        # the skirt first: where the part's own triangles cover a pixel, they draw it
+        frags = np.full(bw * bh, -1, np.int32)
+        inner = len(self.faces)
+        for chosen in (slice(inner, None), slice(0, inner)):
+            pix, tri = _scan(local, faces[chosen], (bw, bh))
+            frags[pix] = tri + chosen.start
+        pix = np.flatnonzero(frags >= 0)
+        if not pix.size:
+            return None
+        tri = frags[pix]
+        row, col = np.divmod(pix, bw)
+        tx, ty, tex = self.texture
+        # per fragment: height and texture position, affine in the pixel's position
+        k = np.take(_affine(local, faces, np.column_stack([z, rest - [tx, ty]])), tri, axis=0)
+        x, y = col.astype(float), row.astype(float)
+        at = k[:, :3] * x[:, None] + k[:, 3:6] * y[:, None] + k[:, 6:]
+        rgba = _bilinear(tex, at[:, 1:])
+        # what is fully transparent is not there: the surface under it shows
+        keep = rgba[:, 3] > 0
+        flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
+        return flat, at[keep, 0], rgba[keep]
+
+
+class _Skirt:
+    """The band along a mesh's border: per border edge two triangles out to its offset copy.
+
+    Rest offsets are ``_SKIRT`` px along the border's mitred normals; posed,
+    the same along the posed normals, times the border's stretch.
+    """
+
+    def __init__(self, faces, rest):
+        edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        opposite = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
+        key = np.sort(edges, axis=1)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        border = counts[inverse.reshape(-1)] == 1
+        self.edges, self.opposite = edges[border], opposite[border]
+        self.ring, ends = np.unique(self.edges, return_inverse=True)
+        self.ends = ends.reshape(-1, 2)
+        self.rest_offset = _SKIRT * self._normals(rest)[0]
+
+    def _normals(self, xy):
+        """Mitred outward unit normals at the ring's vertices, and each border edge's length."""
+        a, b = xy[self.edges[:, 0]], xy[self.edges[:, 1]]
+        d = b - a
+        length = np.hypot(d[:, 0], d[:, 1])
+        n = np.column_stack([d[:, 1], -d[:, 0]]) / np.maximum(length, 1e-12)[:, None]
+        inward = np.einsum("ec,ec->e", n, xy[self.opposite] - a) > 0
+        n[inward] *= -1
+        total = np.column_stack([self._sum(n[:, 0]), self._sum(n[:, 1])])
+        count = self._sum(np.ones(len(n)))
+        norm = np.hypot(total[:, 0], total[:, 1])
+        # the mitre: an average of unit normals is shorter where the border turns
+        miter = np.minimum(count / np.maximum(norm, 1e-12), 2.0)
+        return total / np.maximum(norm, 1e-12)[:, None] * miter[:, None], length
+
+    def _sum(self, per_edge):
+        """Per ring vertex, the sum of ``per_edge`` over the border edges at it."""
+        n = len(self.ring)
+        return (np.bincount(self.ends[:, 0], per_edge, minlength=n)
+                + np.bincount(self.ends[:, 1], per_edge, minlength=n))
+
+    def around(self, xy, z, rest, faces):
+        """The mesh with its skirt: vertices, heights, rest positions and faces (skirt last)."""
+        normal, length = self._normals(xy)
+        rest_length = np.hypot(*(rest[self.edges[:, 1]] - rest[self.edges[:, 0]]).T)
+        stretch = self._sum(length) / np.maximum(self._sum(rest_length), 1e-12)
+        n = len(xy)
+        a, b = self.edges[:, 0], self.edges[:, 1]
+        a2, b2 = self.ends[:, 0] + n, self.ends[:, 1] + n
+        band = np.concatenate([np.column_stack([a, b, b2]), np.column_stack([a, b2, a2])])
+        return (np.concatenate([xy, xy[self.ring] + _SKIRT * stretch[:, None] * normal]),
+                np.concatenate([z, z[self.ring]]),
+                np.concatenate([rest, rest[self.ring] + self.rest_offset]),
+                np.concatenate([faces, band]))
 
 
 def _bilinear(image, xy):
-    """``image`` (h, w, c) at points ``xy`` (x column, y row), clamped to its edge."""
+    """``image`` (h, w, c), h and w >= 2, at points ``xy`` (x column, y row), clamped to its edge."""
     h, w = image.shape[:2]
+    flat = image.reshape(h * w, -1)
     x = np.clip(xy[:, 0], 0, w - 1)
     y = np.clip(xy[:, 1], 0, h - 1)
-    x0 = np.minimum(x.astype(np.int64), max(w - 2, 0))
-    y0 = np.minimum(y.astype(np.int64), max(h - 2, 0))
-    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    x0 = np.minimum(x.astype(np.int64), w - 2)
+    y0 = np.minimum(y.astype(np.int64), h - 2)
     fx, fy = (x - x0).astype(np.float32)[:, None], (y - y0).astype(np.float32)[:, None]
-    top = image[y0, x0] + fx * (image[y0, x1] - image[y0, x0])
-    bottom = image[y1, x0] + fx * (image[y1, x1] - image[y1, x0])
-    return top + fy * (bottom - top)
+    i = y0 * w + x0
+    # np.take: rows gathered many times faster than by fancy indexing
+    top = np.take(flat, i, axis=0)
+    top += fx * (np.take(flat, i + 1, axis=0) - top)
+    bottom = np.take(flat, i + w, axis=0)
+    bottom += fx * (np.take(flat, i + w + 1, axis=0) - bottom)
+    top += fy * (bottom - top)
+    return top
