@@ -47,7 +47,15 @@ def test_union_is_one_watertight_manifold_solid(name, folder):
     report, warnings = _report(name, folder)
     assert failed_requirements(report, "watertight,manifold,shells=1") == []
     assert report["overall"]["volume"] is not None
-    assert not [w for w in warnings if w.startswith("union:")]
+    assert not [w for w in warnings if "separate shells" in w]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", shared_drawing_names())
+def test_a_solid_left_with_slivers_says_so(name, folder):
+    _, warnings = _report(name, folder)
+    warned = any("a slicer may have to repair the solid" in w for w in warnings)
+    assert warned == (name in SLIVERS or name in CROSSINGS), warnings
 
 
 def _known(failing, what):

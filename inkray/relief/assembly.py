@@ -104,6 +104,7 @@ def assemble(layers, *, size, texture=None, closed=False, union=False):
             apart = "; ".join(", ".join(g) for g in groups[1:])
             warnings.append(f"union: {len(groups)} separate shells: {apart} do not overlap "
                             f"{', '.join(groups[0])} in the drawing")
+        warnings += _left_bad(solid)
         parts = [solid]
     return Relief(parts=parts, size=tuple(size), texture=texture, warnings=warnings)
 
@@ -374,6 +375,23 @@ def _new_faces(old_vertices, old_faces, vertices, faces):
     _, key = np.unique(np.concatenate([old, new]), axis=0, return_inverse=True)
     key = key.ravel()
     return ~np.isin(key[len(old):], key[:len(old)])
+
+
+def _left_bad(solid):
+    """A warning when the solid keeps slivers or faces crossing others (where three
+    parts' outlines meet within a pixel the booleans leave a column the remeshing
+    cannot shape): a printer's slicer may have to repair it."""
+    from inkray.numerics.tri_intersection import self_intersecting_faces
+
+    v, f = np.asarray(solid.vertices, float), np.asarray(solid.faces, np.int64)
+    thin = _min_angles(v, f) < MIN_ANGLE
+    if not thin.any():
+        return []
+    near = _near_faces(v, f, thin)
+    crossing = int(self_intersecting_faces(v, f[near]).sum())
+    return [f"union: {int(thin.sum())} faces with an angle under {MIN_ANGLE:g} degrees and "
+            f"{crossing} crossing another are left where parts' outlines meet within a pixel; "
+            f"a slicer may have to repair the solid"]
 
 
 def _near_faces(vertices, faces, chosen):
