@@ -156,10 +156,11 @@ def test_a_disc_floating_in_front_joins_the_disc_behind(small):
     # the gap between them is filled: the volume is that of the envelopes
     envelope = _envelope_volume(parts)
     separate = sum(trimesh.Trimesh(p.vertices * [1, -1, 1], p.faces).volume for p in parts)
-    raw = union_parts(parts, remesh=False)  # the booleans' solid: the envelope exactly
+    raw = union_parts(parts, remesh=False, skirt=0.0)  # the booleans' solid: the envelope
     assert mesh_quality(raw.vertices * [1, -1, 1], raw.faces)["volume"] == pytest.approx(
         envelope, rel=1e-3)
-    assert q["volume"] == pytest.approx(envelope, rel=0.015)  # remeshed around the slivers
+    # remeshed around the slivers, and the fronts reaching a skirt beyond the outlines
+    assert q["volume"] == pytest.approx(envelope, rel=0.015)
     balls = sum(4.0 / 3.0 * np.pi * r ** 3 for _, _, r, _ in (big, small))  # the parts alone
     assert q["volume"] - separate >= 0.5 * (envelope - balls)
 
@@ -231,7 +232,7 @@ def _box(x0, x1, top, name):
 
 def test_envelope_of_two_boxes_is_the_higher_box_and_a_step():
     low, high = _box(0.0, 6.0, 1.0, "low"), _box(3.0, 9.0, 3.0, "high")
-    v, f = _envelope_solid([low, high])
+    v, f = _envelope_solid([low, high], 0.0)
     q = mesh_quality(v, f)
     assert q["watertight"] and q["consistently_oriented"] and q["self_intersecting_faces"] == 0
     # closed form: the low box where the high one is not (3 x 4 x 1), then the high box
@@ -244,7 +245,20 @@ def test_envelope_of_two_boxes_is_the_higher_box_and_a_step():
 
 def test_envelope_refuses_a_part_that_is_not_a_closed_slab():
     with pytest.raises(StageError, match="part d0 is not a closed slab"):
-        _envelope_solid([disk_part("d0", 30.0, 30.0, 10.0)])  # a front without a back
+        _envelope_solid([disk_part("d0", 30.0, 30.0, 10.0)], 0.0)  # a front without a back
+
+
+def test_a_slot_narrower_than_two_skirts_between_parts_is_filled():
+    low, high = _box(0.0, 6.0, 1.0, "low"), _box(6.4, 12.4, 3.0, "high")  # 0.4 apart
+    high.vertices[:, 2] -= 0.5  # (backs in one plane would overlap where the skirts do)
+    assert mesh_quality(*_envelope_solid([low, high], 0.0))["shells"] == 2
+    v, f = _envelope_solid([low, high], 0.3)
+    q = mesh_quality(v, f)
+    assert q["watertight"] and q["shells"] == 1 and q["self_intersecting_faces"] == 0
+    # closed form: each box 0.3 wider on every side but within the parts' bounds
+    # ([0, 12.4] x [0, 4], the drawing), the high one over the slot: 4 x (6.1 x 1 + 6.3 x 3)
+    assert -q["volume"] == pytest.approx(4.0 * (6.1 + 18.9), rel=1e-12)
+    assert np.ptp(v[:, :2], axis=0) == pytest.approx([12.4, 4.0])
 
 
 def test_untangle_moves_a_vertex_pushed_through_the_solid_back():

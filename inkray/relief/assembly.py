@@ -43,6 +43,9 @@ MIN_ANGLE = 10.0
 _RINGS = 2  # rings of faces remeshed around each sliver (see remesh_solid)
 _ROUNDS = 3  # of remeshing, two more rings each, while faces are left bad
 _ITERATIONS = 4  # of that remeshing
+#: How far (pixels) each part's front and back reach beyond its outline in the union:
+#: two parts' outlines less than twice this apart leave no gap between their fronts.
+SKIRT = 0.3
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -154,7 +157,7 @@ def _prism(vertices, faces, z):
             np.concatenate([faces, faces[:, ::-1] + n, walls]))
 
 
-def union_parts(parts, *, name="union", remesh=True):
+def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
     """One watertight solid over the union of closed parts' outlines.
 
     Every closed part is a slab over the image plane: over its outline it
@@ -183,6 +186,13 @@ def union_parts(parts, *, name="union", remesh=True):
         (:func:`remesh_solid`) toward edges as long as the parts' median
         edge (the relief's own resolution).
 
+    skirt : float, default :data:`SKIRT`
+        How far (pixels) every part's front and back reach beyond its outline
+        at the outline's height: where outlines of different parts run less
+        than twice this apart, the booleans would leave a slot or column
+        under a pixel wide (slivers no remeshing shapes); 0 gives the
+        envelope exactly.
+
     Returns
     -------
     Part
@@ -205,31 +215,70 @@ def union_parts(parts, *, name="union", remesh=True):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    verts, faces = _envelope_solid(parts)
+    verts, faces = _envelope_solid(parts, skirt)
     if remesh:
         verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)))
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts):
-    """The solid ``[B, T]`` over the union of the parts' outlines (see union_parts)."""
+def _envelope_solid(parts, skirt):
+    """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
+    ``skirt`` (see union_parts)."""
     import manifold3d as m3d
 
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
     margin = max(1.0, float(np.ptp(z)))
+    xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
+    box = xy.min(axis=0), xy.max(axis=0)  # no skirt reaches beyond the parts (the drawing)
     below, above = [], []
     for p in parts:
         v, front, back = _sheets(p)
         if not (len(front) and len(back)):
             raise StageError(f"union: part {p.name} is not a closed slab (a front over a back)")
-        # the space under the part's front and the space over its back
-        below.append(_manifold(*_prism(*_compact(v, front), z.min() - margin), p.name))
-        above.append(_manifold(*_prism(*_compact(v, back), z.max() + margin), p.name))
+        # the space under the part's front and the space over its back, each reaching a
+        # skirt beyond the outline (no slot narrower than a pixel between two parts)
+        below.append(_manifold(*_prism(*_skirted(*_compact(v, front), skirt, box),
+                                       z.min() - margin), p.name))
+        above.append(_manifold(*_prism(*_skirted(*_compact(v, back), skirt, box),
+                                       z.max() + margin), p.name))
     solid = (m3d.Manifold.batch_boolean(below, m3d.OpType.Add)
              ^ m3d.Manifold.batch_boolean(above, m3d.OpType.Add))
+    pieces = solid.decompose()
+    if len(pieces) > 1:
+        # a piece under a pixel across is a splinter the cuts leave where outlines
+        # nearly meet, not a part of the drawing
+        box = np.array([p.bounding_box() for p in pieces])
+        wide = (box[:, 3:5] - box[:, 0:2] >= 1.0).any(axis=1)
+        solid = m3d.Manifold.compose([p for p, w in zip(pieces, wide) if w])
     mesh = solid.to_mesh64()
     verts = np.array(mesh.vert_properties, float)[:, :3]
     return verts, np.array(mesh.tri_verts, np.int64)[:, ::-1]
+
+
+def _skirted(vertices, faces, width, box):
+    """A sheet whose outline vertices are moved outward (in ``(x, y)``, at their own
+    height) so that every outline edge lies ``width`` beyond where it was (up to twice
+    that at a sharp corner, where the move is cut short), kept within ``box`` (the
+    lowest and highest ``(x, y)``). Returns vertices, faces."""
+    v = np.array(vertices, float)
+    a, b = _boundary_edges(faces).T
+    if not width or not len(a):
+        return v, faces
+    t = v[faces][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    turn = np.sign((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())  # the faces' winding
+    d = v[b, :2] - v[a, :2]
+    out = turn * np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+    miter = np.zeros((len(v), 2))
+    np.add.at(miter, a, out)
+    np.add.at(miter, b, out)
+    into = np.zeros((len(v), 2))
+    into[b] = out  # the normal of the edge reaching each outline vertex
+    on = np.unique(np.r_[a, b])
+    m = miter[on] / np.maximum(np.linalg.norm(miter[on], axis=1), 1e-12)[:, None]
+    cos = np.einsum("ij,ij->i", m, into[on])
+    v[on, :2] = np.clip(v[on, :2] + m * (width / np.maximum(cos, 0.5))[:, None], *box)
+    return v, faces
 
 
 def _compact(vertices, faces):
@@ -326,6 +375,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
         # each round on a wider patch, longer
         w, g = _remesh_around(v, f, bad, target=target, min_angle=min_angle,
                               rings=rings + 2 * k, iterations=iterations * 2 ** k)
+        if w is v:
+            continue  # nothing kept closed and manifold: the next round, wider
         v, f, bad = _repair(w, g, target=target, min_angle=min_angle,
                             near=_suspects(v, f, bad, w, g))
         if bad.sum() < best[0]:
@@ -361,20 +412,28 @@ def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
     if not _closed_manifold(nf):
         nv, nf = v, f
     fv, ff = _SliverFix(nv, nf).run(min_angle)
-    if not _closed_manifold(ff) or len(np.unique(fv, axis=0)) < len(fv):
+    if not _closed_manifold(ff) or _position_ids(fv).max(initial=-1) + 1 < len(fv):
         return nv, nf
     return fv, ff
 
 
 def _new_faces(old_vertices, old_faces, vertices, faces):
     """Which faces are not among the old ones (compared by their corners' positions)."""
-    _, ids = np.unique(np.concatenate([old_vertices, vertices]), axis=0, return_inverse=True)
-    ids = ids.ravel()
+    ids = _position_ids(np.concatenate([old_vertices, vertices]))
     old = np.sort(ids[:len(old_vertices)][old_faces], axis=1)
     new = np.sort(ids[len(old_vertices):][faces], axis=1)
-    _, key = np.unique(np.concatenate([old, new]), axis=0, return_inverse=True)
-    key = key.ravel()
+    span = int(ids.max()) + 1
+    key = (np.concatenate([old, new]) * np.array([span * span, span, 1])).sum(axis=1)
     return ~np.isin(key[len(old):], key[:len(old)])
+
+
+def _position_ids(points):
+    """One integer per distinct position of ``points`` (n, 3), numbered in sorted order."""
+    order = np.lexsort(np.asarray(points).T[::-1])
+    first = np.r_[True, (np.diff(points[order], axis=0) != 0).any(axis=1)]
+    ids = np.empty(len(points), np.int64)
+    ids[order] = np.cumsum(first) - 1
+    return ids
 
 
 def _left_bad(solid):
@@ -690,18 +749,24 @@ def shell_parts(solid, parts):
 
 def _closed_manifold(faces):
     """Every edge has exactly two faces, running it opposite ways."""
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    key = np.sort(e, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    if len(faces) == 0 or (counts != 2).any():
+    if len(faces) == 0:
         return False
-    forward = np.bincount(inv.ravel(), weights=(e[:, 0] < e[:, 1]).astype(float))
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    _, inv, counts = np.unique(_edge_keys(e), return_inverse=True, return_counts=True)
+    if (counts != 2).any():
+        return False
+    forward = np.bincount(inv, weights=(e[:, 0] < e[:, 1]).astype(float))
     return bool(np.all(forward == 1))
 
 
 def _boundary_edges(faces):
     """Directed boundary edges (as the faces run them)."""
     e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    key = np.sort(e, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return e[counts[inv.ravel()] == 1]
+    _, inv, counts = np.unique(_edge_keys(e), return_inverse=True, return_counts=True)
+    return e[counts[inv] == 1]
+
+
+def _edge_keys(edges):
+    """One integer per undirected edge (sorting pairs of rows is several times slower)."""
+    e = np.sort(np.asarray(edges, np.int64), axis=1)
+    return e[:, 0] * (int(e.max(initial=0)) + 1) + e[:, 1]
