@@ -36,7 +36,7 @@ from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
-           "MIN_ANGLE"]
+           "MIN_ANGLE", "SKIRT"]
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
@@ -44,7 +44,7 @@ _RINGS = 2  # rings of faces remeshed around each sliver (see remesh_solid)
 _ROUNDS = 3  # of remeshing, two more rings each, while faces are left bad
 _ITERATIONS = 4  # of that remeshing
 #: How far (pixels) each part's front and back reach beyond its outline in the union:
-#: two parts' outlines less than twice this apart leave no gap between their fronts.
+#: two parts' outlines less than twice this apart leave no slot between their fronts.
 SKIRT = 0.3
 
 
@@ -170,9 +170,12 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
     coincident faces decided by symbolic perturbation): the union of every part with
     its back lowered below all parts (the space under ``T``), intersected
     with the union of every part with its front raised above all parts (the
-    space over ``B``). Its faces are the parts' own, cut where they meet, so
-    it has about as many faces as the parts and follows their fronts
-    exactly; only the faces around the slivers the cuts leave (and the
+    space over ``B``). Every part's front and back reach :data:`SKIRT` beyond
+    its outline (the outline's vertices moved outward at their own height):
+    where outlines of different parts run within a pixel, the cuts would
+    leave a slot of the solid's height under a pixel wide. Its faces are the
+    parts' own, cut where they meet, so it has about as many faces as the
+    parts and follows their fronts (within the skirt at the rims); only the faces around the slivers the cuts leave (and the
     parts' own) are remeshed.
 
     Parameters
@@ -317,7 +320,9 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
     ``rings`` rings of faces around them are remeshed (isotropic explicit
     remeshing, selected faces only) toward edges of length ``target``;
     creases sharper than 89 degrees (the steps between parts) are kept as
-    features. The remeshing leaves a few slivers along those creases; each
+    features. PyMeshLab is given those faces and one ring around them (left
+    as they are) only, as its every iteration visits the whole mesh it gets;
+    the result is stitched back at that ring's outer vertices. The remeshing leaves a few slivers along those creases; each
     is then flipped (a cap whose long edge lies in a flat stretch),
     collapsed (a needle's short edge, to whichever of its midpoint and ends
     shapes the triangles around it best) or split (a cap's long edge at the
@@ -395,26 +400,80 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
 def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
     """The ``bad`` faces and ``rings`` rings around them remeshed, then their slivers
     fixed (each step kept where its result is closed and manifold)."""
+    chosen = _dilated(f, bad, rings)
+    # the remeshing's every iteration visits the whole mesh it is given: give it the
+    # chosen faces and a ring left as they are (which keeps the cut's border in place)
+    cut = _dilated(f, chosen, 1)
+    used, sub = np.unique(f[cut], return_inverse=True)
+    sv, sf = _remeshed(v[used], sub.reshape(-1, 3), chosen[cut], target=target,
+                       iterations=iterations)
+    nv, nf = _stitched(v, f, cut, sv, sf)
+    if nf is None:
+        # (the cut's border moved, or two of its vertices at one position): the whole mesh
+        nv, nf = _remeshed(v, f, chosen, target=target, iterations=iterations)
+    if not _closed_manifold(nf):
+        nv, nf = v, f
+    fv, ff = _SliverFix(nv, nf).run(min_angle)
+    if not _closed_manifold(ff) or _twins(fv) > _twins(v):
+        return nv, nf
+    return fv, ff
+
+
+def _stitched(vertices, faces, cut, sub_vertices, sub_faces):
+    """The ``cut`` faces replaced by a mesh of them whose border vertices are where they
+    were (matched by position). Returns vertices and faces, or faces None where the
+    border does not match one to one or the result is not closed."""
+    v, f = vertices, faces
+    inside, outside = np.zeros(len(v), bool), np.zeros(len(v), bool)
+    inside[f[cut]], outside[f[~cut]] = True, True
+    border = np.flatnonzero(inside & outside)
+    ids = _position_ids(np.concatenate([v[border], sub_vertices]))
+    at = np.full(int(ids.max()) + 1, -1)
+    at[ids[:len(border)]] = border
+    if (at[ids[:len(border)]] != border).any():
+        return v, None  # two border vertices at one position
+    to = at[ids[len(border):]]
+    new = to < 0
+    to[new] = len(v) + np.arange(int(new.sum()))
+    if np.bincount(to[~new], minlength=len(v))[border].tolist() != [1] * len(border):
+        return v, None
+    nf = np.concatenate([f[~cut], to[sub_faces]])
+    if not _closed_manifold(nf):
+        return v, None
+    used, nf = np.unique(nf, return_inverse=True)
+    return np.concatenate([v, sub_vertices[new]])[used], nf.reshape(-1, 3).astype(np.int64)
+
+
+def _twins(vertices):
+    """How many vertices share their position with another (counting all but one)."""
+    return len(vertices) - int(_position_ids(vertices).max(initial=-1)) - 1
+
+
+def _dilated(faces, chosen, rings):
+    """``chosen`` faces and ``rings`` rings of faces around them (sharing a vertex)."""
+    chosen = np.asarray(chosen, bool).copy()
+    for _ in range(rings):
+        near = np.zeros(int(faces.max()) + 1, bool)
+        near[faces[chosen]] = True
+        chosen = near[faces].any(axis=1)
+    return chosen
+
+
+def _remeshed(vertices, faces, chosen, *, target, iterations):
+    """The ``chosen`` faces remeshed isotropically (PyMeshLab), creases over 89 degrees
+    kept. Returns vertices, faces (compacted)."""
     import pymeshlab
 
     ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=v, face_matrix=f.astype(np.int32),
-                               f_scalar_array=bad.astype(float)))
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces.astype(np.int32),
+                               f_scalar_array=chosen.astype(float)))
     ms.compute_selection_by_condition_per_face(condselect="fq > 0.5")
-    for _ in range(rings):
-        ms.apply_selection_dilatation()
     ms.meshing_isotropic_explicit_remeshing(iterations=iterations, selectedonly=True,
                                             targetlen=pymeshlab.PureValue(float(target)),
                                             featuredeg=89.0, checksurfdist=False)
     m = ms.current_mesh()
     m.compact()
-    nv, nf = np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
-    if not _closed_manifold(nf):
-        nv, nf = v, f
-    fv, ff = _SliverFix(nv, nf).run(min_angle)
-    if not _closed_manifold(ff) or _position_ids(fv).max(initial=-1) + 1 < len(fv):
-        return nv, nf
-    return fv, ff
+    return np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
 
 
 def _new_faces(old_vertices, old_faces, vertices, faces):
