@@ -29,7 +29,12 @@ them:
   limb in front of the body that is rooted elsewhere stays free to swing.
 
 A glue row ties a vertex of one part to the barycentric point of the other
-part's triangle under it at rest, so the rest shape has no glue energy.
+part's triangle under it at rest (for a root also the vertices up to
+``_GLUE_REACH`` px beyond its area and off the other part, to the other
+part's nearest triangle continued, so the corner where the two outlines meet
+cannot open), so the rest shape has no glue energy. Each vertex is glued
+once, and the rows are held exactly where they can be (:class:`Arap`
+substitutes them), so glued parts do not drift apart and leave a crack.
 Parts that crossing alone relates (interlocking rings) stay separate. A
 connected piece of the rig that holds no handle stays where it is.
 """
@@ -57,8 +62,7 @@ ON_TOP_CONTACT = 0.6
 JOINT_AREA = 0.1
 _SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
 _LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
-_GLUE_REACH = 1.5  # px: a glued area's vertices this far beyond it or off the other part count
-_GLUE_REACH = 1.5  # px: a glued area's vertices this far beyond it or off the other part count
+_GLUE_REACH = 1.5  # px: a root's vertices this far beyond its area or off the other part are glued
 _GLUE_WEIGHT = 10.0
 _REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and glue released
 _STIFFER = 10.0
@@ -364,8 +368,10 @@ def rig_relief(relief, completion, *, boundaries=()):
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
             pb, pa = region_part[b], region_part[a]
-            near = ndimage.distance_transform_edt(~mask) <= _GLUE_REACH
-            got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy))
+            # a root's corners, where its outline leaves the part in front, are glued too
+            reach = _GLUE_REACH if kind == "rooted" else 0.0
+            near = ndimage.distance_transform_edt(~mask) <= reach
+            got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
             if not got.shape[0]:
                 continue
             if kind == "overlap":
@@ -381,7 +387,8 @@ def rig_relief(relief, completion, *, boundaries=()):
             for pa in range(len(rig.names)):
                 if pa == pb:
                     continue
-                got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH))
+                got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH),
+                                 reach=0.0)
                 if got.shape[0]:
                     rows.append(got)
                     joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
@@ -405,10 +412,34 @@ def rig_relief(relief, completion, *, boundaries=()):
                 root[k] = first
             rows.append(got)
             joins.append(join)
+    rows, joins = _once_per_vertex(rig, rows, joins)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
     return rig
+
+
+def _once_per_vertex(rig, rows, joins):
+    """Each vertex glued by its first row only (areas of two joins can share vertices): the
+    rows then pivot on distinct vertices and all can be held exactly. Joins left with no row
+    are dropped."""
+    taken = np.zeros(len(rig.vertices), bool)
+    out_rows, out_joins = [], []
+    for got, join in zip(rows, joins):
+        pb = rig.names.index(join.part)
+        coo = got.tocoo()
+        own = (coo.col >= rig.offsets[pb]) & (coo.col < rig.offsets[pb + 1])
+        vertex = np.empty(got.shape[0], np.int64)
+        vertex[coo.row[own]] = coo.col[own]
+        fresh = ~taken[vertex]
+        fresh &= np.unique(vertex, return_index=True)[1][np.searchsorted(
+            np.unique(vertex), vertex)] == np.arange(len(vertex))
+        taken[vertex[fresh]] = True
+        if fresh.any():
+            out_rows.append(got[np.flatnonzero(fresh)])
+            join.vertices = int(fresh.sum())
+            out_joins.append(join)
+    return out_rows, out_joins
 
 
 def front_mesh(part):
@@ -493,8 +524,9 @@ def _joined_areas(completion):
     return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
 
 
-def _glue_rows(rig, pb, pa, where):
-    """Rows tying the vertices of part ``pb`` selected by ``where`` to part ``pa`` under them."""
+def _glue_rows(rig, pb, pa, where, *, reach):
+    """Rows tying the vertices of part ``pb`` selected by ``where`` to part ``pa`` under them
+    (or within ``reach`` px of it)."""
     lo, hi = rig.offsets[pb], rig.offsets[pb + 1]
     xy = rig.vertices[lo:hi]
     pick = np.flatnonzero(where(xy))
@@ -503,7 +535,7 @@ def _glue_rows(rig, pb, pa, where):
     faces = rig.faces[rig.part_of_face == pa]
     # Vertices a little off the other part (where the outlines of both meet) are tied to its
     # nearest triangle's affine map continued beyond it, so the joint's corner cannot open.
-    hit, face, bary = _locate(rig.vertices, faces, xy[pick], _GLUE_REACH, extrapolate=True)
+    hit, face, bary = _locate(rig.vertices, faces, xy[pick], reach, extrapolate=True)
     pick, face, bary = pick[hit], face[hit], bary[hit]
     k = len(pick)
     r = np.repeat(np.arange(k), 4)
