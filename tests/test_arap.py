@@ -86,22 +86,33 @@ def test_limb_swung_sixty_degrees_does_not_fold():
         assert np.abs(out[body + [tip]] - targets).max() < 1e-9
 
 
-def test_glue_rows_keep_two_meshes_together():
+def _two_grids():
+    """Two 4x2 grids overlapping over x in [3, 4]; ``at(mesh, point)`` finds a vertex."""
     a, fa = grid(4, 2)
     b, fb = grid(4, 2)
-    b = b + [3.0, 0.0]  # overlaps a over x in [3, 4]
+    b = b + [3.0, 0.0]
     v = np.vstack([a, b])
     f = np.vstack([fa, fb + len(a)])
-    # vertex of b at (3, 1) equals a's vertex at (3, 1): glue row e_b - e_a
-    ia = int(np.flatnonzero((a == [3, 1]).all(1))[0])
-    ib = len(a) + int(np.flatnonzero((b == [3, 1]).all(1))[0])
-    ja = int(np.flatnonzero((a == [4, 1]).all(1))[0])
-    jb = len(a) + int(np.flatnonzero((b == [4, 1]).all(1))[0])
-    G = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [ib, ia, jb, ja])), shape=(2, len(v)))
+
+    def at(mesh, point):
+        own = a if mesh == 0 else b
+        return mesh * len(a) + int(np.flatnonzero((own == point).all(1))[0])
+
     handles = [0, len(a) + 14]   # a's first vertex, b's far corner
-    targets = v[handles] + [[0, 0], [0, 6]]
-    out = Arap(v, f, handles=handles, glue=G).solve(targets, iterations=30)
-    assert np.abs(G @ out).max() < 0.3          # held together (soft)
+    return v, f, at, handles, v[handles] + [[0, 0], [0, 6]]
+
+
+def test_glue_rows_keep_two_meshes_together():
+    v, f, at, handles, targets = _two_grids()
+    # b's vertices at (3, 1) and (4, 1) equal a's there: glue rows e_b - e_a
+    ia, ib, ja, jb = at(0, [3, 1]), at(1, [3, 1]), at(0, [4, 1]), at(1, [4, 1])
+    G = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [ib, ia, jb, ja])), shape=(2, len(v)))
+    soft = Arap(v, f, handles=handles, glue=G, exact_glue=False).solve(targets, iterations=30)
+    assert 1e-3 < np.abs(G @ soft).max() < 0.3  # held together, loosely
+    exact = Arap(v, f, handles=handles, glue=G)
+    out = exact.solve(targets, iterations=30)
+    assert exact.glue_held.all() and np.abs(G @ out).max() < 1e-9   # held exactly
+    assert np.abs(exact.handles @ out - targets).max() < 1e-9
     loose = Arap(v, f, handles=handles).solve(targets, iterations=30)
     assert np.abs(G @ loose).max() > 1.0        # without glue b leaves a
 
@@ -128,3 +139,17 @@ def test_bad_input():
         Arap(v, f + 100, handles=[0])
     with pytest.raises(ValueError, match="targets"):
         Arap(v, f, handles=[0, 1]).solve([[0.0, 0.0]])
+
+
+def test_glue_rows_that_clash_stay_weighted():
+    v, f, at, handles, targets = _two_grids()
+    ia, ib, ja, jb = at(0, [3, 1]), at(1, [3, 1]), at(0, [4, 0]), at(1, [4, 0])
+    # two rows on distinct vertices, then the first once more: its vertex is already solved for
+    G = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1, 2, 2],
+                                                           [ib, ia, ja, jb, ib, ia])),
+                      shape=(3, len(v)))
+    solver = Arap(v, f, handles=handles, glue=G)
+    out = solver.solve(targets, iterations=30)
+    # the repeated row stays weighted, and vanishes all the same
+    assert solver.glue_held.tolist() == [True, True, False]
+    assert np.abs(G @ out).max() < 1e-9

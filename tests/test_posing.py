@@ -83,6 +83,62 @@ def test_limb_swung_down_meets_handles_without_folds(man):
             rig.offsets[body]:rig.offsets[body + 1]]).max() < 25
 
 
+def _two_part_character():
+    """A body and an arm rooted in it (its completed end under the body), as the chain makes
+    them: completion, one inflated mesh per completed region, stitched, assembled."""
+    from inkray.relief.assembly import assemble
+    from inkray.relief.completion import complete_regions
+    from inkray.relief.inflation import inflate_region
+    from inkray.relief.stitching import stitch
+
+    labels = np.full((120, 160), -1, np.int32)
+    labels[20:100, 20:70] = 0
+    labels[45:61, 70:140] = 1
+    c = complete_regions(labels, names=["body", "arm"])
+    regions = [inflate_region((labels == i) | (c.owner == i), name=n)
+               for i, n in enumerate(c.names)]
+    relief = assemble(stitch(regions, [], None), size=(160, 120))
+    return relief, rig_relief(relief, c)
+
+
+def test_glued_parts_do_not_part_when_a_limb_swings():
+    from inkray.relief.cutout import Cutout
+
+    relief, rig = _two_part_character()
+    assert {(j.part, j.to, j.kind) for j in rig.joins} >= {("arm", "body", "rooted")}
+    arm = rig.names.index("arm")
+    glued = np.unique(rig.glue.tocoo().col)
+    glued = glued[(glued >= rig.offsets[arm]) & (glued < rig.offsets[arm + 1])]
+    # the arm's outline where it leaves the body (the joint's corners, x = 69.5..70.5) is glued
+    # too, not only its hidden end, so the corner between the two outlines cannot open
+    corner = np.flatnonzero((np.abs(rig.vertices[:, 0] - 70.0) <= 0.5)
+                            & (np.abs(rig.vertices[:, 1] - 53.0) >= 7.0))
+    corner = corner[(corner >= rig.offsets[arm]) & (corner < rig.offsets[arm + 1])]
+    assert corner.size and np.isin(corner, glued).all()
+    joint, tip = np.array([70.0, 53.0]), np.array([135.0, 53.0])
+    pins = np.array([[30.0, 30.0], [30.0, 90.0]])
+    posing = Posing(rig, np.vstack([pins, tip]))
+    for degrees in (45, -45):
+        a = np.radians(degrees)
+        target = np.vstack([pins, joint + [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
+                            @ (tip - joint)])
+        posing.solver.reset()
+        x, _ = posing.pose(target, iterations=8)
+        assert rig.folds(x) == 0
+        assert np.abs(posing.solver.handles @ x - target).max() < 1e-6
+        # every glue row holds exactly: the arm's glued vertices stay on the body's triangles
+        assert posing.solver.glue_held.all()
+        assert np.abs(rig.glue @ x).max() < 1e-9
+        # so the body's posed triangles (continued a little beyond them) reach every glued
+        # vertex, and the picture has no transparent pixel between them at the joint
+        img, _ = posed_image(rig.posed_relief(x), relief, Cutout([], relief.size),
+                             np.full((120, 160, 3), 90, np.uint8))
+        opaque = img[..., 3] > 0
+        near = np.hypot(*(np.indices(opaque.shape)[::-1] - joint[:, None, None])) <= 6
+        inside = ndimage.binary_fill_holes(opaque)
+        assert (inside & near).sum() > 0 and not (inside & ~opaque & near).any()
+
+
 def test_handle_off_the_character_is_refused(man):
     _, rig = man
     with pytest.raises(InputError, match=r"handles\[1\]: point \(2, 2\) lies on no part"):

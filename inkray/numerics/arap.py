@@ -16,7 +16,11 @@ and its rest edges ``p`` turned by one rotation ``R_t`` per triangle (per
 triangle this is the triangle's area times ``|J_t - R_t|_F^2``, so it is
 convex in ``x`` for any triangle shape). Optional glue rows ``G`` tie a
 vertex to a point of another triangle (e.g. two overlapping meshes solved as
-one system); they vanish at rest. Handles are points of the mesh (a vertex or
+one system); they vanish at rest. Glue rows are held exactly where they can
+be, by substitution (each solved for its vertex of largest weight, as
+libigl's ``min_quad_with_fixed`` eliminates linear equality constraints),
+so that glued meshes do not part even by a fraction of a pixel; the
+weight ``w`` keeps the others. Handles are points of the mesh (a vertex or
 barycentric point of a triangle) whose positions are prescribed: they are met
 exactly, as equality rows of the KKT system of the global step.
 
@@ -111,7 +115,14 @@ class Arap:
         Rows whose deformed values should vanish (they must vanish at rest):
         e.g. a vertex of one mesh minus the barycentric point of another.
     glue_weight : float, default 10.0
-        Weight of the glue rows against the (area-scaled) ARAP energy.
+        Weight of the glue rows that are not held exactly against the
+        (area-scaled) ARAP energy.
+    exact_glue : bool, default True
+        Hold glue rows exactly where they can be: a row is solved for its
+        vertex of largest weight (its pivot) when that vertex is not fixed and
+        no other held row involves it, and none of its other vertices is
+        another held row's pivot (so the substitution is one level deep and
+        keeps the system sparse). The others are weighted by ``glue_weight``.
     fixed : (n,) bool array or int array, optional
         Vertices held at their rest positions (e.g. pieces no handle reaches).
     stiffness : (m,) float array, optional
@@ -122,6 +133,8 @@ class Arap:
     ----------
     pose : (n, 2) float array
         The last solution (the warm start of the next solve).
+    glue_held : (g,) bool array
+        The glue rows held exactly (the others are weighted).
 
     Examples
     --------
@@ -136,8 +149,8 @@ class Arap:
     [[0.0, 0.0], [0.0, 5.0], [0.0, 10.0], [-1.0, 0.0]]
     """
 
-    def __init__(self, vertices, faces, *, handles, glue=None, glue_weight=10.0, fixed=None,
-                 stiffness=None):
+    def __init__(self, vertices, faces, *, handles, glue=None, glue_weight=10.0,
+                 exact_glue=True, fixed=None, stiffness=None):
         p = np.asarray(vertices, float)
         f = np.asarray(faces, np.int64)
         if p.ndim != 2 or p.shape[1] != 2 or not np.all(np.isfinite(p)):
@@ -164,14 +177,19 @@ class Arap:
         self._weights = self._cot * k[:, None]
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
         self._edges = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
-        L = _cotmatrix(f, self._weights, n)
-        self._Q = (L + glue_weight * (G.T @ G)).tocsr()
         loose = _unheld(f, G, C, mask)
         if loose is not None:
             raise ValueError(f"handles: the piece of the mesh holding vertex {loose} has no handle "
                              f"and is not fixed")
+        # x = T z over the vertices z that no exact glue row is solved for
+        self._T, self._keep, held = _substitution(G, mask) if exact_glue else (
+            sp.identity(n, format="csr"), np.arange(n), np.zeros(G.shape[0], bool))
+        self.glue_held = held
+        Gs = G[np.flatnonzero(~held)]
+        L = _cotmatrix(f, self._weights, n)
+        self._Q = (self._T.T @ (L + glue_weight * (Gs.T @ Gs)) @ self._T).tocsr()
         self._fixed = np.flatnonzero(mask)
-        self._eliminate(C, mask)
+        self._eliminate((C @ self._T).tocsr(), mask[self._keep])
         # The global step's right-hand side b = sum over face edges of R_t w e, into the
         # edge's head (+) and tail (-): b_x = M0 cos - M1 sin, b_y = M0 sin + M1 cos.
         m = len(f)
@@ -185,6 +203,7 @@ class Arap:
         rows = np.concatenate([self._head, self._tail])
         M = [sp.csr_matrix((np.concatenate([v, -v]), (rows, np.concatenate([face, face]))),
                            shape=(n, m)) for v in (self._we0, self._we1)]
+        M = [self._T.T @ Mi for Mi in M]
         if not self._kkt:
             M = [self._P.T @ Mi for Mi in M]
         self._M0, self._M1 = (Mi.tocsr() for Mi in M)
@@ -210,6 +229,8 @@ class Arap:
             ok = (used[cols] == 1) & ~mask[cols] & (np.abs(vals) > 1e-3)
             pivots.append(int(cols[ok][np.argmax(np.abs(vals[ok]))]) if ok.any() else -1)
         Q = self._Q
+        fixed = np.flatnonzero(mask)
+        self._fixed_z = fixed
         if all(p >= 0 for p in pivots) and len(set(pivots)) == len(pivots):
             piv = np.array(pivots, np.int64)
             free = np.setdiff1d(np.flatnonzero(~mask), piv)
@@ -223,8 +244,8 @@ class Arap:
             rest = rest.tocsr()
             E = sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))),
                               shape=(n, len(free)))
-            Fx = sp.csr_matrix((np.ones(len(self._fixed)), (self._fixed, np.arange(len(self._fixed)))),
-                               shape=(n, len(self._fixed)))
+            Fx = sp.csr_matrix((np.ones(len(fixed)), (fixed, np.arange(len(fixed)))),
+                               shape=(n, len(fixed)))
             self._P = (E - S @ (rest @ E)).tocsr()
             self._D = (S @ sp.diags(1.0 / cp)).tocsr()
             self._H = (Fx - S @ (rest @ Fx)).tocsr()
@@ -239,8 +260,8 @@ class Arap:
             Cf = C[:, free].tocsr()
             if C.shape[0] and sp.linalg.norm(Cf) == 0 and len(free):
                 raise ValueError("handles: every handle lies on fixed vertices")
-            self._K = Q[free][:, self._fixed]
-            self._Ck = C[:, self._fixed].tocsr()
+            self._K = Q[free][:, fixed]
+            self._Ck = C[:, fixed].tocsr()
             kkt = sp.bmat([[Q[free][:, free], Cf.T], [Cf, None]], format="csc")
             try:
                 self._factor = splu(kkt) if kkt.shape[0] else None
@@ -324,16 +345,16 @@ class Arap:
         a, b = self._M0 @ c, self._M1 @ s
         e, g = self._M0 @ s, self._M1 @ c
         rhs = np.column_stack([a - b, e + g])
-        out = x.copy()
+        z = x[self._keep]
         if self._factor is None:
-            return out
-        xk = x[self._fixed]
+            return self._T @ z
+        zk = z[self._fixed_z]
         if self._kkt:
-            rhs = np.concatenate([rhs[self._free] - self._K @ xk, targets - self._Ck @ xk])
-            out[self._free] = self._factor.solve(rhs)[:len(self._free)]
-            return out
-        y = self._factor.solve(rhs - self._PtQD @ targets - self._PtQH @ xk)
-        return self._P @ y + self._D @ targets + self._H @ xk
+            rhs = np.concatenate([rhs[self._free] - self._K @ zk, targets - self._Ck @ zk])
+            z[self._free] = self._factor.solve(rhs)[:len(self._free)]
+            return self._T @ z
+        y = self._factor.solve(rhs - self._PtQD @ targets - self._PtQH @ zk)
+        return self._T @ (self._P @ y + self._D @ targets + self._H @ zk)
 
 
 def arap(vertices, faces, handles, targets, *, iterations=20):
@@ -439,6 +460,57 @@ def _unheld(faces, glue, handles, fixed):
     held[piece[handles.tocoo().col]] = True
     free = np.flatnonzero(~held[piece])
     return int(free[0]) if free.size else None
+
+
+def _substitution(glue, fixed):
+    """Glue rows held exactly by substitution, one level deep: ``x = T z``.
+
+    Rows are taken in order; a row is held when its pivot (its vertex of
+    largest weight) is not fixed, not another held row's pivot and not among
+    another held row's vertices, and none of its other vertices is a pivot.
+    Then every pivot is a combination of vertices that are no pivots, and the
+    held rows vanish for any ``z``.
+
+    Returns
+    -------
+    T : (n, r) sparse matrix
+    keep : (r,) int array
+        The vertices ``z`` stands for (``T`` is the identity on them).
+    held : (g,) bool array
+        The rows held exactly.
+    """
+    G = sp.csr_matrix(glue)
+    n = G.shape[1]
+    pivot = np.full(n, -1)
+    involved = np.zeros(n, bool)
+    held = np.zeros(G.shape[0], bool)
+    subs = []
+    for r in range(G.shape[0]):
+        cols = G.indices[G.indptr[r]:G.indptr[r + 1]]
+        vals = G.data[G.indptr[r]:G.indptr[r + 1]]
+        big = np.abs(vals) > 1e-12 * max(np.abs(vals).max(initial=0.0), 1e-300)
+        cols, vals = cols[big], vals[big]
+        if not len(cols):
+            continue
+        k = int(np.argmax(np.abs(vals)))
+        p, others = int(cols[k]), np.delete(cols, k)
+        if fixed[p] or pivot[p] >= 0 or involved[p] or (pivot[others] >= 0).any():
+            continue
+        pivot[p] = r
+        involved[others] = True
+        held[r] = True
+        subs.append((p, others, -np.delete(vals, k) / vals[k]))
+    keep = np.flatnonzero(pivot < 0)
+    z = np.full(n, -1)
+    z[keep] = np.arange(len(keep))
+    rows, cols, vals = [keep], [np.arange(len(keep))], [np.ones(len(keep))]
+    for p, others, w in subs:
+        rows.append(np.full(len(others), p))
+        cols.append(z[others])
+        vals.append(w)
+    T = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n, len(keep)))
+    return T, keep, held
 
 
 def _rigid_fit(src, dst, points):

@@ -29,7 +29,12 @@ them:
   limb in front of the body that is rooted elsewhere stays free to swing.
 
 A glue row ties a vertex of one part to the barycentric point of the other
-part's triangle under it at rest, so the rest shape has no glue energy.
+part's triangle under it at rest (for a root also the vertices up to
+``_GLUE_REACH`` px beyond its area and off the other part, to the other
+part's nearest triangle continued, so the corner where the two outlines meet
+cannot open), so the rest shape has no glue energy. Each vertex is glued
+once, and the rows are held exactly where they can be (:class:`Arap`
+substitutes them), so glued parts do not drift apart and leave a crack.
 Parts that crossing alone relates (interlocking rings) stay separate. A
 connected piece of the rig that holds no handle stays where it is.
 """
@@ -57,6 +62,7 @@ ON_TOP_CONTACT = 0.6
 JOINT_AREA = 0.1
 _SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
 _LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
+_GLUE_REACH = 1.5  # px: a root's vertices this far beyond its area or off the other part are glued
 _GLUE_WEIGHT = 10.0
 _REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and glue released
 _STIFFER = 10.0
@@ -257,9 +263,11 @@ class Posing:
         Where faces still fold after ``max_iterations`` rounds (a thin
         protrusion dragged by its tip, a glued area meeting a free one), the
         faces within ``_REPAIR_REACH`` of them are made ``_STIFFER`` times
-        stiffer and the glue rows there released, the system factored again
-        and the rounds go on, at most ``_REPAIRS`` times. The next drag keeps
-        the repaired system.
+        stiffer, the system factored again and the rounds go on, at most
+        ``_REPAIRS`` times; the last time the glue rows there are released
+        too (released glue lets joined parts part, a crack in the picture,
+        so only when stiffness alone has not unfolded them). The next drag
+        keeps the repaired system.
 
         Returns
         -------
@@ -281,7 +289,7 @@ class Posing:
             centres = x[self.rig.faces[folded]].mean(axis=1)
             near = _within(x, centres, _REPAIR_REACH)
             self._stiffness[np.any(near[self.rig.faces], axis=1)] *= _STIFFER
-            if self._glue.shape[0]:
+            if repair == _REPAIRS - 1 and self._glue.shape[0]:
                 touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
                 self._glue = self._glue[touches == 0]
             self.solver = self._arap()
@@ -360,7 +368,10 @@ def rig_relief(relief, completion, *, boundaries=()):
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
             pb, pa = region_part[b], region_part[a]
-            got = _glue_rows(rig, pb, pa, lambda xy, m=mask: _inside(m, xy))
+            # a root's corners, where its outline leaves the part in front, are glued too
+            reach = _GLUE_REACH if kind == "rooted" else 0.0
+            near = ndimage.distance_transform_edt(~mask) <= reach
+            got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
             if not got.shape[0]:
                 continue
             if kind == "overlap":
@@ -376,7 +387,8 @@ def rig_relief(relief, completion, *, boundaries=()):
             for pa in range(len(rig.names)):
                 if pa == pb:
                     continue
-                got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH))
+                got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH),
+                                 reach=0.0)
                 if got.shape[0]:
                     rows.append(got)
                     joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
@@ -400,10 +412,34 @@ def rig_relief(relief, completion, *, boundaries=()):
                 root[k] = first
             rows.append(got)
             joins.append(join)
+    rows, joins = _once_per_vertex(rig, rows, joins)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
     return rig
+
+
+def _once_per_vertex(rig, rows, joins):
+    """Each vertex glued by its first row only (areas of two joins can share vertices): the
+    rows then pivot on distinct vertices and all can be held exactly. Joins left with no row
+    are dropped."""
+    taken = np.zeros(len(rig.vertices), bool)
+    out_rows, out_joins = [], []
+    for got, join in zip(rows, joins):
+        pb = rig.names.index(join.part)
+        coo = got.tocoo()
+        own = (coo.col >= rig.offsets[pb]) & (coo.col < rig.offsets[pb + 1])
+        vertex = np.empty(got.shape[0], np.int64)
+        vertex[coo.row[own]] = coo.col[own]
+        fresh = ~taken[vertex]
+        fresh &= np.unique(vertex, return_index=True)[1][np.searchsorted(
+            np.unique(vertex), vertex)] == np.arange(len(vertex))
+        taken[vertex[fresh]] = True
+        if fresh.any():
+            out_rows.append(got[np.flatnonzero(fresh)])
+            join.vertices = int(fresh.sum())
+            out_joins.append(join)
+    return out_rows, out_joins
 
 
 def front_mesh(part):
@@ -488,15 +524,18 @@ def _joined_areas(completion):
     return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
 
 
-def _glue_rows(rig, pb, pa, where):
-    """Rows tying the vertices of part ``pb`` selected by ``where`` to part ``pa`` under them."""
+def _glue_rows(rig, pb, pa, where, *, reach):
+    """Rows tying the vertices of part ``pb`` selected by ``where`` to part ``pa`` under them
+    (or within ``reach`` px of it)."""
     lo, hi = rig.offsets[pb], rig.offsets[pb + 1]
     xy = rig.vertices[lo:hi]
     pick = np.flatnonzero(where(xy))
     if not pick.size:
         return sp.csr_matrix((0, len(rig.vertices)))
     faces = rig.faces[rig.part_of_face == pa]
-    hit, face, bary = _locate(rig.vertices, faces, xy[pick], 0.0)
+    # Vertices a little off the other part (where the outlines of both meet) are tied to its
+    # nearest triangle's affine map continued beyond it, so the joint's corner cannot open.
+    hit, face, bary = _locate(rig.vertices, faces, xy[pick], reach, extrapolate=True)
     pick, face, bary = pick[hit], face[hit], bary[hit]
     k = len(pick)
     r = np.repeat(np.arange(k), 4)
@@ -523,8 +562,12 @@ def _near(path, xy, reach):
     return np.min(np.hypot(*(xy[:, None] - foot).transpose(2, 0, 1)), axis=1) <= reach
 
 
-def _locate(vertices, faces, points, tol):
-    """Which points lie on the 2D faces (within ``tol``), their face and barycentric coordinates."""
+def _locate(vertices, faces, points, tol, *, extrapolate=False):
+    """Which points lie on the 2D faces (within ``tol``), their face and barycentric coordinates.
+
+    The coordinates are the nearest point's in the nearest face, or with ``extrapolate`` the
+    point's own in that face's plane (negative off the face), so that they reproduce it.
+    """
     import igl
 
     k = len(points)
@@ -534,10 +577,13 @@ def _locate(vertices, faces, points, tol):
     query = np.column_stack([points, np.zeros(k)])
     d2, face, near = igl.point_mesh_squared_distance(query, flat, faces.astype(np.int64))
     t = vertices[faces[face]]
-    e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], near[:, :2] - t[:, 0]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    r = (np.asarray(points, float) if extrapolate else near[:, :2]) - t[:, 0]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
     l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-    bary = np.clip(np.column_stack([1 - l1 - l2, l1, l2]), 0, 1)
-    bary /= bary.sum(axis=1, keepdims=True)
+    bary = np.column_stack([1 - l1 - l2, l1, l2])
+    if not extrapolate:
+        bary = np.clip(bary, 0, 1)
+        bary /= bary.sum(axis=1, keepdims=True)
     return d2 <= tol * tol + 1e-12, face.astype(np.int64), bary
