@@ -168,8 +168,10 @@ def _server(ann):
     """A fresh ``inkray edit`` server on ``ann``: the process and its address."""
     code = "import sys; from inkray.cli import main; sys.exit(main())"
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
+    # in ROOT, whose inkray the server imports (python -c puts the working folder first)
     proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
-                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env)
+                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env,
+                            cwd=str(ROOT))
     try:
         return proc, proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/")
     except IndexError:
@@ -292,7 +294,7 @@ def _methods(name, megapixels, repeats, where=("in process", "process")):
                 start = time.perf_counter()
                 subprocess.run([sys.executable, "-m", "inkray", "--quiet", "depth", str(ann_path),
                                 "-o", str(out), "--method", method], check=True, env=env,
-                               stdout=subprocess.DEVNULL)
+                               stdout=subprocess.DEVNULL, cwd=str(ROOT))
                 times.setdefault(("process", method), []).append(time.perf_counter() - start)
                 out.unlink()
                 out.with_suffix(".json").unlink()
