@@ -529,7 +529,7 @@ def _scene_meshes(relief, units_per_pixel, anchor):
     drawing's copy has its planar texture coordinates, the paper's copy those
     of the part's paper texel (:func:`_paper_texels`), so that no face blends
     the two. Normals are smooth over the front surface (drawing and steep rim
-    alike, as they were before any back was added) and over the back and
+    alike, as without a back) and over the back and
     walls, each on its own.
     """
     texture = _texture(relief)
