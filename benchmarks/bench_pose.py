@@ -39,9 +39,7 @@ thresholds were set looking at man, figure, turtle, rings and gingerbread
 
 import argparse
 import json
-import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -49,6 +47,9 @@ from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_edit import _cpu, _folder, _request, _server  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -170,18 +171,11 @@ def _http_drags(name, megapixels, handles, targets):
     """Median time of a drag through ``inkray edit``'s ``POST /api/pose`` (and its compute part)."""
     import shutil
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench_edit import ROOT, _folder, _request
 
     ann, _ = _folder(name, megapixels)
-    code = "import sys; from inkray.cli import main; sys.exit(main())"
-    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0")
-    # in ROOT, whose inkray the server imports (python -c puts the working folder first)
-    proc = subprocess.Popen([sys.executable, "-c", code, "edit", str(ann), "--no-browser",
-                             "--port", "0"], stdout=subprocess.PIPE, text=True, env=env,
-                            cwd=str(ROOT))
+    proc, address = _server(ann)
     try:
-        url = proc.stdout.readline().strip().rsplit(" ", 1)[1].rstrip("/") + "/api/pose"
+        url = address + "/api/pose"
 
         def post(to, scale=1.0):
             body = json.dumps({"handles": handles.tolist(), "to": to.tolist(),
@@ -222,16 +216,6 @@ def _idle(pid, timeout=120.0):
         if now - last < 0.01:
             return
         last = now
-
-
-def _cpu(pid):
-    """CPU seconds a process has used (Linux /proc; NaN elsewhere): on a machine shared with
-    other work, the server's CPU time per drag is what the drag costs when the machine is idle."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return float("nan")
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def one(name, megapixels, http=True):

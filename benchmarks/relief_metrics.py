@@ -79,23 +79,35 @@ def normal_jumps(relief, gray, *, epsilon=None, margin=2, raster=None):
     across a part change (empty when there is none).
     """
     r = raster if raster is not None else rasterize(relief)
-    ink = binary_dilation(ink_mask(gray), iterations=margin) if margin else ink_mask(gray)
     out = []
-    for axis in (0, 1):
-        a = [slice(None), slice(None)]
-        b = [slice(None), slice(None)]
-        a[axis], b[axis] = slice(None, -1), slice(1, None)
-        pa, pb = r.part[tuple(a)], r.part[tuple(b)]
-        sel = (pa >= 0) & (pb >= 0) & (pa != pb) & ~ink[tuple(a)] & ~ink[tuple(b)]
+    for axis, a, b, sel in _pairs(r, gray, margin):
         if epsilon is not None:
+            pa, pb = r.part[a], r.part[b]
             ys, xs = np.nonzero(sel)
             mid = np.column_stack([xs, ys]) + 0.5 * np.eye(2)[::-1][axis]
             step = np.abs(_height_of(relief, pa[sel], mid) - _height_of(relief, pb[sel], mid))
             sel[ys[step >= MEET * epsilon], xs[step >= MEET * epsilon]] = False
-        na, nb = r.normal[tuple(a)][sel], r.normal[tuple(b)][sel]
-        cos = np.clip((na * nb).sum(axis=1), -1.0, 1.0)
-        out.append(np.degrees(np.arccos(cos)))
+        out.append(_angles(r, a, b, sel))
     return np.concatenate(out)
+
+
+def _pairs(r, gray, margin):
+    """``(axis, a, b, sel)`` per axis: the slices of a pixel and its next neighbour along
+    it, and where the two are of different parts and ink-free (``margin`` px)."""
+    ink = binary_dilation(ink_mask(gray), iterations=margin) if margin else ink_mask(gray)
+    for axis in (0, 1):
+        a = [slice(None), slice(None)]
+        b = [slice(None), slice(None)]
+        a[axis], b[axis] = slice(None, -1), slice(1, None)
+        a, b = tuple(a), tuple(b)
+        pa, pb = r.part[a], r.part[b]
+        yield axis, a, b, (pa >= 0) & (pb >= 0) & (pa != pb) & ~ink[a] & ~ink[b]
+
+
+def _angles(r, a, b, sel):
+    """Angles (deg) between the normals of the ``sel`` pixel pairs ``a``, ``b``."""
+    cos = np.clip((r.normal[a][sel] * r.normal[b][sel]).sum(axis=1), -1.0, 1.0)
+    return np.degrees(np.arccos(cos))
 
 
 def open_joins(part, gray, *, reach=1.0):
@@ -128,18 +140,8 @@ def open_join_jumps(relief, gray, *, margin=2, raster=None):
     """
     r = raster if raster is not None else rasterize(relief)
     join = open_joins(r.part, gray)
-    ink = binary_dilation(ink_mask(gray), iterations=margin) if margin else ink_mask(gray)
-    out = []
-    for axis in (0, 1):
-        a = [slice(None), slice(None)]
-        b = [slice(None), slice(None)]
-        a[axis], b[axis] = slice(None, -1), slice(1, None)
-        a, b = tuple(a), tuple(b)
-        pa, pb = r.part[a], r.part[b]
-        sel = (pa >= 0) & (pb >= 0) & (pa != pb) & join[a] & join[b] & ~ink[a] & ~ink[b]
-        cos = np.clip((r.normal[a][sel] * r.normal[b][sel]).sum(axis=1), -1.0, 1.0)
-        out.append(np.degrees(np.arccos(cos)))
-    return np.concatenate(out)
+    return np.concatenate([_angles(r, a, b, sel & join[a] & join[b])
+                           for _, a, b, sel in _pairs(r, gray, margin)])
 
 
 def _height_of(relief, part, points):
