@@ -21,24 +21,50 @@ disk of radius ``R``, ``f = c (R^2 - r^2) / 4``, so the ``sqrt`` profile
 peak ``(sqrt(c) / 2) R``, a hemisphere for ``c = 4``, and ``h`` scales
 linearly with the drawing. The ``linear`` profile is the parabola itself,
 scaled to the same peak: ``h = f / sqrt(max f)``.
+
+The ``sqrt`` profile has a vertical tangent where ``f = 0``: its faces next to
+the silhouette stand at 70-85 degrees, where the planar texture coordinates
+stretch the drawing's outline over the whole side of the part seen from three
+quarters. :func:`inflate_region` makes that limit a short wall
+(:func:`rim_wall`): every ``f = 0`` vertex gets a copy
+:data:`WALL_INSET` px inside, so the outline's first ring of faces is a wall
+of about zero area in the front view, steep enough to take the part's paper
+colour in an export (``inkray.formats.meshes``), and
+:func:`walled_sqrt` caps the profile's slope inside it at
+:data:`MAX_SLOPE` degrees: where the slope of ``s sqrt(f)`` would exceed it,
+the profile follows its tangent of that slope down to the wall (the profile
+is unchanged where it is gentler, and C1 throughout). Near the outline
+``f ~ G d`` (``G = |grad f|``, ``d`` the distance in), so the tangent is
+``s^2 G / (4 k) + k f / G`` for ``f < s^2 G^2 / (4 k^2)``, with
+``k = tan(MAX_SLOPE)``, and the wall is ``s^2 G / (4 k)`` high: about a
+twelfth of a disk's radius at ``c = 2``.
 """
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
 import igl
 import numpy as np
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.spd import MinQuadWithFixed
-from inkray.relief.outline import DIRICHLET_KINDS
+from inkray.relief.outline import DIRICHLET_KINDS, INTERIOR
 from inkray.relief.triangulation import RegionMesh, mesh_region
 
-__all__ = ["InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh", "inflate_region",
-           "PROFILES", "SQRT_SCALE"]
+__all__ = ["InflatedRegion", "InflationSolver", "dirichlet_vertices", "apply_profile", "inflate_mesh",
+           "inflate_region", "rim_wall", "walled_sqrt", "PROFILES", "SQRT_SCALE", "MAX_SLOPE",
+           "WALL_INSET"]
 
 PROFILES = ("sqrt", "linear", "flat")
 #: The ``s`` of the ``sqrt`` profile ``h = s * sqrt(f)``: 1 makes a disk's peak ``(sqrt(c)/2) R``.
 SQRT_SCALE = 1.0
+#: Steepest slope (degrees) of the ``sqrt`` profile inside its wall: seen from 45 degrees
+#: a face this steep shows the drawing stretched at most about 2.8 times.
+MAX_SLOPE = 70.0
+#: How far (px) inside the silhouette the wall's top runs: its faces cover this much of
+#: the front view per pixel of outline.
+WALL_INSET = 0.02
+_CORNER_STRETCH = 4.0  # a corner's copy moves at most this many insets along its bisector
 
 
 @dataclass
@@ -255,7 +281,9 @@ def inflate_mesh(mesh, *, inflation=2.0, profile="sqrt", solver=None):
         return InflatedRegion(mesh=mesh, height=zero, f=zero.copy(), solver=solver)
     solver = solver if solver is not None else InflationSolver(mesh)
     f = solver.solve(float(inflation))
-    return InflatedRegion(mesh=mesh, height=apply_profile(f, profile), f=f, solver=solver)
+    height = (walled_sqrt(mesh, f, dirichlet=solver.dirichlet) if profile == "sqrt"
+              else apply_profile(f, profile))
+    return InflatedRegion(mesh=mesh, height=height, f=f, solver=solver)
 
 
 def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, boundaries=(),
@@ -290,7 +318,183 @@ def inflate_region(mask, *, visible=None, labels=None, region=None, name=None, b
     _check_options(inflation, profile, name if name is not None else "region")
     mesh = mesh_region(mask, visible=visible, labels=labels, region=region, name=name,
                        boundaries=boundaries, options=options)
+    if profile == "sqrt":
+        mesh = rim_wall(mesh)
     return inflate_mesh(mesh, inflation=inflation, profile=profile)
+
+
+def rim_wall(mesh, *, inset=WALL_INSET):
+    """The mesh with a strip of faces along its silhouette, ``inset`` px wide.
+
+    Every vertex with ``f = 0`` (:func:`dirichlet_vertices`) on the outline gets
+    a copy ``inset`` px inside, along the bisector of its two outline edges
+    (farther at a corner, so that the copy is ``inset`` from both edges, but
+    never so far that a face turns over). The faces of the mesh move onto the
+    copies and two faces per outline edge join each edge to the copies: the
+    outline keeps its vertices, indices, kinds and stations, and a profile
+    that is zero on them and positive at the copies stands there as a wall
+    covering ``inset`` px of the front view per px of outline. Vertices where
+    more than two outline edges meet (two loops touching) keep no copy.
+
+    Parameters
+    ----------
+    mesh : RegionMesh
+    inset : float, default :data:`WALL_INSET`
+        Width of the strip in px.
+
+    Returns
+    -------
+    RegionMesh
+        The copies follow the mesh's vertices, interior (no outline kind, no
+        entry, no station).
+
+    Raises
+    ------
+    InputError
+        A non-positive or non-finite ``inset``.
+
+    Examples
+    --------
+    >>> from inkray.relief.triangulation import mesh_region
+    >>> yy, xx = np.mgrid[:40, :40]
+    >>> mesh = mesh_region((xx - 20) ** 2 + (yy - 20) ** 2 <= 15 ** 2)
+    >>> walled = rim_wall(mesh, inset=0.05)
+    >>> n, k = len(mesh.vertices), int(mesh.outline.sum())
+    >>> len(walled.vertices) == n + k, len(walled.faces) == len(mesh.faces) + 2 * k
+    (True, True)
+    >>> bool(np.allclose(np.linalg.norm(walled.vertices[n:] - walled.vertices[:n][mesh.outline], axis=1), 0.05, rtol=0.05))
+    True
+    """
+    if not (isinstance(inset, (int, float, np.number)) and np.isfinite(inset) and inset > 0):
+        raise InputError(f"region {mesh.name}: inset: expected a positive width in px, got {inset!r}")
+    v = np.asarray(mesh.vertices, float)
+    faces = np.asarray(mesh.faces, np.int64)
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    opposite = faces[:, [2, 0, 1]].ravel()
+    _, inverse, count = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True,
+                                  return_counts=True)
+    edge = count[inverse.ravel()] == 1
+    (a, b), c = directed[edge].T, opposite[edge]
+    # The inward normal of each outline edge: toward its face's third vertex.
+    t = v[b] - v[a]
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    normal = np.column_stack([-t[:, 1], t[:, 0]])
+    normal *= np.sign(np.einsum("ij,ij->i", normal, v[c] - v[a]))[:, None]
+    n = len(v)
+    degree = np.bincount(np.concatenate([a, b]), minlength=n)
+    walled = dirichlet_vertices(mesh) & (degree == 2)
+    summed = np.zeros((n, 2))
+    np.add.at(summed, a, normal)
+    np.add.at(summed, b, normal)
+    length = np.linalg.norm(summed, axis=1)
+    walled &= length > 1e-9  # a spike folding back on itself has no inside direction
+    moved = np.flatnonzero(walled)
+    bisector = summed[moved] / length[moved, None]
+    # At a corner, ``inset`` from both edges: 1 / cos of the half turn between them.
+    stretch = np.minimum(2.0 / length[moved], _CORNER_STRETCH)
+    step = inset * stretch
+    copy = np.full(n, -1, np.int64)
+    copy[moved] = n + np.arange(len(moved))
+    inner = np.where(copy[faces] >= 0, copy[faces], faces)
+    for _ in range(8):  # shorten the steps that turn a face over (a sharp spike)
+        w = np.vstack([v, v[moved] + step[:, None] * bisector])
+        flipped = _signed_area(w, inner) * _signed_area(v, faces) <= 0
+        if not flipped.any():
+            break
+        bad = np.unique(inner[flipped])
+        step[bad[bad >= n] - n] *= 0.5
+    u, w_ = copy[a], copy[b]
+    both = (u >= 0) & (w_ >= 0)
+    strip = [np.column_stack([a, b, w_])[w_ >= 0],
+             np.column_stack([a, w_, u])[both],
+             np.column_stack([a, b, u])[(u >= 0) & (w_ < 0)]]
+    extra = len(moved)
+    return replace(
+        mesh, vertices=np.vstack([v, v[moved] + step[:, None] * bisector]),
+        faces=np.vstack([inner, *strip]),
+        kind=np.concatenate([mesh.kind, np.full(extra, INTERIOR, np.asarray(mesh.kind).dtype)]),
+        boundary_index=np.concatenate([mesh.boundary_index, np.full(extra, -1)]),
+        station=np.concatenate([mesh.station, np.full(extra, -1)]),
+        neighbour=np.concatenate([mesh.neighbour, np.full(extra, -1)]))
+
+
+def walled_sqrt(mesh, f, *, dirichlet=None, max_slope=MAX_SLOPE):
+    """The ``sqrt`` profile with its slope capped: the tangent of that slope, then a wall.
+
+    Where ``h = s sqrt(f)`` (``s`` = :data:`SQRT_SCALE`) would be steeper than
+    ``max_slope``, i.e. where ``f < s^2 G^2 / (4 k^2)`` with ``G = |grad f|``
+    at the vertex and ``k = tan(max_slope)``, the height is that of the
+    profile's tangent of slope ``k``: ``s^2 G / (4 k) + k f / G``. Vertices
+    with ``f = 0`` keep height 0, so the outline's first ring of faces
+    rises by ``s^2 G / (4 k)`` (a wall, when the ring is a strip of
+    :func:`rim_wall`).
+
+    Parameters
+    ----------
+    mesh : RegionMesh
+    f : (n,) float array
+        Solution of ``-lap f = c`` on the mesh.
+    dirichlet : (n,) bool array, optional
+        The vertices with ``f = 0``; default :func:`dirichlet_vertices`.
+    max_slope : float, default :data:`MAX_SLOPE`
+        Degrees, in (0, 90).
+
+    Returns
+    -------
+    (n,) float array
+        Heights in px.
+
+    Examples
+    --------
+    >>> from inkray.relief.triangulation import mesh_region
+    >>> yy, xx = np.mgrid[:120, :120]
+    >>> mesh = rim_wall(mesh_region((xx - 60) ** 2 + (yy - 60) ** 2 <= 50 ** 2))
+    >>> f = InflationSolver(mesh).solve(4.0)
+    >>> h = walled_sqrt(mesh, f)
+    >>> bool(abs(h.max() - 50) < 1)  # the peak as without the cap
+    True
+    >>> wall = h[len(h) - int(mesh.outline.sum()):]  # the wall's top (the copies come last)
+    >>> bool(np.all((7 < wall) & (wall < 10)))  # s^2 G / (4 k) with G = c R / 2 = 100
+    True
+    """
+    if not 0 < max_slope < 90:
+        raise InputError(f"region {mesh.name}: max_slope: expected degrees in (0, 90), "
+                         f"got {max_slope!r}")
+    f = np.maximum(np.asarray(f, float), 0.0)  # tiny negatives from obtuse cotangent weights
+    dirichlet = dirichlet_vertices(mesh) if dirichlet is None else np.asarray(dirichlet, bool)
+    k = math.tan(math.radians(max_slope))
+    s2 = SQRT_SCALE ** 2
+    g = _gradient_norm(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), f)
+    steep = (f * 4.0 * k * k < s2 * g * g) & (g > 0)
+    h = SQRT_SCALE * np.sqrt(f)
+    h[steep] = s2 * g[steep] / (4.0 * k) + k * f[steep] / g[steep]
+    h[dirichlet] = 0.0
+    return h
+
+
+def _signed_area(v, faces):
+    p = v[faces]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+
+
+def _gradient_norm(v, faces, f):
+    """Per vertex: the length of the area-weighted mean of its faces' gradients of ``f``."""
+    p = v[faces]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    df = np.column_stack([f[faces[:, 1]] - f[faces[:, 0]], f[faces[:, 2]] - f[faces[:, 0]]])
+    ok = np.abs(det) > 1e-300
+    # grad . e1 = df1, grad . e2 = df2, solved by Cramer's rule; weighted by area (|det| / 2)
+    gx = np.where(ok, (df[:, 0] * e2[:, 1] - df[:, 1] * e1[:, 1]), 0.0)
+    gy = np.where(ok, (e1[:, 0] * df[:, 1] - e2[:, 0] * df[:, 0]), 0.0)
+    weighted = np.column_stack([gx, gy]) * np.sign(det)[:, None]  # = grad * |det|
+    total = np.zeros((len(v), 2))
+    area = np.zeros(len(v))
+    for j in range(3):
+        np.add.at(total, faces[:, j], weighted)
+        np.add.at(area, faces[:, j], np.abs(det))
+    return np.linalg.norm(total, axis=1) / np.maximum(area, 1e-300)
 
 
 def _check_options(inflation, profile, name):
