@@ -29,15 +29,14 @@ quarters. :func:`inflate_region` makes that limit a short wall
 (:func:`rim_wall`): every ``f = 0`` vertex gets a copy
 :data:`WALL_INSET` px inside, so the outline's first ring of faces is a wall
 of about zero area in the front view, steep enough to take the part's paper
-colour in an export (``inkray.formats.meshes``), and
-:func:`walled_sqrt` caps the profile's slope inside it at
-:data:`MAX_SLOPE` degrees: where the slope of ``s sqrt(f)`` would exceed it,
-the profile follows its tangent of that slope down to the wall (the profile
-is unchanged where it is gentler, and C1 throughout). Near the outline
-``f ~ G d`` (``G = |grad f|``, ``d`` the distance in), so the tangent is
-``s^2 G / (4 k) + k f / G`` for ``f < s^2 G^2 / (4 k^2)``, with
-``k = tan(MAX_SLOPE)``, and the wall is ``s^2 G / (4 k)`` high: about a
-twelfth of a disk's radius at ``c = 2``.
+colour in an export (``inkray.formats.meshes``), and :func:`walled_sqrt`
+caps the profile's slope inside it at :data:`MAX_SLOPE` degrees: where
+``s sqrt(f)`` is steeper, the profile is raised to its tangent of that slope,
+which runs down to the wall (unchanged where it is gentler; the peak stays).
+Near the outline ``s sqrt(f) ~ s sqrt(G d)`` (``G = |grad f|``, ``d`` the
+distance in), so the tangent meets the wall at ``s^2 G / (4 k)``,
+``k = tan(MAX_SLOPE)``: about a twelfth of a disk's radius at ``c = 2``, a
+sixth at ``c = 4``.
 """
 
 import math
@@ -64,6 +63,8 @@ MAX_SLOPE = 70.0
 #: How far (px) inside the silhouette the wall's top runs: its faces cover this much of
 #: the front view per pixel of outline.
 WALL_INSET = 0.02
+_CAP_ROUNDS = 500  # rounds of drawing steep faces up (the band is a few rings wide)
+_CAP_TOLERANCE = 1e-3  # relative slope left above the cap
 _CORNER_STRETCH = 4.0  # a corner's copy moves at most this many insets along its bisector
 
 
@@ -419,15 +420,23 @@ def rim_wall(mesh, *, inset=WALL_INSET):
 
 
 def walled_sqrt(mesh, f, *, dirichlet=None, max_slope=MAX_SLOPE):
-    """The ``sqrt`` profile with its slope capped: the tangent of that slope, then a wall.
+    """The ``sqrt`` profile with its slope capped: raised to the tangent of that slope, then a wall.
 
-    Where ``h = s sqrt(f)`` (``s`` = :data:`SQRT_SCALE`) would be steeper than
-    ``max_slope``, i.e. where ``f < s^2 G^2 / (4 k^2)`` with ``G = |grad f|``
-    at the vertex and ``k = tan(max_slope)``, the height is that of the
-    profile's tangent of slope ``k``: ``s^2 G / (4 k) + k f / G``. Vertices
-    with ``f = 0`` keep height 0, so the outline's first ring of faces
-    rises by ``s^2 G / (4 k)`` (a wall, when the ring is a strip of
-    :func:`rim_wall`).
+    The heights are about the least that are at least ``h = s sqrt(f)`` (``s`` =
+    :data:`SQRT_SCALE`) and nowhere steeper than ``k = tan(max_slope)`` on the
+    faces whose vertices all have ``f > 0``. Where the profile is gentler it is unchanged;
+    where it is steeper (next to the silhouette, where ``s sqrt(f)`` has a
+    vertical tangent) it follows its tangent of slope ``k`` down toward the
+    outline. The vertices with ``f = 0`` keep height 0, so the outline's
+    first ring of faces rises by that tangent's height there: on a disk of
+    radius ``R`` at ``c = 4``, ``R (cos a - (1 - sin a) tan a)`` with ``a`` the
+    cap (about ``R / 6``), a wall when the ring is a strip of :func:`rim_wall`.
+
+    On the mesh: every face (but the wall's) steeper than ``k`` has its
+    heights drawn up toward its highest corner until it is ``k`` steep, a
+    vertex taking the highest of its faces' heights, in rounds until none
+    is steeper. Heights only rise, so the profile stays at least ``s sqrt(f)``
+    and its peak is unchanged.
 
     Parameters
     ----------
@@ -437,7 +446,7 @@ def walled_sqrt(mesh, f, *, dirichlet=None, max_slope=MAX_SLOPE):
     dirichlet : (n,) bool array, optional
         The vertices with ``f = 0``; default :func:`dirichlet_vertices`.
     max_slope : float, default :data:`MAX_SLOPE`
-        Degrees, in (0, 90).
+        Steepest face, degrees in (0, 90).
 
     Returns
     -------
@@ -454,47 +463,68 @@ def walled_sqrt(mesh, f, *, dirichlet=None, max_slope=MAX_SLOPE):
     >>> bool(abs(h.max() - 50) < 1)  # the peak as without the cap
     True
     >>> wall = h[len(h) - int(mesh.outline.sum()):]  # the wall's top (the copies come last)
-    >>> bool(np.all((7 < wall) & (wall < 10)))  # s^2 G / (4 k) with G = c R / 2 = 100
+    >>> # about 50 (cos a - (1 - sin a) tan a) = 8.8; less where the first ring lies farther in
+    >>> bool(5 < wall.min() and wall.max() < 10)
     True
     """
     if not 0 < max_slope < 90:
         raise InputError(f"region {mesh.name}: max_slope: expected degrees in (0, 90), "
                          f"got {max_slope!r}")
-    f = np.maximum(np.asarray(f, float), 0.0)  # tiny negatives from obtuse cotangent weights
     dirichlet = dirichlet_vertices(mesh) if dirichlet is None else np.asarray(dirichlet, bool)
+    # tiny negatives of f from obtuse cotangent weights
+    h = SQRT_SCALE * np.sqrt(np.maximum(np.asarray(f, float), 0.0))
+    free = ~dirichlet
+    faces = np.asarray(mesh.faces, np.int64)
+    faces = faces[free[faces].all(axis=1)]  # the wall's faces stand as they are
+    p = np.asarray(mesh.vertices, float)[faces]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    ok = np.abs(det) > 1e-12
+    faces, e1, e2, det = faces[ok], e1[ok], e2[ok], det[ok]
     k = math.tan(math.radians(max_slope))
-    s2 = SQRT_SCALE ** 2
-    g = _gradient_norm(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), f)
-    steep = (f * 4.0 * k * k < s2 * g * g) & (g > 0)
-    h = SQRT_SCALE * np.sqrt(f)
-    h[steep] = s2 * g[steep] / (4.0 * k) + k * f[steep] / g[steep]
+    for _ in range(_CAP_ROUNDS):
+        # each face steeper than k has its heights drawn up toward its highest corner
+        # until it is k steep; a vertex takes the highest of its faces' heights for it
+        z = h[faces]
+        d1, d2 = z[:, 1] - z[:, 0], z[:, 2] - z[:, 0]
+        gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
+        gy = (e1[:, 0] * d2 - e2[:, 0] * d1) / det
+        slope = np.hypot(gx, gy)
+        steep = slope > k * (1.0 + _CAP_TOLERANCE)
+        if not steep.any():
+            break
+        zs, g = z[steep], np.column_stack([gx[steep], gy[steep]])
+        top = zs.max(axis=1, keepdims=True)
+        raised = top - (top - zs) * (k / slope[steep])[:, None]
+        # raising the lowest corner alone is the least change, when that reaches k:
+        # |g + t grad(phi)| = k, phi its hat function, t the smallest root
+        low = np.argmin(zs, axis=1)
+        phi = _hat_gradients(e1[steep], e2[steep], det[steep])[np.arange(len(low)), low]
+        a, b = np.einsum("ij,ij->i", phi, phi), np.einsum("ij,ij->i", g, phi)
+        disc = b * b - a * (np.einsum("ij,ij->i", g, g) - k * k)
+        t = (-b - np.sqrt(np.maximum(disc, 0.0))) / a
+        rows = np.arange(len(low))
+        # (not beyond where drawing the whole face up would put it: a sliver's corner)
+        alone = (disc >= 0) & (b < 0) & (zs[rows, low] + t <= raised[rows, low])
+        raised[alone] = zs[alone]
+        raised[rows[alone], low[alone]] += t[alone]
+        np.maximum.at(h, faces[steep].ravel(), raised.ravel())
     h[dirichlet] = 0.0
     return h
+
+
+def _hat_gradients(e1, e2, det):
+    """Per face ``(m, 3, 2)``: the gradients of its corners' hat functions, from its edges
+    ``e1 = p1 - p0``, ``e2 = p2 - p0`` and ``det = e1 x e2``."""
+    g1 = np.column_stack([e2[:, 1], -e2[:, 0]]) / det[:, None]
+    g2 = np.column_stack([-e1[:, 1], e1[:, 0]]) / det[:, None]
+    return np.stack([-g1 - g2, g1, g2], axis=1)
 
 
 def _signed_area(v, faces):
     p = v[faces]
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
     return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-
-
-def _gradient_norm(v, faces, f):
-    """Per vertex: the length of the area-weighted mean of its faces' gradients of ``f``."""
-    p = v[faces]
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    df = np.column_stack([f[faces[:, 1]] - f[faces[:, 0]], f[faces[:, 2]] - f[faces[:, 0]]])
-    ok = np.abs(det) > 1e-300
-    # grad . e1 = df1, grad . e2 = df2, solved by Cramer's rule; weighted by area (|det| / 2)
-    gx = np.where(ok, (df[:, 0] * e2[:, 1] - df[:, 1] * e1[:, 1]), 0.0)
-    gy = np.where(ok, (e1[:, 0] * df[:, 1] - e2[:, 0] * df[:, 0]), 0.0)
-    weighted = np.column_stack([gx, gy]) * np.sign(det)[:, None]  # = grad * |det|
-    total = np.zeros((len(v), 2))
-    area = np.zeros(len(v))
-    for j in range(3):
-        np.add.at(total, faces[:, j], weighted)
-        np.add.at(area, faces[:, j], np.abs(det))
-    return np.linalg.norm(total, axis=1) / np.maximum(area, 1e-300)
 
 
 def _check_options(inflation, profile, name):
