@@ -10,12 +10,13 @@ two tables:
 - per threshold t, the share of the relief's front-view pixels on faces steeper than
   arccos(t) and the share of the drawing's ink there (ink as the exporter and the
   renderer separate it): what the front view would lose at that threshold;
-- the three-quarter view (yaw 45 degrees, pitch 30 degrees, one output pixel per
-  drawing pixel, orthographic): the visible pixels, the *streaked* pixels (on a face
-  that keeps the drawing, whose texture is magnified more than 3 times along some
-  direction of the view, and that show ink there) and the faces the drawing is
-  magnified on most; then the front view's ink on faces that keep the drawing
-  (*ink kept*, of the ink the front view covers) and their count.
+- the three-quarter views from either side (yaw -45 and 45 degrees, pitch 30
+  degrees, one output pixel per drawing pixel, orthographic), summed: the visible
+  pixels, the *streaked* pixels (on a face that keeps the drawing, whose texture is
+  magnified more than 3 times along some direction of the view, and that show ink
+  there) and the 99th percentile of the magnification over the visible pixels that
+  keep the drawing (the larger side's); then the front view's ink on faces that keep
+  the drawing (*ink kept*, of the ink the front view covers) and their count.
 """
 
 import sys
@@ -75,7 +76,7 @@ def three_quarter(relief, yaw=YAW, pitch=PITCH):
     rotation = view_matrix(yaw, pitch)
     corners = np.concatenate([np.asarray(p.vertices, float) for p in relief.parts]) @ rotation.T
     low, high = corners.min(axis=0), corners.max(axis=0)
-    view = np.column_stack([rotation, -low + [0.0, 0.0, 0.0]])
+    view = np.column_stack([rotation, -low])
     size = tuple(int(np.ceil(x)) + 2 for x in (high - low)[:2])
     raster = rasterize(relief, size=size, scale=1.0, offset=(0.5, 0.5), view=view)
     seen = raster.mask
@@ -140,7 +141,9 @@ def main(names):
               "| front ink kept | ink pixels kept |")
         print("| --- | --- | --- | --- | --- | --- |")
         for name in group:
-            seen, streaked, p99 = three_quarter(reliefs[name])
+            sides = [three_quarter(reliefs[name], yaw=yaw) for yaw in (-YAW, YAW)]
+            seen, streaked = (sum(side[j] for side in sides) for j in (0, 1))
+            p99 = max(side[2] for side in sides)
             share, count = ink_kept(reliefs[name])
             print(f"| {name} | {seen} | {streaked} | {p99:.2f} | {100 * share:.2f} % | {count} |",
                   flush=True)
