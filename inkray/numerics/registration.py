@@ -545,7 +545,7 @@ class RigidMotion:
 
 
 def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radius=32.0,
-                   clip=6.0, attach=0.3, samples=160, tolerance=0.75):
+                   clip=6.0, attach=0.3, samples=160, tolerance=0.75, turn=1.0, hinge=8.0):
     """Each labelled segment of ``source`` moved rigidly onto ``target``'s ink.
 
     A smooth registration cannot follow a limb that swings far while the rest
@@ -575,6 +575,10 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
         A segment whose ink the registration already leaves this close
         (pixels, mean) to the target's is not searched: its motion is the
         rigid fit of the registration.
+    turn : float, default 1.0
+        Mean distance (pixels) above which the full circle is searched.
+    hinge : float, default 8.0
+        How far (pixels) the attachment may move in the full-circle search.
 
     Returns
     -------
@@ -626,14 +630,21 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
                                       base_cost=base)
             continue
 
-        def search(centre, span_a, step_a, span_t, step_t, field, cut):
-            """The best (cost, angle, shift) per angle tried around ``centre``."""
+        def search(centre, span_a, step_a, span_t, step_t, field, cut, about=None):
+            """The best (cost, angle, shift) per angle tried around ``centre``; with
+            ``about`` (points of the attachment), turned about each of them as a hinge
+            that moves at most ``span_t`` from where the registration puts it."""
             r = np.arange(-span_t, span_t + 1e-9, step_t)
-            shifts = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2) + centre[2]
+            near = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2)
             found = []
             for th in centre[1] + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a)):
+                if about is None:
+                    shifts = near + centre[2]
+                else:
+                    held = about - pivot - _rotate(about - pivot, th) + centre[2]
+                    shifts = (held[:, None] + near[None]).reshape(-1, 2)
                 cost = _chamfer(field, _rotate(p - pivot, th)[None] + pivot + shifts[:, None], cut)
-                if len(a):
+                if len(a) and about is None:
                     qa = _rotate(a - pivot, th) + pivot
                     gap = np.linalg.norm(qa[None] + shifts[:, None] - goal[None], axis=2)
                     cost = cost + attach * np.minimum(gap, cut).mean(axis=1)
@@ -645,14 +656,29 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
         # line's narrow basin is not stepped over), then the few best angles
         # refined on the near distances.
         coarse = search((0.0, theta0, t0), max_angle, 5.0, radius, 4.0, far, 3 * clip)
-        best = (np.inf, theta0, t0)
-        for start in sorted(coarse, key=lambda c: c[0])[:3]:
-            best = min([best] + search(start, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
-        motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0,
-                             base_cost=base)
-        motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip, _KEEP)[0])
+        motion = _refined(search, coarse, (theta0, t0), p, pivot, dist, clip, base)
+        if motion.cost > turn and len(a):
+            # Folded further than the search reaches: turn it about its
+            # attachment, which stays where the registration puts it.
+            held = warp_points(registration, pivot[None])[0] - pivot
+            hinges = a[np.linspace(0, len(a) - 1, min(12, len(a))).astype(int)]
+            circle = search((0.0, theta0 + np.pi, held), 180.0, 10.0, hinge, min(4.0, hinge), far,
+                            3 * clip, about=hinges)
+            folded = _refined(search, circle, (theta0, held), p, pivot, dist, clip, base)
+            if folded.cost < motion.cost:
+                motion = folded
         out[int(k)] = motion
     return out
+
+
+def _refined(search, coarse, start, p, pivot, dist, clip, base):
+    """The best of the three best coarse candidates refined on the near distances."""
+    best = (np.inf,) + tuple(start)
+    for c in sorted(coarse, key=lambda c: c[0])[:3]:
+        best = min([best] + search(c, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
+    motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0, base_cost=base)
+    motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip, _KEEP)[0])
+    return motion
 
 
 def _segment_windows(labels, pad):
