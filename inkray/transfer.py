@@ -39,7 +39,7 @@ from inkray.errors import InputError
 from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
 from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
-                                          rigid_segments, warp_points)
+                                          rigid_poses, rigid_segments, warp_points)
 from inkray.segmentation import INK_THRESHOLD, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
@@ -51,6 +51,11 @@ _STEP = 3.0
 #: A part moves by its own rigid motion when that leaves its ink at most this
 #: share of the distance from the frame's ink the registration leaves it.
 _OWN = 0.7
+#: A part whose region carried from the key and segmented region of the frame
+#: overlap less than this (intersection over union) is posed again.
+_REPOSE = 0.5
+#: Other poses judged for such a part.
+_POSES = 4
 
 
 @dataclass
@@ -188,8 +193,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     # of its ink to the frame's ink under the motion it moved by.
     fit = {k: float(np.exp(-((motions[k].cost if k in motions else m.base_cost)
                              / (spacing / 4)) ** 2)) for k, m in rigid.items()}
-    carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
-    places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
+    pulled = _pull_back(key_labels, reg.displacement)
+    paper = frame.gray >= INK_THRESHOLD
+    carried = _paint_parts(pulled, key_labels, motions)
+    places = _Places(carried, paper, reach)
     nearest = {}
 
     def nearest_paper(q):
@@ -209,17 +216,19 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         y = int(np.clip(np.rint(p[1]), 0, h - 1))
         return int(key_labels[y, x])
 
-    def carry(points, labels):
-        """Points carried into their parts: new points, distances moved, scores."""
+    def carry(points, labels, trial=None):
+        """Points carried into their parts: new points, distances moved, scores
+        (``trial``: other ``(motions, places)`` to carry them by)."""
+        by, at = (motions, places) if trial is None else trial
         points = np.asarray(points, float).reshape(-1, 2)
         moved = warp_points(reg, points)
-        for lab in set(labels) & set(motions):
+        for lab in set(labels) & set(by):
             on = np.asarray(labels) == lab
-            moved[on] = motions[lab].apply(points[on])
+            moved[on] = by[lab].apply(points[on])
         out = np.empty_like(moved)
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
-            out[i], snap[i] = places.place(q, lab)
+            out[i], snap[i] = at.place(q, lab)
             if not np.isfinite(snap[i]):
                 # No paper of its part within reach: off the ink at least (and
                 # scored 0), so that the frame can be segmented.
@@ -250,21 +259,24 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             label = f"{key_path} ({name})" if name else key_path
             warnings.append(f"{label}: moved {moved:.0f} px, match {match:.2f}: check it")
 
-    def carry_polyline(line, label):
+    def carry_polyline(line, label, trial=None):
         dense = line if len(line) == 1 else resample_polyline(line, _STEP)
-        out, moved, match = carry(dense, [label] * len(dense))
+        out, moved, match = carry(dense, [label] * len(dense), trial)
         return _simplify(out, 1.0), moved, match
 
-    regions, region_scores = [], []
-    for i, r in enumerate(annotations.regions):
+    def carry_region(i, trial=None):
+        r = annotations.regions[i]
         scribbles, moved, match = [], [], []
         for s in r.scribbles:
-            out, mv, mt = carry_polyline(s, i)
+            out, mv, mt = carry_polyline(s, i, trial)
             scribbles.append(_inside(out, size))
             moved.append(mv)
             match.append(mt)
-        regions.append(replace(r, scribbles=scribbles, pixels=None))
-        region_scores.append((np.concatenate(moved).mean(), np.concatenate(match).mean()))
+        return (replace(r, scribbles=scribbles, pixels=None),
+                (np.concatenate(moved).mean(), np.concatenate(match).mean()))
+
+    regions, region_scores = map(list, zip(*map(carry_region, range(len(annotations.regions))))) \
+        if annotations.regions else ([], [])
     background, background_scores = [], []
     for s in annotations.background:
         out, mv, mt = carry_polyline(s, -1)
@@ -284,16 +296,42 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             scores.append((mv.mean(), mt.min()))
         return out, scores
 
-    order, order_scores = carry_pairs(annotations.order, "front", "back")
-    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
-
     draft = replace(annotations, size=size, regions=regions, background=background, order=[],
                     equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
     labels = segment(draft, frame).labels
+    # A part whose carried region the frame's segmentation does not give it may
+    # have been posed on another part's lines (chamfer matching of a small limb
+    # is ambiguous) or folded beyond the search: other poses are tried, each
+    # judged by how well the carried parts and the frame segmented with the
+    # part's scribbles so posed agree (a right pose puts them in the enclosed
+    # area its region fills).
+    agree, doubt = _agreement(carried, labels), {}
+    for i in range(len(annotations.regions)):
+        doubt[i] = _overlap(carried == i, labels == i)
+        if doubt[i] >= _REPOSE:
+            continue
+        for pose in rigid_poses(key_ink, frame_ink, key_labels, i, reg, count=_POSES,
+                                radius=reach):
+            trial = {**motions, i: pose}
+            t_carried = _paint_parts(pulled, key_labels, trial)
+            region, score = carry_region(i, (trial, _Places(t_carried, paper, reach)))
+            t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+            t_labels = segment(t_draft, frame).labels
+            t_agree = _agreement(t_carried, t_labels)
+            if t_agree > agree:
+                agree, motions, carried, draft, labels = t_agree, trial, t_carried, t_draft, t_labels
+                regions[i], region_scores[i] = region, score
+                fit[i] = float(np.exp(-(pose.cost / (spacing / 4)) ** 2))
+    places = _Places(carried, paper, reach)
+    order, order_scores = carry_pairs(annotations.order, "front", "back")
+    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
     # A point of an order or equal entry goes into its part as the frame is
     # segmented: where the carried parts and the segmentation differ, the
     # segmentation is what the relief will use.
-    segmented = _Places(labels, frame.gray >= INK_THRESHOLD, reach)
+    # Paper joined to the image's border is outside every closed part: a
+    # relation's point goes off it where its part has paper that is not (a
+    # part hidden in the frame leaves its point on the open paper beside it).
+    segmented = _Places(labels, paper, reach, avoid=_outside(paper))
 
     def settle(items, scores, a, b):
         out = []
@@ -314,7 +352,9 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     draft = replace(draft, order=order, equal=equal)
     part_match = {-1: 1.0}
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
-        part_match[i] = min(mt, _overlap(carried == i, labels == i))
+        # A part posed again is no surer than its first pose was: the pose that
+        # agrees best with the segmentation is a guess to check.
+        part_match[i] = min(mt, _overlap(carried == i, labels == i), doubt[i])
         check(f"regions[{i}]", mv, part_match[i], name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
         # Paper between parts is as sure as the parts around it.
@@ -352,12 +392,13 @@ class _Places:
     whatever the drawing's size).
     """
 
-    def __init__(self, carried, paper, reach):
-        self.carried, self.paper, self.reach = carried, paper, reach
+    def __init__(self, carried, paper, reach, avoid=None):
+        self.carried, self.paper, self.reach, self.avoid = carried, paper, reach, avoid
 
     def place(self, q, label):
         """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
-        part is wide enough), and how far; ``inf`` when none is within reach."""
+        part is wide enough; off ``avoid`` where the part has paper that is not), and how
+        far; ``inf`` when none is within reach."""
         h, w = self.carried.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
@@ -365,6 +406,8 @@ class _Places:
         y0, x0 = max(y - r, 0), max(x - r, 0)
         window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
         mask = self.paper[window] & (self.carried[window] == label)
+        if self.avoid is not None and (mask & ~self.avoid[window]).any():
+            mask &= ~self.avoid[window]
         # Already well inside its part (what the erosion below would keep): stays.
         ball = mask[max(y - y0 - 2, 0):y - y0 + 3, max(x - x0 - 2, 0):x - x0 + 3]
         cy, cx = min(y - y0, 2), min(x - x0, 2)
@@ -384,6 +427,13 @@ class _Places:
                 p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
                 return p, float(np.hypot(*(p - q)))
         return q, np.inf
+
+
+def _outside(paper):
+    """Paper pixels connected (4-neighbours) to the image's border."""
+    comp, _ = ndimage.label(paper)
+    border = np.unique(np.r_[comp[0], comp[-1], comp[:, 0], comp[:, -1]])
+    return np.isin(comp, border[border > 0])
 
 
 def _paint_parts(carried, key_labels, motions):
@@ -435,6 +485,12 @@ def _pull_back(labels, displacement, iterations=8, step=4):
 def _sample(image, points, order=1):
     p = np.asarray(points, float).reshape(-1, 2)
     return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=order, mode="nearest")
+
+
+def _agreement(carried, labels):
+    """Share of the pixels of some part, carried or segmented, where the two agree."""
+    either = (carried >= 0) | (labels >= 0)
+    return np.count_nonzero((carried == labels) & either) / max(np.count_nonzero(either), 1)
 
 
 def _overlap(a, b):

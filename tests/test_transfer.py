@@ -148,3 +148,16 @@ def test_a_part_inked_over_in_the_frame_is_flagged_and_its_scribbles_leave_the_i
         x, y = np.rint(s).astype(int).T
         assert (gray[y, x] > 0.5).all()
     segment(t.annotations, frame)  # the carried annotation segments the frame
+
+
+def test_a_limb_folded_120_degrees_about_its_attachment_is_carried_with_it():
+    # Beyond the rigid search's 45 degrees: the hinge search finds the pose, and the
+    # frame's segmentation with the scribbles so carried confirms it.
+    shot = make_shot("cat", 2, angle=120.0)
+    carried = transfer_annotations(shot.truths[0], shot.frames[0], shot.frames[1])
+    truth = segment(shot.truths[1], shot.frames[1]).labels
+    got = segment(carried.annotations, shot.frames[1]).labels
+    assert (got == truth)[truth >= 0].mean() >= 0.98
+    limb = shot.truths[0].region_index(shot.limb)
+    both = np.count_nonzero((got == limb) & (truth == limb))
+    assert both / np.count_nonzero((got == limb) | (truth == limb)) >= 0.95
