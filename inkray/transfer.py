@@ -56,6 +56,9 @@ _OWN = 0.7
 _REPOSE = 0.5
 #: Other poses judged for such a part.
 _POSES = 4
+#: A pose is taken when it raises the agreement of the carried parts with the
+#: frame's segmentation by more than this share of the character's pixels.
+_GAIN = 0.002
 
 
 @dataclass
@@ -305,7 +308,7 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     # judged by how well the carried parts and the frame segmented with the
     # part's scribbles so posed agree (a right pose puts them in the enclosed
     # area its region fills).
-    agree, doubt = _agreement(carried, labels), {}
+    agree, doubt, first = _agreement(carried, labels), {}, labels
     for i in range(len(annotations.regions)):
         doubt[i] = _overlap(carried == i, labels == i)
         if doubt[i] >= _REPOSE:
@@ -318,10 +321,14 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
             t_labels = segment(t_draft, frame).labels
             t_agree = _agreement(t_carried, t_labels)
-            if t_agree > agree:
+            if t_agree > agree + _GAIN:
                 agree, motions, carried, draft, labels = t_agree, trial, t_carried, t_draft, t_labels
                 regions[i], region_scores[i] = region, score
                 fit[i] = float(np.exp(-(pose.cost / (spacing / 4)) ** 2))
+    if labels is not first:
+        # A part that another's new pose took pixels from (or gave them to) is as
+        # unsure.
+        doubt = {i: min(d, _overlap(first == i, labels == i)) for i, d in doubt.items()}
     places = _Places(carried, paper, reach)
     order, order_scores = carry_pairs(annotations.order, "front", "back")
     equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
