@@ -308,9 +308,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     # judged by how well the carried parts and the frame segmented with the
     # part's scribbles so posed agree (a right pose puts them in the enclosed
     # area its region fills).
-    agree, doubt, first = _agreement(carried, labels), {}, labels
-    for i in range(len(annotations.regions)):
-        doubt[i] = _overlap(carried == i, labels == i)
+    n = len(annotations.regions)
+    doubt, first = _overlaps(carried, labels, n), labels
+    agree = _agreement(carried, labels)
+    for i in range(n):
         if doubt[i] >= _REPOSE:
             continue
         for pose in rigid_poses(key_ink, frame_ink, key_labels, i, reg, count=_POSES,
@@ -328,7 +329,7 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     if labels is not first:
         # A part that another's new pose took pixels from (or gave them to) is as
         # unsure.
-        doubt = {i: min(d, _overlap(first == i, labels == i)) for i, d in doubt.items()}
+        doubt = np.minimum(doubt, _overlaps(first, labels, n))
     places = _Places(carried, paper, reach)
     order, order_scores = carry_pairs(annotations.order, "front", "back")
     equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
@@ -358,10 +359,11 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     equal = settle(equal, equal_scores, "a", "b")
     draft = replace(draft, order=order, equal=equal)
     part_match = {-1: 1.0}
+    overlaps = _overlaps(carried, labels, n)
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
         # A part posed again is no surer than its first pose was: the pose that
         # agrees best with the segmentation is a guess to check.
-        part_match[i] = min(mt, _overlap(carried == i, labels == i), doubt[i])
+        part_match[i] = min(mt, overlaps[i], doubt[i])
         check(f"regions[{i}]", mv, part_match[i], name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
         # Paper between parts is as sure as the parts around it.
@@ -500,10 +502,14 @@ def _agreement(carried, labels):
     return np.count_nonzero((carried == labels) & either) / max(np.count_nonzero(either), 1)
 
 
-def _overlap(a, b):
-    """Intersection over union of two masks (1 when both are empty)."""
-    union = np.count_nonzero(a | b)
-    return 1.0 if union == 0 else np.count_nonzero(a & b) / union
+def _overlaps(a, b, n):
+    """Intersection over union of ``a == i`` and ``b == i`` for each label ``i < n`` (1 where
+    both are empty), from one joint count of the two label images."""
+    code = (np.clip(a, -1, n) + 1) * (n + 2) + np.clip(b, -1, n) + 1
+    pair = np.bincount(code.ravel(), minlength=(n + 2) ** 2).reshape(n + 2, n + 2)
+    both = np.diag(pair)[1:n + 1]
+    union = pair.sum(axis=1)[1:n + 1] + pair.sum(axis=0)[1:n + 1] - both
+    return np.where(union > 0, both / np.maximum(union, 1), 1.0)
 
 
 def _inside(points, size):
