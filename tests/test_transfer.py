@@ -161,3 +161,23 @@ def test_a_limb_folded_120_degrees_about_its_attachment_is_carried_with_it():
     limb = shot.truths[0].region_index(shot.limb)
     both = np.count_nonzero((got == limb) & (truth == limb))
     assert both / np.count_nonzero((got == limb) | (truth == limb)) >= 0.95
+
+
+def test_a_relation_point_on_open_paper_goes_into_the_closed_part_beside_it():
+    from inkray.transfer import _outside, _Places
+
+    # A closed box (its inside enclosed by ink) and open paper the segmentation
+    # also gave to the box's part, as it does where an outline leaves a gap.
+    paper = np.ones((40, 60), bool)
+    paper[10, 20:41] = paper[30, 20:41] = paper[10:31, 20] = paper[10:31, 40] = False
+    labels = np.full(paper.shape, -1)
+    labels[5:35, 5:45] = 1
+    outside = _outside(paper)
+    assert outside[0, 0] and outside[20, 10] and not outside[20, 30]
+    q = np.array([12.0, 20.0])
+    p, d = _Places(labels, paper, 16, avoid=outside).place(q, 1)
+    assert not outside[int(p[1]), int(p[0])] and labels[int(p[1]), int(p[0])] == 1
+    assert 8 <= d <= 16
+    # Without paper of its part off the open paper, the point stays where it is.
+    p, d = _Places(np.where(outside, labels, -1), paper, 16, avoid=outside).place(q, 1)
+    assert np.allclose(p, q) and d == 0
