@@ -406,8 +406,8 @@ class _Places:
 
     def place(self, q, label):
         """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
-        part is wide enough; off ``avoid`` where the part has paper that is not), and how
-        far; ``inf`` when none is within reach."""
+        part is wide enough; off ``avoid`` where the part has paper within reach that is
+        not), and how far; ``inf`` when none is within reach."""
         h, w = self.carried.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
@@ -415,11 +415,24 @@ class _Places:
         y0, x0 = max(y - r, 0), max(x - r, 0)
         window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
         mask = self.paper[window] & (self.carried[window] == label)
-        if self.avoid is not None and (mask & ~self.avoid[window]).any():
-            mask &= ~self.avoid[window]
+        masks = [mask]
+        if self.avoid is not None:
+            masks.insert(0, mask & ~self.avoid[window])
+        for mask in masks:
+            found = self._nearest(q, mask, x - x0, y - y0, (x0, y0))
+            if found is not None:
+                return found
+        return q, np.inf
+
+
+    def _nearest(self, q, mask, x, y, origin):
+        """``q`` (at ``(x, y)`` of the window) moved into ``mask`` as :meth:`place` says, or
+        None when no pixel of it is within reach."""
+        if not mask.any():
+            return None
         # Already well inside its part (what the erosion below would keep): stays.
-        ball = mask[max(y - y0 - 2, 0):y - y0 + 3, max(x - x0 - 2, 0):x - x0 + 3]
-        cy, cx = min(y - y0, 2), min(x - x0, 2)
+        ball = mask[max(y - 2, 0):y + 3, max(x - 2, 0):x + 3]
+        cy, cx = min(y, 2), min(x, 2)
         near = np.abs(np.arange(ball.shape[0])[:, None] - cy) \
             + np.abs(np.arange(ball.shape[1])[None, :] - cx) <= 2
         if ball[near].all():
@@ -429,13 +442,13 @@ class _Places:
         for m in (inner, mask):
             if not m.any():
                 continue
-            if m[y - y0, x - x0]:
+            if m[y, x]:
                 return q, 0.0
             dist, (iy, ix) = ndimage.distance_transform_edt(~m, return_indices=True)
-            if dist[y - y0, x - x0] <= self.reach:
-                p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
+            if dist[y, x] <= self.reach:
+                p = np.array([ix[y, x] + origin[0], iy[y, x] + origin[1]], float)
                 return p, float(np.hypot(*(p - q)))
-        return q, np.inf
+        return None
 
 
 def _outside(paper):
