@@ -7,15 +7,21 @@ animations", NPAR 2009, the application its Fig. 1 names). A part the smooth
 registration does not follow (a leg swinging far while the body stays) gets
 its own motion: a rigid chamfer search from the registration's fit, then the
 part's own ARAP registration (Borgefors, "Hierarchical chamfer matching",
-PAMI 1988, for the matching). Every entry of the annotation moves with its
-part's motion:
+PAMI 1988, for the matching). Chamfer matching of a small limb among another
+limb's lines is ambiguous, and a limb may fold further than the search: a
+part whose carried region the frame's segmentation (LazyBrush of the carried
+scribbles) does not give it is posed again, among its best distinct chamfer
+fits and turns about its attachment, by which of them the frame segmented
+with its scribbles so carried agrees with best. Every entry of the
+annotation moves with its part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
   in a part it does not belong to, moves to the nearest paper of its own part
   (the key's segmentation, carried to the frame by the registration);
 - ``order`` and ``equal`` points likewise, each into the part it marks in the
-  key;
+  key, then into that part of the frame's segmentation, off paper joined to
+  the image's border where the part has other paper;
 - boundary paths onto the frame's outline between the two parts they
   separate in the key (the frame segmented with the carried scribbles).
 
@@ -278,8 +284,11 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         return (replace(r, scribbles=scribbles, pixels=None),
                 (np.concatenate(moved).mean(), np.concatenate(match).mean()))
 
-    regions, region_scores = map(list, zip(*map(carry_region, range(len(annotations.regions))))) \
-        if annotations.regions else ([], [])
+    regions, region_scores = [], []
+    for i in range(len(annotations.regions)):
+        region, score = carry_region(i)
+        regions.append(region)
+        region_scores.append(score)
     background, background_scores = [], []
     for s in annotations.background:
         out, mv, mt = carry_polyline(s, -1)
@@ -423,7 +432,6 @@ class _Places:
             if found is not None:
                 return found
         return q, np.inf
-
 
     def _nearest(self, q, mask, x, y, origin):
         """``q`` (at ``(x, y)`` of the window) moved into ``mask`` as :meth:`place` says, or
