@@ -29,7 +29,10 @@ around it (or of the nearest window that holds ink).
 Labelled segments of the source (a limb) can then be moved on their own
 (:func:`rigid_segments`: chamfer matching, after Borgefors, "Hierarchical
 chamfer matching: a parametric edge matching algorithm", PAMI 1988, over
-rigid motions; :func:`arap_segments`: the registration above from there).
+rigid motions; :func:`rigid_poses`: several distinct such fits, including
+the segment turned over the full circle about its attachment, for a caller
+that can judge them otherwise; :func:`arap_segments`: the registration above
+from there).
 """
 
 from dataclasses import dataclass
