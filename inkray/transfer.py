@@ -310,7 +310,8 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
 
     draft = replace(annotations, size=size, regions=regions, background=background, order=[],
                     equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
-    labels = segment(draft, frame).labels
+    memo = {}  # the frame is segmented again for each pose tried: what it alone decides is kept
+    labels = segment(draft, frame, memo=memo).labels
     # A part whose carried region the frame's segmentation does not give it may
     # have been posed on another part's lines (chamfer matching of a small limb
     # is ambiguous) or folded beyond the search: other poses are tried, each
@@ -329,7 +330,7 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             t_carried = _paint_parts(pulled, key_labels, trial)
             region, score = carry_region(i, (trial, _Places(t_carried, paper, reach)))
             t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
-            t_labels = segment(t_draft, frame).labels
+            t_labels = segment(t_draft, frame, memo=memo).labels
             t_agree = _agreement(t_carried, t_labels)
             if t_agree > agree + _GAIN:
                 agree, motions, carried, draft, labels = t_agree, trial, t_carried, t_draft, t_labels
