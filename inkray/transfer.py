@@ -310,7 +310,8 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
 
     draft = replace(annotations, size=size, regions=regions, background=background, order=[],
                     equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
-    memo = {}  # the frame is segmented again for each pose tried: what it alone decides is kept
+    # The frame is segmented again for each pose tried: what it alone decides is kept.
+    memo = {}
     labels = segment(draft, frame, memo=memo).labels
     # A part whose carried region the frame's segmentation does not give it may
     # have been posed on another part's lines (chamfer matching of a small limb
@@ -333,7 +334,8 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             t_labels = segment(t_draft, frame, memo=memo).labels
             t_agree = _agreement(t_carried, t_labels)
             if t_agree > agree + _GAIN:
-                agree, motions, carried, draft, labels = t_agree, trial, t_carried, t_draft, t_labels
+                agree, motions, carried = t_agree, trial, t_carried
+                draft, labels = t_draft, t_labels
                 regions[i], region_scores[i] = region, score
                 fit[i] = float(np.exp(-(pose.cost / (spacing / 4)) ** 2))
     if labels is not first:

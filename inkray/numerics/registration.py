@@ -727,7 +727,8 @@ class _PoseSearch:
         self.p, self.a, self.pivot = p, a, pivot
         self.base = float(_chamfer(self.dist, g[None], clip, _KEEP)[0])
 
-    def search(self, centre, span_a, step_a, span_t, step_t, *, coarse=False, hinged=False, keep=1):
+    def search(self, centre, span_a, step_a, span_t, step_t, *, coarse=False, hinged=False,
+               keep=1):
         """The ``keep`` best (cost, angle, shift) per angle tried around ``centre``; hinged,
         turned about each point of the attachment, which moves at most ``span_t`` from
         where the registration puts it."""
