@@ -5,10 +5,13 @@ line (:func:`inkray.relief.order_cues.order_cues`, ``continuation``) is
 measured over a few stroke widths, and it can be trusted on clean lines only:
 where strokes are sketchy, gappy or doubled, the label outlines near a
 junction follow the strokes' wobble rather than the parts. Both are
-properties of the whole drawing, measured once on its ink.
+properties of the whole drawing, measured once on its ink. The ink itself
+is kept with them: the order cues read it where two parts meet (whether a
+part's line runs on past the contact or stops short of it,
+:func:`inkray.relief.order_cues.contact_ink`).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
@@ -35,10 +38,14 @@ class InkStyle:
         width, not per pixel, so that a scan at twice the resolution reads the
         same (per pixel, the donkey's rough marker read 3.6 at its own size and
         1.9 at twice it; per width 22.5 and 23.7).
+    mask : (H, W) bool array, optional
+        The ink: pixels darker than the ink level. None when only the
+        measures are known (the cues that read the ink are then 0).
     """
 
     width: float
     stroke_ends: float
+    mask: np.ndarray = field(default=None, compare=False, repr=False)
 
     def clarity(self, stroke_end_scale):
         """``exp(-stroke_ends / stroke_end_scale)``: 1 for clean lines, towards 0 for gappy ones.
@@ -64,24 +71,25 @@ def ink_style(gray, *, level=INK_THRESHOLD):
     Returns
     -------
     InkStyle
-        ``width`` 0 and ``stroke_ends`` 0 for a drawing without ink.
+        ``width`` 0 and ``stroke_ends`` 0 for a drawing without ink; ``mask``
+        the ink.
 
     Examples
     --------
     >>> import numpy as np
     >>> gray = np.ones((40, 40)); gray[10:30, 10:13] = 0.0   # one straight 3 px stroke
     >>> s = ink_style(gray)
-    >>> round(s.width), s.stroke_ends > 0
-    (4, True)
+    >>> round(s.width), s.stroke_ends > 0, int(s.mask.sum())
+    (4, True, 60)
     """
     ink = np.asarray(gray) < level
     skeleton = skeletonize(ink)
     length = int(skeleton.sum())
     if length == 0:
-        return InkStyle(width=0.0, stroke_ends=0.0)
+        return InkStyle(width=0.0, stroke_ends=0.0, mask=ink)
     inside = ndimage.distance_transform_edt(ink)
     neighbours = ndimage.convolve(skeleton.astype(np.int32), np.ones((3, 3), np.int32),
                                   mode="constant") - 1
     ends = int((skeleton & (neighbours == 1)).sum())
     width = 2.0 * float(np.median(inside[skeleton]))
-    return InkStyle(width=width, stroke_ends=1000.0 * ends * width / length)
+    return InkStyle(width=width, stroke_ends=1000.0 * ends * width / length, mask=ink)

@@ -15,7 +15,9 @@ be acyclic.
 Prediction, per place of a pair ``a``/``b``, from the cues of
 :mod:`inkray.relief.order_cues` (T-junctions, the completion's area, how much
 of each part's outline the contact is, which part's outline continues the
-contact line). By default, given the drawing's ink style, the model learned
+contact line, what the ink does at the junctions: the ink style carries the
+drawing's ink, :attr:`inkray.relief.ink_style.InkStyle.mask`). By default,
+given the drawing's ink style, the model learned
 from generated drawings
 (:func:`inkray.relief.order_model.load_order_model`) reads the measures of
 :func:`inkray.relief.order_cues.place_features` and gives ``p``, the
