@@ -69,10 +69,8 @@ DEPTH, RATE, BINS, L2, LINEAR_L2 = 2, 0.1, 32, 1.0, 10.0
 DEVELOPMENT = ("balls", "donkey", "fox", "man", "shots/horse_gallop")
 #: The real drawings scored once at the end, never looked at while choosing.
 HELD_OUT = ("dragon", "frog", "gingerbread", "turtle", "shots/krita_walkcycle")
-#: What the ink says at the junctions (:func:`inkray.relief.order_cues.contact_ink`).
-_INK = ("ink_stop", "ink_spur", "ink_tee")
 #: The features made as evidence that ``x`` is in front: their weights are not negative.
-SIGNED = CUES + ("continuation_raw",) + _INK
+SIGNED = CUES + ("continuation_raw", "ink_spur")
 #: ``name: keyword arguments of train``: the features of the logistic term, the number of
 #: trees, the features they split on, the calibration.
 _RAW = CUES + ("continuation_raw",)
@@ -82,12 +80,9 @@ CANDIDATES = {
     "cues": dict(linear=CUES, trees=0),
     "cues, raw continuation": dict(linear=_RAW, trees=0),
     "cues, raw continuation, isotonic": dict(linear=_RAW, trees=0, calibration="isotonic"),
+    "cues, raw continuation, ink spur": dict(linear=_RAW + ("ink_spur",), trees=0),
     "cues, raw continuation, ink spur, isotonic": dict(linear=_RAW + ("ink_spur",), trees=0,
                                                        calibration="isotonic"),
-    "cues, raw continuation, ink tee, isotonic": dict(linear=_RAW + ("ink_tee",), trees=0,
-                                                      calibration="isotonic"),
-    "cues, raw continuation, ink, isotonic": dict(linear=_RAW + _INK, trees=0,
-                                                  calibration="isotonic"),
     "cues, raw continuation, 30 trees on them": dict(linear=_RAW, trees=30, split=_RAW),
     "cues, raw continuation, 30 trees on them, isotonic": dict(linear=_RAW, trees=30, split=_RAW,
                                                               calibration="isotonic"),

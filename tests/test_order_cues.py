@@ -7,7 +7,7 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.relief.completion import complete_regions
 from inkray.relief.ink_style import InkStyle
-from inkray.relief.order_cues import (CUES, FEATURES, contact_continuation, contact_ink,
+from inkray.relief.order_cues import (CUES, FEATURES, contact_continuation, contact_spur,
                                       order_cues, outline_lengths, place_features, region_stats)
 from inkray.relief.ordering import WEIGHTS, predict_place
 
@@ -179,11 +179,11 @@ def test_the_continuation_cue_is_weighted_by_the_ink_clarity():
     assert contact_continuation(c.labels, place, ink=InkStyle(width=0.0, stroke_ends=0.0)) == 0.0
 
 
-# -- contact ink: whose line runs on, whose stops short or runs into the other part --
+# -- contact spur: a line running on into the part in front ------------------------
 
 
-@pytest.mark.parametrize("style", ["gap", "overshoot", "tee"])
-def test_the_ink_says_the_box_is_in_front_of_the_leg_under_either_naming(style):
+@pytest.mark.parametrize("start", [132, 139, 146])
+def test_a_line_running_on_into_the_box_says_it_is_in_front_under_either_naming(start):
     from inkray.relief.ink_style import ink_style
 
     leg, box = _box_over_leg()
@@ -191,32 +191,32 @@ def test_the_ink_says_the_box_is_in_front_of_the_leg_under_either_naming(style):
     # 3 px lines on the label outlines: the box's all round, the leg's two sides below it
     gray[box & ~ndimage.binary_erosion(box, iterations=2)] = 0.0
     gray[ndimage.binary_dilation(box, iterations=1) & ~box] = 0.0
-    # 6 px short of the box, 7 px on into it, or ending at its line: a T in the ink
-    start = {"gap": 146, "overshoot": 132, "tee": 139}[style]
-    for x in (110, 149):
+    for x in (110, 149):              # 7 px on into the box, ending at its line, 6 px short
         gray[start:, x - 1:x + 2] = 0.0
     ink = ink_style(gray)
-    which = {"gap": 0, "overshoot": 1, "tee": 2}[style]         # (stop, spur, tee)
     for front in (0, 1):
         labels = np.full((H, W), -1, np.int32)
         labels[leg] = 1 - front
         labels[box] = front
         c = complete_regions(labels)
-        cues = contact_ink(labels, c.places[0], ink=ink)
-        cue = cues[which]
-        assert (cue if front == 0 else -cue) > (0.5 if style == "tee" else 0.05)
+        spur = contact_spur(labels, c.places[0], ink=ink)
+        if start < 139:
+            assert (spur if front == 0 else -spur) > 0.05
+        else:
+            assert spur == 0.0        # no ink inside either part
         f = place_features(c, c.places[0], ink=ink)
-        column = FEATURES.index("ink_" + ("stop", "spur", "tee")[which])
-        assert f[0, column] == pytest.approx(cue) and f[1, column] == pytest.approx(-cue)
+        column = FEATURES.index("ink_spur")
+        assert f[0, column] == pytest.approx(spur) and f[1, column] == pytest.approx(-spur)
 
 
-def test_without_the_ink_mask_the_ink_cues_are_zero_and_a_wrong_size_is_an_input_error():
+def test_without_the_ink_mask_the_spur_is_zero_and_a_wrong_size_is_an_input_error():
     leg, box = _box_over_leg()
     c = complete_regions(_paint(leg, box))
-    assert contact_ink(c.labels, c.places[0], ink=CLEAN) == (0.0, 0.0, 0.0)
+    assert contact_spur(c.labels, c.places[0], ink=CLEAN) == 0.0
+    assert place_features(c, c.places[0], ink=CLEAN)[0, FEATURES.index("ink_spur")] == 0.0
     wrong = InkStyle(width=2.0, stroke_ends=0.0, mask=np.zeros((H + 1, W), bool))
     with pytest.raises(InputError, match="ink mask"):
-        contact_ink(c.labels, c.places[0], ink=wrong)
+        contact_spur(c.labels, c.places[0], ink=wrong)
 
 
 def test_walk_reaches_the_chessboard_ball_on_open_paper_and_follows_a_bent_line():

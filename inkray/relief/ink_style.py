@@ -6,9 +6,9 @@ measured over a few stroke widths, and it can be trusted on clean lines only:
 where strokes are sketchy, gappy or doubled, the label outlines near a
 junction follow the strokes' wobble rather than the parts. Both are
 properties of the whole drawing, measured once on its ink. The ink itself
-is kept with them: the order cues read it where two parts meet (whether a
-part's line runs on past the contact or stops short of it,
-:func:`inkray.relief.order_cues.contact_ink`).
+is kept with them: the order cues read it where two parts meet (a line
+running on into the part in front,
+:func:`inkray.relief.order_cues.contact_spur`).
 """
 
 from dataclasses import dataclass, field

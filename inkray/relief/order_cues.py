@@ -40,7 +40,7 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.numerics.polyline import point_polyline_distance
 
-__all__ = ["CUES", "FEATURES", "contact_continuation", "contact_ink", "order_cues",
+__all__ = ["CUES", "FEATURES", "contact_continuation", "contact_spur", "order_cues",
            "outline_lengths", "place_features", "region_stats"]
 
 #: Names of the cues :func:`order_cues` returns, in order.
@@ -198,29 +198,16 @@ def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=6.
     return float(np.mean(values)) if values else 0.0
 
 
-def contact_ink(labels, place, *, ink, seams=(), seam_distance=6.0):
-    """Whose line runs on through the contact and whose ends at it, read in the ink.
+def contact_spur(labels, place, *, ink, seams=(), seam_distance=6.0):
+    """Which part a line runs on into at the contact, read in the ink.
 
     At a junction of the place, the front part's outline carries on along the
-    contact line, unbroken, and the back part's stroke ends at it (a
-    T-junction in the ink); drawn by hand, the back part's stroke often stops
-    a little short of the front part's line, or runs a little on into the
-    front part. At each junction (``w`` the stroke width):
-
-    - ``stop``: within ``3 w``, the share of ``a``'s other outline (``a``
-      against a third label, walked from the junction) on ink, minus the same
-      for ``b``: positive when ``b``'s line has a gap before the contact;
-    - ``spur``: within ``1.5 w``, the share of ``a``'s inside (farther than
-      ``0.75 w`` from its outline) that is ink, minus the same for ``b``:
-      positive when a stroke runs on into ``a``, the overshoot of a line
-      behind it;
-    - ``tee``: the T in the ink's skeleton. At the skeleton's branch point
-      nearest the junction (within ``2 w``) the three longest arms are read
-      between ``1.5 w`` and ``3.5 w`` from it; the two most nearly opposite
-      are the bar, the third the stem. The part on the far side of the bar
-      from the stem (in a disk ``2 w`` beyond the branch point) is the one in
-      front: ``(n_a - n_b) / n`` of that disk's pixels, times how straight the
-      bar is (``-cos`` of the angle between its arms, at least 0).
+    contact line and the back part's stroke ends at it; drawn by hand, the
+    back part's stroke often runs a little on into the front part (an
+    overshoot), a spur of ink inside it. Within ``1.5 w`` of each junction
+    (``w`` the stroke width, at least 4 pixels), the share of ``a``'s inside
+    (farther than ``0.75 w`` from its outline, so not its own line) that is
+    ink, minus the same for ``b``.
 
     Parameters
     ----------
@@ -235,10 +222,10 @@ def contact_ink(labels, place, *, ink, seams=(), seam_distance=6.0):
 
     Returns
     -------
-    (float, float, float)
-        ``(stop, spur, tee)``, each in [-1, 1], positive when ``a`` is in
-        front, averaged over the junctions (``tee`` over those with a branch
-        point); 0 without a junction, or without the ink's mask.
+    float
+        In [-1, 1], positive when a line runs on into ``a`` (``a`` in front),
+        averaged over the junctions; 0 without a junction, or without the
+        ink's mask.
 
     Examples
     --------
@@ -249,89 +236,40 @@ def contact_ink(labels, place, *, ink, seams=(), seam_distance=6.0):
     >>> labels[10:50, 10:70] = 0                                    # ... under a box
     >>> gray = np.ones((70, 80)); gray[9:12, 9:71] = gray[48:51, 9:71] = 0   # the box's lines
     >>> gray[9:51, 9:12] = gray[9:51, 68:71] = 0
-    >>> gray[56:, 29:32] = gray[56:, 48:51] = 0        # the leg's lines stop short of the box
+    >>> gray[42:, 29:32] = gray[42:, 48:51] = 0         # the leg's lines run on into the box
     >>> c = complete_regions(labels)
-    >>> stop, spur, tee = contact_ink(labels, c.places[0], ink=ink_style(gray))
-    >>> stop > 0.2, spur == 0.0, tee == 0.0    # the box (a) is in front; no T in the ink
-    (True, True, True)
+    >>> spur = contact_spur(labels, c.places[0], ink=ink_style(gray))
+    >>> spur > 0.1         # the box (a) is in front
+    True
     """
     if ink.mask is None or ink.width <= 0:
-        return 0.0, 0.0, 0.0
+        return 0.0
     labels, mask = np.asarray(labels), np.asarray(ink.mask, bool)
     if mask.shape != labels.shape:
         raise InputError(f"ink: the {mask.shape[1]}x{mask.shape[0]} ink mask is not the size "
                          f"of the {labels.shape[1]}x{labels.shape[0]} label image")
-    values = [_junction_ink(labels, mask, place.a, place.b, np.asarray(j, float), ink.width)
+    values = [_spur(labels, mask, place.a, place.b, np.asarray(j, float), ink.width)
               for j in _free_junctions(place, seams, seam_distance)]
-    if not values:
-        return 0.0, 0.0, 0.0
-    stop, spur = np.mean([v[:2] for v in values], 0)
-    tees = [v[2] for v in values if v[2] is not None]
-    return float(stop), float(spur), float(np.mean(tees)) if tees else 0.0
+    return float(np.mean(values)) if values else 0.0
 
 
-def _junction_ink(labels, mask, a, b, point, width):
-    """``(stop, spur, tee)`` of :func:`contact_ink` at one junction ``point`` ``(x, y)``
-    (``tee`` None without a branch point of the ink's skeleton near it)."""
+def _spur(labels, mask, a, b, point, width):
+    """:func:`contact_spur` at one junction ``point`` ``(x, y)``."""
     h, w = labels.shape
-    r = int(np.ceil(max(4.0 * width, 4.0))) + 2
+    radius = max(1.5 * width, 4.0)
+    # The crop reaches one stroke width past the disk: the distance to a part's outline
+    # is measured within it.
+    r = int(np.ceil(radius + width)) + 1
     x0, x1 = max(int(point[0]) - r, 0), min(int(point[0]) + r + 1, w)
     y0, y1 = max(int(point[1]) - r, 0), min(int(point[1]) + r + 1, h)
-    lab, raw = labels[y0:y1, x0:x1], mask[y0:y1, x0:x1]
+    lab, ink = labels[y0:y1, x0:x1], mask[y0:y1, x0:x1]
     yy, xx = np.ogrid[y0:y1, x0:x1]
-    dist = np.hypot(xx - point[0], yy - point[1])
-    is_a, is_b = lab == a, lab == b
-    _, _, touches_third = _touches(lab, a, b)
-    near = max(3.0 * width, 4.0)
-    other_a, other_b = _walk([is_a & touches_third, is_b & touches_third], dist <= near,
-                             dist <= _SEED_RADIUS, near)
-    stop = 0.0
-    if len(other_a) and len(other_b):
-        # One pixel of slack: a label outline may run along the ink's edge, not its middle.
-        flat = ndimage.binary_dilation(raw).ravel()
-        stop = float(flat[other_a].mean() - flat[other_b].mean())
-    spur = []
-    for part in (is_a, is_b):
-        inner = (dist <= max(1.5 * width, 4.0)) & (ndimage.distance_transform_edt(part)
-                                                   > 0.75 * width)
-        spur.append(float(raw[inner].mean()) if inner.any() else 0.0)
-    return stop, spur[0] - spur[1], _tee(lab, raw, a, b, point - (x0, y0), max(width, 1.5))
-
-
-def _tee(lab, ink, a, b, point, width):
-    """The ``tee`` of :func:`contact_ink` in a crop, ``point`` ``(x, y)`` in its pixels."""
-    from skimage.morphology import skeletonize
-
-    skeleton = skeletonize(ink)
-    neighbours = ndimage.convolve(skeleton.astype(np.int32), np.ones((3, 3), np.int32),
-                                  mode="constant") - 1
-    by, bx = np.nonzero(skeleton & (neighbours >= 3))
-    if not len(by):
-        return None
-    d = np.hypot(bx - point[0], by - point[1])
-    k = int(np.argmin(d))
-    if d[k] > 2.0 * width + 2.0:
-        return None
-    centre = np.array([bx[k], by[k]], float)
-    yy, xx = np.mgrid[:lab.shape[0], :lab.shape[1]]
-    rr = np.hypot(xx - centre[0], yy - centre[1])
-    arms, count = ndimage.label(skeleton & (rr >= 1.5 * width) & (rr <= 3.5 * width),
-                                np.ones((3, 3)))
-    if count < 3:
-        return None
-    sizes = np.bincount(arms.ravel(), minlength=count + 1)[1:]
-    directions = []
-    for arm in np.argsort(-sizes, kind="stable")[:3] + 1:
-        py, px = np.nonzero(arms == arm)
-        v = np.array([px.mean(), py.mean()]) - centre
-        directions.append(v / max(float(np.hypot(*v)), 1e-9))
-    # The bar: the two most nearly opposite arms; the stem: the third.
-    cos, stem = min((float(directions[i] @ directions[j]), 3 - i - j)
-                    for i, j in ((0, 1), (0, 2), (1, 2)))
-    far = centre - 2.0 * width * directions[stem]
-    disk = np.hypot(xx - far[0], yy - far[1]) <= width
-    n = max(int(disk.sum()), 1)
-    return max(-cos, 0.0) * (int((disk & (lab == a)).sum()) - int((disk & (lab == b)).sum())) / n
+    disk = np.hypot(xx - point[0], yy - point[1]) <= radius
+    shares = []
+    for x in (a, b):
+        inner = disk & (ndimage.distance_transform_edt(lab == x) > 0.75 * width)
+        shares.append(float(ink[inner].mean()) if inner.any() else 0.0)
+    return shares[0] - shares[1]
 
 
 def _free_junctions(place, seams, seam_distance):
@@ -490,7 +428,7 @@ def _touches(lab, a, b):
 FEATURES = ("junction", "area", "surround", "continuation", "continuation_raw", "clarity",
             "log_area", "share_x", "share_y", "enclosed_x", "enclosed_y", "log_thickness",
             "inside", "hidden_y", "hidden_x", "near_x", "near_y", "far_x", "far_y", "junctions",
-            "rise", "ink_stop", "ink_spur", "ink_tee")
+            "rise", "ink_spur")
 
 
 def place_features(completion, place, *, outlines=None, stats=None, seams=(), ink=None,
@@ -523,10 +461,8 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     - ``junctions``: how many junctions the place has (at most 4);
     - ``rise``: how far ``x``'s centre lies above ``y``'s, over the square
       root of their mean area;
-    - ``ink_stop``, ``ink_spur``, ``ink_tee``: :func:`contact_ink` (signed
-      for ``x`` in front), read in the ink at the junctions: whose line runs
-      on through the contact, whose stops short of it or runs on into the
-      other part.
+    - ``ink_spur``: :func:`contact_spur` (signed for ``x`` in front), read in
+      the ink at the junctions: the part a line runs on into.
 
     Parameters
     ----------
@@ -555,7 +491,7 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     >>> c = complete_regions(labels)
     >>> f = place_features(c, c.places[0])
     >>> f.shape, bool(f[0, FEATURES.index("log_area")] > 0)
-    ((2, 24), True)
+    ((2, 22), True)
     """
     a, b = place.a, place.b
     labels = completion.labels
@@ -586,18 +522,17 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
             patch[k] += _disk_shares(labels, j, r, (a, b))
     patch /= max(len(junctions), 1)
     rise = (centres[b, 1] - centres[a, 1]) / np.sqrt((areas[a] + areas[b]) / 2.0 + 1.0)
-    stop, spur, tee = (contact_ink(labels, place, ink=ink, seams=seams,
-                                   seam_distance=seam_distance)
-                       if ink is not None else (0.0, 0.0, 0.0))
+    spur = (contact_spur(labels, place, ink=ink, seams=seams, seam_distance=seam_distance)
+            if ink is not None else 0.0)
     one = np.array([cues["junction"], cues["area"], cues["surround"], cues["continuation"], raw,
                     clarity, np.log((areas[a] + 1.0) / (areas[b] + 1.0)), share[0], share[1],
                     float(share[0] > 0.98), float(share[1] > 0.98),
                     np.log((thick[0] + 1.0) / (thick[1] + 1.0)), inside, hidden[0], hidden[1],
                     patch[0, 0], patch[0, 1], patch[1, 0], patch[1, 1],
-                    float(min(len(junctions), 4)), rise, stop, spur, tee])
+                    float(min(len(junctions), 4)), rise, spur])
     other = one.copy()
     for k in ("junction", "area", "surround", "continuation", "continuation_raw", "log_area",
-              "log_thickness", "inside", "rise", "ink_stop", "ink_spur", "ink_tee"):
+              "log_thickness", "inside", "rise", "ink_spur"):
         other[FEATURES.index(k)] *= -1.0
     for u, v in (("share_x", "share_y"), ("enclosed_x", "enclosed_y"), ("hidden_y", "hidden_x"),
                  ("near_x", "near_y"), ("far_x", "far_y")):
