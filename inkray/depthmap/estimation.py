@@ -33,6 +33,7 @@ units of the annotation's epsilon (default 1). Annotation points are rounded
 to the nearest pixel.
 """
 
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -419,6 +420,7 @@ class DepthSession:
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
         self.timings = {}
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
+        self._warming = None    # the thread factoring the draft fill in prepare(), if any
 
     def prepare(self, *, background=False, progress=None):
         """Ready the kept fill for the next change, in time nobody waits on.
@@ -428,6 +430,10 @@ class DepthSession:
         the next change that pinning cannot follow (a new scribble, a new
         part's level) refactors only the fronts it touches. The answers do
         not change. See :meth:`inkray.numerics.harmonic_fill.HarmonicFill.prepare`.
+        After a cold solve on the reduced system it factors the exact fill,
+        and above :data:`DRAFT_ABOVE` pixels also the draft's half-resolution
+        one (a cold open skips the draft), so that the next edit's draft is
+        an update; a draft asked for before that is done is the full fill.
 
         Parameters
         ----------
@@ -452,7 +458,29 @@ class DepthSession:
         (True, False)
         """
         fill = self._fills.get(False)
-        return fill is not None and fill.prepare(background=background, progress=progress)
+        started = fill is not None and fill.prepare(background=background, progress=progress)
+        answer = self._answer
+        if answer is None or not self._incremental or True in self._fills or \
+                self._warming is not None or self.gray.size <= DRAFT_ABOVE:
+            return started
+        fixed, vals = answer[0], np.zeros(self.shape)
+        vals[fixed] = answer[1]
+        draft = DraftFill(*self._weights, incremental=True)
+
+        def warm():
+            try:
+                draft.solve(fixed, vals)
+                self._fills[True] = draft
+            finally:
+                self._warming = None
+
+        if background:
+            self._warming = threading.Thread(target=warm, name="DepthSession.prepare",
+                                             daemon=True)
+            self._warming.start()
+        else:
+            warm()
+        return True
 
     def reseed(self, seeds=None, *, labels=None):
         """Replace the region and background scribbles (``seeds`` or their ``labels``,
@@ -796,7 +824,9 @@ class DepthSession:
             self._fills[False] = HarmonicFill(*self._weights, incremental=self._incremental,
                                               progress=self._progress, reduced_above=REDUCED_ABOVE)
         full = self._fills[False]
-        draft = draft and self.gray.size > DRAFT_ABOVE and \
+        # The draft's own fill unless the full one is as fast (a small box, or the
+        # reduced system), or the draft's is being factored by prepare().
+        draft = draft and self.gray.size > DRAFT_ABOVE and self._warming is None and \
             full.pending(fixed, vals) > DRAFT_ABOVE and not full.reduces(fixed, vals)
         if draft not in self._fills:
             self._fills[draft] = DraftFill(*self._weights, incremental=self._incremental,

@@ -35,7 +35,7 @@ from inkray.numerics.spd import spd_factor
 __all__ = ["quadtree_fill", "quadtree_blocks"]
 
 
-def quadtree_fill(wx, wy, known, values, *, weak=0.2, band=2, max_block=64):
+def quadtree_fill(wx, wy, known, values, *, weak=0.1, band=1, max_block=64):
     """The harmonic fill of the unknown pixels, on quadtree blocks away from ink.
 
     Parameters
@@ -48,9 +48,9 @@ def quadtree_fill(wx, wy, known, values, *, weak=0.2, band=2, max_block=64):
         The pixels whose values are given (at least one).
     values : (H, W) float array
         Read on the known pixels only.
-    weak : float, default 0.2
+    weak : float, default 0.1
         Edges below this weight (ink) keep their pixels at full resolution.
-    band : int, default 2
+    band : int, default 1
         Pixels within this chessboard distance of a known pixel or a weak
         edge stay at full resolution.
     max_block : int, default 64
@@ -79,9 +79,12 @@ def quadtree_fill(wx, wy, known, values, *, weak=0.2, band=2, max_block=64):
     blocks = quadtree_blocks(wx, wy, known, weak=weak, band=band, max_block=max_block)
     owner = _owner(blocks, (h, w))
     nodes, n_free = _nodes(blocks, owner, known)
-    K = _block_energy(wx, wy, blocks, nodes, (h, w)) + _edge_energy(
-        wx, wy, blocks, owner, nodes, known, n_free)
-    K = K.tocsr()
+    n = n_free + nodes.known_pixels.size
+    # One sum of every part's entries (duplicates add up when it is compressed).
+    parts = [_block_energy(wx, wy, blocks, nodes, (h, w)),
+             *_edge_energy(wx, wy, blocks, owner, nodes, known, n)]
+    i, j, v = (np.concatenate([part[k] for part in parts]) for k in range(3))
+    K = sp.csr_matrix((v, (i, j)), shape=(n, n))
     # Unknowns first, then the known pixels they couple to.
     rhs = -(K[:n_free, n_free:] @ out.ravel()[nodes.known_pixels])
     Kuu = K[:n_free, :n_free]
@@ -91,7 +94,7 @@ def quadtree_fill(wx, wy, known, values, *, weak=0.2, band=2, max_block=64):
     return _interpolated(u, blocks, nodes, owner, out)
 
 
-def quadtree_blocks(wx, wy, known, *, weak=0.2, band=2, max_block=64):
+def quadtree_blocks(wx, wy, known, *, weak=0.1, band=1, max_block=64):
     """The blocks of :func:`quadtree_fill`: ``(r0, c0, s)`` arrays, largest first.
 
     A pixel is a detail when it is known or has an edge below ``weak``; an
@@ -255,12 +258,12 @@ def _slots(y, x, blocks, owner, nodes):
     return var, coef
 
 
-def _edge_energy(wx, wy, blocks, owner, nodes, known, n_free):
-    """The energy of the edges not inside one block and not between two known pixels:
-    between two pixels that are their own variables the Laplacian's four entries,
-    otherwise ``G^T diag(w) G`` with ``G`` the edges' differences in the variables."""
+def _edge_energy(wx, wy, blocks, owner, nodes, known, n):
+    """The energy of the edges not inside one block and not between two known pixels,
+    as ``(rows, cols, values)`` triplets: between two pixels that are their own
+    variables the Laplacian's four entries, otherwise those of ``G^T diag(w) G``
+    with ``G`` the edges' differences in the ``n`` variables."""
     h, w = known.shape
-    n = nodes.known_pixels.size + n_free
     single = nodes.index[:h, :w]
     single = np.where(owner < 0, single, -1)
     i, j, v = [], [], []
@@ -279,9 +282,9 @@ def _edge_energy(wx, wy, blocks, owner, nodes, known, n_free):
         y, x = np.nonzero(((sa < 0) | (sb < 0)) & ((oa < 0) | (oa != ob)) & some)
         if len(y):
             mixed.append((y, x, dy, dx, weights[y, x]))
-    K = sp.coo_matrix((np.concatenate(v), (np.concatenate(i), np.concatenate(j))), shape=(n, n))
+    plain = np.concatenate(i), np.concatenate(j), np.concatenate(v)
     if not mixed:
-        return K
+        return [plain]
     var, coef, wts = [], [], []
     for y, x, dy, dx, wt in mixed:
         vp, cp = _slots(y, x, blocks, owner, nodes)
@@ -293,17 +296,19 @@ def _edge_energy(wx, wy, blocks, owner, nodes, known, n_free):
     rows = np.repeat(np.arange(len(wts)), var.shape[1])
     nz = coef.ravel() != 0
     G = sp.csr_matrix((coef.ravel()[nz], (rows[nz], var.ravel()[nz])), shape=(len(wts), n))
-    return K + (G.T @ G.multiply(wts[:, None]).tocsr()).tocoo()
+    M = (G.T @ G.multiply(wts[:, None]).tocsr()).tocoo()
+    return [plain, (M.row, M.col, M.data)]
 
 
 def _block_energy(wx, wy, blocks, nodes, shape):
-    """The energy of the edges inside the blocks: per block a 4x4 matrix in its
-    corners from three weighted moments of its rows' and its columns' weights."""
+    """The energy of the edges inside the blocks as ``(rows, cols, values)``: per block
+    a 4x4 matrix in its corners from three weighted moments of its rows' and its
+    columns' weights."""
     h, w = shape
     r0, c0, s = blocks
-    n = int(nodes.index.max()) + 1
     if not len(s):
-        return sp.coo_matrix((n, n))
+        empty = np.zeros(0, np.int64)
+        return empty, empty, np.zeros(0)
     # Row sums of a block's horizontal edges from cumulative sums along the rows.
     cx = np.zeros((h, w))
     np.cumsum(wx, axis=1, out=cx[:, 1:])
@@ -328,8 +333,7 @@ def _block_energy(wx, wy, blocks, nodes, shape):
         local += m0[:, None, None] * uu + m1[:, None, None] * uv + m2[:, None, None] * vv
     rows, cols = _corners(blocks)
     var = nodes.index[rows, cols]
-    return sp.coo_matrix((local.ravel(), (np.repeat(var, 4, axis=1).ravel(),
-                                          np.tile(var, (1, 4)).ravel())), shape=(n, n))
+    return np.repeat(var, 4, axis=1).ravel(), np.tile(var, (1, 4)).ravel(), local.ravel()
 
 
 def _dissection(K, rows, cols):
