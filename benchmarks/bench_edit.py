@@ -199,6 +199,14 @@ def _cpu(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _own_cpu():
+    """CPU seconds (user and system) of this process so far."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def _open(name, megapixels):
     """The cold open: the page's first requests to a fresh server, timed from the first."""
     ann, doc = _folder(name, megapixels)
@@ -361,8 +369,6 @@ def _methods_table(names, sizes, repeats, where=("in process", "process"), **_):
 def _first(name, megapixels):
     """``{prepared: [(label, CPU s, refactored fronts, fronts)]}`` for the cold depth
     map, the preparation and the +arrow and +scribble edits, in process."""
-    import resource
-
     import inkray
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.input.annotations import parse_annotations
@@ -376,10 +382,7 @@ def _first(name, megapixels):
         a.drawing, a.source = ann.drawing, ann.source
         return a
 
-    def cpu():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return r.ru_utime + r.ru_stime
-
+    cpu = _own_cpu
     out = {}
     try:
         for prepared in (False, True):
@@ -428,8 +431,6 @@ def _first_table(names, sizes, repeats, **_):
 def _reduced(name, megapixels, repeats):
     """CPU seconds of the cold fill, reduced and exact, ``{kind: [s, ...]}``, with the
     unknowns, the free pixels and the differences of the two fills."""
-    import resource
-
     import inkray
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.numerics import grid_cholesky
@@ -449,10 +450,7 @@ def _reduced(name, megapixels, repeats):
     finally:
         shutil.rmtree(ann_path.parent, ignore_errors=True)
 
-    def cpu():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return r.ru_utime + r.ru_stime
-
+    cpu = _own_cpu
     times, out = {}, {}
     for _ in range(max(repeats, 3)):
         for kind in ("reduced", "exact"):

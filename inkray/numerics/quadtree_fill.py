@@ -224,7 +224,8 @@ def _nodes(blocks, owner, known):
     corner_known = np.zeros(rows.shape, bool)
     corner_known[inside] = known[rows[inside], cols[inside]]
     lattice[rows[~corner_known], cols[~corner_known]] = 1
-    near = known & ndimage.binary_dilation(~known, structure=ndimage.generate_binary_structure(2, 1))
+    cross = ndimage.generate_binary_structure(2, 1)
+    near = known & ndimage.binary_dilation(~known, structure=cross)
     lattice[:h, :w][near] = 2
     lattice[rows[corner_known], cols[corner_known]] = 2
     index = np.full((h + 1) * (w + 1), -1, np.int64)
