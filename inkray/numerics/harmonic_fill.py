@@ -291,12 +291,16 @@ class HarmonicFill:
         self._preparing = None
         if "chol" in outcome and base is self._chol:
             self._chol = outcome["chol"]
+        elif self._chol is None:
+            self.box = None  # a first factorization that failed leaves no box
 
     def _stop_preparing(self):
         """Stop a background :meth:`prepare` whose system is being replaced."""
         if self._preparing is not None:
             self._preparing[2].set()
             self._preparing = None
+            if self._chol is None:
+                self.box = None
 
     def reduces(self, fixed, values):
         """Whether the next :meth:`solve` of these fixed values answers from the reduced
