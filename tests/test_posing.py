@@ -28,6 +28,7 @@ def man():
 def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
     chain, rig = man
     assert rig.names == [p.name for p in chain.relief.parts]
+    assert len(rig.heights) == len(rig.vertices) and np.isfinite(rig.heights).all()
     rest = rig.posed_relief(rig.vertices)
     for p, idx, q in zip(chain.relief.parts, rig.index, rest.parts):
         # each vertex is its rig vertex, or welded to one within _WELD (a rim wall's foot)

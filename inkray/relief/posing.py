@@ -507,7 +507,7 @@ def front_mesh(part):
     f = np.asarray(part.faces, np.int64).reshape(-1, 3)
     xy, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_inverse=True)
     inverse = _weld(xy, inverse.reshape(-1))
-    top = np.full(len(xy), -np.inf)
+    top = np.full(inverse.max() + 1, -np.inf)
     np.maximum.at(top, inverse, v[:, 2])
     on_top = v[:, 2] >= top[inverse] - 1e-9
     _, copy = np.unique(inverse[on_top], return_index=True)
