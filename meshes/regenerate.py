@@ -25,7 +25,7 @@ def main():
     for name in REFERENCES:
         ann, drawing = load_input(example_path(name))
         result = build_relief(ann, drawing)
-        written = export_relief(result.relief, HERE / f"{name}.ply")
+        written = export_relief(result.relief, HERE / f"{name}.ply", back="none")
         parts = result.relief.parts
         print(f"{written[0]}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices")
 

@@ -231,3 +231,28 @@ def test_batch_pose_job_reads_the_pose_file_beside_each_frame(tmp_path):
     import io
     rgba = np.asarray(Image.open(io.BytesIO(done["files"]["posed.png"])))
     assert rgba.shape == (540, 304, 4)
+
+
+def test_an_overlap_that_glues_a_pin_does_not_grip():
+    # Glue that holds one or two vertices, or vertices along one line, lets the part
+    # pivot about them: such an overlap is taken only where no gripping one joins
+    import scipy.sparse as sp
+
+    from inkray.relief.posing import _grips
+
+    _, rig = _two_part_character()
+    arm = rig.names.index("arm")
+    lo, hi = rig.offsets[arm], rig.offsets[arm + 1]
+    xy = rig.vertices[lo:hi]
+
+    def rows(picked):
+        k = len(picked)
+        return sp.csr_matrix((np.ones(k), (np.arange(k), lo + picked)),
+                             shape=(k, len(rig.vertices)))
+
+    on_line = np.flatnonzero(np.abs(xy[:, 1] - np.median(xy[:, 1])) < 0.5)
+    spread = np.flatnonzero(np.hypot(xy[:, 0] - xy[:, 0].mean(), xy[:, 1] - 53) < 8)
+    assert len(on_line) >= 3 and len(spread) >= 3
+    assert not _grips(rig, rows(np.arange(2)), "arm")
+    assert not _grips(rig, rows(on_line), "arm")
+    assert _grips(rig, rows(spread), "arm")

@@ -27,7 +27,12 @@ relief surfaces were cleaned up on purpose:
   the stations (its offset no longer bulges up between them, so the
   turtle's front leg sits up to 3.2 px lower, nearer its base, the order
   still held), and the blend onto the base is C2 (a quintic) over a band at
-  least as wide as the part's height at the seam.
+  least as wide as the part's height at the seam;
+- a part hidden under an occluder takes the occluder's pixels in a strip up to
+  a few pixels wide between it and another part (the completion left them to
+  no part, so a pose that moved the occluder showed a hole there), so the
+  completed areas, and the meshes near such strips, changed (turtle: the
+  shell and the head under the front leg; balls and frog likewise).
 """
 
 from pathlib import Path

@@ -422,6 +422,7 @@ class _PartSource:
         for chosen in (slice(inner, None), slice(0, inner)):
             pix, tri = _scan(local, faces[chosen], (bw, bh))
             frags[pix] = tri + chosen.start
+        _highest(frags, pix, tri, local, faces, z, bw)
         pix = np.flatnonzero(frags >= 0)
         if not pix.size:
             return None
@@ -437,6 +438,28 @@ class _PartSource:
         keep = rgba[:, 3] > 0
         flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
         return flat, at[keep, 0], rgba[keep]
+
+
+def _highest(frags, pix, tri, points, faces, z, width):
+    """Where a part's posed triangles overlap each other, the highest one's: ``frags`` in place.
+
+    A pose can fold a strip of a mesh over its own interior with every
+    triangle kept the right way round (a border held by its glue while the
+    part turns); the strip, lower than the interior it slides over (an
+    inflated part is lowest at its outline), goes under it, as a part under
+    another does, instead of whichever triangle was scanned last.
+    """
+    many = np.bincount(pix, minlength=frags.size)[pix] > 1
+    if not many.any():
+        return
+    pix, tri = pix[many], tri[many]
+    k = _affine(points, faces[tri], z[:, None])
+    row, col = np.divmod(pix, width)
+    height = k[:, 0] * col + k[:, 1] * row + k[:, 2]
+    order = np.lexsort((height, pix))
+    pix, tri = pix[order], tri[order]
+    top = np.r_[pix[1:] != pix[:-1], True]
+    frags[pix[top]] = tri[top]
 
 
 class _Skirt:
