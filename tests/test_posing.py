@@ -256,3 +256,29 @@ def test_an_overlap_that_glues_a_pin_does_not_grip():
     assert not _grips(rig, rows(np.arange(2)), "arm")
     assert not _grips(rig, rows(on_line), "arm")
     assert _grips(rig, rows(spread), "arm")
+
+
+@pytest.mark.slow
+def test_the_figure_at_1_mpx_opens_no_hole_when_its_head_turns():
+    # The benchmark's pose: the body pinned, the head (on top of it) turned by 40 degrees
+    # about where it joins; the near arm, rooted in the head beside the body, goes with it,
+    # and both leave pixels of the head that the body must fill. A hole as the benchmark
+    # counts it: a transparent pixel enclosed by the posed figure that no part near it takes
+    # back to paper in the drawing.
+    import sys
+
+    sys.path.insert(0, str(EXAMPLES.parent / "benchmarks"))
+    from bench_pose import _holes, _load, _scenario, _turn
+
+    ann, drawing = _load("figure", 1.0)
+    chain = ReliefChain(ann, drawing)
+    rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+    pins, tip, join = _scenario(chain, rig)
+    c = chain.completion
+    assert c.names[c.labels[int(tip[1]), int(tip[0])]] == "head"
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
+                         np.vstack([pins, tip]), boundaries=ann.boundaries)
+    x, _ = posed.posing.pose(np.vstack([pins, _turn(tip, join, 40.0)]), iterations=8)
+    assert posed.rig.folds(x) == 0
+    img = posed.image(x)
+    assert _holes(posed, x, img, posed.image(posed.rig.vertices)) == 0
