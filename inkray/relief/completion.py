@@ -19,6 +19,10 @@ one factorization, on the occluder's bounding box only.
 Because the values of all neighbours and of "anything else" sum to one at
 every pixel, at most one neighbour exceeds 0.5 there, so a pixel of ``A``
 completes at most one region; the candidates fit in one ``owner`` image.
+Where no value exceeds 0.5 a few pixels of ``A`` between two hidden parts
+belong to ``A`` alone; the ordered completion gives such narrow gaps to a
+part hidden beside them (:func:`close_gaps`), so that what a posed part
+uncovers is always some part's completed area.
 """
 
 import os
