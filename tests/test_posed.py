@@ -137,3 +137,31 @@ def test_a_part_folded_over_itself_shows_its_highest_surface(low):
     img, _ = posed_image(Relief([Part("p", posed, faces)], size=(9, 4)),
                          Relief([Part("p", rest, faces)], size=(9, 4)), Cutout([], (9, 4)), rgb)
     assert (img[:, :4, 0] == (50 if low == 0 else 200)).all()
+
+
+@pytest.mark.parametrize("inked", [0, 1])
+def test_where_a_part_s_skirt_overlaps_itself_its_ink_shows(inked):
+    # one part of two squares apart at rest, its layer inked 2 px beyond one of them (its
+    # soft edge, drawn by the skirt); posed, the squares come within 2 px of each other, so
+    # both skirts cover the pixels between them: the one reaching the ink shows, whichever
+    # of the squares comes first among the faces
+    from inkray.relief.cutout import CutoutLayer
+
+    a, _ = square()
+    b, _ = square((10.0, 0.0))
+    rest = np.vstack([a.vertices, b.vertices])
+    faces = np.vstack([a.faces, b.faces + 4])
+    posed = rest.copy()
+    posed[4:, 0] -= 4.0                      # b's mesh now covers pixel centres 6..9
+    rgba = np.zeros((4, 16, 4), np.uint8)
+    rgba[:, :4, :3], rgba[:, 10:14, :3] = 200, 50
+    rgba[:, :4, 3] = rgba[:, 10:14, 3] = 255
+    ink = slice(4, 6) if inked == 0 else slice(8, 10)   # beside a, or beside b
+    rgba[:, ink, 3] = 255
+    layer = CutoutLayer(name="p", region=0, top=0, left=0, rgba=rgba,
+                        hidden=np.zeros((4, 16), bool))
+    img, part = posed_image(Relief([Part("p", posed, faces)], size=(16, 4)),
+                            Relief([Part("p", rest, faces)], size=(16, 4)),
+                            Cutout([layer], (16, 4)), np.zeros((4, 16, 3), np.uint8))
+    assert (img[:, 4:6, 3] == 255).all() and (img[:, 4:6, 0] == 0).all()
+    assert (part[:, :10] == 0).all()

@@ -13,7 +13,8 @@ mesh is scan-converted on its own so that it covers every pixel centre in it
 exactly once (no cracks between its triangles; where a pose folds a strip of
 a part over the part itself, its highest triangle), and a band of ``_SKIRT`` px
 around it carries the part's layer beyond its triangles (the triangles follow
-the outline, the layer the ink's anti-aliasing). The layers' soft edges are
+the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
+its most opaque piece). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
 silhouette; at rest the picture is the flattened layer stack.
@@ -422,7 +423,10 @@ class _PartSource:
         inner = len(self.faces)
         for chosen in (slice(inner, None), slice(0, inner)):
             pix, tri = _scan(local, faces[chosen], (bw, bh))
-            frags[pix] = tri + chosen.start
+            tri = tri + chosen.start
+            frags[pix] = tri
+            if chosen.start:
+                _most_opaque(frags, pix, tri, local, faces, rest, self.texture, bw)
         _highest(frags, pix, tri, local, faces, z, bw)
         pix = np.flatnonzero(frags >= 0)
         if not pix.size:
@@ -456,8 +460,31 @@ def _highest(frags, pix, tri, points, faces, z, width):
     pix, tri = pix[many], tri[many]
     k = _affine(points, faces[tri], z[:, None])
     row, col = np.divmod(pix, width)
-    height = k[:, 0] * col + k[:, 1] * row + k[:, 2]
-    order = np.lexsort((height, pix))
+    _largest(frags, pix, tri, k[:, 0] * col + k[:, 1] * row + k[:, 2])
+
+
+def _most_opaque(frags, pix, tri, points, faces, rest, texture, width):
+    """Where a part's skirt overlaps itself, the piece whose layer is most opaque: ``frags`` in
+    place.
+
+    The band folds over itself where the border turns inward or two stretches of it come
+    close; posed, its pieces there take a pixel back to different rest positions, and one
+    that reaches only the paper beyond the layer's edge must not hide one that reaches its ink.
+    """
+    many = np.bincount(pix, minlength=frags.size)[pix] > 1
+    if not many.any():
+        return
+    pix, tri = pix[many], tri[many]
+    tx, ty, tex = texture
+    k = _affine(points, faces[tri], rest - [tx, ty])
+    row, col = np.divmod(pix, width)
+    at = k[:, 0:2] * col[:, None] + k[:, 2:4] * row[:, None] + k[:, 4:6]
+    _largest(frags, pix, tri, _bilinear(tex, at)[:, 3])
+
+
+def _largest(frags, pix, tri, key):
+    """Per pixel of ``pix``, the triangle of ``tri`` with the largest ``key``: ``frags`` in place."""
+    order = np.lexsort((key, pix))
     pix, tri = pix[order], tri[order]
     top = np.r_[pix[1:] != pix[:-1], True]
     frags[pix[top]] = tri[top]
