@@ -46,6 +46,8 @@ _ITERATIONS = 4  # of that remeshing
 #: How far (pixels) each part's front and back reach beyond its outline in the union:
 #: two parts' outlines less than twice this apart leave no slot between their fronts.
 SKIRT = 0.3
+#: How near (pixels) outlines of different parts are made to coincide before the booleans.
+SNAP = 1.0
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -157,7 +159,7 @@ def _prism(vertices, faces, z):
             np.concatenate([faces, faces[:, ::-1] + n, walls]))
 
 
-def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
+def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     """One watertight solid over the union of closed parts' outlines.
 
     Every closed part is a slab over the image plane: over its outline it
@@ -218,13 +220,13 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    verts, faces = _envelope_solid(parts, skirt)
+    verts, faces = _envelope_solid(parts, skirt, snap)
     if remesh:
         verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)))
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, skirt):
+def _envelope_solid(parts, skirt, snap=0.0):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
     ``skirt`` (see union_parts)."""
     import manifold3d as m3d
@@ -233,29 +235,274 @@ def _envelope_solid(parts, skirt):
     margin = max(1.0, float(np.ptp(z)))
     xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
     box = xy.min(axis=0), xy.max(axis=0)  # no skirt reaches beyond the parts (the drawing)
-    below, above = [], []
+    fronts, backs, pairs = [], [], []
     for p in parts:
         v, front, back = _sheets(p)
         if not (len(front) and len(back)):
             raise StageError(f"union: part {p.name} is not a closed slab (a front over a back)")
-        # the space under the part's front and the space over its back, each reaching a
-        # skirt beyond the outline (no slot narrower than a pixel between two parts)
-        below.append(_manifold(*_prism(*_skirted(*_compact(v, front), skirt, box),
-                                       z.min() - margin), p.name))
-        above.append(_manifold(*_prism(*_skirted(*_compact(v, back), skirt, box),
-                                       z.max() + margin), p.name))
+        fronts.append(_skirted(*_compact(v, front), skirt, box))
+        backs.append(_skirted(*_compact(v, back), skirt, box))
+        pairs.append(_paired(v, front, back))
+    if all(x is not None for x in pairs):
+        # a front's and its back's outlines kept at the very same (x, y): walls a
+        # rounding error apart would be cut into slivers
+        sheets = [_skirted(*x, skirt, box) for x in pairs]
+        if snap:
+            sheets = _snapped(sheets, snap)
+        fronts = [(s[:, :3], f) for s, f in sheets]
+        backs = [(s[:, [0, 1, 3]], f[:, ::-1]) for s, f in sheets]
+    elif snap:
+        fronts, backs = _snapped(fronts, snap), _snapped(backs, snap)
+    # the space under each part's front and the space over its back
+    below = [_manifold(*_prism(*s, z.min() - margin), p.name) for s, p in zip(fronts, parts)]
+    above = [_manifold(*_prism(*s, z.max() + margin), p.name) for s, p in zip(backs, parts)]
     solid = (m3d.Manifold.batch_boolean(below, m3d.OpType.Add)
              ^ m3d.Manifold.batch_boolean(above, m3d.OpType.Add))
     pieces = solid.decompose()
     if len(pieces) > 1:
-        # a piece under a pixel across is a splinter the cuts leave where outlines
-        # nearly meet, not a part of the drawing
-        box = np.array([p.bounding_box() for p in pieces])
-        wide = (box[:, 3:5] - box[:, 0:2] >= 1.0).any(axis=1)
-        solid = m3d.Manifold.compose([p for p, w in zip(pieces, wide) if w])
+        # a piece with under a hundredth of the smallest part's volume is no part of
+        # the drawing: a splinter the cuts leave where outlines nearly meet, or a tip
+        # of a part's triangulation cut off at a neck narrower than a pixel
+        least = min(abs(_volume(p.vertices, p.faces)) for p in parts)
+        solid = m3d.Manifold.compose([p for p in pieces if p.volume() >= 0.01 * least])
     mesh = solid.to_mesh64()
     verts = np.array(mesh.vert_properties, float)[:, :3]
     return verts, np.array(mesh.tri_verts, np.int64)[:, ::-1]
+
+
+def _snapped(sheets, reach):
+    """Open sheets whose outlines are made to coincide exactly where they run within
+    ``reach`` of each other.
+
+    Each sheet in turn: its outline vertices within ``reach`` of an earlier sheet's
+    outline move onto it (onto that outline's vertex where the nearest point is within
+    half ``reach`` of one), and the earlier outlines' vertices within ``reach`` of its
+    outline are put into it; then every outline vertex lying on another sheet's
+    outline edge is put into that edge. Near-coincident stretches become identical
+    polylines, which the booleans decide exactly (symbolic perturbation) rather than
+    leaving a slot or column narrower than ``reach`` between them. A move or an
+    insertion that would fold or flatten a triangle of its sheet (in ``(x, y)``) is
+    left out. Returns the list of ``(vertices, faces)``.
+    """
+    done = []
+    for v, f in sheets:
+        if done:
+            a, b = _boundary_edges(f).T
+            on = np.unique(a)
+            s0, s1, out = _outline_segments(done)
+            c, dist, seg, t = _closest_on(v[on, :2], s0[:, :2], s1[:, :2], reach)
+            found = np.isfinite(dist)
+            k = np.maximum(seg, 0)
+            # onto a vertex of the other outline when one is near (no edge of a few
+            # hundredths of a pixel beside it)
+            length = np.linalg.norm(s1[k, :2] - s0[k, :2], axis=1)
+            start, end = t * length < 0.5 * reach, (1.0 - t) * length < 0.5 * reach
+            q = c.copy()
+            q[start], q[end & ~start] = s0[k[start], :2], s1[k[end & ~start], :2]
+            apart = np.zeros(len(on), bool)
+            if v.shape[1] > 3:
+                # slabs whose heights do not meet there (a part floating in front of
+                # another) would touch along a line: that outline moves ``reach`` clear
+                # of the other instead
+                z = s0[k, 2:] + t[:, None] * (s1[k, 2:] - s0[k, 2:])
+                apart = found & ((v[on, 3] > z[:, 0]) | (z[:, 1] > v[on, 2]))
+                q[apart] = c[apart] + reach * out[k[apart]]
+            w = np.array(v, float)
+            w[on, :2] = np.where(found[:, None], q, w[on, :2])
+            snapped = np.zeros(len(v), bool)
+            snapped[on[found & ~apart]] = True
+            for _ in range(len(on)):  # (undoing a move may fold a triangle, or leave one alone)
+                u = _runs(v, _unfolded(v, w, f), a, b, snapped)
+                if np.array_equal(u, w):
+                    break
+                w = u
+            moved = snapped & (w != v).any(axis=1)
+            v, f = _inserted(w, f, np.concatenate([s0[:, :2], s1[:, :2]]), reach, near=moved)
+        done.append((v, f))
+    out = []
+    for k, (v, f) in enumerate(done):
+        others = [s for j, s in enumerate(done) if j != k]
+        if others:
+            s0, s1, _ = _outline_segments(others)
+            v, f = _inserted(v, f, np.concatenate([s0[:, :2], s1[:, :2]]),
+                             1e-7 * max(1.0, float(np.abs(v[:, :2]).max())))
+        out.append((v, f))
+    return out
+
+
+def _outline_segments(sheets):
+    """The outline edges of ``sheets``: their start and end vertices (rows of the
+    sheets' vertices) and their outward unit normals in ``(x, y)``."""
+    starts, ends, normals = [], [], []
+    for v, f in sheets:
+        a, b = _boundary_edges(f).T
+        starts.append(v[a])
+        ends.append(v[b])
+        normals.append(_outward(v, f, a, b))
+    return np.concatenate(starts), np.concatenate(ends), np.concatenate(normals)
+
+
+def _outward(vertices, faces, a, b):
+    """Outward unit normals (in ``(x, y)``) of a sheet's outline edges ``a -> b``."""
+    t = vertices[faces][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    turn = np.sign((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())  # the faces' winding
+    d = vertices[b, :2] - vertices[a, :2]
+    return turn * np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+
+
+def _closest_on(points, s0, s1, reach):
+    """For each point, the closest point on the segments ``s0 -> s1`` within ``reach``:
+    that point, its distance (inf where none is that near), the segment and the
+    parameter along it (-1 and nan where none)."""
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    q, dist = np.array(points, float), np.full(n, np.inf)
+    seg, t = np.full(n, -1), np.full(n, np.nan)
+    if not len(s0) or not n:
+        return q, dist, seg, t
+    half = 0.5 * float(np.linalg.norm(s1 - s0, axis=1).max())
+    near = cKDTree(0.5 * (s0 + s1)).query_ball_point(points, reach + half)
+    i = np.repeat(np.arange(n), [len(x) for x in near])
+    if not len(i):
+        return q, dist, seg, t
+    j = np.concatenate([np.asarray(x, np.int64) for x in near])
+    d = s1[j] - s0[j]
+    u = np.clip(np.einsum("ij,ij->i", points[i] - s0[j], d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+    c = s0[j] + u[:, None] * d
+    r = np.linalg.norm(points[i] - c, axis=1)
+    order = np.lexsort((r, i))
+    first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
+    keep = first[r[first] <= reach]
+    q[i[keep]], dist[i[keep]], seg[i[keep]], t[i[keep]] = c[keep], r[keep], j[keep], u[keep]
+    return q, dist, seg, t
+
+
+def _runs(before, after, a, b, snapped):
+    """``after`` with the move of every ``snapped`` outline vertex undone where neither
+    neighbour along the outline ``a -> b`` moved (two outlines meeting at one point
+    would pinch the union there)."""
+    w = np.array(after, float)
+    moved = (w != before).any(axis=1)
+    following, preceding = np.arange(len(w)), np.arange(len(w))
+    following[a], preceding[b] = b, a
+    alone = snapped & moved & ~moved[following] & ~moved[preceding]
+    w[alone] = before[alone]
+    return w
+
+
+def _signed_areas(vertices, faces):
+    t = vertices[faces][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+
+
+def _unfolded(before, after, faces, keep=0.05):
+    """``after`` with the moves of the corners of every triangle they fold or flatten
+    (its area in ``(x, y)`` below ``keep`` of what it was, or of the other sign) undone."""
+    a0 = _signed_areas(before, faces)
+    w = np.array(after, float)
+    for _ in range(len(w)):
+        bad = _signed_areas(w, faces) / np.where(a0 == 0.0, 1.0, a0) < keep
+        if not bad.any():
+            break
+        corners = np.unique(faces[bad])
+        w[corners] = before[corners]
+    return w
+
+
+def _inserted(vertices, faces, points, reach, near=None):
+    """A sheet with ``points`` (k, 2) within ``reach`` of an outline edge (and farther
+    than half ``reach`` from its ends) put into that edge, at heights interpolated
+    along it, the edge's triangle split into a fan; an edge whose fan would fold or
+    flatten a triangle keeps its points out. With ``near`` (a flag per vertex), only
+    edges with a flagged end take points."""
+    v = np.asarray(vertices, float)
+    edges = _boundary_edges(faces)
+    if near is not None:
+        edges = edges[near[edges].any(axis=1)]
+    if not len(edges):
+        return v, faces
+    s0, s1 = v[edges[:, 0], :2], v[edges[:, 1], :2]
+    points = np.unique(points, axis=0)
+    _, dist, seg, t = _closest_on(points, s0, s1, reach)
+    length = np.linalg.norm(s1 - s0, axis=1)[np.maximum(seg, 0)]
+    tol = min(0.5 * reach, 1e-3)
+    take = np.isfinite(dist) & (t * length > tol) & ((1.0 - t) * length > tol)
+    if reach >= 1e-3:
+        take &= (t * length > 0.5 * reach) & ((1.0 - t) * length > 0.5 * reach)
+    if not take.any():
+        return v, faces
+    # the triangle along each outline edge and its third corner
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    third = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
+    face = np.tile(np.arange(len(faces)), 3)
+    key = {(int(x), int(y)): k for k, (x, y) in enumerate(e.tolist())}
+    new_v, new_f, drop = [], [], []
+    count = len(v)
+    a0 = _signed_areas(v, faces)
+    idx = np.flatnonzero(take)
+    for s in np.unique(seg[idx]).tolist():
+        mine = idx[seg[idx] == s]
+        mine = mine[np.argsort(t[mine])]
+        a, b = edges[s]
+        k = key[(int(a), int(b))]
+        if face[k] in drop:
+            continue  # (a triangle with two outline edges is split along one)
+        c = int(third[k])
+        pz = v[a, 2:] + t[mine][:, None] * (v[b, 2:] - v[a, 2:])
+        pts = np.column_stack([points[mine], pz])
+        chain = [int(a)] + list(range(count, count + len(mine))) + [int(b)]
+        fan = np.array([[chain[m], chain[m + 1], c] for m in range(len(chain) - 1)])
+        w = np.concatenate([v, *new_v, pts]) if new_v else np.concatenate([v, pts])
+        ratio = _signed_areas(w, fan) / a0[face[k]]
+        if (ratio <= 0.0).any() or (np.abs(ratio) < 1e-9).any():
+            continue
+        new_v.append(pts)
+        new_f.append(fan)
+        drop.append(face[k])
+        count += len(mine)
+    if not new_f:
+        return v, faces
+    keep = np.ones(len(faces), bool)
+    keep[drop] = False
+    return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
+
+
+def _volume(vertices, faces):
+    """The signed volume a closed triangle mesh encloses."""
+    t = np.asarray(vertices, float)[np.asarray(faces)]
+    return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum()) / 6.0
+
+
+def _paired(vertices, front, back):
+    """A closed slab's front and back sheets as one: its vertices' ``x, y``, front and
+    back heights, and the front faces; None unless the back is the front's
+    triangulation reversed, vertex for vertex at the same ``(x, y)``."""
+    fv, ff = _compact(vertices, front)
+    bv, bf = _compact(vertices, back)
+    if len(fv) != len(bv) or len(ff) != len(bf):
+        return None
+    ids = _position_ids(np.concatenate([fv[:, :2], bv[:, :2]]))
+    mine, theirs = ids[:len(fv)], ids[len(fv):]
+    at = np.full(int(ids.max()) + 1, -1)
+    at[mine] = np.arange(len(fv))
+    to = at[theirs]
+    if len(np.unique(mine)) < len(fv) or (to < 0).any():
+        return None
+    if not np.array_equal(_rotated(to[bf][:, ::-1]), _rotated(ff)):
+        return None
+    back_z = np.empty(len(fv))
+    back_z[to] = bv[:, 2]
+    return np.column_stack([fv, back_z]), ff
+
+
+def _rotated(faces):
+    """Faces each started at its smallest corner (orientation kept), sorted."""
+    first = np.argmin(faces, axis=1)
+    f = faces[np.arange(len(faces))[:, None], (first[:, None] + np.arange(3)) % 3]
+    return f[np.lexsort(f.T[::-1])]
 
 
 def _skirted(vertices, faces, width, box):
@@ -267,11 +514,7 @@ def _skirted(vertices, faces, width, box):
     a, b = _boundary_edges(faces).T
     if not width or not len(a):
         return v, faces
-    t = v[faces][:, :, :2]
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    turn = np.sign((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())  # the faces' winding
-    d = v[b, :2] - v[a, :2]
-    out = turn * np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+    out = _outward(v, faces, a, b)
     miter = np.zeros((len(v), 2))
     np.add.at(miter, a, out)
     np.add.at(miter, b, out)
