@@ -19,11 +19,10 @@ from inkray.formats.meshes import export_relief
 from inkray.input.loading import load_input
 
 # Drawings whose solid keeps slivers (smallest angle in degrees) or faces crossing
-# another (how many, exact in double precision), measured with bench_union.py: where
-# two parts' outlines run about two skirts apart (on the donkey), the booleans leave a column of the solid's height under a pixel wide,
-# which the local remeshing cannot shape.
-SLIVERS = {"donkey": 8.5}
-CROSSINGS = {"donkey": 3}
+# another (how many, exact in double precision), measured with bench_union.py: none
+# since outlines of different parts within a pixel are made to coincide.
+SLIVERS = {}
+CROSSINGS = {}
 
 
 @lru_cache(maxsize=None)

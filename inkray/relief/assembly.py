@@ -17,7 +17,8 @@ consistently oriented; ``union=True`` makes one solid of them for 3D
 printing: the space between the highest front and the lowest back over the
 union of the parts' outlines, which joins a part floating in front of the
 part behind it to it, built with the booleans of the Manifold library
-(manifold3d, exact in their topology); only the faces
+(manifold3d, exact in their topology) once outlines of different parts that
+run within a pixel are made to coincide exactly; only the faces
 around the slivers its cuts leave (and the parts' own) are remeshed
 (PyMeshLab's isotropic remeshing of those faces alone), then flipped,
 collapsed or split, the patches around faces still bad re-triangulated.
@@ -36,7 +37,7 @@ from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
-           "MIN_ANGLE", "SKIRT"]
+           "MIN_ANGLE", "SKIRT", "SNAP"]
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
@@ -46,7 +47,8 @@ _ITERATIONS = 4  # of that remeshing
 #: How far (pixels) each part's front and back reach beyond its outline in the union:
 #: two parts' outlines less than twice this apart leave no slot between their fronts.
 SKIRT = 0.3
-#: How near (pixels) outlines of different parts are made to coincide before the booleans.
+#: How near (pixels) outlines of different parts are made to coincide before the booleans
+#: (or, where the parts' slabs do not meet in height, kept half this apart).
 SNAP = 1.0
 
 
@@ -172,13 +174,23 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     coincident faces decided by symbolic perturbation): the union of every part with
     its back lowered below all parts (the space under ``T``), intersected
     with the union of every part with its front raised above all parts (the
-    space over ``B``). Every part's front and back reach :data:`SKIRT` beyond
-    its outline (the outline's vertices moved outward at their own height):
-    where outlines of different parts run within a pixel, the cuts would
-    leave a slot of the solid's height under a pixel wide. Its faces are the
-    parts' own, cut where they meet, so it has about as many faces as the
-    parts and follows their fronts (within the skirt at the rims); only the faces around the slivers the cuts leave (and the
-    parts' own) are remeshed.
+    space over ``B``). Where outlines of different parts run within a pixel,
+    the cuts would leave a slot or a column of the solid's height under a
+    pixel wide, whose slivers no remeshing shapes: every part's front and
+    back reach :data:`SKIRT` beyond its outline (the outline's vertices
+    moved outward at their own height), then outlines within :data:`SNAP`
+    of an earlier part's outline are made to coincide with it exactly
+    (vertices moved onto it, its vertices put into them), which the
+    booleans decide by symbolic perturbation; where the two parts' slabs do
+    not meet in height there (a part floating in front of another) the
+    later outline is moved half :data:`SNAP` clear of the other instead, as
+    the two would touch along a line. Pieces with under a hundredth of the
+    smallest part's volume (splinters, or a part's tip cut off at a neck
+    narrower than a pixel) are dropped. Its faces are the parts' own, cut
+    where they meet, so it has about as many faces as the parts and follows
+    their fronts (within the skirt and the snapping at the rims); only the
+    faces around the slivers the cuts leave (and the parts' own) are
+    remeshed.
 
     Parameters
     ----------
@@ -190,13 +202,15 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
         Remesh the faces around those with an angle below :data:`MIN_ANGLE`
         (:func:`remesh_solid`) toward edges as long as the parts' median
         edge (the relief's own resolution).
-
     skirt : float, default :data:`SKIRT`
         How far (pixels) every part's front and back reach beyond its outline
         at the outline's height: where outlines of different parts run less
         than twice this apart, the booleans would leave a slot or column
-        under a pixel wide (slivers no remeshing shapes); 0 gives the
-        envelope exactly.
+        under a pixel wide (slivers no remeshing shapes).
+    snap : float, default :data:`SNAP`
+        How near (pixels) outlines of different parts are made to coincide
+        (or kept apart, where their slabs do not meet in height). With
+        ``skirt`` and ``snap`` 0 the solid is the envelope exactly.
 
     Returns
     -------
@@ -228,7 +242,8 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
 
 def _envelope_solid(parts, skirt, snap=0.0):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
-    ``skirt`` (see union_parts)."""
+    ``skirt``, outlines within ``snap`` of each other made to coincide (see
+    union_parts)."""
     import manifold3d as m3d
 
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
@@ -276,20 +291,24 @@ def _snapped(sheets, reach):
 
     Each sheet in turn: its outline vertices within ``reach`` of an earlier sheet's
     outline move onto it (onto that outline's vertex where the nearest point is within
-    half ``reach`` of one), and the earlier outlines' vertices within ``reach`` of its
-    outline are put into it; then every outline vertex lying on another sheet's
-    outline edge is put into that edge. Near-coincident stretches become identical
-    polylines, which the booleans decide exactly (symbolic perturbation) rather than
-    leaving a slot or column narrower than ``reach`` between them. A move or an
-    insertion that would fold or flatten a triangle of its sheet (in ``(x, y)``) is
-    left out. Returns the list of ``(vertices, faces)``.
+    half ``reach`` of one), where a neighbour along the outline moves too (two
+    outlines meeting at one point would pinch the union), and the earlier outlines'
+    vertices within ``reach`` of an edge that moved are put into it; then every
+    outline vertex lying on another sheet's outline edge is put into that edge.
+    Near-coincident stretches become identical polylines, which the booleans decide
+    exactly (symbolic perturbation) rather than leaving a slot or column narrower than
+    ``reach`` between them. Sheets with a fourth column (the back's height under the
+    front, see ``_paired``) whose heights do not meet the other's there are moved
+    half ``reach`` clear of it instead. A move or an insertion that would fold or
+    flatten a triangle of its sheet (in ``(x, y)``) is left out. Returns the list of
+    ``(vertices, faces)``.
     """
-    done = []
+    done, outlines = [], []
     for v, f in sheets:
         if done:
             a, b = _boundary_edges(f).T
             on = np.unique(a)
-            s0, s1, out = _outline_segments(done)
+            s0, s1, out = (np.concatenate(x) for x in zip(*outlines))
             c, dist, seg, t = _closest_on(v[on, :2], s0[:, :2], s1[:, :2], reach)
             found = np.isfinite(dist)
             k = np.maximum(seg, 0)
@@ -302,11 +321,13 @@ def _snapped(sheets, reach):
             apart = np.zeros(len(on), bool)
             if v.shape[1] > 3:
                 # slabs whose heights do not meet there (a part floating in front of
-                # another) would touch along a line: that outline moves ``reach`` clear
-                # of the other instead
+                # another) would touch along a line: this outline is kept half
+                # ``reach`` clear of the other instead (nothing fills the slot between)
                 z = s0[k, 2:] + t[:, None] * (s1[k, 2:] - s0[k, 2:])
                 apart = found & ((v[on, 3] > z[:, 0]) | (z[:, 1] > v[on, 2]))
-                q[apart] = c[apart] + reach * out[k[apart]]
+                clear = np.einsum("ij,ij->i", v[on, :2] - c, out[k])
+                q[apart] = c[apart] + 0.5 * reach * out[k[apart]]
+                found &= ~apart | (clear < 0.5 * reach)
             w = np.array(v, float)
             w[on, :2] = np.where(found[:, None], q, w[on, :2])
             snapped = np.zeros(len(v), bool)
@@ -317,29 +338,25 @@ def _snapped(sheets, reach):
                     break
                 w = u
             moved = snapped & (w != v).any(axis=1)
-            v, f = _inserted(w, f, np.concatenate([s0[:, :2], s1[:, :2]]), reach, near=moved)
+            v, f = _inserted(w, f, s0[:, :2], reach, near=moved)
         done.append((v, f))
+        outlines.append(_outline_segments(v, f))
     out = []
     for k, (v, f) in enumerate(done):
-        others = [s for j, s in enumerate(done) if j != k]
+        others = [x[0][:, :2] for j, x in enumerate(outlines) if j != k]
         if others:
-            s0, s1, _ = _outline_segments(others)
-            v, f = _inserted(v, f, np.concatenate([s0[:, :2], s1[:, :2]]),
+            # (every outline vertex is the start of one of its edges)
+            v, f = _inserted(v, f, np.concatenate(others),
                              1e-7 * max(1.0, float(np.abs(v[:, :2]).max())))
         out.append((v, f))
     return out
 
 
-def _outline_segments(sheets):
-    """The outline edges of ``sheets``: their start and end vertices (rows of the
-    sheets' vertices) and their outward unit normals in ``(x, y)``."""
-    starts, ends, normals = [], [], []
-    for v, f in sheets:
-        a, b = _boundary_edges(f).T
-        starts.append(v[a])
-        ends.append(v[b])
-        normals.append(_outward(v, f, a, b))
-    return np.concatenate(starts), np.concatenate(ends), np.concatenate(normals)
+def _outline_segments(vertices, faces):
+    """A sheet's outline edges: their start and end vertices (rows of ``vertices``) and
+    their outward unit normals in ``(x, y)``."""
+    a, b = _boundary_edges(faces).T
+    return vertices[a], vertices[b], _outward(vertices, faces, a, b)
 
 
 def _outward(vertices, faces, a, b):
