@@ -304,11 +304,13 @@ def _snapped(sheets, reach):
     ``(vertices, faces)``.
     """
     done, outlines = [], []
+    rims = [_outline_segments(v, f) for v, f in sheets]
     for v, f in sheets:
         if done:
             a, b = _boundary_edges(f).T
             on = np.unique(a)
             s0, s1, out = (np.concatenate(x) for x in zip(*outlines))
+            owner = np.repeat(np.arange(len(outlines)), [len(x[0]) for x in outlines])
             c, dist, seg, t = _closest_on(v[on, :2], s0[:, :2], s1[:, :2], reach)
             found = np.isfinite(dist)
             k = np.maximum(seg, 0)
@@ -325,6 +327,15 @@ def _snapped(sheets, reach):
                 # ``reach`` clear of the other instead (nothing fills the slot between)
                 z = s0[k, 2:] + t[:, None] * (s1[k, 2:] - s0[k, 2:])
                 apart = found & ((v[on, 3] > z[:, 0]) | (z[:, 1] > v[on, 2]))
+                # where a third part covers the place, both stay as they are: its slab
+                # spans the slot, and coinciding walls could still touch at a point
+                covered = np.zeros(len(on), bool)
+                for m, x in enumerate(rims):
+                    third = apart & ~covered & (owner[k] != m)
+                    if m != len(done) and third.any():
+                        covered[third] = _inside(c[third], x[0][:, :2], x[1][:, :2])
+                found &= ~covered
+                apart &= ~covered
                 clear = np.einsum("ij,ij->i", v[on, :2] - c, out[k])
                 q[apart] = c[apart] + 0.5 * reach * out[k[apart]]
                 found &= ~apart | (clear < 0.5 * reach)
@@ -357,6 +368,19 @@ def _outline_segments(vertices, faces):
     their outward unit normals in ``(x, y)``."""
     a, b = _boundary_edges(faces).T
     return vertices[a], vertices[b], _outward(vertices, faces, a, b)
+
+
+def _inside(points, s0, s1):
+    """Which ``points`` lie inside the closed outline made of the segments ``s0 -> s1``
+    (the even-odd rule)."""
+    if not len(points):
+        return np.zeros(0, bool)
+    px, py = points[:, :1], points[:, 1:]
+    x0, y0, x1, y1 = s0[:, 0], s0[:, 1], s1[:, 0], s1[:, 1]
+    straddle = (y0 > py) != (y1 > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cross = x0 + (py - y0) * (x1 - x0) / (y1 - y0)
+    return ((straddle & (px < cross)).sum(axis=1) % 2).astype(bool)
 
 
 def _outward(vertices, faces, a, b):
