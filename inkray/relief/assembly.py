@@ -184,7 +184,9 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     booleans decide by symbolic perturbation; where the two parts' slabs do
     not meet in height there (a part floating in front of another) the
     later outline is moved half :data:`SNAP` clear of the other instead, as
-    the two would touch along a line. Pieces with under a hundredth of the
+    the two would touch along a line. With snapping, holes of a part's
+    outline smaller than one of the remeshing's triangles (a pipe through
+    the solid) are filled. Pieces with under a hundredth of the
     smallest part's volume (splinters, or a part's tip cut off at a neck
     narrower than a pixel) are dropped. Its faces are the parts' own, cut
     where they meet, so it has about as many faces as the parts and follows
@@ -209,8 +211,9 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
         under a pixel wide (slivers no remeshing shapes).
     snap : float, default :data:`SNAP`
         How near (pixels) outlines of different parts are made to coincide
-        (or kept apart, where their slabs do not meet in height). With
-        ``skirt`` and ``snap`` 0 the solid is the envelope exactly.
+        (or kept apart, where their slabs do not meet in height); 0 also
+        keeps small holes. With ``skirt`` and ``snap`` 0 the solid is the
+        envelope exactly.
 
     Returns
     -------
@@ -234,16 +237,18 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    verts, faces = _envelope_solid(parts, skirt, snap)
+    target = float(np.median(edges))
+    # a hole smaller than one of the remeshing's triangles is a pipe it cannot shape
+    verts, faces = _envelope_solid(parts, skirt, snap, fill=np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0)
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)))
+        verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, skirt, snap=0.0):
+def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
-    ``skirt``, outlines within ``snap`` of each other made to coincide (see
-    union_parts)."""
+    ``skirt``, outlines within ``snap`` of each other made to coincide, holes of a
+    part's outline under ``fill`` (square pixels) filled (see union_parts)."""
     import manifold3d as m3d
 
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
@@ -261,7 +266,7 @@ def _envelope_solid(parts, skirt, snap=0.0):
     if all(x is not None for x in pairs):
         # a front's and its back's outlines kept at the very same (x, y): walls a
         # rounding error apart would be cut into slivers
-        sheets = [_skirted(*x, skirt, box) for x in pairs]
+        sheets = [_skirted(*_filled(*x, fill), skirt, box) for x in pairs]
         if snap:
             sheets = _snapped(sheets, snap)
         fronts = [(s[:, :3], f) for s, f in sheets]
@@ -509,6 +514,46 @@ def _inserted(vertices, faces, points, reach, near=None):
     keep = np.ones(len(faces), bool)
     keep[drop] = False
     return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
+
+
+def _filled(vertices, faces, area):
+    """A sheet with the holes of its outline smaller than ``area`` triangulated (no new
+    vertex): a pipe through the solid that narrow is no feature the remeshing at the
+    relief's resolution can shape."""
+    import triangle
+
+    if not area:
+        return vertices, faces
+    a, b = _boundary_edges(faces).T
+    following = dict(zip(a.tolist(), b.tolist()))
+    turn = np.sign(_signed_areas(vertices, faces).sum())
+    seen, added = set(), []
+    for start in a.tolist():
+        if start in seen:
+            continue
+        loop = [start]
+        while following[loop[-1]] != start and len(loop) <= len(a):
+            loop.append(following[loop[-1]])
+        seen.update(loop)
+        p = vertices[loop, :2]
+        signed = 0.5 * float((p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]).sum())
+        if signed * turn >= 0.0 or abs(signed) >= area or len(loop) < 3:
+            continue  # the outer outline (it runs as the faces do), or a large hole
+        k = np.arange(len(loop))
+        try:
+            out = triangle.triangulate({"vertices": p, "segments": np.column_stack([k, np.roll(k, -1)])},
+                                       "pQ")
+        except RuntimeError:
+            continue
+        if len(out["vertices"]) != len(loop):
+            continue
+        tris = np.asarray(loop)[np.asarray(out["triangles"], np.int64)]
+        flip = np.sign(_signed_areas(vertices, tris)) != turn
+        tris[flip] = tris[flip][:, ::-1]
+        added.append(tris)
+    if not added:
+        return vertices, faces
+    return vertices, np.concatenate([faces, *added])
 
 
 def _volume(vertices, faces):
