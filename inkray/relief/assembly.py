@@ -239,7 +239,8 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
                                            axis=2).ravel() for p in parts])
     target = float(np.median(edges))
     # a hole smaller than one of the remeshing's triangles is a pipe it cannot shape
-    verts, faces = _envelope_solid(parts, skirt, snap, fill=np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0)
+    fill = np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0
+    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill)
     if remesh:
         verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
@@ -354,7 +355,7 @@ def _snapped(sheets, reach):
                     break
                 w = u
             moved = snapped & (w != v).any(axis=1)
-            v, f = _inserted(w, f, s0[:, :2], reach, near=moved)
+            v, f = _inserted(w, f, s0[:, :2], reach, clear=0.5 * reach, near=moved)
         done.append((v, f))
         outlines.append(_outline_segments(v, f))
     out = []
@@ -362,8 +363,8 @@ def _snapped(sheets, reach):
         others = [x[0][:, :2] for j, x in enumerate(outlines) if j != k]
         if others:
             # (every outline vertex is the start of one of its edges)
-            v, f = _inserted(v, f, np.concatenate(others),
-                             1e-7 * max(1.0, float(np.abs(v[:, :2]).max())))
+            on = 1e-7 * max(1.0, float(np.abs(v[:, :2]).max()))
+            v, f = _inserted(v, f, np.concatenate(others), on, clear=on)
         out.append((v, f))
     return out
 
@@ -415,7 +416,8 @@ def _closest_on(points, s0, s1, reach):
         return q, dist, seg, t
     j = np.concatenate([np.asarray(x, np.int64) for x in near])
     d = s1[j] - s0[j]
-    u = np.clip(np.einsum("ij,ij->i", points[i] - s0[j], d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+    squared = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    u = np.clip(np.einsum("ij,ij->i", points[i] - s0[j], d) / squared, 0.0, 1.0)
     c = s0[j] + u[:, None] * d
     r = np.linalg.norm(points[i] - c, axis=1)
     order = np.lexsort((r, i))
@@ -439,6 +441,7 @@ def _runs(before, after, a, b, snapped):
 
 
 def _signed_areas(vertices, faces):
+    """Twice the signed areas of triangles in ``(x, y)``."""
     t = vertices[faces][:, :, :2]
     e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
     return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
@@ -458,10 +461,10 @@ def _unfolded(before, after, faces, keep=0.05):
     return w
 
 
-def _inserted(vertices, faces, points, reach, near=None):
-    """A sheet with ``points`` (k, 2) within ``reach`` of an outline edge (and farther
-    than half ``reach`` from its ends) put into that edge, at heights interpolated
-    along it, the edge's triangle split into a fan; an edge whose fan would fold or
+def _inserted(vertices, faces, points, reach, *, clear, near=None):
+    """A sheet with ``points`` (k, 2) within ``reach`` of an outline edge and farther
+    than ``clear`` from its ends put into that edge, at heights interpolated along
+    it, the edge's triangle split into a fan; an edge whose fan would fold or
     flatten a triangle keeps its points out. With ``near`` (a flag per vertex), only
     edges with a flagged end take points."""
     v = np.asarray(vertices, float)
@@ -474,10 +477,7 @@ def _inserted(vertices, faces, points, reach, near=None):
     points = np.unique(points, axis=0)
     _, dist, seg, t = _closest_on(points, s0, s1, reach)
     length = np.linalg.norm(s1 - s0, axis=1)[np.maximum(seg, 0)]
-    tol = min(0.5 * reach, 1e-3)
-    take = np.isfinite(dist) & (t * length > tol) & ((1.0 - t) * length > tol)
-    if reach >= 1e-3:
-        take &= (t * length > 0.5 * reach) & ((1.0 - t) * length > 0.5 * reach)
+    take = np.isfinite(dist) & (t * length > clear) & ((1.0 - t) * length > clear)
     if not take.any():
         return v, faces
     # the triangle along each outline edge and its third corner
@@ -485,7 +485,7 @@ def _inserted(vertices, faces, points, reach, near=None):
     third = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
     face = np.tile(np.arange(len(faces)), 3)
     key = {(int(x), int(y)): k for k, (x, y) in enumerate(e.tolist())}
-    new_v, new_f, drop = [], [], []
+    new_v, new_f, drop = [], [], set()
     count = len(v)
     a0 = _signed_areas(v, faces)
     idx = np.flatnonzero(take)
@@ -507,12 +507,12 @@ def _inserted(vertices, faces, points, reach, near=None):
             continue
         new_v.append(pts)
         new_f.append(fan)
-        drop.append(face[k])
+        drop.add(int(face[k]))
         count += len(mine)
     if not new_f:
         return v, faces
     keep = np.ones(len(faces), bool)
-    keep[drop] = False
+    keep[sorted(drop)] = False
     return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
 
 
@@ -536,13 +536,14 @@ def _filled(vertices, faces, area):
             loop.append(following[loop[-1]])
         seen.update(loop)
         p = vertices[loop, :2]
-        signed = 0.5 * float((p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]).sum())
+        signed = 0.5 * float((p[:, 0] * np.roll(p[:, 1], -1)
+                              - np.roll(p[:, 0], -1) * p[:, 1]).sum())
         if signed * turn >= 0.0 or abs(signed) >= area or len(loop) < 3:
             continue  # the outer outline (it runs as the faces do), or a large hole
         k = np.arange(len(loop))
         try:
-            out = triangle.triangulate({"vertices": p, "segments": np.column_stack([k, np.roll(k, -1)])},
-                                       "pQ")
+            out = triangle.triangulate(
+                {"vertices": p, "segments": np.column_stack([k, np.roll(k, -1)])}, "pQ")
         except RuntimeError:
             continue
         if len(out["vertices"]) != len(loop):
