@@ -250,8 +250,6 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
     ``skirt``, outlines within ``snap`` of each other made to coincide, holes of a
     part's outline under ``fill`` (square pixels) filled (see union_parts)."""
-    import manifold3d as m3d
-
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
     margin = max(1.0, float(np.ptp(z)))
     xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
@@ -264,19 +262,36 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
         fronts.append(_skirted(*_compact(v, front), skirt, box))
         backs.append(_skirted(*_compact(v, back), skirt, box))
         pairs.append(_paired(v, front, back))
-    if all(x is not None for x in pairs):
+    paired = all(x is not None for x in pairs)
+    if paired:
         # a front's and its back's outlines kept at the very same (x, y): walls a
         # rounding error apart would be cut into slivers
         sheets = [_skirted(*_filled(*x, fill), skirt, box) for x in pairs]
-        if snap:
-            sheets = _snapped(sheets, snap)
-        fronts = [(s[:, :3], f) for s, f in sheets]
-        backs = [(s[:, [0, 1, 3]], f[:, ::-1]) for s, f in sheets]
-    elif snap:
-        fronts, backs = _snapped(fronts, snap), _snapped(backs, snap)
-    # the space under each part's front and the space over its back
-    below = [_manifold(*_prism(*s, z.min() - margin), p.name) for s, p in zip(fronts, parts)]
-    above = [_manifold(*_prism(*s, z.max() + margin), p.name) for s, p in zip(backs, parts)]
+    for join in (True, False):
+        if paired:
+            snapped = _snapped(sheets, snap, join_covered=join) if snap else sheets
+            below = [(s[:, :3], f) for s, f in snapped]
+            above = [(s[:, [0, 1, 3]], f[:, ::-1]) for s, f in snapped]
+        else:
+            below, above = fronts, backs
+            if snap:
+                below, above = _snapped(fronts, snap), _snapped(backs, snap)
+        verts, faces = _booleans(parts, below, above, z.min() - margin, z.max() + margin)
+        if not (snap and paired and join and _twins(verts)):
+            break
+        # two vertices at one position: walls made to coincide under a third part still
+        # touch at a point; those places are left as they are
+    return verts, faces
+
+
+def _booleans(parts, fronts, backs, floor, ceiling):
+    """The union of the spaces under the ``fronts`` (down to ``floor``) intersected with
+    the union of those over the ``backs`` (up to ``ceiling``), less pieces too small to
+    be a part. Returns vertices, faces."""
+    import manifold3d as m3d
+
+    below = [_manifold(*_prism(*s, floor), p.name) for s, p in zip(fronts, parts)]
+    above = [_manifold(*_prism(*s, ceiling), p.name) for s, p in zip(backs, parts)]
     solid = (m3d.Manifold.batch_boolean(below, m3d.OpType.Add)
              ^ m3d.Manifold.batch_boolean(above, m3d.OpType.Add))
     pieces = solid.decompose()
@@ -291,7 +306,7 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     return verts, np.array(mesh.tri_verts, np.int64)[:, ::-1]
 
 
-def _snapped(sheets, reach):
+def _snapped(sheets, reach, *, join_covered=True):
     """Open sheets whose outlines are made to coincide exactly where they run within
     ``reach`` of each other.
 
@@ -305,7 +320,8 @@ def _snapped(sheets, reach):
     exactly (symbolic perturbation) rather than leaving a slot or column narrower than
     ``reach`` between them. Sheets with a fourth column (the back's height under the
     front, see ``_paired``) whose heights do not meet the other's there are moved
-    half ``reach`` clear of it instead. A move or an insertion that would fold or
+    half ``reach`` clear of it instead, unless a third sheet covers the place: then
+    they coincide too (``join_covered``) or stay. A move or an insertion that would fold or
     flatten a triangle of its sheet (in ``(x, y)``) is left out. Returns the list of
     ``(vertices, faces)``.
     """
@@ -333,14 +349,15 @@ def _snapped(sheets, reach):
                 # ``reach`` clear of the other instead (nothing fills the slot between)
                 z = s0[k, 2:] + t[:, None] * (s1[k, 2:] - s0[k, 2:])
                 apart = found & ((v[on, 3] > z[:, 0]) | (z[:, 1] > v[on, 2]))
-                # where a third part covers the place, both stay as they are: its slab
-                # spans the slot, and coinciding walls could still touch at a point
+                # where a third part covers the place its slab spans the slot: they are
+                # made to coincide (with ``join_covered``) or left as they are
                 covered = np.zeros(len(on), bool)
                 for m, x in enumerate(rims):
                     third = apart & ~covered & (owner[k] != m)
                     if m != len(done) and third.any():
                         covered[third] = _inside(c[third], x[0][:, :2], x[1][:, :2])
-                found &= ~covered
+                if not join_covered:
+                    found &= ~covered
                 apart &= ~covered
                 clear = np.einsum("ij,ij->i", v[on, :2] - c, out[k])
                 q[apart] = c[apart] + 0.5 * reach * out[k[apart]]
