@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
-    python benchmarks/bench_order.py --generated 360 [--cache DIR] [--styles] [--real A.inkray.json]
+    python benchmarks/bench_order.py --generated 360 [--without fade] [--cache DIR] [--styles] [--real A.inkray.json]
     python benchmarks/bench_order.py --timing [--drawings fox,man]
 
 ``--generated N`` (the learned model's protocol): train on N generated drawings
@@ -17,7 +17,9 @@ generator's styles and the features, and choosing the candidate; never
 fitted on) and ``train_order.HELD_OUT`` (with the annotations given with
 ``--real``: scored only here). Per drawing, per set and per confidence bin:
 right, right at confidence 0.5 or more, and the share of relations reaching
-0.5, for the learned model, the logistic fitted on the generated drawings,
+0.5 (per bin, and over all real drawings: right against the probability the
+predictor stated for its answers, whether its confidence is over-stated), for
+the learned model, the logistic fitted on the generated drawings,
 and the shipped logistic (:data:`inkray.relief.ordering.WEIGHTS`, fitted on
 all bundled drawings, so not held out: shown for reference); then the
 prediction time of every place at about 1 Mpx (the fox upscaled,
@@ -26,7 +28,9 @@ model and the weighted cues), and each against its target. ``--styles``
 adds what each generator style does: the model trained on the generated
 drawings that do not use the style, against one trained on as many drawings
 drawn with every style, each scored on the development and the held-out
-drawings' places (without the consistency step). The table of the run is in
+drawings' places (without the consistency step). ``--without`` names styles
+never drawn (``--without fade``: the drawings the shipped model was trained
+on). The table of the run is in
 docs/regions.md. ``--cache`` keeps each generated drawing's features (about
 1 s a drawing to make again).
 
@@ -306,7 +310,9 @@ def bench_generated(args):
     """Train on generated drawings, test on the real ones (see the module docstring)."""
     import train_order
 
-    pool = [train_order.generated_samples(seed, cache=args.cache) for seed in range(args.generated)]
+    styles = train_order.allowed_styles(args.without)
+    pool = [train_order.generated_samples(seed, styles=styles, cache=args.cache)
+            for seed in range(args.generated)]
     fit, val = train_order.split(pool)
     start = time.perf_counter()
     chosen, model = train_order.choose(fit, val, train_order.development_samples())
@@ -341,16 +347,19 @@ def bench_generated(args):
                      for name, _, _ in predictors}
     _total_line("all", scored["all"], predictors)
     print("* the shipped logistic was fitted on all bundled drawings, the real shots excepted\n")
-    for what in ("development", "held out"):
-        print(f"{what + ', confidence':<22}" + "".join(f" | {name:>15}: entries right"
+    for what in ("development", "held out", "all"):
+        print(f"{what + ', confidence':<22}" + "".join(f" | {name:>15}: entries right stated"
                                                         for name, _, _ in predictors))
         for lo, hi in zip(BINS[:-1], BINS[1:]):
             line = f"{f'{lo:.2f}-{hi:.2f}':<22}"
             for name, _, _ in predictors:
-                inbin = [ok for ok, c in scored[what][name]
+                inbin = [(ok, c) for ok, c in scored[what][name]
                          if lo <= c < hi or (hi == 1.0 and c == 1.0)]
-                acc = f"{sum(inbin) / len(inbin):.0%}" if inbin else "-"
-                line += f" | {'':>15}  {len(inbin):>7} {acc:>5}"
+                # "stated": the mean probability the predictor gave its answer, (1 + c) / 2.
+                acc, stated = ((f"{np.mean([ok for ok, _ in inbin]):.0%}",
+                                f"{np.mean([(1 + c) / 2 for _, c in inbin]):.0%}")
+                               if inbin else ("-", "-"))
+                line += f" | {'':>15}  {len(inbin):>7} {acc:>5} {stated:>6}"
             print(line)
         print()
     seconds = bench_time_1mpx(model)
@@ -411,7 +420,8 @@ def bench_styles(pool, sets, candidate):
         print(f"{what:<28} {count:>8} " + " ".join(f"{v:>6.1%}" for v in values[:3]) + "  "
               + " ".join(f"{v:>6.1%}" for v in values[3:]) + note)
 
-    for style in (None,) + train_order.STYLES:
+    for style in (None,) + tuple(s for s in train_order.STYLES
+                                 if any(s in d.styles for d in pool)):
         if style is None:
             row("every style, all drawings", len(pool), scored(pool))
             continue
@@ -507,6 +517,8 @@ def main(argv=None):
                     help="the annotation of one more real drawing (e.g. a shot's first frame), "
                          "repeatable")
     ap.add_argument("--styles", action="store_true", help="with --generated: each style left out")
+    ap.add_argument("--without", default="", help="with --generated: comma-separated styles "
+                    "never drawn")
     ap.add_argument("--timing", action="store_true", help="only the prediction time of the "
                     "drawings (--drawings, default the real ones) at their size and at 1 Mpx")
     args = ap.parse_args(argv)

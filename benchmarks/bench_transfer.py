@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_transfer.py [--frames 4] [--no-relief] [--no-timing]
+    python benchmarks/bench_transfer.py [--frames 4] [--no-relief] [--no-timing] [--missed]
 
 Shots:
 
@@ -35,6 +35,10 @@ Every frame is carried from the one before it, starting at the key (as
   transfer flagged, and wrong entries that are flagged;
 - ``cpu s``: CPU seconds of the transfer of that frame (registration,
   placement, the frame's segmentation).
+
+With ``--missed``, each relation not kept is listed under the table: the two
+parts it names in the key and the truth's parts where its carried points
+landed (``-`` for ink or background).
 
 Then the time per frame at about 1 Mpx (the synthetic figure scaled up),
 against the 2 s target; and, unless ``--no-relief``, the flicker: for each
@@ -96,6 +100,16 @@ def _kept(ann, truth, relations):
                for o in ann.order if o.index in relations)
 
 
+def _missed(ann, truth, relations):
+    """The relations not kept: ``order[i]: key (front, back), landed in (front, back)``."""
+    out = []
+    for o in ann.order:
+        got = (_at(truth, o.front), _at(truth, o.back))
+        if o.index in relations and got != relations[o.index]:
+            out.append(f"order[{o.index}]: key {relations[o.index]}, landed in {got}")
+    return out
+
+
 def _wrong(carried, got, truth, relations):
     """Keys of the carried entries that are wrong against the truth."""
     wrong = set()
@@ -143,9 +157,18 @@ def run_shot(label, key_ann, frames, truths, rows, reliefs=None, first=1):
             base_relations=(_kept(key_ann if base is not None else None, truth, relations),
                             len(relations)),
             visible=sum(set(pair) <= set(np.unique(truth)) for pair in relations.values()),
-            wrong=len(wrong), flagged=len(flagged), caught=len(wrong & flagged), cpu=cpu))
+            wrong=len(wrong), flagged=len(flagged), caught=len(wrong & flagged), cpu=cpu,
+            missed=_missed(tr.annotations, truth, relations)))
     if reliefs is not None:
         reliefs.append((label, frames, carried_seq, key_ann, truths))
+
+
+def _print_missed(rows):
+    print()
+    print("relations not kept")
+    for r in rows:
+        for m in r["missed"]:
+            print(f"  {r['shot']} frame {r['frame']}: {m}")
 
 
 def _print_rows(rows):
@@ -261,6 +284,7 @@ def main():
     parser.add_argument("--frames", type=int, default=4, help="frames per synthetic shot")
     parser.add_argument("--no-relief", action="store_true", help="skip the flicker measurement")
     parser.add_argument("--no-timing", action="store_true", help="skip the 1 Mpx timing")
+    parser.add_argument("--missed", action="store_true", help="list the relations not kept")
     args = parser.parse_args()
     # A degenerate part can make the triangulator allocate without bound: cap it.
     resource.setrlimit(resource.RLIMIT_AS, (6 * 2 ** 30, resource.RLIM_INFINITY))
@@ -289,6 +313,8 @@ def main():
         run_shot(f"{shot} key 2 (held out)", truths[1], frames[1:], [None, truths[2]], rows,
                  first=2)
     _print_rows(rows)
+    if args.missed:
+        _print_missed(rows)
     _targets(rows)
     if not args.no_timing:
         _timing()

@@ -46,7 +46,11 @@ the same drawing, byte for byte):
                   so the contact does not always bend round the part in front;
    ``crowd``      each near leg beside a far one and over it (the pairs of legs
                   of a side view), and arms hanging down over the body and the
-                  legs.
+                  legs;
+   ``fade``       the outline of a part in front fading out a little way into
+                  the parts behind it, one part in two (a leg drawn into a
+                  body without closing its top): no line between them there,
+                  only the scribbles tell them apart.
 
 The scribbles: one polyline along the middle of every visible piece of a part
 larger than a few stroke widths, and background scribbles in the empty
@@ -66,7 +70,7 @@ from skimage.measure import find_contours
 
 #: The drawing styles :func:`generate` can use (all by default).
 STYLES = ("width", "taper", "gaps", "overshoot", "sketchy", "marker", "antialias", "paper",
-          "lobes", "crowd")
+          "lobes", "crowd", "fade")
 _SS = 2  # supersampling of the painted masks and strokes
 
 
@@ -432,7 +436,11 @@ def _paint(parts, rng, used, width):
     h, w = parts[0].mask.shape
     ink = np.zeros((h, w), np.float32)
     shade = 0.75 + 0.2 * rng.random() if "marker" in used else 1.0
+    under = np.zeros((h, w), bool)  # the parts painted so far, the ground excepted
     for part in parts:
+        fade = _fading(part, under, rng, width) if "fade" in used else None
+        if part.name != "ground":
+            under |= part.mask
         blank = part.mask
         if "gaps" in used and rng.random() < 0.6:
             blank = ndimage.binary_dilation(blank, iterations=max(int(rng.uniform(0.5, 2.0) * width), 1))
@@ -443,11 +451,41 @@ def _paint(parts, rng, used, width):
         draw = ImageDraw.Draw(layer)
         for outline in _outlines(part.mask):
             for pts, radii in _strokes(outline, rng, used, width):
+                if fade is not None:
+                    radii = radii * _faded(fade, pts)
                 for (x, y), r in zip(pts, radii):
+                    if r <= 0.0:
+                        continue
                     r = max(float(r), 0.5)
                     draw.ellipse((x - r, y - r, x + r, y + r), fill=255)
         ink = np.maximum(ink, np.asarray(layer, np.float32) / 255.0 * shade)
     return ink
+
+
+def _fading(part, under, rng, width):
+    """For a part whose outline is to fade where it runs over the parts painted before it
+    (one time in two): the depth into those parts, and how deep the strokes reach; None
+    when it keeps its outline."""
+    if rng.random() >= 0.5 or not (part.mask & under).any():
+        return None
+    depth = ndimage.distance_transform_edt(under)
+    reach = float(rng.uniform(0.5, 4.0)) * width
+    outline = part.mask & ~ndimage.binary_erosion(part.mask)
+    # Only a part reaching out of the parts behind (a limb, a head): the scribbles tell it
+    # from them. An ear or an eye lying on a head keeps its line.
+    if (depth[outline] > 0).mean() > 0.6:
+        return None
+    return depth, reach
+
+
+def _faded(fade, pts):
+    """Radius factor of stroke points ``[x, y]`` tapering to 0 over the last half of the
+    reach into the parts behind (0 beyond it)."""
+    depth, reach = fade
+    h, w = depth.shape
+    d = depth[np.clip(np.round(pts[:, 1]).astype(int), 0, h - 1),
+              np.clip(np.round(pts[:, 0]).astype(int), 0, w - 1)]
+    return np.clip((reach - d) / (0.5 * reach), 0.0, 1.0)
 
 
 def _finish(ink, rng, used):

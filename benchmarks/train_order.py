@@ -2,10 +2,10 @@
 
 Usage::
 
-    python benchmarks/train_order.py [--count 360] [--cache DIR] [--out inkray/relief/order_model.json]
+    python benchmarks/train_order.py [--count 360] [--without fade] [--cache DIR] [--out inkray/relief/order_model.json]
 
 Draws ``--count`` drawings with :func:`order_drawings.generate` (seeds
-``0..count-1``), runs the segmentation and the completion on each with its own
+``0..count-1``; ``--without``: styles never used, a comma-separated list), runs the segmentation and the completion on each with its own
 scribbles (``inkray.chain.ReliefChain``, predictions off), and measures
 :func:`inkray.relief.order_cues.place_features` at the place of every
 annotated ``order`` entry. The drawings with seeds ``= 4 (mod 5)`` are the
@@ -32,8 +32,10 @@ of least log-loss there, never fitted on them) and :data:`HELD_OUT` (scored
 once, at the end, by ``benchmarks/bench_order.py --generated``; not read
 here). The model
 (``inkray/relief/order_model.json``, a few kB) is read by
-:mod:`inkray.relief.order_model`. With the same count the file is the same,
-byte for byte.
+:mod:`inkray.relief.order_model`. With the same count and styles the file is
+the same, byte for byte; the shipped one is ``--count 240 --without fade``
+(the generator draws a style's chance only when the style is allowed, so
+without ``fade`` it draws what it drew before that style was added).
 """
 
 import argparse
@@ -316,6 +318,14 @@ def development_samples():
     return out
 
 
+def allowed_styles(without):
+    """The generator's styles but those of the comma-separated list ``without``."""
+    unknown = sorted(set(filter(None, without.split(","))) - set(STYLES))
+    if unknown:
+        raise SystemExit(f"--without: unknown style {unknown[0]!r} (expected {', '.join(STYLES)})")
+    return tuple(s for s in STYLES if s not in without.split(","))
+
+
 def split(pool):
     """Training and validation split of generated samples (validation: seeds = 4 mod 5)."""
     val = [s for s in pool if int(s.name.split("_")[1]) % 5 == 4]
@@ -327,10 +337,12 @@ def main(argv=None):
     ap.add_argument("--count", type=int, default=360)
     ap.add_argument("--cache", type=Path, help="folder keeping each drawing's features")
     ap.add_argument("--out", type=Path, default=MODEL)
+    ap.add_argument("--without", default="", help="comma-separated styles never used")
     args = ap.parse_args(argv)
+    styles = allowed_styles(args.without)
     pool = []
     for seed in range(args.count):
-        pool.append(generated_samples(seed, cache=args.cache))
+        pool.append(generated_samples(seed, styles=styles, cache=args.cache))
         if seed % 20 == 19:
             print(f"{seed + 1} drawings, {sum(len(s.y) for s in pool)} places", flush=True)
     fit, val = split(pool)

@@ -1,4 +1,4 @@
-"""The picture of docs/export.md's *Backs*: the turtle's GLB in three.js, from the front and from behind.
+"""The picture of docs/export.md's *Backs*: the turtle's GLB in three.js, from the front, the side and behind.
 
     python docs/make_back_figure.py [--chromium /usr/bin/chromium]
 
@@ -6,7 +6,8 @@ The bundled turtle's relief is exported twice, as ``inkray relief`` writes it (e
 part a sheet with a back of its own) and with ``back="none"`` shown by a material that
 draws both sides (what a viewer that culls nothing, or Blender's Cycles, shows of a bare
 surface). Each is loaded by the three.js GLTFLoader the editor vendors, in headless
-Chromium, and drawn from the front, from behind at three-quarters and from behind.
+Chromium, and drawn from the front, at three-quarters, from behind at three-quarters and
+from behind.
 Written to docs/images/backs.png.
 """
 
@@ -29,7 +30,7 @@ from inkray.examples import example_path  # noqa: E402
 from inkray.formats.meshes import export_relief  # noqa: E402
 from inkray.input.loading import load_input  # noqa: E402
 
-VIEWS = (("front", 0), ("behind, three-quarters", 135), ("behind", 180))
+VIEWS = (("front", 0), ("three-quarters", 45), ("behind, three-quarters", 135), ("behind", 180))
 PAGE = """<!doctype html><html><body style="margin:0">
 <script type="importmap">{"imports": {"three": "./vendor/three/build/three.module.js",
                                        "three/addons/": "./vendor/three/addons/"}}</script>

@@ -7,15 +7,21 @@ animations", NPAR 2009, the application its Fig. 1 names). A part the smooth
 registration does not follow (a leg swinging far while the body stays) gets
 its own motion: a rigid chamfer search from the registration's fit, then the
 part's own ARAP registration (Borgefors, "Hierarchical chamfer matching",
-PAMI 1988, for the matching). Every entry of the annotation moves with its
-part's motion:
+PAMI 1988, for the matching). Chamfer matching of a small limb among another
+limb's lines is ambiguous, and a limb may fold further than the search: a
+part whose carried region the frame's segmentation (LazyBrush of the carried
+scribbles) does not give it is posed again, among its best distinct chamfer
+fits and turns about its attachment, by which of them the frame segmented
+with its scribbles so carried agrees with best. Every entry of the
+annotation moves with its part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
   in a part it does not belong to, moves to the nearest paper of its own part
   (the key's segmentation, carried to the frame by the registration);
 - ``order`` and ``equal`` points likewise, each into the part it marks in the
-  key;
+  key, then into that part of the frame's segmentation, off paper joined to
+  the image's border where the part has other paper;
 - boundary paths onto the frame's outline between the two parts they
   separate in the key (the frame segmented with the carried scribbles).
 
@@ -39,7 +45,7 @@ from inkray.errors import InputError
 from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
 from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
-                                          rigid_segments, warp_points)
+                                          rigid_poses, rigid_segments, warp_points)
 from inkray.segmentation import INK_THRESHOLD, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
@@ -51,6 +57,14 @@ _STEP = 3.0
 #: A part moves by its own rigid motion when that leaves its ink at most this
 #: share of the distance from the frame's ink the registration leaves it.
 _OWN = 0.7
+#: A part whose region carried from the key and segmented region of the frame
+#: overlap less than this (intersection over union) is posed again.
+_REPOSE = 0.5
+#: Other poses judged for such a part.
+_POSES = 4
+#: A pose is taken when it raises the agreement of the carried parts with the
+#: frame's segmentation by more than this share of the character's pixels.
+_GAIN = 0.002
 
 
 @dataclass
@@ -188,8 +202,10 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     # of its ink to the frame's ink under the motion it moved by.
     fit = {k: float(np.exp(-((motions[k].cost if k in motions else m.base_cost)
                              / (spacing / 4)) ** 2)) for k, m in rigid.items()}
-    carried = _paint_parts(_pull_back(key_labels, reg.displacement), key_labels, motions)
-    places = _Places(carried, frame.gray >= INK_THRESHOLD, reach)
+    pulled = _pull_back(key_labels, reg.displacement)
+    paper = frame.gray >= INK_THRESHOLD
+    carried = _paint_parts(pulled, key_labels, motions)
+    places = _Places(carried, paper, reach)
     nearest = {}
 
     def nearest_paper(q):
@@ -209,17 +225,19 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         y = int(np.clip(np.rint(p[1]), 0, h - 1))
         return int(key_labels[y, x])
 
-    def carry(points, labels):
-        """Points carried into their parts: new points, distances moved, scores."""
+    def carry(points, labels, trial=None):
+        """Points carried into their parts: new points, distances moved, scores
+        (``trial``: other ``(motions, places)`` to carry them by)."""
+        by, at = (motions, places) if trial is None else trial
         points = np.asarray(points, float).reshape(-1, 2)
         moved = warp_points(reg, points)
-        for lab in set(labels) & set(motions):
+        for lab in set(labels) & set(by):
             on = np.asarray(labels) == lab
-            moved[on] = motions[lab].apply(points[on])
+            moved[on] = by[lab].apply(points[on])
         out = np.empty_like(moved)
         snap = np.empty(len(points))
         for i, (q, lab) in enumerate(zip(moved, labels)):
-            out[i], snap[i] = places.place(q, lab)
+            out[i], snap[i] = at.place(q, lab)
             if not np.isfinite(snap[i]):
                 # No paper of its part within reach: off the ink at least (and
                 # scored 0), so that the frame can be segmented.
@@ -250,21 +268,27 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             label = f"{key_path} ({name})" if name else key_path
             warnings.append(f"{label}: moved {moved:.0f} px, match {match:.2f}: check it")
 
-    def carry_polyline(line, label):
+    def carry_polyline(line, label, trial=None):
         dense = line if len(line) == 1 else resample_polyline(line, _STEP)
-        out, moved, match = carry(dense, [label] * len(dense))
+        out, moved, match = carry(dense, [label] * len(dense), trial)
         return _simplify(out, 1.0), moved, match
 
-    regions, region_scores = [], []
-    for i, r in enumerate(annotations.regions):
+    def carry_region(i, trial=None):
+        r = annotations.regions[i]
         scribbles, moved, match = [], [], []
         for s in r.scribbles:
-            out, mv, mt = carry_polyline(s, i)
+            out, mv, mt = carry_polyline(s, i, trial)
             scribbles.append(_inside(out, size))
             moved.append(mv)
             match.append(mt)
-        regions.append(replace(r, scribbles=scribbles, pixels=None))
-        region_scores.append((np.concatenate(moved).mean(), np.concatenate(match).mean()))
+        return (replace(r, scribbles=scribbles, pixels=None),
+                (np.concatenate(moved).mean(), np.concatenate(match).mean()))
+
+    regions, region_scores = [], []
+    for i in range(len(annotations.regions)):
+        region, score = carry_region(i)
+        regions.append(region)
+        region_scores.append(score)
     background, background_scores = [], []
     for s in annotations.background:
         out, mv, mt = carry_polyline(s, -1)
@@ -284,16 +308,50 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
             scores.append((mv.mean(), mt.min()))
         return out, scores
 
-    order, order_scores = carry_pairs(annotations.order, "front", "back")
-    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
-
     draft = replace(annotations, size=size, regions=regions, background=background, order=[],
                     equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
-    labels = segment(draft, frame).labels
+    # The frame is segmented again for each pose tried: what it alone decides is kept.
+    memo = {}
+    labels = segment(draft, frame, memo=memo).labels
+    # A part whose carried region the frame's segmentation does not give it may
+    # have been posed on another part's lines (chamfer matching of a small limb
+    # is ambiguous) or folded beyond the search: other poses are tried, each
+    # judged by how well the carried parts and the frame segmented with the
+    # part's scribbles so posed agree (a right pose puts them in the enclosed
+    # area its region fills).
+    n = len(annotations.regions)
+    doubt, first = _overlaps(carried, labels, n), labels
+    agree = _agreement(carried, labels)
+    for i in range(n):
+        if doubt[i] >= _REPOSE:
+            continue
+        for pose in rigid_poses(key_ink, frame_ink, key_labels, i, reg, count=_POSES,
+                                radius=reach):
+            trial = {**motions, i: pose}
+            t_carried = _paint_parts(pulled, key_labels, trial)
+            region, score = carry_region(i, (trial, _Places(t_carried, paper, reach)))
+            t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+            t_labels = segment(t_draft, frame, memo=memo).labels
+            t_agree = _agreement(t_carried, t_labels)
+            if t_agree > agree + _GAIN:
+                agree, motions, carried = t_agree, trial, t_carried
+                draft, labels = t_draft, t_labels
+                regions[i], region_scores[i] = region, score
+                fit[i] = float(np.exp(-(pose.cost / (spacing / 4)) ** 2))
+    if labels is not first:
+        # A part that another's new pose took pixels from (or gave them to) is as
+        # unsure.
+        doubt = np.minimum(doubt, _overlaps(first, labels, n))
+    places = _Places(carried, paper, reach)
+    order, order_scores = carry_pairs(annotations.order, "front", "back")
+    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
     # A point of an order or equal entry goes into its part as the frame is
     # segmented: where the carried parts and the segmentation differ, the
     # segmentation is what the relief will use.
-    segmented = _Places(labels, frame.gray >= INK_THRESHOLD, reach)
+    # Paper joined to the image's border is outside every closed part: a
+    # relation's point goes off it where its part has paper that is not (a
+    # part hidden in the frame leaves its point on the open paper beside it).
+    segmented = _Places(labels, paper, reach, avoid=_outside(paper))
 
     def settle(items, scores, a, b):
         out = []
@@ -313,8 +371,11 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     equal = settle(equal, equal_scores, "a", "b")
     draft = replace(draft, order=order, equal=equal)
     part_match = {-1: 1.0}
+    overlaps = _overlaps(carried, labels, n)
     for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
-        part_match[i] = min(mt, _overlap(carried == i, labels == i))
+        # A part posed again is no surer than its first pose was: the pose that
+        # agrees best with the segmentation is a guess to check.
+        part_match[i] = min(mt, overlaps[i], doubt[i])
         check(f"regions[{i}]", mv, part_match[i], name=r.name)
     for j, (mv, mt) in enumerate(background_scores):
         # Paper between parts is as sure as the parts around it.
@@ -352,12 +413,13 @@ class _Places:
     whatever the drawing's size).
     """
 
-    def __init__(self, carried, paper, reach):
-        self.carried, self.paper, self.reach = carried, paper, reach
+    def __init__(self, carried, paper, reach, avoid=None):
+        self.carried, self.paper, self.reach, self.avoid = carried, paper, reach, avoid
 
     def place(self, q, label):
         """``q`` moved to the nearest paper of part ``label`` (a margin inside it where the
-        part is wide enough), and how far; ``inf`` when none is within reach."""
+        part is wide enough; off ``avoid`` where the part has paper within reach that is
+        not), and how far; ``inf`` when none is within reach."""
         h, w = self.carried.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
@@ -365,9 +427,23 @@ class _Places:
         y0, x0 = max(y - r, 0), max(x - r, 0)
         window = (slice(y0, min(y + r + 1, h)), slice(x0, min(x + r + 1, w)))
         mask = self.paper[window] & (self.carried[window] == label)
+        masks = [mask]
+        if self.avoid is not None:
+            masks.insert(0, mask & ~self.avoid[window])
+        for mask in masks:
+            found = self._nearest(q, mask, x - x0, y - y0, (x0, y0))
+            if found is not None:
+                return found
+        return q, np.inf
+
+    def _nearest(self, q, mask, x, y, origin):
+        """``q`` (at ``(x, y)`` of the window) moved into ``mask`` as :meth:`place` says, or
+        None when no pixel of it is within reach."""
+        if not mask.any():
+            return None
         # Already well inside its part (what the erosion below would keep): stays.
-        ball = mask[max(y - y0 - 2, 0):y - y0 + 3, max(x - x0 - 2, 0):x - x0 + 3]
-        cy, cx = min(y - y0, 2), min(x - x0, 2)
+        ball = mask[max(y - 2, 0):y + 3, max(x - 2, 0):x + 3]
+        cy, cx = min(y, 2), min(x, 2)
         near = np.abs(np.arange(ball.shape[0])[:, None] - cy) \
             + np.abs(np.arange(ball.shape[1])[None, :] - cx) <= 2
         if ball[near].all():
@@ -377,13 +453,20 @@ class _Places:
         for m in (inner, mask):
             if not m.any():
                 continue
-            if m[y - y0, x - x0]:
+            if m[y, x]:
                 return q, 0.0
             dist, (iy, ix) = ndimage.distance_transform_edt(~m, return_indices=True)
-            if dist[y - y0, x - x0] <= self.reach:
-                p = np.array([ix[y - y0, x - x0] + x0, iy[y - y0, x - x0] + y0], float)
+            if dist[y, x] <= self.reach:
+                p = np.array([ix[y, x] + origin[0], iy[y, x] + origin[1]], float)
                 return p, float(np.hypot(*(p - q)))
-        return q, np.inf
+        return None
+
+
+def _outside(paper):
+    """Paper pixels connected (4-neighbours) to the image's border."""
+    comp, _ = ndimage.label(paper)
+    border = np.unique(np.r_[comp[0], comp[-1], comp[:, 0], comp[:, -1]])
+    return np.isin(comp, border[border > 0])
 
 
 def _paint_parts(carried, key_labels, motions):
@@ -437,10 +520,20 @@ def _sample(image, points, order=1):
     return ndimage.map_coordinates(image, [p[:, 1], p[:, 0]], order=order, mode="nearest")
 
 
-def _overlap(a, b):
-    """Intersection over union of two masks (1 when both are empty)."""
-    union = np.count_nonzero(a | b)
-    return 1.0 if union == 0 else np.count_nonzero(a & b) / union
+def _agreement(carried, labels):
+    """Share of the pixels of some part, carried or segmented, where the two agree."""
+    either = (carried >= 0) | (labels >= 0)
+    return np.count_nonzero((carried == labels) & either) / max(np.count_nonzero(either), 1)
+
+
+def _overlaps(a, b, n):
+    """Intersection over union of ``a == i`` and ``b == i`` for each label ``i < n`` (1 where
+    both are empty), from one joint count of the two label images."""
+    code = (np.clip(a, -1, n) + 1) * (n + 2) + np.clip(b, -1, n) + 1
+    pair = np.bincount(code.ravel(), minlength=(n + 2) ** 2).reshape(n + 2, n + 2)
+    both = np.diag(pair)[1:n + 1]
+    union = pair.sum(axis=1)[1:n + 1] + pair.sum(axis=0)[1:n + 1] - both
+    return np.where(union > 0, both / np.maximum(union, 1), 1.0)
 
 
 def _inside(points, size):

@@ -3,7 +3,8 @@
     python meshes/regenerate.py
 
 writes ``meshes/<example>.ply`` (binary PLY, inkray's default frame: 0.001
-units per pixel, centred) for the examples in ``REFERENCES``. ``tests/test_regression.py``
+units per pixel, centred; the relief's surface alone, without the back an
+export adds) for the examples in ``REFERENCES``. ``tests/test_regression.py``
 rebuilds each relief and compares it with these files, so a change that moves
 the output shows up as a failing test; regenerate (and review the difference)
 when the change is intended.
@@ -25,7 +26,7 @@ def main():
     for name in REFERENCES:
         ann, drawing = load_input(example_path(name))
         result = build_relief(ann, drawing)
-        written = export_relief(result.relief, HERE / f"{name}.ply")
+        written = export_relief(result.relief, HERE / f"{name}.ply", back="none")
         parts = result.relief.parts
         print(f"{written[0]}: {len(parts)} parts, {sum(len(p.vertices) for p in parts)} vertices")
 

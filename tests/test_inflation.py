@@ -7,8 +7,9 @@ import pytest
 from scipy.interpolate import LinearNDInterpolator
 
 from inkray.errors import InputError, StageError
-from inkray.relief.inflation import (InflationSolver, apply_profile, dirichlet_vertices, inflate_mesh,
-                            inflate_region)
+from inkray.relief.inflation import (MAX_SLOPE, WALL_INSET, InflationSolver, apply_profile,
+                                    dirichlet_vertices, inflate_mesh, inflate_region, rim_wall,
+                                    walled_sqrt)
 from inkray.relief.outline import FLAT, FRAME, INKED
 from inkray.relief.triangulation import mesh_region
 from inkray.relief.outline import MeshOptions
@@ -34,6 +35,27 @@ def _l2(mesh, solver, err):
     return float(np.sqrt(np.sum(w * err ** 2) / np.sum(w)))
 
 
+K = np.tan(np.radians(MAX_SLOPE))
+
+
+def _walled_round(r, radius):
+    """The walled ``sqrt`` profile of ``f = radius^2 - r^2`` (a disk's at ``c = 4``, a
+    strip's at ``c = 2``): the circle where it is under ``MAX_SLOPE``, then its tangent of
+    that slope."""
+    a = np.radians(MAX_SLOPE)
+    r = np.asarray(r, float)
+    circle = np.sqrt(np.maximum(radius ** 2 - r ** 2, 0.0))
+    cone = radius * np.cos(a) - K * (r - radius * np.sin(a))
+    return np.where(r <= radius * np.sin(a), circle, cone)
+
+
+def _slopes(vertices, faces, h):
+    """Per face: its angle from the image plane (degrees)."""
+    q = np.column_stack([vertices, h])[faces]
+    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    return np.degrees(np.arccos(np.abs(n[:, 2]) / np.linalg.norm(n, axis=1)))
+
+
 def _gradients(mesh, h):
     p = mesh.vertices[mesh.faces]
     a = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=1)
@@ -45,20 +67,67 @@ def test_disk_hemisphere_c4(disk_mesh):
     res = inflate_mesh(disk_mesh, inflation=4.0)
     r = np.hypot(*(disk_mesh.vertices - C0).T)
     exact = np.sqrt(np.maximum(R ** 2 - r ** 2, 0.0))
-    assert abs(res.height.max() - R) < 0.015 * R
-    assert _l2(disk_mesh, res.solver, res.height - exact) < 0.01 * R
+    sphere = apply_profile(res.f)
+    assert abs(sphere.max() - R) < 0.015 * R
+    assert _l2(disk_mesh, res.solver, sphere - exact) < 0.01 * R
     # Away from the rasterised rim (+-0.5 px) the match is much closer still.
     inner = r < R - 5
-    assert np.sqrt(np.mean((res.height - exact)[inner] ** 2)) < 0.002 * R
+    assert np.sqrt(np.mean((sphere - exact)[inner] ** 2)) < 0.002 * R
+    # The walled profile: the sphere where it is under MAX_SLOPE, then its tangent cone.
+    walled = _walled_round(r, R)
+    assert np.array_equal(res.height[disk_mesh.outline], np.zeros(disk_mesh.outline.sum()))
+    inside = ~disk_mesh.outline
+    assert np.sqrt(np.mean((res.height - walled)[inside] ** 2)) < 0.01 * R
+    assert np.all(res.height >= sphere - 1e-9)  # raised, never lowered
+    gentle = r < R * np.sin(np.radians(MAX_SLOPE)) - 5
+    assert np.abs(res.height - sphere)[gentle].max() < 1e-9
 
 
-def test_disk_c2_peak_and_reused_factorisation(disk_mesh):
-    solver = InflationSolver(disk_mesh)
-    res = inflate_mesh(disk_mesh, inflation=2.0, solver=solver)
-    assert res.solver is solver
-    assert abs(res.height.max() / R - np.sqrt(2) / 2) < 0.015 * np.sqrt(2) / 2
-    # Linear in c on the same factorisation: f(4) = 2 f(2).
-    assert np.allclose(solver.solve(4.0), 2 * res.f, rtol=1e-9, atol=1e-9)
+def test_rim_wall_is_a_wall_and_the_rest_is_capped(disk):
+    mesh = mesh_region(disk, options=MeshOptions(max_area=50.0))
+    res = inflate_region(disk, inflation=4.0, options=MeshOptions(max_area=50.0))
+    walled, n = res.mesh, len(mesh.vertices)
+    # The outline keeps its vertices; every one has a copy WALL_INSET inside.
+    assert np.array_equal(walled.vertices[:n], mesh.vertices)
+    assert len(walled.vertices) == n + mesh.outline.sum()
+    r = np.hypot(*(walled.vertices - C0).T)
+    rim = np.hypot(*(mesh.vertices[mesh.outline] - C0).T)
+    assert np.allclose(rim - r[n:], WALL_INSET, rtol=0.05)
+    # The strip: two faces per outline edge, each standing at more than 88 degrees, with a
+    # front-view area of the inset times the perimeter (and of nothing else).
+    strip = (walled.faces < n).any(axis=1) & np.isin(walled.faces, np.flatnonzero(mesh.outline)).any(axis=1)
+    assert strip.sum() == 2 * mesh.outline.sum()
+    slopes = _slopes(walled.vertices, walled.faces, res.height)
+    assert slopes[strip].min() > 88.0
+    p = walled.vertices[walled.faces[strip]]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    assert abs(area / (2 * np.pi * R * WALL_INSET) - 1) < 0.02
+    # Inside it no face is steeper than MAX_SLOPE; the wall stands where the tangent cone
+    # meets the outline (less where the first ring's vertices lie farther in).
+    assert slopes[~strip].max() < MAX_SLOPE + 0.1
+    top = _walled_round(R, R)
+    assert abs(np.median(res.height[n:]) / top - 1) < 0.05 and res.height[n:].max() < 1.2 * top
+    # The heights follow the closed form everywhere inside.
+    inside = ~walled.outline
+    assert np.abs(res.height - _walled_round(r, R))[inside].max() < 0.02 * R
+
+
+def test_walled_sqrt_keeps_a_gentle_profile():
+    # A strip 60 px wide at c = 0.05: h = sqrt(c (30^2 - y^2) / 2) is steeper than the cap
+    # only within c 30 / (8 K^2) ~ 0.025 px of its long sides, so the first ring keeps the
+    # sqrt profile (only f = 0 vertices lie there).
+    mask = np.zeros((100, 400), bool)
+    mask[20:80, 20:380] = True
+    mesh = mesh_region(mask)
+    solver = InflationSolver(mesh)
+    f = solver.solve(0.05)
+    h = walled_sqrt(mesh, f, dirichlet=solver.dirichlet)
+    assert np.array_equal(h, apply_profile(f))
+    with pytest.raises(InputError, match="max_slope"):
+        walled_sqrt(mesh, f, max_slope=90)
+    with pytest.raises(InputError, match="inset"):
+        rim_wall(mesh, inset=0.0)
 
 
 def test_long_strip_cross_section_is_a_semicircle():
@@ -66,9 +135,9 @@ def test_long_strip_cross_section_is_a_semicircle():
     mask[50:150, 50:1050] = True  # 1000 x 100, outline at y = 49.5 and 149.5
     res = inflate_region(mask, inflation=2.0)
     v = res.mesh.vertices
-    mid = np.abs(v[:, 0] - 550) < 15
+    mid = (np.abs(v[:, 0] - 550) < 15) & ~res.mesh.outline
     y = v[mid, 1] - 99.5
-    exact = np.sqrt(np.maximum(50 ** 2 - y ** 2, 0.0))
+    exact = _walled_round(np.abs(y), 50)  # the semicircle, walled
     assert abs(res.height[mid].max() - 50) < 0.02 * 50
     assert np.abs(res.height[mid] - exact).max() < 0.02 * 50
     # Fit a radius: h^2 + y^2 = rho^2 at the interior points.
@@ -125,7 +194,7 @@ def test_image_frame_is_neumann():
     frame = res.mesh.kind == FRAME
     assert frame.sum() > 10 and dirichlet_vertices(res.mesh)[frame].sum() <= 2
     r = np.hypot(res.mesh.vertices[:, 0] + 0.5, res.mesh.vertices[:, 1] - C0)
-    exact = np.sqrt(np.maximum(R ** 2 - r ** 2, 0.0))
+    exact = np.where(res.mesh.outline & ~frame, 0.0, _walled_round(r, R))
     assert abs(res.height.max() - R) < 0.015 * R
     assert res.mesh.kind[np.argmax(res.height)] == FRAME
     assert _l2(res.mesh, res.solver, res.height - exact) < 0.01 * R

@@ -34,7 +34,25 @@ def test_styles_switch_off():
             assert len(np.unique(g.gray)) > 20                  # shading and grain
     with pytest.raises(ValueError, match="unknown style 'ink'"):
         generate(0, styles=("ink",))
-    assert len(STYLES) == 10
+    assert len(STYLES) == 11
+
+
+def _unlined(g):
+    """Mask of the pixels between two parts with no ink in their 3x3 neighbourhood."""
+    labels, paper = g.labels, ndimage.minimum_filter(g.gray, size=3) == 255
+    between = np.zeros(labels.shape, bool)
+    between[:, 1:] |= (labels[:, 1:] != labels[:, :-1]) & (labels[:, 1:] >= 0) & (labels[:, :-1] >= 0)
+    between[1:] |= (labels[1:] != labels[:-1]) & (labels[1:] >= 0) & (labels[:-1] >= 0)
+    return between & paper
+
+
+def test_fading_outlines_leave_parts_unlined():
+    # Without a style every part meets the parts behind it along its outline's ink; a
+    # fading outline stops a little way into them and leaves that contact without a line.
+    faded = [generate(seed, styles=("fade",), size=(240, 240)) for seed in range(2, 4)]
+    assert all(g.styles == ("fade",) for g in faded)
+    assert all(_unlined(g).sum() > 10 for g in faded)
+    assert not any(_unlined(generate(seed, styles=(), size=(240, 240))).any() for seed in range(2, 4))
 
 
 def test_order_entries_point_into_their_parts():
@@ -57,8 +75,11 @@ def test_drawings_segment_into_their_true_parts(seed):
     found = np.full(seg.labels.shape, -1)
     for j, name in enumerate(seg.names):
         found[seg.labels == j] = index[name]
-    # Away from the ink, where the segmentation's cut along a line may fall on either side.
+    # Away from the ink, where the segmentation's cut along a line may fall on either side,
+    # and from the contacts a faded outline leaves without a line, where only the scribbles
+    # place the cut.
     paper = ~ndimage.binary_dilation(g.gray < 128, iterations=2)
+    paper &= ~ndimage.binary_dilation(_unlined(g), iterations=8)
     assert (found == g.labels)[paper].mean() > 0.98
     for name in seg.names:
         mine, true = (found == index[name]) & paper, (g.labels == index[name]) & paper

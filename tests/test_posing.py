@@ -6,7 +6,7 @@ from inkray.chain import ReliefChain
 from inkray.errors import InputError
 from inkray.input.loading import load_input
 from inkray.relief.model import Relief
-from inkray.relief.posing import Posing, rig_relief
+from inkray.relief.posing import _WELD, Posing, rig_relief
 from inkray.view.posed import PosedDrawing, posed_image
 
 from conftest import EXAMPLES
@@ -28,8 +28,12 @@ def man():
 def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
     chain, rig = man
     assert rig.names == [p.name for p in chain.relief.parts]
-    for p, idx in zip(chain.relief.parts, rig.index):
-        assert np.allclose(rig.vertices[idx], p.vertices[:, :2])
+    rest = rig.posed_relief(rig.vertices)
+    for p, idx, q in zip(chain.relief.parts, rig.index, rest.parts):
+        # each vertex is its rig vertex, or welded to one within _WELD (a rim wall's foot)
+        gap = np.linalg.norm(rig.vertices[idx] - p.vertices[:, :2], axis=1)
+        assert gap.max() <= _WELD
+        assert np.allclose(q.vertices, p.vertices)
     joined = {(j.part, j.to) for j in rig.joins}
     assert {("arm_left", "overalls"), ("arm_right", "overalls"), ("shoe_left", "overalls"),
             ("nose", "head")} <= joined

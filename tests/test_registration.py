@@ -4,7 +4,8 @@ from PIL import Image
 from scipy import ndimage
 
 from inkray.errors import InputError
-from inkray.numerics.registration import arap_register, arap_segments, rigid_segments, warp_points
+from inkray.numerics.registration import (arap_register, arap_segments, rigid_poses,
+                                          rigid_segments, warp_points)
 
 from conftest import EXAMPLES
 
@@ -134,3 +135,28 @@ def test_segments_need_labels_of_the_images_shape():
     ink = np.zeros((20, 20))
     with pytest.raises(InputError, match="one shape"):
         rigid_segments(ink, ink, np.zeros((10, 10), int), arap_register(ink, ink))
+
+
+def test_a_limb_folded_120_degrees_about_its_attachment_is_among_the_poses():
+    source, labels, pivot = _limb_scene(0)
+    target, _, _ = _limb_scene(120)
+    reg = arap_register(source, target)
+    tip = np.array([[60.0, 120.0]])
+    t = np.deg2rad(120)
+    truth = pivot + [[-np.sin(t) * 50, np.cos(t) * 50]]
+    # Beyond the search of rigid_segments: its best motion leaves the tip far away.
+    assert np.linalg.norm(rigid_segments(source, target, labels, reg)[1].apply(tip) - truth) > 10
+    poses = rigid_poses(source, target, labels, 1, reg, count=4)
+    assert 1 <= len(poses) <= 4
+    assert [m.cost for m in poses] == sorted(m.cost for m in poses)
+    # The hinge search turns it about its attachment: one pose puts the tip there.
+    best = min(poses, key=lambda m: np.linalg.norm(m.apply(tip) - truth))
+    assert np.linalg.norm(best.apply(tip) - truth) < 2.0
+    # The body hides part of the folded bar: its fit is not perfect, but the best.
+    assert best is poses[0] and best.cost < best.base_cost / 2
+    # Poses are distinct: each pair puts some of the limb at least 6 px apart.
+    ink = np.argwhere((labels == 1) & (source > 0.5))[:, ::-1].astype(float)
+    for i in range(len(poses)):
+        for j in range(i):
+            assert np.abs(poses[i].apply(ink) - poses[j].apply(ink)).max() >= 6 - 1e-9
+    assert rigid_poses(source, target, labels, 7, reg) == []

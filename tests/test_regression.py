@@ -27,7 +27,13 @@ relief surfaces were cleaned up on purpose:
   the stations (its offset no longer bulges up between them, so the
   turtle's front leg sits up to 3.2 px lower, nearer its base, the order
   still held), and the blend onto the base is C2 (a quintic) over a band at
-  least as wide as the part's height at the seam.
+  least as wide as the part's height at the seam;
+- the ``sqrt`` profile ends in a short wall at the silhouette (every outline
+  vertex with zero height has a copy 0.02 px inside, at the wall's top, so
+  the meshes have one vertex more per such outline vertex and two faces
+  more per outline edge) and no face inside the wall is steeper than 70
+  degrees (heights near the outlines rose by up to about a sixth of the
+  part's peak; the peaks and the outlines are unchanged).
 """
 
 from pathlib import Path

@@ -148,3 +148,36 @@ def test_a_part_inked_over_in_the_frame_is_flagged_and_its_scribbles_leave_the_i
         x, y = np.rint(s).astype(int).T
         assert (gray[y, x] > 0.5).all()
     segment(t.annotations, frame)  # the carried annotation segments the frame
+
+
+def test_a_limb_folded_120_degrees_about_its_attachment_is_carried_with_it():
+    # Beyond the rigid search's 45 degrees: the hinge search finds the pose, and the
+    # frame's segmentation with the scribbles so carried confirms it.
+    shot = make_shot("cat", 2, angle=120.0)
+    carried = transfer_annotations(shot.truths[0], shot.frames[0], shot.frames[1])
+    truth = segment(shot.truths[1], shot.frames[1]).labels
+    got = segment(carried.annotations, shot.frames[1]).labels
+    assert (got == truth)[truth >= 0].mean() >= 0.98
+    limb = shot.truths[0].region_index(shot.limb)
+    both = np.count_nonzero((got == limb) & (truth == limb))
+    assert both / np.count_nonzero((got == limb) | (truth == limb)) >= 0.95
+
+
+def test_a_relation_point_on_open_paper_goes_into_the_closed_part_beside_it():
+    from inkray.transfer import _outside, _Places
+
+    # A closed box (its inside enclosed by ink) and open paper the segmentation
+    # also gave to the box's part, as it does where an outline leaves a gap.
+    paper = np.ones((40, 60), bool)
+    paper[10, 20:41] = paper[30, 20:41] = paper[10:31, 20] = paper[10:31, 40] = False
+    labels = np.full(paper.shape, -1)
+    labels[5:35, 5:45] = 1
+    outside = _outside(paper)
+    assert outside[0, 0] and outside[20, 10] and not outside[20, 30]
+    q = np.array([12.0, 20.0])
+    p, d = _Places(labels, paper, 16, avoid=outside).place(q, 1)
+    assert not outside[int(p[1]), int(p[0])] and labels[int(p[1]), int(p[0])] == 1
+    assert 8 <= d <= 16
+    # Without paper of its part off the open paper, the point stays where it is.
+    p, d = _Places(np.where(outside, labels, -1), paper, 16, avoid=outside).place(q, 1)
+    assert np.allclose(p, q) and d == 0

@@ -517,7 +517,9 @@ class _SceneMesh(NamedTuple):
 #: arccos(_STEEP), about 84 degrees, is a steep rim, a wall or a back: it shows the
 #: part's paper. Planar texture coordinates stretch the drawing over such a face by
 #: 1 / cos(angle), ten times or more, and it covers a tenth of its area or less in the
-#: front view, where the drawing is already seen on the faces around it.
+#: front view, where the drawing is already seen on the faces around it. Inflated
+#: parts end in such a wall (``inkray.relief.inflation.rim_wall``) and are at most
+#: 70 degrees steep inside it.
 _STEEP = 0.1
 _FRONT, _RIM, _BEHIND = 0, 1, 2  # faces: drawing; paper, front surface; paper, back or wall
 

@@ -29,7 +29,10 @@ around it (or of the nearest window that holds ink).
 Labelled segments of the source (a limb) can then be moved on their own
 (:func:`rigid_segments`: chamfer matching, after Borgefors, "Hierarchical
 chamfer matching: a parametric edge matching algorithm", PAMI 1988, over
-rigid motions; :func:`arap_segments`: the registration above from there).
+rigid motions; :func:`rigid_poses`: several distinct such fits, including
+the segment turned over the full circle about its attachment, for a caller
+that can judge them otherwise; :func:`arap_segments`: the registration above
+from there).
 """
 
 from dataclasses import dataclass
@@ -43,7 +46,7 @@ from inkray.numerics.grid import grid_laplacian
 from inkray.numerics.spd import MinQuadWithFixed
 
 __all__ = ["LocalField", "Registration", "RigidMotion", "arap_register", "arap_segments",
-           "lattice_interpolate", "rigid_segments", "warp_points"]
+           "lattice_interpolate", "rigid_poses", "rigid_segments", "warp_points"]
 
 #: Blocks that agree less than this (the score of their best shift) are trimmed:
 #: they take no part in the rigid fits and follow their neighbours.
@@ -597,16 +600,115 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
     labels = np.asarray(labels)
     if source.shape != target.shape or labels.shape != source.shape:
         raise InputError("registration: source, target and labels must have one shape")
-    edt = ndimage.distance_transform_edt(target < 0.5)
-    dist, far = np.minimum(edt, clip), np.minimum(edt, 3 * clip)
-    ink = source >= 0.5
+    fields = _fields(target, clip)
     out = {}
     for k, window in _segment_windows(labels, 5):
+        seg = _PoseSearch(source, labels, k, window, registration, fields, clip, attach, samples)
+        if seg.p is None:
+            continue
+        if seg.base <= tolerance:
+            out[int(k)] = RigidMotion(angle=seg.theta0, pivot=seg.pivot, translation=seg.t0,
+                                      cost=seg.base, base_cost=seg.base)
+            continue
+        # Coarse steps on distances clipped far (a smooth cost, so that a thin
+        # line's narrow basin is not stepped over), then the few best angles
+        # refined on the near distances.
+        coarse = seg.search((0.0, seg.theta0, seg.t0), max_angle, 5.0, radius, 4.0, coarse=True)
+        out[int(k)] = seg.refined(coarse)
+    return out
+
+
+def rigid_poses(source, target, labels, label, registration, *, count=6, max_angle=45.0,
+                radius=32.0, clip=6.0, attach=0.3, samples=160, hinge=8.0, apart=6.0):
+    """Several distinct rigid motions of one segment that bring its ink near ``target``'s.
+
+    Where chamfer matching is ambiguous (a small limb among another limb's
+    lines), the best fit need not be the right one: these are the
+    ``count`` best local fits of the searches of :func:`rigid_segments`
+    (within ``max_angle`` and ``radius`` of the registration's fit) and of
+    a hinge search: the segment turned over the full circle about points of
+    its attachment to other segments, which move at most ``hinge`` pixels
+    from where the registration puts them (a limb folded further than any
+    smooth motion reaches), each refined, for the caller to judge by other
+    evidence.
+
+    Parameters
+    ----------
+    source, target, labels, registration
+        As in :func:`rigid_segments`.
+    label : int
+        The segment.
+    count : int, default 6
+    max_angle, radius, clip, attach, samples
+        As in :func:`rigid_segments`.
+    hinge : float, default 8.0
+        See above.
+    apart : float, default 6.0
+        Two motions are distinct when they put some of the segment's ink at
+        least this far (pixels) apart.
+
+    Returns
+    -------
+    list of RigidMotion
+        Best first (by :attr:`RigidMotion.cost`); empty when the segment has
+        no ink.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> src = np.zeros((80, 80)); src[20:60, 20] = src[20:60, 30] = 1
+    >>> src[20, 20:31] = src[59, 20:31] = 1
+    >>> labels = np.full((80, 80), -1); labels[21:59, 21:30] = 0
+    >>> tgt = np.roll(src, 25, axis=1)
+    >>> poses = rigid_poses(src, tgt, labels, 0, arap_register(src, src))
+    >>> np.round(poses[0].apply([[25.0, 40.0]])).tolist(), len(poses) > 1
+    ([[50.0, 40.0]], True)
+    """
+    source = _image(source, "source")
+    target = _image(target, "target")
+    labels = np.asarray(labels)
+    if source.shape != target.shape or labels.shape != source.shape:
+        raise InputError("registration: source, target and labels must have one shape")
+    windows = dict(_segment_windows(labels, 5))
+    if label not in windows:
+        return []
+    seg = _PoseSearch(source, labels, label, windows[label], registration, _fields(target, clip),
+                      clip, attach, samples)
+    if seg.p is None:
+        return []
+    found = seg.search((0.0, seg.theta0, seg.t0), max_angle, 5.0, radius, 4.0, coarse=True, keep=4)
+    if len(seg.a):
+        found += seg.search((0.0, seg.theta0 + np.pi, seg.held), 180.0, 10.0, hinge,
+                            min(4.0, hinge), coarse=True, hinged=True, keep=2)
+    poses = []
+    for c in sorted(found, key=lambda c: c[0]):
+        m = seg.refined([c])
+        q = m.apply(seg.p)
+        if all(np.abs(q - o.apply(seg.p)).max() >= apart for o in poses):
+            poses.append(m)
+            if len(poses) == count:
+                break
+    return sorted(poses, key=lambda m: m.cost)
+
+
+def _fields(target, clip):
+    """The target's ink distances clipped at ``clip`` and at three times it."""
+    edt = ndimage.distance_transform_edt(target < 0.5)
+    return np.minimum(edt, clip), np.minimum(edt, 3 * clip)
+
+
+class _PoseSearch:
+    """Chamfer search over rigid motions of one segment (see :func:`rigid_segments`)."""
+
+    def __init__(self, source, labels, k, window, registration, fields, clip, attach, samples):
+        self.dist, self.far = fields
+        self.clip, self.attach = clip, attach
         mask = labels[window] == k
         ring = ndimage.binary_dilation(mask, iterations=2)
-        py, px = np.nonzero(ink[window] & ring)
+        py, px = np.nonzero((source[window] >= 0.5) & ring)
+        self.p = None
         if len(px) < 3:
-            continue
+            return
         pick = np.linspace(0, len(px) - 1, min(samples, len(px))).astype(int)
         origin = np.array([window[1].start, window[0].start], float)
         p = np.stack([px[pick], py[pick]], axis=1) + origin
@@ -614,45 +716,54 @@ def rigid_segments(source, target, labels, registration, *, max_angle=45.0, radi
         others = ndimage.binary_dilation((labels[window] >= 0) & ~mask, iterations=3) & mask
         ay, ax = np.nonzero(others)
         a = np.stack([ax, ay], axis=1)[::max(1, len(ax) // 60)] + origin
-        goal = warp_points(registration, a)
+        self.goal = warp_points(registration, a)
         # A limb turns about where it is attached: rotations about there need
         # the smallest translations.
         pivot = a.mean(axis=0) if len(a) else p.mean(axis=0)
-        theta0 = _procrustes_angle(p - p.mean(axis=0), g - g.mean(axis=0))
-        t0 = g.mean(axis=0) - _rotate(p.mean(axis=0) - pivot, theta0) - pivot
-        base = float(_chamfer(dist, g[None], clip, _KEEP)[0])
-        if base <= tolerance:
-            out[int(k)] = RigidMotion(angle=theta0, pivot=pivot, translation=t0, cost=base,
-                                      base_cost=base)
-            continue
+        self.theta0 = _procrustes_angle(p - p.mean(axis=0), g - g.mean(axis=0))
+        self.t0 = g.mean(axis=0) - _rotate(p.mean(axis=0) - pivot, self.theta0) - pivot
+        self.held = warp_points(registration, pivot[None])[0] - pivot
+        self.hinges = a[np.linspace(0, len(a) - 1, min(12, len(a))).astype(int)] if len(a) else a
+        self.p, self.a, self.pivot = p, a, pivot
+        self.base = float(_chamfer(self.dist, g[None], clip, _KEEP)[0])
 
-        def search(centre, span_a, step_a, span_t, step_t, field, cut):
-            """The best (cost, angle, shift) per angle tried around ``centre``."""
-            r = np.arange(-span_t, span_t + 1e-9, step_t)
-            shifts = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2) + centre[2]
-            found = []
-            for th in centre[1] + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a)):
-                cost = _chamfer(field, _rotate(p - pivot, th)[None] + pivot + shifts[:, None], cut)
-                if len(a):
-                    qa = _rotate(a - pivot, th) + pivot
-                    gap = np.linalg.norm(qa[None] + shifts[:, None] - goal[None], axis=2)
-                    cost = cost + attach * np.minimum(gap, cut).mean(axis=1)
-                j = int(cost.argmin())
+    def search(self, centre, span_a, step_a, span_t, step_t, *, coarse=False, hinged=False,
+               keep=1):
+        """The ``keep`` best (cost, angle, shift) per angle tried around ``centre``; hinged,
+        turned about each point of the attachment, which moves at most ``span_t`` from
+        where the registration puts it."""
+        field, cut = (self.far, 3 * self.clip) if coarse else (self.dist, self.clip)
+        p, a, pivot = self.p, self.a, self.pivot
+        r = np.arange(-span_t, span_t + 1e-9, step_t)
+        near = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2)
+        found = []
+        for th in centre[1] + np.deg2rad(np.arange(-span_a, span_a + 1e-9, step_a)):
+            if hinged:
+                held = self.hinges - pivot - _rotate(self.hinges - pivot, th) + centre[2]
+                shifts = (held[:, None] + near[None]).reshape(-1, 2)
+            else:
+                shifts = near + centre[2]
+            cost = _chamfer(field, _rotate(p - pivot, th)[None] + pivot + shifts[:, None], cut)
+            if len(a) and not hinged:
+                qa = _rotate(a - pivot, th) + pivot
+                gap = np.linalg.norm(qa[None] + shifts[:, None] - self.goal[None], axis=2)
+                cost = cost + self.attach * np.minimum(gap, cut).mean(axis=1)
+            for j in np.argsort(cost, kind="stable")[:keep]:
                 found.append((float(cost[j]), float(th), shifts[j].copy()))
-            return found
+        return found
 
-        # Coarse steps on distances clipped far (a smooth cost, so that a thin
-        # line's narrow basin is not stepped over), then the few best angles
-        # refined on the near distances.
-        coarse = search((0.0, theta0, t0), max_angle, 5.0, radius, 4.0, far, 3 * clip)
-        best = (np.inf, theta0, t0)
-        for start in sorted(coarse, key=lambda c: c[0])[:3]:
-            best = min([best] + search(start, 4.0, 1.0, 4.0, 1.0, dist, clip), key=lambda c: c[0])
-        motion = RigidMotion(angle=best[1], pivot=pivot, translation=best[2], cost=0.0,
-                             base_cost=base)
-        motion.cost = float(_chamfer(dist, motion.apply(p)[None], clip, _KEEP)[0])
-        out[int(k)] = motion
-    return out
+    def refined(self, coarse):
+        """The best of the three best ``coarse`` candidates refined on the near distances."""
+        best = (np.inf, self.theta0, self.t0)
+        for c in sorted(coarse, key=lambda c: c[0])[:3]:
+            best = min([best] + self.search(c, 4.0, 1.0, 4.0, 1.0), key=lambda c: c[0])
+        return self.motion(best)
+
+    def motion(self, found):
+        m = RigidMotion(angle=found[1], pivot=self.pivot, translation=np.asarray(found[2], float),
+                        cost=0.0, base_cost=self.base)
+        m.cost = float(_chamfer(self.dist, m.apply(self.p)[None], self.clip, _KEEP)[0])
+        return m
 
 
 def _segment_windows(labels, pad):

@@ -44,6 +44,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from inkray.errors import InputError
 from inkray.numerics.arap import Arap, pieces, signed_areas
@@ -60,6 +62,9 @@ ON_TOP_CONTACT = 0.6
 #: A smaller part in front is also glued where it covers a hidden area of at most this share of
 #: its own area (a head on a neck): a joint, not an overlap it must be free to leave.
 JOINT_AREA = 0.1
+#: px: a part's vertices closer than this are one vertex of the rig (the foot and the top of
+#: the rim's wall, :data:`inkray.relief.inflation.WALL_INSET` apart).
+_WELD = 0.05
 _SEAM_REACH = 3.0  # px: vertices this close to a stitch or graft path are glued across it
 _LOCATE_TOL = 1.0  # px: a point this close to a part's triangles is on the part
 _GLUE_REACH = 1.5  # px: a root's vertices this far beyond its area or off the other part are glued
@@ -165,14 +170,39 @@ class Rig:
         inkray.relief.model.Relief
         """
         parts = []
+        turn = None
         for p, idx in zip(self.relief.parts, self.index):
             v = np.array(p.vertices, float)
+            # A vertex welded to another (a wall's foot) keeps its small offset from it, turned
+            # as the rig turns there.
+            offset = v[:, :2] - self.vertices[idx]
             v[:, :2] = positions[idx]
+            welded = np.flatnonzero(np.any(offset != 0, axis=1))
+            if len(welded):
+                if turn is None:
+                    turn = self._turns(positions)
+                c, s = turn[:, 0][idx[welded]], turn[:, 1][idx[welded]]
+                o = offset[welded]
+                v[welded, :2] += np.column_stack([c * o[:, 0] - s * o[:, 1],
+                                                  s * o[:, 0] + c * o[:, 1]])
             rest = np.asarray(p.vertices, float)[:, :2] if p.texcoords is None else p.texcoords
             parts.append(Part(name=p.name, vertices=v, faces=p.faces, closed=p.closed,
                               texcoords=rest))
         return Relief(parts=parts, size=self.relief.size, texture=self.relief.texture,
                       warnings=list(self.relief.warnings))
+
+    def _turns(self, positions):
+        """Per rig vertex, ``(cos, sin)`` of the rotation best taking its rest edges to ``positions``."""
+        i = self.faces.ravel()
+        j = np.roll(self.faces, -1, axis=1).ravel()
+        e, f = self.vertices[j] - self.vertices[i], positions[j] - positions[i]
+        dot = np.einsum("ij,ij->i", e, f)
+        cross = e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
+        cs = np.zeros((len(self.vertices), 2))
+        np.add.at(cs, i, np.column_stack([dot, cross]))
+        np.add.at(cs, j, np.column_stack([dot, cross]))
+        angle = np.arctan2(cs[:, 1], cs[:, 0])
+        return np.column_stack([np.cos(angle), np.sin(angle)])
 
     def folds(self, positions):
         """Number of faces whose orientation flipped against the rest shape."""
@@ -307,8 +337,6 @@ class Posing:
 
 def _within(points, centres, reach):
     """Which points lie within ``reach`` of any centre."""
-    from scipy.spatial import cKDTree
-
     return np.isfinite(cKDTree(centres).query(points, distance_upper_bound=reach)[0])
 
 
@@ -338,8 +366,11 @@ def rig_relief(relief, completion, *, boundaries=()):
     >>> c = complete_regions(labels, names=["bar"])
     >>> relief = assemble(stitch([inflate_region(labels == 0, name="bar")], [], None), size=(60, 40))
     >>> rig = rig_relief(relief, c)
-    >>> rig.names, len(rig.vertices) == len(relief.parts[0].vertices), rig.glue.shape[0]
-    (['bar'], True, 0)
+    >>> rig.names, rig.glue.shape[0]
+    (['bar'], 0)
+    >>> rest = rig.posed_relief(rig.vertices).parts[0].vertices  # the wall's feet welded, kept
+    >>> bool(np.allclose(rest, relief.parts[0].vertices))
+    True
     """
     if not isinstance(relief, Relief):
         raise InputError(f"relief: expected an inkray.relief.model.Relief, got "
@@ -447,6 +478,8 @@ def front_mesh(part):
 
     A closed part's back copies its front's ``(x, y)``; both become one
     vertex, at the front's height, and only the front's faces are kept.
+    Vertices closer than :data:`_WELD` px (a rim wall's foot and top) are
+    one vertex too, and the wall's faces drop out as degenerate.
 
     Parameters
     ----------
@@ -473,7 +506,7 @@ def front_mesh(part):
     v = np.asarray(part.vertices, float)
     f = np.asarray(part.faces, np.int64).reshape(-1, 3)
     xy, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    inverse = _weld(xy, inverse.reshape(-1))
     top = np.full(len(xy), -np.inf)
     np.maximum.at(top, inverse, v[:, 2])
     on_top = v[:, 2] >= top[inverse] - 1e-9
@@ -483,6 +516,21 @@ def front_mesh(part):
     tri = inverse[front]
     tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
     return first, inverse, top, tri
+
+
+def _weld(xy, inverse):
+    """``inverse`` with the points of ``xy`` closer than :data:`_WELD` px as one point."""
+    pairs = cKDTree(xy).query_pairs(_WELD, output_type="ndarray")
+    if not len(pairs):
+        return inverse
+    graph = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                          shape=(len(xy), len(xy)))
+    _, component = connected_components(graph, directed=False)
+    # Components numbered in the order of their first point, as np.unique numbers them.
+    _, first = np.unique(component, return_index=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[component][inverse]
 
 
 def _joined_areas(completion):
