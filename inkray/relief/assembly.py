@@ -49,7 +49,7 @@ _ITERATIONS = 4  # of that remeshing
 SKIRT = 0.3
 #: How near (pixels) outlines of different parts are made to coincide before the booleans
 #: (or, where the parts' slabs do not meet in height, kept half this apart).
-SNAP = 1.0
+SNAP = 1.5
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
