@@ -1,6 +1,6 @@
 """Benchmark of ``inkray edit``: how soon each preview is ready on opening and after an edit.
 
-Four tables (``--tables open,edits,methods,first``, default the first three):
+Five tables (``--tables open,edits,methods,first,reduced``, default the first three):
 
 - **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
   page asks on opening (the depth draft and then the depth map, beside the
@@ -25,6 +25,15 @@ Four tables (``--tables open,edits,methods,first``, default the first three):
   the editor does after the relief), and of the depth map after the +arrow
   and +scribble edits, once without and once with that preparation, with
   the fronts of the fill each edit refactored.
+
+- **reduced**: in process, the fast depth map's cold fill (the chain's labels,
+  the session's fixed pixels and levels) solved on the reduced system of
+  quadtree blocks (:func:`inkray.numerics.quadtree_fill.quadtree_fill`, what a
+  cold solve above 0.3 Mpx does) and exactly (:class:`HarmonicFill`'s grid
+  Cholesky, its symbolic plan cleared first): CPU seconds of each (median of
+  ``--repeats`` runs, at least 3, alternating), the reduced system's unknowns
+  against the free pixels, and the largest and the mean absolute difference
+  over the free pixels, in levels (one ``order`` step is 1).
 
 The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
@@ -56,7 +65,7 @@ slow on).
 Usage::
 
     python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
-        [--repeats 3] [--tables open,edits,methods,first] [--pause 0]
+        [--repeats 3] [--tables open,edits,methods,first,reduced] [--pause 0]
         [--where "in process,process"]
 """
 
@@ -188,6 +197,14 @@ def _cpu(pid):
     except OSError:
         return float("nan")
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _own_cpu():
+    """CPU seconds (user and system) of this process so far."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def _open(name, megapixels):
@@ -352,8 +369,6 @@ def _methods_table(names, sizes, repeats, where=("in process", "process"), **_):
 def _first(name, megapixels):
     """``{prepared: [(label, CPU s, refactored fronts, fronts)]}`` for the cold depth
     map, the preparation and the +arrow and +scribble edits, in process."""
-    import resource
-
     import inkray
     from inkray.chain import ChainOptions, ReliefChain
     from inkray.input.annotations import parse_annotations
@@ -367,10 +382,7 @@ def _first(name, megapixels):
         a.drawing, a.source = ann.drawing, ann.source
         return a
 
-    def cpu():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return r.ru_utime + r.ru_stime
-
+    cpu = _own_cpu
     out = {}
     try:
         for prepared in (False, True):
@@ -414,6 +426,63 @@ def _first_table(names, sizes, repeats, **_):
                 print(f"| {name} | {size} | {'yes' if prepared else 'no'} | "
                       + " | ".join(cell.get(k, "-") for k in ("cold", "prepare", "+arrow",
                                                               "+scribble")) + " |", flush=True)
+
+
+def _reduced(name, megapixels, repeats):
+    """CPU seconds of the cold fill, reduced and exact, ``{kind: [s, ...]}``, with the
+    unknowns, the free pixels and the differences of the two fills."""
+    import inkray
+    from inkray.chain import ChainOptions, ReliefChain
+    from inkray.numerics import grid_cholesky
+    from inkray.numerics.harmonic_fill import HarmonicFill, settle
+    from inkray.numerics.quadtree_fill import quadtree_blocks, quadtree_fill
+
+    ann_path, _ = _folder(name, megapixels)
+    try:
+        ann, drawing = inkray.load_input(ann_path)
+        chain = ReliefChain(ann, drawing, options=ChainOptions(interactive=True,
+                                                               depth_method="fast"))
+        chain.depth_map
+        session = chain._cache.session[1]
+        fixed, values = session._answer[0], np.zeros(session.shape)
+        values[fixed] = session._answer[1]
+        wx, wy = session._weights
+    finally:
+        shutil.rmtree(ann_path.parent, ignore_errors=True)
+
+    cpu = _own_cpu
+    times, out = {}, {}
+    for _ in range(max(repeats, 3)):
+        for kind in ("reduced", "exact"):
+            grid_cholesky._plan.cache_clear()
+            grid_cholesky._front.cache_clear()
+            start = cpu()
+            if kind == "reduced":
+                settled, free = settle(fixed, values)
+                out[kind] = quadtree_fill(wx, wy, ~free, settled)
+            else:
+                out[kind] = HarmonicFill(wx, wy, incremental=False).solve(fixed, values)
+            times.setdefault(kind, []).append(cpu() - start)
+    _, free = settle(fixed, values)
+    _, _, s = quadtree_blocks(wx, wy, ~free)
+    err = np.abs(out["reduced"] - out["exact"])[free]
+    return times, {"free": int(free.sum()), "blocked": int((s ** 2).sum()),
+                   "max": float(err.max(initial=0.0)), "mean": float(err.mean()) if err.size else 0.0}
+
+
+def _reduced_table(names, sizes, repeats, **_):
+    print("| drawing | size | free px | in blocks | reduced CPU s | exact CPU s | reduced / exact "
+          "| max diff, levels | mean diff, levels |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            size = _folder_size(name, mpx)
+            times, r = _reduced(name, mpx, repeats)
+            reduced, exact = (float(np.median(times[k])) for k in ("reduced", "exact"))
+            ratio = float(np.median(np.array(times["reduced"]) / np.array(times["exact"])))
+            blocked = f"{r['blocked'] / r['free']:.0%}" if r["free"] else "-"
+            print(f"| {name} | {size} | {r['free']} | {blocked} | {reduced:.2f} | {exact:.2f} | "
+                  f"**{ratio:.2f}** | {r['max']:.4f} | {r['mean']:.5f} |", flush=True)
 
 
 def _folder_size(name, megapixels):
@@ -483,7 +552,7 @@ def main():
     sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
     repeats = max(args.repeats, 1)
     tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table,
-              "first": _first_table}
+              "first": _first_table, "reduced": _reduced_table}
     for k, table in enumerate(args.tables.split(",")):
         if table not in tables:
             parser.error(f"--tables: unknown table {table!r} (expected {', '.join(tables)})")

@@ -339,3 +339,63 @@ def test_diverging_outline_closes_without_a_straight_cut():
     outline = hidden & ~ndimage.binary_erosion(hidden | (labels == 0), border_value=1)
     contact = int((hidden & ndimage.binary_dilation(labels == 0)).sum())
     assert _longest_axis_run(outline) < 0.5 * contact, (_longest_axis_run(outline), contact)
+
+
+def _strip_under_a_square():
+    """Two bars hidden under a square (2) whose hidden ends stop 2 px short of each other."""
+    labels = np.full((30, 40), -1, np.int32)
+    labels[5:25, 10:30] = 2
+    labels[10:20, :10] = 0
+    labels[10:20, 30:] = 1
+    owner = np.full(labels.shape, -1, np.int32)
+    owner[10:20, 10:19] = 0
+    owner[10:20, 21:30] = 1
+    return labels, owner
+
+
+def test_a_strip_between_two_hidden_parts_goes_to_the_one_behind():
+    from inkray.relief.completion import close_gaps
+
+    labels, owner = _strip_under_a_square()
+    before = owner.copy()
+    # bar 1 lies in front of bar 0 somewhere: what bar 1 uncovers as it moves is bar 0
+    assert close_gaps(labels, owner, {(2, 0), (2, 1), (1, 0)}, width=6) > 0
+    strip = (labels == 2) & (before < 0) & (owner >= 0)
+    assert strip[11:19, 19:21].all() and (owner[strip] == 0).all()
+    # nothing moves where a hidden part faces only the square, nor outside the square
+    assert np.array_equal(owner[:10], before[:10]) and np.array_equal(owner[20:], before[20:])
+    assert np.array_equal(owner[labels != 2], before[labels != 2])
+    # without an order between the bars, each takes the side nearer to it
+    labels, owner = _strip_under_a_square()
+    close_gaps(labels, owner, {(2, 0), (2, 1)}, width=6)
+    assert (owner[11:19, 19] == 0).all() and (owner[11:19, 20] == 1).all()
+
+
+def test_closing_gaps_keeps_a_part_hidden_under_two_occluders_in_two_pieces():
+    from inkray.relief.completion import close_gaps
+
+    # region 0 hidden under 1 (left half) and under 2 (right half); the two pieces end a
+    # pixel short of the 1|2 outline on both sides: the gap is not closed across it
+    labels = np.full((30, 40), -1, np.int32)
+    labels[:, :5] = 0
+    labels[5:25, 5:20] = 1
+    labels[5:25, 20:35] = 2
+    owner = np.full(labels.shape, -1, np.int32)
+    owner[10:20, 5:19] = 0
+    owner[10:20, 21:35] = 0
+    close_gaps(labels, owner, {(1, 0), (2, 0)}, width=6)
+    pieces = ndimage.label(owner == 0)[1]
+    assert pieces == 2
+
+
+def test_ordered_completion_closes_gaps_by_default_and_not_with_zero():
+    labels, true, band = behind_band("square", 0.3, 0.0)
+    c = complete_regions(labels, names=["shape", "band"])
+    relations, _ = depth_order([], labels, c)
+    from inkray.relief.completion import GAP
+
+    assert GAP > 0
+    opened = c.ordered(relations, gap=0).owner
+    closed = c.ordered(relations).owner
+    # one hidden part, no other region near it: nothing to close
+    assert np.array_equal(opened, closed)

@@ -477,6 +477,33 @@ def test_depth_draft_first(turtle, tmp_path, monkeypatch):
     assert d_draft[273, 168] > d_draft[265, 180]  # order[0]: the head over the shell
 
 
+def test_the_open_answers_the_draft_with_the_reduced_full_map(turtle, tmp_path, monkeypatch):
+    """On opening, a fill over more than REDUCED_ABOVE pixels with nothing factored is
+    solved on the reduced system: the draft request gets the full map, the full request
+    the same, and after the relief the session readies the exact and the draft fill."""
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    monkeypatch.setattr(estimation, "REDUCED_ABOVE", 1000)
+    edit = EditSession(turtle)
+    with running(edit) as url:
+        draft = call(url + "/api/preview/depth.png?quality=draft")
+        full = call(url + "/api/preview/depth.png")
+        session = edit._chain._cache.session[1]
+        reduced = session._fills[False].reduced
+        relief = call(url + "/api/preview/relief.glb")
+        warming = session._warming
+        if warming is not None:
+            warming.join()
+    assert draft[0] == full[0] == relief[0] == 200 and reduced
+    (tmp_path / "draft.png").write_bytes(draft[2])
+    (tmp_path / "full.png").write_bytes(full[2])
+    d_full = read_depth_png(tmp_path / "full.png")[0]
+    assert np.array_equal(read_depth_png(tmp_path / "draft.png")[0], d_full)
+    assert set(session._fills) == {False, True}       # the draft's fill, ready for an edit
+    assert d_full[273, 168] > d_full[265, 180]        # order[0]: the head over the shell
+
+
 def test_a_saved_file_is_compact_and_v1(turtle):
     doc = json.loads(turtle.read_text())
     doc["order"].append({"front": [265.8333, 190.04], "back": [300.25, 188]})

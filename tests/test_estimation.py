@@ -603,6 +603,42 @@ def test_a_cold_draft_is_the_full_fill_when_the_fixed_values_settle_most_pixels(
     assert np.array_equal(draft, full)
 
 
+def test_a_cold_solve_is_the_reduced_fill_and_prepare_makes_the_edits_exact(monkeypatch):
+    # Above REDUCED_ABOVE pixels to solve and nothing factored yet, the fill comes from
+    # the reduced system (quadtree blocks), close to the exact one; the cold draft is
+    # that fill. prepare() factors the exact fill and the draft's, and the next edit's
+    # draft and full map come from them.
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
+    monkeypatch.setattr(estimation, "REDUCED_ABOVE", 1000)
+    gray, seeds = _three_boxes(gap=True)
+    arrows = [((30, 25), (90, 25)), ((60, 70), (5, 90))]
+
+    def exact(n):
+        monkeypatch.setattr(estimation, "REDUCED_ABOVE", 10 ** 9)
+        fresh = DepthSession(gray, seeds=seeds, incremental=False)
+        for front, back in arrows[:n]:
+            fresh.add(front, back)
+        d = fresh.solve()
+        monkeypatch.setattr(estimation, "REDUCED_ABOVE", 1000)
+        return d
+
+    s = DepthSession(gray, seeds=seeds)
+    s.add(*arrows[0])
+    draft = s.solve(draft=True)
+    assert s._fills[False].reduced and set(s._fills) == {False}
+    assert np.array_equal(s.solve(), draft) and s.refactored_fronts == 0
+    assert 0 < np.abs(draft - exact(1)).max() < 0.02      # levels are 1 apart
+    assert s.prepare() and set(s._fills) == {False, True}
+    s.add(*arrows[1])
+    draft = s.solve(draft=True)
+    full = s.solve()
+    assert not s._fills[False].reduced
+    assert np.abs(full - exact(2)).max() < 1e-9
+    assert not np.array_equal(draft, full) and np.abs(draft - full).mean() < 0.02 * np.ptp(full)
+
+
 # -- the background behind the parts -------------------------------------------------
 
 def _boxes_on_paper():

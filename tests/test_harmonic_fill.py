@@ -126,6 +126,48 @@ def test_a_change_outside_the_box_stops_the_prepare():
     assert not once.prepare()
 
 
+@pytest.mark.parametrize("background", [False, True])
+def test_a_cold_reduced_solve_is_close_and_prepare_makes_the_next_ones_exact(background):
+    gray, fixed, values = _rings()
+    wx, wy, _ = edge_weights(gray)
+    fill = HarmonicFill(wx, wy, reduced_above=1000)
+    assert fill.reduces(fixed, values)
+    d = fill.solve(fixed, values)
+    # The reduced system: no factorization kept, within a small part of the levels' step 1.
+    assert fill.reduced and fill.fronts == 0
+    assert 0 < np.abs(d - _reference(wx, wy, fixed, values)).max() < 0.02
+    assert np.array_equal(d[fixed], values[fixed])
+    pins = fixed.copy()
+    pins[5, 5:25] = True
+    d = fill.solve(pins, values)                         # nothing to reuse yet: reduced again
+    assert fill.reduced and np.abs(d - _reference(wx, wy, pins, values)).max() < 0.02
+    # prepare() factors the exact system of the last solve's fixed values.
+    assert fill.prepare(background=background)
+    if background:
+        # Reduced while the prepare runs (which goes on: the box fits), or pinned once done.
+        d = fill.solve(pins, values)
+        assert np.abs(d - _reference(wx, wy, pins, values)).max() < 0.02
+        preparing = fill._preparing
+        if preparing is not None:
+            preparing[0].join()
+    assert not fill.reduces(pins, values)
+    d = fill.solve(pins, values)
+    assert not fill.reduced and fill.refactored_fronts == 0 and fill._chol.updatable
+    assert np.abs(d - _reference(wx, wy, pins, values)).max() < 1e-9
+    moved = fixed & (values != 1.0)                      # the square's inside freed: an update
+    d = fill.solve(moved, values)
+    assert 0 < fill.refactored_fronts < fill.fronts
+    assert np.abs(d - _reference(wx, wy, moved, values)).max() < 1e-9
+    # Without incremental every large solve is reduced, and nothing is prepared.
+    once = HarmonicFill(wx, wy, incremental=False, reduced_above=1000)
+    once.solve(fixed, values)
+    assert once.reduced and not once.prepare()
+    # Below the threshold the cold solve is exact.
+    small = HarmonicFill(wx, wy, reduced_above=gray.size)
+    assert np.abs(small.solve(fixed, values) - _reference(wx, wy, fixed, values)).max() < 1e-9
+    assert not small.reduced
+
+
 def test_draft_is_close_to_the_full_fill_and_keeps_the_steps():
     gray, fixed, values = _rings()
     wx, wy, _ = edge_weights(gray)

@@ -117,3 +117,23 @@ def test_scan_conversion_covers_every_pixel_centre_of_a_mesh_exactly_once():
              - (t[:, (k + 1) % 3, 1] - t[:, k, 1]) * (c[:, 0] - t[:, k, 0]) for k in range(3)]
     sign = np.sign(np.sum(cross, axis=0))
     assert np.all(np.stack(cross) * sign >= -1e-9)
+
+
+@pytest.mark.parametrize("low", [0, 1])
+def test_a_part_folded_over_itself_shows_its_highest_surface(low):
+    # one part of two squares apart at rest (the left one drawn 200, the right 50); posed,
+    # the right square lies on the left one: the higher of the two shows there, whichever
+    # of them comes first among the faces
+    z = [2.0, 2.0]
+    z[low] = 1.0
+    a, _ = square(z=z[0])
+    b, _ = square((5.0, 0.0), z=z[1])
+    rest = np.vstack([a.vertices, b.vertices])
+    faces = np.vstack([a.faces, b.faces + 4])
+    posed = rest.copy()
+    posed[4:, 0] -= 5.0
+    rgb = np.zeros((4, 9, 3), np.uint8)
+    rgb[:, :4], rgb[:, 5:] = 200, 50
+    img, _ = posed_image(Relief([Part("p", posed, faces)], size=(9, 4)),
+                         Relief([Part("p", rest, faces)], size=(9, 4)), Cutout([], (9, 4)), rgb)
+    assert (img[:, :4, 0] == (50 if low == 0 else 200)).all()

@@ -28,6 +28,7 @@ def man():
 def test_rig_keeps_every_part_and_joins_limbs_to_the_body(man):
     chain, rig = man
     assert rig.names == [p.name for p in chain.relief.parts]
+    assert len(rig.heights) == len(rig.vertices) and np.isfinite(rig.heights).all()
     rest = rig.posed_relief(rig.vertices)
     for p, idx, q in zip(chain.relief.parts, rig.index, rest.parts):
         # each vertex is its rig vertex, or welded to one within _WELD (a rim wall's foot)
@@ -235,3 +236,54 @@ def test_batch_pose_job_reads_the_pose_file_beside_each_frame(tmp_path):
     import io
     rgba = np.asarray(Image.open(io.BytesIO(done["files"]["posed.png"])))
     assert rgba.shape == (540, 304, 4)
+
+
+def test_an_overlap_that_glues_a_pin_does_not_grip():
+    # Glue that holds one or two vertices, or vertices along one line, lets the part
+    # pivot about them: such an overlap is taken only where no gripping one joins
+    import scipy.sparse as sp
+
+    from inkray.relief.posing import _grips
+
+    _, rig = _two_part_character()
+    arm = rig.names.index("arm")
+    lo, hi = rig.offsets[arm], rig.offsets[arm + 1]
+    xy = rig.vertices[lo:hi]
+
+    def rows(picked):
+        k = len(picked)
+        return sp.csr_matrix((np.ones(k), (np.arange(k), lo + picked)),
+                             shape=(k, len(rig.vertices)))
+
+    on_line = np.flatnonzero(np.abs(xy[:, 1] - np.median(xy[:, 1])) < 0.5)
+    spread = np.flatnonzero(np.hypot(xy[:, 0] - xy[:, 0].mean(), xy[:, 1] - 53) < 8)
+    assert len(on_line) >= 3 and len(spread) >= 3
+    assert not _grips(rig, rows(np.arange(2)), "arm")
+    assert not _grips(rig, rows(on_line), "arm")
+    assert _grips(rig, rows(spread), "arm")
+
+
+@pytest.mark.slow
+def test_the_figure_at_1_mpx_opens_no_hole_when_its_head_turns():
+    # The benchmark's pose: the body pinned, the head (on top of it) turned by 40 degrees
+    # about where it joins; the near arm, rooted in the head beside the body, goes with it,
+    # and both leave pixels of the head that the body must fill. A hole as the benchmark
+    # counts it: a transparent pixel enclosed by the posed figure that no part near it takes
+    # back to paper in the drawing.
+    import sys
+
+    sys.path.insert(0, str(EXAMPLES.parent / "benchmarks"))
+    from bench_pose import _holes, _load, _scenario, _turn
+
+    ann, drawing = _load("figure", 1.0)
+    chain = ReliefChain(ann, drawing)
+    rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+    pins, tip, join = _scenario(chain, rig)
+    c = chain.completion
+    assert c.names[c.labels[int(tip[1]), int(tip[0])]] == "head"
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
+                         np.vstack([pins, tip]), boundaries=ann.boundaries)
+    x, _ = posed.posing.pose(np.vstack([pins, _turn(tip, join, 40.0)]), iterations=8)
+    assert posed.rig.folds(x) == 0
+    img = posed.image(x)
+    assert _holes(posed, x, img, posed.image(posed.rig.vertices)) == 0

@@ -33,7 +33,12 @@ relief surfaces were cleaned up on purpose:
   the meshes have one vertex more per such outline vertex and two faces
   more per outline edge) and no face inside the wall is steeper than 70
   degrees (heights near the outlines rose by up to about a sixth of the
-  part's peak; the peaks and the outlines are unchanged).
+  part's peak; the peaks and the outlines are unchanged);
+- a part hidden under an occluder takes the occluder's pixels in a strip up to
+  a few pixels wide between it and another part (the completion left them to
+  no part, so a pose that moved the occluder showed a hole there), so the
+  completed areas, and the meshes near such strips, changed (turtle: the
+  shell and the head under the front leg; balls and frog likewise).
 """
 
 from pathlib import Path

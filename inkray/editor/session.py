@@ -417,7 +417,8 @@ class EditSession:
         draft : bool, default False
             The fast depth map with its Laplace fill solved at half
             resolution (above 0.3 Mpx): the first answer after an edit,
-            before the full one.
+            before the full one. On opening it is the full map (its
+            reduced system is as fast), which the full request then reuses.
 
         Returns
         -------

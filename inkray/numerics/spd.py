@@ -16,13 +16,17 @@ from scipy.sparse.linalg import splu
 __all__ = ["spd_factor", "MinQuadWithFixed", "min_quad_with_fixed"]
 
 
-def spd_factor(A):
+def spd_factor(A, *, ordered=False):
     """Factor a sparse symmetric positive definite matrix.
 
     Parameters
     ----------
     A : (n, n) sparse matrix
         Symmetric positive definite.
+    ordered : bool, default False
+        ``A``'s rows and columns are already in a fill-reducing order (a
+        nested dissection of the caller's); otherwise SuperLU orders them by
+        minimum degree.
 
     Returns
     -------
@@ -41,7 +45,8 @@ def spd_factor(A):
     [1.0, 0.5]
     """
     try:
-        return splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+        return splu(sp.csc_matrix(A), permc_spec="NATURAL" if ordered else "MMD_AT_PLUS_A",
+                    diag_pivot_thresh=0.0,
                     options={"SymmetricMode": True})
     except RuntimeError as e:  # SuperLU reports an exactly singular matrix this way
         raise np.linalg.LinAlgError(str(e)) from None

@@ -18,7 +18,7 @@ printing: the space between the highest front and the lowest back over the
 union of the parts' outlines, which joins a part floating in front of the
 part behind it to it, built with the booleans of the Manifold library
 (manifold3d, exact in their topology) once outlines of different parts that
-run within a pixel are made to coincide exactly; only the faces
+run within :data:`SNAP` of each other are made to coincide exactly; only the faces
 around the slivers its cuts leave (and the parts' own) are remeshed
 (PyMeshLab's isotropic remeshing of those faces alone), then flipped,
 collapsed or split, the patches around faces still bad re-triangulated.
@@ -174,8 +174,8 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     coincident faces decided by symbolic perturbation): the union of every part with
     its back lowered below all parts (the space under ``T``), intersected
     with the union of every part with its front raised above all parts (the
-    space over ``B``). Where outlines of different parts run within a pixel,
-    the cuts would leave a slot or a column of the solid's height under a
+    space over ``B``). Where outlines of different parts nearly meet, the
+    cuts would leave a slot or a column of the solid's height under a
     pixel wide, whose slivers no remeshing shapes: every part's front and
     back reach :data:`SKIRT` beyond its outline (the outline's vertices
     moved outward at their own height), then outlines within :data:`SNAP`

@@ -19,6 +19,10 @@ one factorization, on the occluder's bounding box only.
 Because the values of all neighbours and of "anything else" sum to one at
 every pixel, at most one neighbour exceeds 0.5 there, so a pixel of ``A``
 completes at most one region; the candidates fit in one ``owner`` image.
+Where no value exceeds 0.5 a few pixels of ``A`` between two hidden parts
+belong to ``A`` alone; the ordered completion gives such narrow gaps to a
+part hidden beside them (:func:`close_gaps`), so that what a posed part
+uncovers is always some part's completed area.
 """
 
 import os
@@ -34,7 +38,14 @@ from scipy import ndimage
 from inkray.errors import InputError, StageError
 from inkray.numerics.spd import spd_factor
 
-__all__ = ["Completion", "Place", "complete_regions", "continue_outline", "check_labels"]
+__all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
+           "check_labels", "GAP"]
+
+#: The widest strip of an occluder beside a part hidden under it that the ordered completion
+#: gives to that part (:func:`close_gaps`), as a share of the image's size ``sqrt(H W)``: the
+#: diffusion is the same at every resolution, so its strips widen with the drawing
+#: (6 px at 1 Mpx).
+GAP = 0.006
 
 _ROUNDING = 2.0  # px: width over which a continued outline turns into its closing offset
 _OUTSIDE = -2  # beyond the image frame: no neighbour (zero normal derivative there)
@@ -142,7 +153,7 @@ class Completion:
         """(H, W) int32 image: the region hiding each invented pixel of ``region``, else -1."""
         return np.where(self.owner == region, self.labels, -1).astype(np.int32)
 
-    def ordered(self, relations, *, curvature=True, memo=None):
+    def ordered(self, relations, *, curvature=True, memo=None, gap=None):
         """Keep only the hidden parts under a region that is in front of them.
 
         Parameters
@@ -161,6 +172,10 @@ class Completion:
             Reshaped parts by ``(front, back, place)``, filled and reused:
             pass the same dict to every call on this completion and a
             changed order reshapes only the parts it adds.
+        gap : float, optional
+            Close the gaps up to this width (px) that an occluder's pixels
+            leave beside the parts hidden under it (:func:`close_gaps`);
+            default ``GAP`` times ``sqrt(H W)``; 0 leaves them.
 
         Returns
         -------
@@ -203,7 +218,107 @@ class Completion:
                 found = memo.get((front, back, p.index))
                 if piece.any() and found is not None:  # None: no outline of its own to continue
                     _apply_continuation(owner, back, found)
+        if gap is None or gap > 0:
+            close_gaps(self.labels, owner, {(front, back) for front, back, _, piece in kept
+                                            if piece.any()}, width=gap)
         return replace(self, owner=owner)
+
+
+def close_gaps(labels, owner, hidden, *, width=None):
+    """Give the pixels of an occluder in a narrow gap beside a part hidden under it to that part.
+
+    The completion leaves to an occluder ``A`` alone its pixels where no
+    neighbour's diffusion value reaches the threshold: a strip a few pixels
+    wide where two parts hidden under ``A`` (an arm's root and the body,
+    under a head) end short of each other, or where a hidden part ends short
+    of another region's outline. At rest ``A`` covers such a strip; when
+    ``A`` or the part beside it moves in a pose (an arm rooted in the head
+    swung away), the strip belongs to no part and the picture has a hole. A
+    pixel of ``A`` goes to a part hidden under ``A`` when it lies within
+    ``width / 2`` (rounded to whole pixels) of that hidden part and in a gap
+    between the other regions' completed areas (what their closing by a disk
+    of that radius adds). Of several such parts it goes to one the others are in
+    front of (``(front, back)`` in ``hidden``), else to the nearest: what a
+    part in front uncovers as it moves is the part behind it. A hidden
+    part's outline that faces only ``A`` stays as the completion continued it.
+
+    Parameters
+    ----------
+    labels : (H, W) int array
+    owner : (H, W) int32 array
+        The hidden parts (as :attr:`Completion.owner`); modified in place.
+    hidden : set of (int, int)
+        ``(front, back)`` pairs: ``back`` has a hidden part under ``front``.
+        Only these parts grow, each under its own occluder.
+    width : float, optional
+        The widest gap closed, in pixels; default ``GAP`` times ``sqrt(H W)``.
+
+    Returns
+    -------
+    int
+        The number of pixels given to a hidden part.
+
+    Examples
+    --------
+    Two bars hidden under a square end 2 px short of each other; the gap
+    closes but for its rounded ends, and nothing grows beyond it:
+
+    >>> import numpy as np
+    >>> labels = np.full((30, 40), -1, np.int32)
+    >>> labels[5:25, 10:30] = 2                         # the square in front
+    >>> labels[10:20, :10] = 0; labels[10:20, 30:] = 1  # two bars behind it
+    >>> owner = np.full(labels.shape, -1, np.int32)
+    >>> owner[10:20, 10:19] = 0; owner[10:20, 21:30] = 1
+    >>> close_gaps(labels, owner, {(2, 0), (2, 1)}, width=6)
+    16
+    >>> bool((owner[11:19, 10:30] >= 0).all()), int((owner >= 0).sum())
+    (True, 196)
+    """
+    width = GAP * np.sqrt(labels.size) if width is None else float(width)
+    if width <= 0:
+        return 0
+    r = max(int(round(width / 2.0)), 1)  # whole pixels: the disk keeps its shape
+    reach = float(r)
+    h, w = labels.shape
+    disk = np.hypot(*np.mgrid[-r:r + 1, -r:r + 1]) <= reach
+    under = {}
+    for front, back in hidden:
+        under.setdefault(front, set()).add(back)
+    given = 0
+    for a in sorted(under):
+        ys, xs = np.nonzero((labels == a) & np.isin(owner, sorted(under[a])))
+        if ys.size == 0:
+            continue
+        pad = 2 * r + 2  # the closing and the distances near the hidden parts see all they need
+        win = (slice(max(ys.min() - pad, 0), min(ys.max() + pad + 1, h)),
+               slice(max(xs.min() - pad, 0), min(xs.max() + pad + 1, w)))
+        lab, own = labels[win], owner[win]
+        free = (lab == a) & (own < 0)
+        if not free.any():
+            continue
+        # The gaps: what closing the other regions' completed areas adds to a's pixels.
+        others = ((lab >= 0) & (lab != a)) | (own >= 0)
+        gaps = free & ndimage.binary_closing(np.pad(others, r + 1), disk)[r + 1:-r - 1, r + 1:-r - 1]
+        backs = [b for b in sorted(under[a]) if (own == b).any()]
+        candidate, distance = [], []
+        for b in backs:
+            d = ndimage.distance_transform_edt((lab != a) | (own != b))  # from its part under a
+            # b's parts hidden under other occluders stay apart: the rig joins each on its own
+            apart = ndimage.binary_dilation((lab != a) & (own == b), np.ones((3, 3), bool))
+            candidate.append(gaps & (d <= reach) & ~apart)
+            distance.append(d)
+        candidate, distance = np.array(candidate), np.array(distance)
+        # A part with another candidate behind it is in front there: it comes second.
+        in_front = np.zeros(candidate.shape, bool)
+        for i, b in enumerate(backs):
+            for j, c in enumerate(backs):
+                if i != j and (b, c) in hidden:
+                    in_front[i] |= candidate[j]
+        score = np.where(candidate, distance + np.where(in_front, 2.0 * width + 1.0, 0.0), np.inf)
+        take = candidate.any(axis=0)
+        own[take] = np.asarray(backs)[np.argmin(score, axis=0)[take]]
+        given += int(take.sum())
+    return given
 
 
 def _two_at_a_time(calls):

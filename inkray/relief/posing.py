@@ -26,7 +26,9 @@ them:
   crown) and nothing else connects them, the smaller is glued to the larger
   over the overlap: the smallest overlaps (against the smaller part) first,
   each only if it joins two pieces the joins so far leave apart, so that a
-  limb in front of the body that is rooted elsewhere stays free to swing.
+  limb in front of the body that is rooted elsewhere stays free to swing;
+  overlaps that grip (glue three vertices or more, not on one line) come
+  before those that would only pin the part at a point it pivots about.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest (for a root also the vertices up to
@@ -435,6 +437,9 @@ def rig_relief(relief, completion, *, boundaries=()):
             k = root[k]
         return k
 
+    # Overlaps that grip (glue at least three vertices not on one line) go first: one that
+    # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
+    overlaps.sort(key=lambda o: not _grips(rig, o[0], o[1].part))
     for got, join in overlaps:
         touched = {find(int(k)) for k in np.unique(piece[got.tocoo().col])}
         if len(touched) > 1:
@@ -448,6 +453,18 @@ def rig_relief(relief, completion, *, boundaries=()):
         rig.glue = sp.vstack(rows).tocsr()
     rig.joins = joins
     return rig
+
+
+def _grips(rig, rows, part):
+    """Whether glue ``rows`` hold at least three vertices of ``part`` not on one line (within
+    ``_LOCATE_TOL``), so that they can hold its rotation as well as its place."""
+    i = rig.names.index(part)
+    cols = np.unique(rows.tocoo().col)
+    xy = rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]]
+    if len(xy) < 3:
+        return False
+    spread = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return bool(spread[1] / np.sqrt(len(xy)) > _LOCATE_TOL)
 
 
 def _once_per_vertex(rig, rows, joins):
@@ -507,7 +524,7 @@ def front_mesh(part):
     f = np.asarray(part.faces, np.int64).reshape(-1, 3)
     xy, inverse = np.unique(np.round(v[:, :2], 9), axis=0, return_inverse=True)
     inverse = _weld(xy, inverse.reshape(-1))
-    top = np.full(len(xy), -np.inf)
+    top = np.full(inverse.max() + 1, -np.inf)
     np.maximum.at(top, inverse, v[:, 2])
     on_top = v[:, 2] >= top[inverse] - 1e-9
     _, copy = np.unique(inverse[on_top], return_index=True)

@@ -10,7 +10,8 @@ rings holds pixel by pixel), and its colour is the part's completed cut-out
 layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
 through the affine map of the triangle that covers it. Each part's front
 mesh is scan-converted on its own so that it covers every pixel centre in it
-exactly once (no cracks between its triangles), and a band of ``_SKIRT`` px
+exactly once (no cracks between its triangles; where a pose folds a strip of
+a part over the part itself, its highest triangle), and a band of ``_SKIRT`` px
 around it carries the part's layer beyond its triangles (the triangles follow
 the outline, the layer the ink's anti-aliasing). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
@@ -422,6 +423,7 @@ class _PartSource:
         for chosen in (slice(inner, None), slice(0, inner)):
             pix, tri = _scan(local, faces[chosen], (bw, bh))
             frags[pix] = tri + chosen.start
+        _highest(frags, pix, tri, local, faces, z, bw)
         pix = np.flatnonzero(frags >= 0)
         if not pix.size:
             return None
@@ -437,6 +439,28 @@ class _PartSource:
         keep = rgba[:, 3] > 0
         flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
         return flat, at[keep, 0], rgba[keep]
+
+
+def _highest(frags, pix, tri, points, faces, z, width):
+    """Where a part's posed triangles overlap each other, the highest one's: ``frags`` in place.
+
+    A pose can fold a strip of a mesh over its own interior with every
+    triangle kept the right way round (a border held by its glue while the
+    part turns); the strip, lower than the interior it slides over (an
+    inflated part is lowest at its outline), goes under it, as a part under
+    another does, instead of whichever triangle was scanned last.
+    """
+    many = np.bincount(pix, minlength=frags.size)[pix] > 1
+    if not many.any():
+        return
+    pix, tri = pix[many], tri[many]
+    k = _affine(points, faces[tri], z[:, None])
+    row, col = np.divmod(pix, width)
+    height = k[:, 0] * col + k[:, 1] * row + k[:, 2]
+    order = np.lexsort((height, pix))
+    pix, tri = pix[order], tri[order]
+    top = np.r_[pix[1:] != pix[:-1], True]
+    frags[pix[top]] = tri[top]
 
 
 class _Skirt:
