@@ -19,10 +19,12 @@ from inkray.formats.meshes import export_relief
 from inkray.input.loading import load_input
 
 # Drawings whose solid keeps slivers (smallest angle in degrees) or faces crossing
-# another (how many, exact in double precision), measured with bench_union.py: none
-# since outlines of different parts within a pixel are made to coincide.
-SLIVERS = {}
-CROSSINGS = {}
+# another (how many, exact in double precision), measured with bench_union.py: the
+# donkey's closed parts themselves now carry needles (its near hind leg 148 faces
+# under 1 degree at 1 Mpx), which the union's remeshing does not shape either with
+# or without the snapping of outlines.
+SLIVERS = {"donkey": 0.2}
+CROSSINGS = {"donkey": 56}
 
 
 @lru_cache(maxsize=None)
