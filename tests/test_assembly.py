@@ -317,3 +317,46 @@ def test_union_is_remeshed_only_around_its_slivers():
     # every face far from the booleans' slivers is in the solid as it was, bit for bit
     kept = {tuple(sorted(map(tuple, tri))) for tri in solid.vertices[solid.faces].tolist()}
     assert all(tuple(sorted(map(tuple, tri))) in kept for tri in t[far].tolist())
+
+
+def test_outlines_within_a_pixel_of_each_other_are_made_to_coincide():
+    low, high = _box(0.0, 6.0, 1.0, "low"), _box(6.4, 12.4, 3.0, "high")  # 0.4 apart
+    high.vertices[:, 2] -= 0.5  # (the two slabs meet in height)
+    v, f = _envelope_solid([low, high], 0.0, 1.0)
+    q = mesh_quality(v, f)
+    assert q["watertight"] and q["shells"] == 1 and q["self_intersecting_faces"] == 0
+    # closed form: the high box's near side moved onto the low box's (x = 6), no slot
+    assert -q["volume"] == pytest.approx(4.0 * (6.0 * 1.0 + 6.4 * 3.0), rel=1e-12)
+    assert not ((v[:, 0] > 6.0) & (v[:, 0] < 7.4)).any()
+
+
+def test_a_part_floating_over_another_by_a_sliver_is_kept_clear_of_it():
+    low, high = _box(0.0, 6.0, 1.0, "low"), _box(5.7, 11.7, 5.0, "high")  # 0.3 over it
+    high.vertices[:, 2] += 3.0  # floats from 3 to 8 over the low one (0 to 1)
+    high.vertices[:, 1] = 1.0 + 0.5 * high.vertices[:, 1]  # y in [1, 3]
+    v, f = _envelope_solid([low, high], 0.0, 0.0)
+    assert mesh_quality(v, f)["shells"] == 1  # joined by a column 0.3 px wide
+    v, f = _envelope_solid([low, high], 0.0, 1.0)
+    q = mesh_quality(v, f)
+    assert q["watertight"] and q["shells"] == 2 and q["self_intersecting_faces"] == 0
+    # closed form: the high box's near side half a pixel clear of the low box (x = 6.5)
+    assert v[v[:, 2] > 1.0, 0].min() == pytest.approx(6.5, abs=1e-12)
+    assert -q["volume"] == pytest.approx(4.0 * 6.0 * 1.0 + 2.0 * 5.2 * 5.0, rel=1e-12)
+
+
+def test_a_hole_smaller_than_the_fill_area_is_filled():
+    box = _box(0.0, 4.0, 2.0, "holed")
+    front = box.faces[:32]  # the front's 4 x 4 cells come first (then the back, the walls)
+    # cut the front's unit cell at (1..2, 1..2) out (and its back), closing the part again
+    v = box.vertices[:25]
+    centre = v[front][:, :, :2].mean(axis=1)
+    cell = ((centre > 1.0) & (centre < 2.0)).all(axis=1)
+    holed = close_part(Part("holed", v, front[~cell]), np.zeros(len(v)))
+    open_v, open_f = _envelope_solid([holed], 0.0, 0.0)
+    assert -mesh_quality(open_v, open_f)["volume"] == pytest.approx(2.0 * 15.0, rel=1e-12)
+    filled_v, filled_f = _envelope_solid([holed], 0.0, 0.0, fill=1.5)
+    q = mesh_quality(filled_v, filled_f)
+    assert q["watertight"] and q["shells"] == 1
+    assert -q["volume"] == pytest.approx(2.0 * 16.0, rel=1e-12)  # the unit hole filled
+    kept_v, kept_f = _envelope_solid([holed], 0.0, 0.0, fill=0.5)  # larger than the fill
+    assert -mesh_quality(kept_v, kept_f)["volume"] == pytest.approx(2.0 * 15.0, rel=1e-12)

@@ -17,7 +17,8 @@ consistently oriented; ``union=True`` makes one solid of them for 3D
 printing: the space between the highest front and the lowest back over the
 union of the parts' outlines, which joins a part floating in front of the
 part behind it to it, built with the booleans of the Manifold library
-(manifold3d, exact in their topology); only the faces
+(manifold3d, exact in their topology) once outlines of different parts that
+run within :data:`SNAP` of each other are made to coincide exactly; only the faces
 around the slivers its cuts leave (and the parts' own) are remeshed
 (PyMeshLab's isotropic remeshing of those faces alone), then flipped,
 collapsed or split, the patches around faces still bad re-triangulated.
@@ -36,7 +37,7 @@ from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
-           "MIN_ANGLE", "SKIRT"]
+           "MIN_ANGLE", "SKIRT", "SNAP"]
 
 #: Smallest triangle angle (degrees) the union's remeshing aims for.
 MIN_ANGLE = 10.0
@@ -46,6 +47,9 @@ _ITERATIONS = 4  # of that remeshing
 #: How far (pixels) each part's front and back reach beyond its outline in the union:
 #: two parts' outlines less than twice this apart leave no slot between their fronts.
 SKIRT = 0.3
+#: How near (pixels) outlines of different parts are made to coincide before the booleans
+#: (or, where the parts' slabs do not meet in height, kept half this apart).
+SNAP = 1.5
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -157,7 +161,7 @@ def _prism(vertices, faces, z):
             np.concatenate([faces, faces[:, ::-1] + n, walls]))
 
 
-def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
+def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     """One watertight solid over the union of closed parts' outlines.
 
     Every closed part is a slab over the image plane: over its outline it
@@ -170,13 +174,25 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
     coincident faces decided by symbolic perturbation): the union of every part with
     its back lowered below all parts (the space under ``T``), intersected
     with the union of every part with its front raised above all parts (the
-    space over ``B``). Every part's front and back reach :data:`SKIRT` beyond
-    its outline (the outline's vertices moved outward at their own height):
-    where outlines of different parts run within a pixel, the cuts would
-    leave a slot of the solid's height under a pixel wide. Its faces are the
-    parts' own, cut where they meet, so it has about as many faces as the
-    parts and follows their fronts (within the skirt at the rims); only the faces around the slivers the cuts leave (and the
-    parts' own) are remeshed.
+    space over ``B``). Where outlines of different parts nearly meet, the
+    cuts would leave a slot or a column of the solid's height under a
+    pixel wide, whose slivers no remeshing shapes: every part's front and
+    back reach :data:`SKIRT` beyond its outline (the outline's vertices
+    moved outward at their own height), then outlines within :data:`SNAP`
+    of an earlier part's outline are made to coincide with it exactly
+    (vertices moved onto it, its vertices put into them), which the
+    booleans decide by symbolic perturbation; where the two parts' slabs do
+    not meet in height there (a part floating in front of another) the
+    later outline is moved half :data:`SNAP` clear of the other instead, as
+    the two would touch along a line. With snapping, holes of a part's
+    outline smaller than one of the remeshing's triangles (a pipe through
+    the solid) are filled. Pieces with under a hundredth of the
+    smallest part's volume (splinters, or a part's tip cut off at a neck
+    narrower than a pixel) are dropped. Its faces are the parts' own, cut
+    where they meet, so it has about as many faces as the parts and follows
+    their fronts (within the skirt and the snapping at the rims); only the
+    faces around the slivers the cuts leave (and the parts' own) are
+    remeshed.
 
     Parameters
     ----------
@@ -188,12 +204,15 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
         Remesh the faces around those with an angle below :data:`MIN_ANGLE`
         (:func:`remesh_solid`) toward edges as long as the parts' median
         edge (the relief's own resolution).
-
     skirt : float, default :data:`SKIRT`
         How far (pixels) every part's front and back reach beyond its outline
         at the outline's height: where outlines of different parts run less
         than twice this apart, the booleans would leave a slot or column
-        under a pixel wide (slivers no remeshing shapes); 0 gives the
+        under a pixel wide (slivers no remeshing shapes).
+    snap : float, default :data:`SNAP`
+        How near (pixels) outlines of different parts are made to coincide
+        (or kept apart, where their slabs do not meet in height); 0 also
+        keeps small holes. With ``skirt`` and ``snap`` 0 the solid is the
         envelope exactly.
 
     Returns
@@ -218,44 +237,376 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT):
     """
     edges = np.concatenate([np.linalg.norm(p.vertices[p.faces] - p.vertices[np.roll(p.faces, 1, 1)],
                                            axis=2).ravel() for p in parts])
-    verts, faces = _envelope_solid(parts, skirt)
+    target = float(np.median(edges))
+    # a hole smaller than one of the remeshing's triangles is a pipe it cannot shape
+    fill = np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0
+    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill)
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=float(np.median(edges)))
+        verts, faces = remesh_solid(verts, faces, target=target)
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, skirt):
+def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
-    ``skirt`` (see union_parts)."""
-    import manifold3d as m3d
-
+    ``skirt``, outlines within ``snap`` of each other made to coincide, holes of a
+    part's outline under ``fill`` (square pixels) filled (see union_parts)."""
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
     margin = max(1.0, float(np.ptp(z)))
     xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
     box = xy.min(axis=0), xy.max(axis=0)  # no skirt reaches beyond the parts (the drawing)
-    below, above = [], []
+    fronts, backs, pairs = [], [], []
     for p in parts:
         v, front, back = _sheets(p)
         if not (len(front) and len(back)):
             raise StageError(f"union: part {p.name} is not a closed slab (a front over a back)")
-        # the space under the part's front and the space over its back, each reaching a
-        # skirt beyond the outline (no slot narrower than a pixel between two parts)
-        below.append(_manifold(*_prism(*_skirted(*_compact(v, front), skirt, box),
-                                       z.min() - margin), p.name))
-        above.append(_manifold(*_prism(*_skirted(*_compact(v, back), skirt, box),
-                                       z.max() + margin), p.name))
+        fronts.append(_skirted(*_compact(v, front), skirt, box))
+        backs.append(_skirted(*_compact(v, back), skirt, box))
+        pairs.append(_paired(v, front, back))
+    paired = all(x is not None for x in pairs)
+    if paired:
+        # a front's and its back's outlines kept at the very same (x, y): walls a
+        # rounding error apart would be cut into slivers
+        sheets = [_skirted(*_filled(*x, fill), skirt, box) for x in pairs]
+    for join in (True, False):
+        if paired:
+            snapped = _snapped(sheets, snap, join_covered=join) if snap else sheets
+            below = [(s[:, :3], f) for s, f in snapped]
+            above = [(s[:, [0, 1, 3]], f[:, ::-1]) for s, f in snapped]
+        else:
+            below, above = fronts, backs
+            if snap:
+                below, above = _snapped(fronts, snap), _snapped(backs, snap)
+        verts, faces = _booleans(parts, below, above, z.min() - margin, z.max() + margin)
+        if not (snap and paired and join and _twins(verts)):
+            break
+        # two vertices at one position: walls made to coincide under a third part still
+        # touch at a point; those places are left as they are
+    return verts, faces
+
+
+def _booleans(parts, fronts, backs, floor, ceiling):
+    """The union of the spaces under the ``fronts`` (down to ``floor``) intersected with
+    the union of those over the ``backs`` (up to ``ceiling``), less pieces too small to
+    be a part. Returns vertices, faces."""
+    import manifold3d as m3d
+
+    below = [_manifold(*_prism(*s, floor), p.name) for s, p in zip(fronts, parts)]
+    above = [_manifold(*_prism(*s, ceiling), p.name) for s, p in zip(backs, parts)]
     solid = (m3d.Manifold.batch_boolean(below, m3d.OpType.Add)
              ^ m3d.Manifold.batch_boolean(above, m3d.OpType.Add))
     pieces = solid.decompose()
     if len(pieces) > 1:
-        # a piece under a pixel across is a splinter the cuts leave where outlines
-        # nearly meet, not a part of the drawing
-        box = np.array([p.bounding_box() for p in pieces])
-        wide = (box[:, 3:5] - box[:, 0:2] >= 1.0).any(axis=1)
-        solid = m3d.Manifold.compose([p for p, w in zip(pieces, wide) if w])
+        # a piece with under a hundredth of the smallest part's volume is no part of
+        # the drawing: a splinter the cuts leave where outlines nearly meet, or a tip
+        # of a part's triangulation cut off at a neck narrower than a pixel
+        least = min(abs(_volume(p.vertices, p.faces)) for p in parts)
+        solid = m3d.Manifold.compose([p for p in pieces if p.volume() >= 0.01 * least])
     mesh = solid.to_mesh64()
     verts = np.array(mesh.vert_properties, float)[:, :3]
     return verts, np.array(mesh.tri_verts, np.int64)[:, ::-1]
+
+
+def _snapped(sheets, reach, *, join_covered=True):
+    """Open sheets whose outlines are made to coincide exactly where they run within
+    ``reach`` of each other.
+
+    Each sheet in turn: its outline vertices within ``reach`` of an earlier sheet's
+    outline move onto it (onto that outline's vertex where the nearest point is within
+    half ``reach`` of one), where a neighbour along the outline moves too (two
+    outlines meeting at one point would pinch the union), and the earlier outlines'
+    vertices within ``reach`` of an edge that moved are put into it; then every
+    outline vertex lying on another sheet's outline edge is put into that edge.
+    Near-coincident stretches become identical polylines, which the booleans decide
+    exactly (symbolic perturbation) rather than leaving a slot or column narrower than
+    ``reach`` between them. Sheets with a fourth column (the back's height under the
+    front, see ``_paired``) whose heights do not meet the other's there are moved
+    half ``reach`` clear of it instead, unless a third sheet covers the place: then
+    they coincide too (``join_covered``) or stay. A move or an insertion that would fold or
+    flatten a triangle of its sheet (in ``(x, y)``) is left out. Returns the list of
+    ``(vertices, faces)``.
+    """
+    done, outlines = [], []
+    rims = [_outline_segments(v, f) for v, f in sheets]
+    for v, f in sheets:
+        if done:
+            a, b = _boundary_edges(f).T
+            on = np.unique(a)
+            s0, s1, out = (np.concatenate(x) for x in zip(*outlines))
+            owner = np.repeat(np.arange(len(outlines)), [len(x[0]) for x in outlines])
+            c, dist, seg, t = _closest_on(v[on, :2], s0[:, :2], s1[:, :2], reach)
+            found = np.isfinite(dist)
+            k = np.maximum(seg, 0)
+            # onto a vertex of the other outline when one is near (no edge of a few
+            # hundredths of a pixel beside it)
+            length = np.linalg.norm(s1[k, :2] - s0[k, :2], axis=1)
+            start, end = t * length < 0.5 * reach, (1.0 - t) * length < 0.5 * reach
+            q = c.copy()
+            q[start], q[end & ~start] = s0[k[start], :2], s1[k[end & ~start], :2]
+            apart = np.zeros(len(on), bool)
+            if v.shape[1] > 3:
+                # slabs whose heights do not meet there (a part floating in front of
+                # another) would touch along a line: this outline is kept half
+                # ``reach`` clear of the other instead (nothing fills the slot between)
+                z = s0[k, 2:] + t[:, None] * (s1[k, 2:] - s0[k, 2:])
+                apart = found & ((v[on, 3] > z[:, 0]) | (z[:, 1] > v[on, 2]))
+                # where a third part covers the place its slab spans the slot: they are
+                # made to coincide (with ``join_covered``) or left as they are
+                covered = np.zeros(len(on), bool)
+                for m, x in enumerate(rims):
+                    third = apart & ~covered & (owner[k] != m)
+                    if m != len(done) and third.any():
+                        covered[third] = _inside(c[third], x[0][:, :2], x[1][:, :2])
+                if not join_covered:
+                    found &= ~covered
+                apart &= ~covered
+                clear = np.einsum("ij,ij->i", v[on, :2] - c, out[k])
+                q[apart] = c[apart] + 0.5 * reach * out[k[apart]]
+                found &= ~apart | (clear < 0.5 * reach)
+            w = np.array(v, float)
+            w[on, :2] = np.where(found[:, None], q, w[on, :2])
+            snapped = np.zeros(len(v), bool)
+            snapped[on[found & ~apart]] = True
+            for _ in range(len(on)):  # (undoing a move may fold a triangle, or leave one alone)
+                u = _runs(v, _unfolded(v, w, f), a, b, snapped)
+                if np.array_equal(u, w):
+                    break
+                w = u
+            moved = snapped & (w != v).any(axis=1)
+            v, f = _inserted(w, f, s0[:, :2], reach, clear=0.5 * reach, near=moved)
+        done.append((v, f))
+        outlines.append(_outline_segments(v, f))
+    out = []
+    for k, (v, f) in enumerate(done):
+        others = [x[0][:, :2] for j, x in enumerate(outlines) if j != k]
+        if others:
+            # (every outline vertex is the start of one of its edges)
+            on = 1e-7 * max(1.0, float(np.abs(v[:, :2]).max()))
+            v, f = _inserted(v, f, np.concatenate(others), on, clear=on)
+        out.append((v, f))
+    return out
+
+
+def _outline_segments(vertices, faces):
+    """A sheet's outline edges: their start and end vertices (rows of ``vertices``) and
+    their outward unit normals in ``(x, y)``."""
+    a, b = _boundary_edges(faces).T
+    return vertices[a], vertices[b], _outward(vertices, faces, a, b)
+
+
+def _inside(points, s0, s1):
+    """Which ``points`` lie inside the closed outline made of the segments ``s0 -> s1``
+    (the even-odd rule)."""
+    if not len(points):
+        return np.zeros(0, bool)
+    px, py = points[:, :1], points[:, 1:]
+    x0, y0, x1, y1 = s0[:, 0], s0[:, 1], s1[:, 0], s1[:, 1]
+    straddle = (y0 > py) != (y1 > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cross = x0 + (py - y0) * (x1 - x0) / (y1 - y0)
+    return ((straddle & (px < cross)).sum(axis=1) % 2).astype(bool)
+
+
+def _outward(vertices, faces, a, b):
+    """Outward unit normals (in ``(x, y)``) of a sheet's outline edges ``a -> b``."""
+    t = vertices[faces][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    turn = np.sign((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())  # the faces' winding
+    d = vertices[b, :2] - vertices[a, :2]
+    return turn * np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+
+
+def _closest_on(points, s0, s1, reach):
+    """For each point, the closest point on the segments ``s0 -> s1`` within ``reach``:
+    that point, its distance (inf where none is that near), the segment and the
+    parameter along it (-1 and nan where none)."""
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    q, dist = np.array(points, float), np.full(n, np.inf)
+    seg, t = np.full(n, -1), np.full(n, np.nan)
+    if not len(s0) or not n:
+        return q, dist, seg, t
+    half = 0.5 * float(np.linalg.norm(s1 - s0, axis=1).max())
+    near = cKDTree(0.5 * (s0 + s1)).query_ball_point(points, reach + half)
+    i = np.repeat(np.arange(n), [len(x) for x in near])
+    if not len(i):
+        return q, dist, seg, t
+    j = np.concatenate([np.asarray(x, np.int64) for x in near])
+    d = s1[j] - s0[j]
+    squared = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    u = np.clip(np.einsum("ij,ij->i", points[i] - s0[j], d) / squared, 0.0, 1.0)
+    c = s0[j] + u[:, None] * d
+    r = np.linalg.norm(points[i] - c, axis=1)
+    order = np.lexsort((r, i))
+    first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
+    keep = first[r[first] <= reach]
+    q[i[keep]], dist[i[keep]], seg[i[keep]], t[i[keep]] = c[keep], r[keep], j[keep], u[keep]
+    return q, dist, seg, t
+
+
+def _runs(before, after, a, b, snapped):
+    """``after`` with the move of every ``snapped`` outline vertex undone where neither
+    neighbour along the outline ``a -> b`` moved (two outlines meeting at one point
+    would pinch the union there)."""
+    w = np.array(after, float)
+    moved = (w != before).any(axis=1)
+    following, preceding = np.arange(len(w)), np.arange(len(w))
+    following[a], preceding[b] = b, a
+    alone = snapped & moved & ~moved[following] & ~moved[preceding]
+    w[alone] = before[alone]
+    return w
+
+
+def _signed_areas(vertices, faces):
+    """Twice the signed areas of triangles in ``(x, y)``."""
+    t = vertices[faces][:, :, :2]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+
+
+def _unfolded(before, after, faces, keep=0.05):
+    """``after`` with the moves of the corners of every triangle they fold or flatten
+    (its area in ``(x, y)`` below ``keep`` of what it was, or of the other sign) undone."""
+    a0 = _signed_areas(before, faces)
+    w = np.array(after, float)
+    for _ in range(len(w)):
+        bad = _signed_areas(w, faces) / np.where(a0 == 0.0, 1.0, a0) < keep
+        if not bad.any():
+            break
+        corners = np.unique(faces[bad])
+        w[corners] = before[corners]
+    return w
+
+
+def _inserted(vertices, faces, points, reach, *, clear, near=None):
+    """A sheet with ``points`` (k, 2) within ``reach`` of an outline edge and farther
+    than ``clear`` from its ends put into that edge, at heights interpolated along
+    it, the edge's triangle split into a fan; an edge whose fan would fold or
+    flatten a triangle keeps its points out. With ``near`` (a flag per vertex), only
+    edges with a flagged end take points."""
+    v = np.asarray(vertices, float)
+    edges = _boundary_edges(faces)
+    if near is not None:
+        edges = edges[near[edges].any(axis=1)]
+    if not len(edges):
+        return v, faces
+    s0, s1 = v[edges[:, 0], :2], v[edges[:, 1], :2]
+    points = np.unique(points, axis=0)
+    _, dist, seg, t = _closest_on(points, s0, s1, reach)
+    length = np.linalg.norm(s1 - s0, axis=1)[np.maximum(seg, 0)]
+    take = np.isfinite(dist) & (t * length > clear) & ((1.0 - t) * length > clear)
+    if not take.any():
+        return v, faces
+    # the triangle along each outline edge and its third corner
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    third = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
+    face = np.tile(np.arange(len(faces)), 3)
+    key = {(int(x), int(y)): k for k, (x, y) in enumerate(e.tolist())}
+    new_v, new_f, drop = [], [], set()
+    count = len(v)
+    a0 = _signed_areas(v, faces)
+    idx = np.flatnonzero(take)
+    for s in np.unique(seg[idx]).tolist():
+        mine = idx[seg[idx] == s]
+        mine = mine[np.argsort(t[mine])]
+        a, b = edges[s]
+        k = key[(int(a), int(b))]
+        if face[k] in drop:
+            continue  # (a triangle with two outline edges is split along one)
+        c = int(third[k])
+        pz = v[a, 2:] + t[mine][:, None] * (v[b, 2:] - v[a, 2:])
+        pts = np.column_stack([points[mine], pz])
+        chain = [int(a)] + list(range(count, count + len(mine))) + [int(b)]
+        fan = np.array([[chain[m], chain[m + 1], c] for m in range(len(chain) - 1)])
+        w = np.concatenate([v, *new_v, pts]) if new_v else np.concatenate([v, pts])
+        ratio = _signed_areas(w, fan) / a0[face[k]]
+        if (ratio <= 0.0).any() or (np.abs(ratio) < 1e-9).any():
+            continue
+        new_v.append(pts)
+        new_f.append(fan)
+        drop.add(int(face[k]))
+        count += len(mine)
+    if not new_f:
+        return v, faces
+    keep = np.ones(len(faces), bool)
+    keep[sorted(drop)] = False
+    return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
+
+
+def _filled(vertices, faces, area):
+    """A sheet with the holes of its outline smaller than ``area`` triangulated (no new
+    vertex): a pipe through the solid that narrow is no feature the remeshing at the
+    relief's resolution can shape."""
+    import triangle
+
+    if not area:
+        return vertices, faces
+    a, b = _boundary_edges(faces).T
+    following = dict(zip(a.tolist(), b.tolist()))
+    turn = np.sign(_signed_areas(vertices, faces).sum())
+    seen, added = set(), []
+    for start in a.tolist():
+        if start in seen:
+            continue
+        loop = [start]
+        while following[loop[-1]] != start and len(loop) <= len(a):
+            loop.append(following[loop[-1]])
+        seen.update(loop)
+        p = vertices[loop, :2]
+        signed = 0.5 * float((p[:, 0] * np.roll(p[:, 1], -1)
+                              - np.roll(p[:, 0], -1) * p[:, 1]).sum())
+        if signed * turn >= 0.0 or abs(signed) >= area or len(loop) < 3:
+            continue  # the outer outline (it runs as the faces do), or a large hole
+        k = np.arange(len(loop))
+        try:
+            out = triangle.triangulate(
+                {"vertices": p, "segments": np.column_stack([k, np.roll(k, -1)])}, "pQ")
+        except RuntimeError:
+            continue
+        if len(out["vertices"]) != len(loop):
+            continue
+        tris = np.asarray(loop)[np.asarray(out["triangles"], np.int64)]
+        flip = np.sign(_signed_areas(vertices, tris)) != turn
+        tris[flip] = tris[flip][:, ::-1]
+        added.append(tris)
+    if not added:
+        return vertices, faces
+    return vertices, np.concatenate([faces, *added])
+
+
+def _volume(vertices, faces):
+    """The signed volume a closed triangle mesh encloses."""
+    t = np.asarray(vertices, float)[np.asarray(faces)]
+    return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum()) / 6.0
+
+
+def _paired(vertices, front, back):
+    """A closed slab's front and back sheets as one: its vertices' ``x, y``, front and
+    back heights, and the front faces; None unless the back is the front's
+    triangulation reversed, vertex for vertex at the same ``(x, y)``."""
+    fv, ff = _compact(vertices, front)
+    bv, bf = _compact(vertices, back)
+    if len(fv) != len(bv) or len(ff) != len(bf):
+        return None
+    ids = _position_ids(np.concatenate([fv[:, :2], bv[:, :2]]))
+    mine, theirs = ids[:len(fv)], ids[len(fv):]
+    at = np.full(int(ids.max()) + 1, -1)
+    at[mine] = np.arange(len(fv))
+    to = at[theirs]
+    if len(np.unique(mine)) < len(fv) or (to < 0).any():
+        return None
+    if not np.array_equal(_rotated(to[bf][:, ::-1]), _rotated(ff)):
+        return None
+    back_z = np.empty(len(fv))
+    back_z[to] = bv[:, 2]
+    return np.column_stack([fv, back_z]), ff
+
+
+def _rotated(faces):
+    """Faces each started at its smallest corner (orientation kept), sorted."""
+    first = np.argmin(faces, axis=1)
+    f = faces[np.arange(len(faces))[:, None], (first[:, None] + np.arange(3)) % 3]
+    return f[np.lexsort(f.T[::-1])]
 
 
 def _skirted(vertices, faces, width, box):
@@ -267,11 +618,7 @@ def _skirted(vertices, faces, width, box):
     a, b = _boundary_edges(faces).T
     if not width or not len(a):
         return v, faces
-    t = v[faces][:, :, :2]
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    turn = np.sign((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())  # the faces' winding
-    d = v[b, :2] - v[a, :2]
-    out = turn * np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+    out = _outward(v, faces, a, b)
     miter = np.zeros((len(v), 2))
     np.add.at(miter, a, out)
     np.add.at(miter, b, out)
