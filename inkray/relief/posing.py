@@ -200,10 +200,10 @@ class Rig:
         e, f = self.vertices[j] - self.vertices[i], positions[j] - positions[i]
         dot = np.einsum("ij,ij->i", e, f)
         cross = e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
-        cs = np.zeros((len(self.vertices), 2))
-        np.add.at(cs, i, np.column_stack([dot, cross]))
-        np.add.at(cs, j, np.column_stack([dot, cross]))
-        angle = np.arctan2(cs[:, 1], cs[:, 0])
+        ends, n = np.concatenate([i, j]), len(self.vertices)
+        c = np.bincount(ends, np.concatenate([dot, dot]), minlength=n)
+        s = np.bincount(ends, np.concatenate([cross, cross]), minlength=n)
+        angle = np.arctan2(s, c)
         return np.column_stack([np.cos(angle), np.sin(angle)])
 
     def folds(self, positions):
