@@ -10,7 +10,7 @@ from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.tri_intersection import self_intersecting_faces
 from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _envelope_solid,
-                                    _min_angles, _untangle, assemble, close_part, remesh_solid,
+                                    _min_angles, _signed_areas, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
 from inkray.errors import StageError
@@ -259,6 +259,21 @@ def test_a_slot_narrower_than_two_skirts_between_parts_is_filled():
     # ([0, 12.4] x [0, 4], the drawing), the high one over the slot: 4 x (6.1 x 1 + 6.3 x 3)
     assert -q["volume"] == pytest.approx(4.0 * (6.1 + 18.9), rel=1e-12)
     assert np.ptp(v[:, :2], axis=0) == pytest.approx([12.4, 4.0])
+
+
+def test_the_skirt_folds_no_triangle_at_a_sharp_spike():
+    # a sheet around a spike of an outline (an eye's, in a drawing): its tip's move of
+    # up to two skirts along the miter would fold the triangle with the interior vertex
+    # 0.04 px from it, a sheet crossing itself, which pinches the booleans' solid
+    xy = [[0.841, -3.197], [0.278, -0.169], [0.19, 0.31], [-1.584, -1.36], [1.524, 0.307],
+          [0.866, 3.903], [0.861, -3.193], [0.297, -0.165], [0.203, 0.35], [-1.597, -1.346]]
+    v = np.column_stack([xy, np.ones(10), np.zeros(10)])
+    f = np.array([[7, 4, 6], [4, 8, 5], [4, 7, 8], [2, 3, 9], [0, 1, 7], [1, 2, 8],
+                  [2, 9, 8], [1, 8, 7]])
+    w, g = _skirted(v, f, 0.3, (np.full(2, -50.0), np.full(2, 50.0)))
+    assert (np.sign(_signed_areas(w, g)) == np.sign(_signed_areas(v, f))).all()
+    moved = np.linalg.norm(w[:, :2] - v[:, :2], axis=1)
+    assert moved.max() <= 0.6 + 1e-12 and (moved > 0.0).sum() >= 6  # the rest still skirted
 
 
 def test_untangle_moves_a_vertex_pushed_through_the_solid_back():

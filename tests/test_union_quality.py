@@ -22,11 +22,9 @@ from inkray.input.loading import load_input
 # another (how many, exact in double precision), measured on pickled parts: on the
 # donkey's current parts the booleans' solid pinches (two vertices at one position,
 # 13 at (342, 420) at 1 Mpx, with the skirt alone as with the snapping), and the
-# remeshing around the pinches leaves slivers and crossing faces. The dragon's solid keeps
-# slivers and crossing faces since the learned order with the ink spur changed its
-# stacking (clean, in 7 s, under the order model without it).
-SLIVERS = {"donkey": 0.2, "dragon": 0.0}
-CROSSINGS = {"donkey": 56, "dragon": 5}
+# remeshing around the pinches leaves slivers and crossing faces.
+SLIVERS = {"donkey": 0.2}
+CROSSINGS = {"donkey": 56}
 
 
 @lru_cache(maxsize=None)

@@ -627,8 +627,11 @@ def _skirted(vertices, faces, width, box):
     on = np.unique(np.r_[a, b])
     m = miter[on] / np.maximum(np.linalg.norm(miter[on], axis=1), 1e-12)[:, None]
     cos = np.einsum("ij,ij->i", m, into[on])
-    v[on, :2] = np.clip(v[on, :2] + m * (width / np.maximum(cos, 0.5))[:, None], *box)
-    return v, faces
+    w = v.copy()
+    w[on, :2] = np.clip(v[on, :2] + m * (width / np.maximum(cos, 0.5))[:, None], *box)
+    # a notch narrower than twice the width closes over itself: its corners stay
+    # where they were rather than fold a triangle (a sheet crossing itself)
+    return _unfolded(v, w, faces), faces
 
 
 def _compact(vertices, faces):
