@@ -23,8 +23,8 @@ from inkray.input.loading import load_input
 # donkey's current parts the booleans' solid pinches (two vertices at one position,
 # 13 at (342, 420) at 1 Mpx, with the skirt alone as with the snapping), and the
 # remeshing around the pinches leaves slivers and crossing faces.
-SLIVERS = {"donkey": 0.2}
-CROSSINGS = {"donkey": 56}
+SLIVERS = {"donkey": 0.8}
+CROSSINGS = {"donkey": 86}
 
 
 @lru_cache(maxsize=None)
