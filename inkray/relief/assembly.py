@@ -613,7 +613,8 @@ def _skirted(vertices, faces, width, box):
     """A sheet whose outline vertices are moved outward (in ``(x, y)``, at their own
     height) so that every outline edge lies ``width`` beyond where it was (up to twice
     that at a sharp corner, where the move is cut short), kept within ``box`` (the
-    lowest and highest ``(x, y)``). Returns vertices, faces."""
+    lowest and highest ``(x, y)``), except the corners of a triangle the moves would
+    fold or flatten. Returns vertices, faces."""
     v = np.array(vertices, float)
     a, b = _boundary_edges(faces).T
     if not width or not len(a):
@@ -629,8 +630,9 @@ def _skirted(vertices, faces, width, box):
     cos = np.einsum("ij,ij->i", m, into[on])
     w = v.copy()
     w[on, :2] = np.clip(v[on, :2] + m * (width / np.maximum(cos, 0.5))[:, None], *box)
-    # a notch narrower than twice the width closes over itself: its corners stay
-    # where they were rather than fold a triangle (a sheet crossing itself)
+    # a corner's move (up to twice the width at a spike) can pass a vertex beside it
+    # and fold a triangle: a sheet crossing itself pinches the booleans' solid, so
+    # the corners of a triangle it would fold or flatten stay where they were
     return _unfolded(v, w, faces), faces
 
 
