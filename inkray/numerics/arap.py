@@ -38,7 +38,8 @@ from scipy.sparse.linalg import splu
 
 from inkray.numerics.spd import spd_factor
 
-__all__ = ["Arap", "arap", "arap_energy", "signed_areas", "cotangent_weights", "pieces"]
+__all__ = ["Arap", "arap", "arap_energy", "best_rotations", "signed_areas", "cotangent_weights",
+           "pieces"]
 
 
 def signed_areas(vertices, faces):
@@ -176,7 +177,7 @@ class Arap:
             raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
         self._weights = self._cot * k[:, None]
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
-        self._edges = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
+        self._edges = _edge_vectors(p, f)
         loose = _unheld(f, G, C, mask)
         if loose is not None:
             raise ValueError(f"handles: the piece of the mesh holding vertex {loose} has no handle "
@@ -407,14 +408,46 @@ def arap_energy(rest, faces, x, *, weights=None, angles=None):
     f = np.asarray(faces, np.int64)
     x = np.asarray(x, float)
     w = cotangent_weights(p, f) if weights is None else weights
-    e = np.stack([p[f[:, (k + 2) % 3]] - p[f[:, (k + 1) % 3]] for k in range(3)], 1)
-    d = np.stack([x[f[:, (k + 2) % 3]] - x[f[:, (k + 1) % 3]] for k in range(3)], 1)
+    e, d = _edge_vectors(p, f), _edge_vectors(x, f)
     if angles is None:
-        S = np.einsum("mki,mkj->mij", w[..., None] * e, d)
-        angles = np.arctan2(S[:, 0, 1] - S[:, 1, 0], S[:, 0, 0] + S[:, 1, 1])
+        angles = best_rotations(p, f, x, weights=w)
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     re = np.stack([c * e[..., 0] - s * e[..., 1], s * e[..., 0] + c * e[..., 1]], -1)
     return float(0.5 * np.sum(w * np.sum((d - re) ** 2, axis=-1)))
+
+
+def best_rotations(rest, faces, x, *, weights=None):
+    """Per face, the angle of the rotation that best takes its rest edges to ``x``'s (the local step).
+
+    Parameters
+    ----------
+    rest, x : (n, 2) float array
+    faces : (m, 3) int array
+    weights : (m, 3) float array, optional
+        Per edge (opposite each corner); 1 when omitted.
+
+    Returns
+    -------
+    (m,) float array
+        Angles in radians, counter-clockwise in ``(x, y)``.
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0], [1, 0], [0, 1]])
+    >>> best_rotations(v, np.array([[0, 1, 2]]), v @ [[0.0, 1], [-1, 0]] + 3).round(6).tolist()
+    [1.570796]
+    """
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    e, d = _edge_vectors(np.asarray(rest, float), f), _edge_vectors(np.asarray(x, float), f)
+    w = np.ones(f.shape) if weights is None else weights
+    # S = sum_k w_k e_k d_k^T; the best rotation maximizes tr(R S) = c (S00 + S11) + s (S01 - S10).
+    S = np.einsum("mki,mkj->mij", w[..., None] * e, d)
+    return np.arctan2(S[:, 0, 1] - S[:, 1, 0], S[:, 0, 0] + S[:, 1, 1])
+
+
+def _edge_vectors(v, f):
+    """(m, 3, 2): each face's edge opposite each corner."""
+    return np.stack([v[f[:, (k + 2) % 3]] - v[f[:, (k + 1) % 3]] for k in range(3)], 1)
 
 
 def pieces(n, faces, glue=None):

@@ -50,7 +50,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from inkray.errors import InputError
-from inkray.numerics.arap import Arap, pieces, signed_areas
+from inkray.numerics.arap import Arap, best_rotations, pieces, signed_areas
 from inkray.relief.model import Part, Relief
 
 __all__ = ["Rig", "Join", "Posing", "rig_relief", "front_mesh", "ROOT_CONTACT", "ON_TOP_CONTACT", "JOINT_AREA"]
@@ -124,6 +124,7 @@ class Rig:
     joins: list = field(default_factory=list)
     relief: Relief = None
     _rest_sign: np.ndarray = field(default=None, repr=False, compare=False)
+    _faces_at: np.ndarray = field(default=None, repr=False, compare=False)
 
     def locate(self, points):
         """The front-most part under each point and the point as a combination of rig vertices.
@@ -172,19 +173,17 @@ class Rig:
         inkray.relief.model.Relief
         """
         parts = []
-        turn = None
         for p, idx in zip(self.relief.parts, self.index):
             v = np.array(p.vertices, float)
             # A vertex welded to another (a wall's foot) keeps its small offset from it, turned
-            # as the rig turns there.
+            # as a face of the rig at its rig vertex turns.
             offset = v[:, :2] - self.vertices[idx]
             v[:, :2] = positions[idx]
             welded = np.flatnonzero(np.any(offset != 0, axis=1))
             if len(welded):
-                if turn is None:
-                    turn = self._turns(positions)
-                c, s = turn[:, 0][idx[welded]], turn[:, 1][idx[welded]]
-                o = offset[welded]
+                faces = self.faces[self._face_at()[idx[welded]]]
+                a = best_rotations(self.vertices, faces, positions)
+                c, s, o = np.cos(a), np.sin(a), offset[welded]
                 v[welded, :2] += np.column_stack([c * o[:, 0] - s * o[:, 1],
                                                   s * o[:, 0] + c * o[:, 1]])
             rest = np.asarray(p.vertices, float)[:, :2] if p.texcoords is None else p.texcoords
@@ -193,18 +192,12 @@ class Rig:
         return Relief(parts=parts, size=self.relief.size, texture=self.relief.texture,
                       warnings=list(self.relief.warnings))
 
-    def _turns(self, positions):
-        """Per rig vertex, ``(cos, sin)`` of the rotation best taking its rest edges to ``positions``."""
-        i = self.faces.ravel()
-        j = np.roll(self.faces, -1, axis=1).ravel()
-        e, f = self.vertices[j] - self.vertices[i], positions[j] - positions[i]
-        dot = np.einsum("ij,ij->i", e, f)
-        cross = e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
-        ends, n = np.concatenate([i, j]), len(self.vertices)
-        c = np.bincount(ends, np.concatenate([dot, dot]), minlength=n)
-        s = np.bincount(ends, np.concatenate([cross, cross]), minlength=n)
-        angle = np.arctan2(s, c)
-        return np.column_stack([np.cos(angle), np.sin(angle)])
+    def _face_at(self):
+        """Per rig vertex, one face holding it."""
+        if self._faces_at is None:
+            self._faces_at = np.zeros(len(self.vertices), np.int64)
+            self._faces_at[self.faces.ravel()] = np.repeat(np.arange(len(self.faces)), 3)
+        return self._faces_at
 
     def folds(self, positions):
         """Number of faces whose orientation flipped against the rest shape."""
