@@ -30,6 +30,7 @@ from inkray.depthmap.estimation import METHODS, DepthResult, DepthSession, depth
 from inkray.errors import InputError
 from inkray.input.constraints import constraints
 from inkray.input.scribbles import seed_image
+from inkray.numerics.threads import thread_map
 from inkray.progress import Progress
 from inkray.relief.assembly import assemble
 from inkray.relief.completion import Completion, complete_regions
@@ -313,7 +314,7 @@ class ReliefChain:
         labels = self.silhouettes
         regions = self.annotations.regions
         entries, joins = self.annotations.boundaries, self.joins
-        out, keys = [], []
+        out, keys, todo = [], [], []
         with self.progress.stage("inflate"):
             for i, region in enumerate(regions):
                 self.progress.update(i, len(regions))
@@ -328,13 +329,18 @@ class ReliefChain:
                        self.options.mesh, _digest(mask, _label_window(labels, mask), *(
                            (b.type, b.path, b.index) for b in seams)))
                 keys.append(key)
-                out.append(self._stage(f"mesh:{region.name}", key,
-                                       lambda i=i, mask=mask, r=region, seams=seams:
-                                       inflate_region(mask, visible=labels == i,
-                                                      labels=labels, region=i, name=r.name,
-                                                      boundaries=seams, inflation=r.inflation,
-                                                      profile=r.profile,
-                                                      options=self.options.mesh), timed=False))
+                out.append(self._cache.get(key))
+                if out[-1] is None:
+                    todo.append((i, key, lambda i=i, mask=mask, r=region, seams=seams:
+                                 inflate_region(mask, visible=labels == i, labels=labels,
+                                                region=i, name=r.name, boundaries=seams,
+                                                inflation=r.inflation, profile=r.profile,
+                                                options=self.options.mesh)))
+            # The parts' solves let go of the GIL: two parts at a time.
+            for (i, key, _), mesh in zip(todo, thread_map(lambda job: job[2](), todo)):
+                self._cache.put(key, mesh)
+                self.recomputed.append(f"mesh:{regions[i].name}")
+                out[i] = mesh
             check_boundaries([r.mesh for r in out if r is not None], entries)
         self._memo["meshes"] = out
         self._memo["mesh_keys"] = keys

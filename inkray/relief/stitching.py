@@ -58,7 +58,7 @@ from inkray.numerics.active_set import dual_active_set
 from inkray.numerics.crossings import segment_crossings
 from inkray.numerics.polyline import point_polyline_distance
 from inkray.numerics.spd import spd_factor
-from inkray.numerics.threads import one_blas_thread
+from inkray.numerics.threads import one_blas_thread, thread_map
 
 __all__ = ["Layers", "stitch", "DEFAULT_EPSILON_FRACTION"]
 
@@ -812,16 +812,21 @@ def _worst_per_group(viol, group, xy, tol, k):
 
 
 def _qinv_rows(rows, blocks, owner):
-    """``Q^-1 rows^T`` as a dense (n, k) array, one batched solve per region block."""
+    """``Q^-1 rows^T`` as a dense (n, k) array, one batched solve per region block, two
+    blocks at a time (SuperLU lets go of the GIL; a block's first solve factors it)."""
     n = rows.shape[1]
     out = np.zeros((n, rows.shape[0]))
     if rows.shape[0] == 0:
         return out
     csc = rows.tocsc()
-    for i in np.unique(owner[rows.indices]):
+
+    def solve(i):
         b = blocks[i]
         sl = slice(b.start, b.start + len(b.h))
         out[sl] = b.solve(csc[:, sl].T.toarray())
+
+    # Each block writes its own rows: the same array whatever the scheduling.
+    thread_map(solve, np.unique(owner[rows.indices]))
     return out
 
 
