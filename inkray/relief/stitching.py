@@ -149,6 +149,11 @@ class _Rows:
         self.graft.extend([bool(graft)] * k)
         self.xy.extend(map(tuple, np.asarray(xy, float).tolist()))
 
+    def merge(self, other):
+        """Add the rows of ``other`` (a ``_Rows``) after these."""
+        for name in ("idx", "w", "rhs", "ineq", "label", "graft", "xy"):
+            getattr(self, name).extend(getattr(other, name))
+
     def matrix(self, n):
         m = len(self.rhs)
         if m == 0:
@@ -223,9 +228,10 @@ class _Mesh:
         if len(p) == 0:
             return np.zeros((0, 3), np.int64), np.zeros((0, 3)), np.zeros(0)
         p3 = np.column_stack([p, np.zeros(len(p))])
-        if self._tree is None:
-            self._tree = igl.AABB()
-            self._tree.init(self._v3, self.f)
+        if self._tree is None:  # built whole before it is shared: locate runs in threads
+            tree = igl.AABB()
+            tree.init(self._v3, self.f)
+            self._tree = tree
         d2, face, closest = self._tree.squared_distance(self._v3, self.f, p3)
         tri = self.f[np.asarray(face, np.int64)]
         a, b, c = (self.v[tri[:, k]] for k in range(3))
@@ -336,9 +342,16 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
                     _entry_rows(rows, blocks, rel, np.array(rel.points, float), epsilon, keepout)
             elif rel.kind == "equal" and rel.points is not None:
                 _equal_rows(rows, blocks, rel)
-        for (a, b, place), labels in said.items():
-            _overlap_rows(rows, blocks, a, b, completion.places[place], completion, epsilon,
+        def overlap(item):
+            (a, b, place), labels = item
+            part = _Rows()
+            _overlap_rows(part, blocks, a, b, completion.places[place], completion, epsilon,
                           keepout, " and ".join(labels))
+            return part
+
+        # Two places at a time, their rows added in the order of the places.
+        for part in thread_map(overlap, said.items()):
+            rows.merge(part)
 
     C = rows.matrix(n)
     rhs = np.asarray(rows.rhs, float)
