@@ -285,20 +285,20 @@ class ReliefChain:
     @property
     def silhouettes(self):
         """The completion's labels grown over their contour strokes: what the meshes outline."""
-        completion = self.completion
-        # The parts reach the outer edge of their contour strokes (the outline on the mesh).
+        # The completion's labels are the candidates' (the order changes only the hidden
+        # parts). The parts reach the outer edge of their contour strokes (the outline
+        # on the mesh).
+        labels = self.candidates.labels
         return self._stage("silhouettes", ("silhouettes", self._segment_key()),
-                           lambda: _silhouettes(completion.labels, self.drawing.gray), timed=False)
+                           lambda: _silhouettes(labels, self.drawing.gray), timed=False)
 
     @property
     def joins(self):
         """The open joins (:class:`~inkray.relief.joins.OpenJoin`): ink-free cuts between two
         regions that no ``boundaries`` entry marks, grafted like one."""
         labels = self.silhouettes
-        ann = self.annotations
-        return self._stage("joins", ("joins", self._segment_key()), lambda: open_joins(
-            labels, self.drawing.gray, boundaries=ann.boundaries,
-            names=[r.name for r in ann.regions]), timed=False)
+        return self._stage("joins", ("joins", self._segment_key()),
+                           lambda: self._open_joins(labels), timed=False)
 
     @property
     def seams(self):
@@ -488,8 +488,34 @@ class ReliefChain:
                                            memo=predictions)
             return relations, candidates.ordered(relations, memo=memo), notes
 
+        # The silhouettes and the open joins need no order: computed beside it (the
+        # order is mostly one thread), kept once the order is done.
+        beside = {}
+        skey = ("silhouettes", self._segment_key())
+        if self._cache.get(skey) is None and self._cache.get(self._relations_key()) is None:
+            def outlines():
+                try:
+                    grown = _silhouettes(candidates.labels, self.drawing.gray)
+                    beside["outlines"] = grown, self._open_joins(grown)
+                except Exception:  # noqa: BLE001 - the stage that asks computes and reports it
+                    pass
+
+            thread = threading.Thread(target=outlines, name="ReliefChain.outlines", daemon=True)
+            thread.start()
+            beside["thread"] = thread
         value = self._stage("order", self._relations_key(), compute)
+        if "thread" in beside:
+            beside["thread"].join()
+            if "outlines" in beside:
+                grown, joins = beside["outlines"]
+                self._stage("silhouettes", skey, lambda: grown, timed=False)
+                self._stage("joins", ("joins", self._segment_key()), lambda: joins, timed=False)
         return value
+
+    def _open_joins(self, labels):
+        ann = self.annotations
+        return open_joins(labels, self.drawing.gray, boundaries=ann.boundaries,
+                          names=[r.name for r in ann.regions])
 
     def _segment(self):
         """The segmentation, with the cache's kept memo unless another thread's segmentation

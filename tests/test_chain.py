@@ -134,6 +134,26 @@ def _same_relief(a, b):
         assert np.array_equal(p.faces, q.faces) and np.allclose(p.vertices, q.vertices, atol=1e-9)
 
 
+def test_the_outlines_computed_beside_the_order_are_those_computed_after_it():
+    from inkray.chain import ReliefChain
+
+    ann, drawing = _turtle()
+    beside = ReliefChain(ann, drawing)
+    beside.relations                              # the silhouettes and joins beside the order
+    assert beside.recomputed == ["segment", "complete", "order", "silhouettes", "joins"]
+    after = ReliefChain(ann, drawing)
+    after.candidates
+    after.silhouettes                             # no order yet: none computed beside
+    assert after.recomputed == ["segment", "complete", "silhouettes"]
+    after.relations
+    assert after.recomputed[-1] == "order" and "joins" not in after.recomputed
+    assert np.array_equal(beside.silhouettes, after.silhouettes)
+    # what makes that so: the order changes only the hidden parts, not the labels
+    assert np.array_equal(beside.completion.labels, beside.candidates.labels)
+    assert [(j.regions, j.path.tolist()) for j in beside.joins] == \
+        [(j.regions, j.path.tolist()) for j in after.joins]
+
+
 def test_an_edit_recomputes_only_what_it_touches_and_equals_a_fresh_chain():
     from dataclasses import replace
 
