@@ -384,6 +384,21 @@ class ReliefChain:
             segmentation=self.segmentation.labels if ann.regions else None,
             progress=self.progress), timed=False)
 
+    def prepare_drawing(self):
+        """Compute what depends on the drawing alone (the ink style the order prediction
+        reads, about 0.1 s at 1 Mpx), for a thread that waits meanwhile for the
+        segmentation.
+
+        Examples
+        --------
+        >>> from inkray.input.loading import load_input
+        >>> from inkray.examples import example_path
+        >>> chain = ReliefChain(*load_input(example_path("turtle")))
+        >>> chain.prepare_drawing(); chain.recomputed
+        []
+        """
+        self._ink_style()
+
     def prepare_depth(self, *, background=True):
         """Ready the kept fast depth session for the next edit
         (:meth:`~inkray.depthmap.estimation.DepthSession.prepare`), in time
