@@ -18,10 +18,15 @@ measured) with their targets:
 - ``minang``, ``shells``: smallest angle (deg) and shell count of the
   ``--closed --union`` solid, >= 10 and 1.
 
+With ``--cpu`` the stage columns are the process's CPU seconds (all its
+threads) spent in each stage instead of wall seconds: on a shared machine
+the wall times stretch with the load, the CPU times much less (a stage that
+runs on two threads shows their sum).
+
 Usage::
 
     python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale | --upscale-only]
-                                      [--no-quality]
+                                      [--no-quality] [--cpu]
 """
 
 import argparse
@@ -32,6 +37,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,12 +46,37 @@ TARGET_S, TARGET_MB = 5.0, 2048.0
 STAGES = ("segment", "complete", "order", "inflate", "stitch", "assemble")
 
 
+def _cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _progress():
+    """A quiet Progress that also sums the process's CPU seconds per stage (``.cpu``)."""
+    from inkray.progress import Progress
+
+    class CpuProgress(Progress):
+        def __init__(self):
+            super().__init__(quiet=True)
+            self.cpu = {}
+
+        @contextmanager
+        def stage(self, name):
+            start = _cpu()
+            try:
+                with super().stage(name) as inner:
+                    yield inner
+            finally:
+                self.cpu[name] = self.cpu.get(name, 0.0) + _cpu() - start
+
+    return CpuProgress()
+
+
 def _one(name, megapixels, quality):
     from PIL import Image
 
     from inkray.input.loading import load_input
     from inkray.chain import build_relief
-    from inkray.progress import Progress
 
     ann_path = SHARED / name / "drawing.inkray.json"
     drawing = None
@@ -57,7 +88,7 @@ def _one(name, megapixels, quality):
         drawing = Path(tempfile.mkdtemp()) / f"up{src.suffix}"
         image.resize(size, Image.LANCZOS).save(drawing)
     ann, d = load_input(ann_path, drawing=drawing, rescale=drawing is not None)
-    progress = Progress(quiet=True)
+    progress = _progress()
     start = time.perf_counter()
     result = build_relief(ann, d, progress=progress)
     total = time.perf_counter() - start
@@ -75,7 +106,7 @@ def _one(name, megapixels, quality):
         except Exception as e:  # reported in the table, not fatal to the other columns
             figures["solid_error"] = str(e).splitlines()[0]
     print(json.dumps({"name": name, "size": list(ann.size), "regions": len(ann.regions),
-                      "stages": dict(progress.timings), "total": total, "rss_mb": rss,
+                      "stages": dict(progress.timings), "cpu": progress.cpu, "total": total, "rss_mb": rss,
                       "vertices": sum(len(p.vertices) for p in result.relief.parts),
                       "figures": figures}))
 
@@ -87,6 +118,8 @@ def main():
     parser.add_argument("--upscale-only", action="store_true", help="only the 1 Mpx cases")
     parser.add_argument("--no-quality", action="store_true",
                         help="times and memory only (no quality columns)")
+    parser.add_argument("--cpu", action="store_true",
+                        help="stage columns in CPU seconds of the process instead of wall seconds")
     parser.add_argument("--one", nargs=3, metavar=("NAME", "MPX", "QUALITY"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
@@ -101,6 +134,7 @@ def main():
             + ("" if args.no_quality else f" {'jump90':>6} {'all90':>6} {'open90':>6} {'order':>6}"
                                           f" {'turn':>5}"
                                           f" {'ink%':>5} {'minang':>6} {'shells':>6}"))
+    print(f"stage columns: {'CPU' if args.cpu else 'wall'} seconds; total s: wall seconds")
     print(head)
     print("-" * len(head))
     for name, mpx in cases:
@@ -113,7 +147,7 @@ def main():
         r = json.loads(run.stdout.strip().splitlines()[-1])
         size = f"{r['size'][0]}x{r['size'][1]}"
         print(f"{name:<12} {size:>10} {r['regions']:>3} "
-              + " ".join(f"{r['stages'].get(s, 0):8.2f}" for s in STAGES)
+              + " ".join(f"{r['cpu' if args.cpu else 'stages'].get(s, 0):8.2f}" for s in STAGES)
               + f" {r['total']:8.2f} {r['total'] / TARGET_S:6.2f} {r['rss_mb']:7.0f}"
               f" {r['rss_mb'] / TARGET_MB:6.2f} {r['vertices']:>7}" + _quality(r["figures"]))
 
