@@ -156,7 +156,7 @@ def _home(rig, x, faces, points, shape, *, on_face=False):
             np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1))
 
 
-def _holes(posed, x, img, rest):
+def _holes(posed, x, img, rest, *, where=False):
     """Tears: transparent pixels enclosed by the posed silhouette whose place in the drawing
     is opaque.
 
@@ -182,7 +182,10 @@ def _holes(posed, x, img, rest):
         paper.append(rest[row, col, 3] == 0)
     dist, paper = np.array(dist), np.array(paper)
     near = (dist <= _REACH) | (dist == dist.min(axis=0))
-    return int((~np.any(near & paper, axis=0)).sum())
+    hole = ~np.any(near & paper, axis=0)
+    if where:  # the holes' pixels (x, y), to look at
+        return np.column_stack([xs[hole], ys[hole]])
+    return int(hole.sum())
 
 
 _REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
