@@ -12,8 +12,10 @@ limb's lines is ambiguous, and a limb may fold further than the search: a
 part whose carried region the frame's segmentation (LazyBrush of the carried
 scribbles) does not give it is posed again, among its best distinct chamfer
 fits and turns about its attachment, by which of them the frame segmented
-with its scribbles so carried agrees with best. Every entry of the
-annotation moves with its part's motion:
+with its scribbles so carried agrees with best; such a part whose scribbles
+land at one end of its carried region is seeded again inside it, where the
+frame's lines enclose what that gives it. Every entry of the annotation moves
+with its part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
@@ -46,7 +48,7 @@ from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
 from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
                                           rigid_poses, rigid_segments, warp_points)
-from inkray.segmentation import INK_THRESHOLD, segment
+from inkray.segmentation import INK_THRESHOLD, ink_cost, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
 
@@ -65,6 +67,11 @@ _POSES = 4
 #: A pose is taken when it raises the agreement of the carried parts with the
 #: frame's segmentation by more than this share of the character's pixels.
 _GAIN = 0.002
+#: A part the segmentation disowns is seeded again at its carried region's
+#: deepest pixel it lost, when that lies at least this far (pixels) inside...
+_CORE = 3.0
+#: ... and the lines of the frame enclose at least this share of what it gains.
+_ENCLOSED = 0.7
 
 
 @dataclass
@@ -387,18 +394,24 @@ def _carry_region(region, label, carrier, size):
 
 def _repose(regions, parts, carrier, carried, draft, labels, region_scores, *, key_ink,
             frame_ink, key_labels, pulled, frame, memo, reach, size):
-    """The ``parts`` posed again where another pose agrees better with the frame.
+    """The ``parts`` posed, or seeded, again where that agrees better with the frame.
 
     Such a part (its carried region not what the frame's segmentation gives
     it) may have been posed on another part's lines (chamfer matching of a
     small limb is ambiguous) or folded beyond the search: its best distinct
     chamfer fits are tried, each judged by how well the carried parts and the
     frame segmented with the part's scribbles so posed agree (a right pose puts
-    them in the enclosed area its region fills). Returns the carrier, the
-    carried parts, the draft, the frame's labels and the region scores after.
+    them in the enclosed area its region fills). Or its region is carried
+    right but its scribbles land at one end of it: a scribble point is added
+    where the carried region lies deepest among the pixels the part lost (see
+    :func:`_core_point`), taken when the agreement rises and the frame's lines
+    enclose most of what the part gains (:func:`_enclosed`). Returns the
+    carrier, the carried parts, the draft, the frame's labels and the region
+    scores after.
     """
     agree = _agreement(carried, labels)
     region_scores = list(region_scores)
+    cost = None
     for i in parts:
         i = int(i)
         for pose in rigid_poses(key_ink, frame_ink, key_labels, i, carrier.reg, count=_POSES,
@@ -409,7 +422,7 @@ def _repose(regions, parts, carrier, carried, draft, labels, region_scores, *, k
             t_carrier = replace(carrier, motions=trial,
                                 places=_Places(t_carried, carrier.scene.paper, reach))
             region, score = _carry_region(regions[i], i, t_carrier, size)
-            t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+            t_draft = _with_region(draft, i, region)
             t_labels = segment(t_draft, frame, memo=memo).labels
             t_agree = _agreement(t_carried, t_labels)
             if t_agree > agree + _GAIN:
@@ -417,7 +430,62 @@ def _repose(regions, parts, carrier, carried, draft, labels, region_scores, *, k
                 region_scores[i] = score
                 fit = _fit_score(pose.cost, carrier.scene.spacing)
                 carrier = replace(t_carrier, own=frozenset(trial), fit={**carrier.fit, i: fit})
+        # A scribble carried to the narrow end of its part loses the rest of the
+        # part to a neighbour's scribble across a gap in the lines: the part is
+        # seeded again where its carried region lies deepest among the pixels it
+        # lost, when the frame's lines enclose what that gains it.
+        point = _core_point(carried, labels, carrier.scene.paper, i)
+        if point is None:
+            continue
+        if cost is None:
+            cost = ink_cost(frame.gray)
+        r = draft.regions[i]
+        t_draft = _with_region(draft, i, replace(r, scribbles=[*r.scribbles, np.array([point])]))
+        t_labels = segment(t_draft, frame, memo=memo).labels
+        t_agree = _agreement(carried, t_labels)
+        if t_agree > agree + _GAIN and _enclosed(labels, t_labels, i, cost) >= _ENCLOSED:
+            agree, draft, labels = t_agree, t_draft, t_labels
     return carrier, carried, draft, labels, region_scores
+
+
+def _with_region(draft, i, region):
+    """``draft`` with region ``i`` replaced by ``region``."""
+    return replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+
+
+def _core_point(carried, labels, paper, label):
+    """The paper pixel of part ``label`` as carried, not given to it by ``labels``, that lies
+    deepest inside the carried part; None when none lies ``_CORE`` pixels inside."""
+    mask = (carried == label) & paper
+    ys, xs = np.nonzero(mask)
+    if not len(xs):
+        return None
+    y0, x0 = max(ys.min() - 1, 0), max(xs.min() - 1, 0)
+    window = (slice(y0, ys.max() + 2), slice(x0, xs.max() + 2))
+    depth = ndimage.distance_transform_edt(mask[window])
+    depth[labels[window] == label] = 0
+    k = int(depth.argmax())
+    y, x = np.unravel_index(k, depth.shape)
+    if depth[y, x] < _CORE:
+        return None
+    return (float(x + x0), float(y + y0))
+
+
+def _enclosed(labels, t_labels, label, cost):
+    """Share of the outline of what part ``label`` gains from ``labels`` to ``t_labels``
+    that runs along a line (a cut next to a pixel of ink cost under one half)."""
+    mine = t_labels == label
+    gained = mine & (labels != label)
+    on_line = total = 0
+    for axis in (0, 1):
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        edge = (mine[lo] != mine[hi]) & (gained[lo] | gained[hi])
+        total += np.count_nonzero(edge)
+        on_line += np.count_nonzero(edge & (np.minimum(cost[lo], cost[hi]) < 0.5))
+    return on_line / total if total else 0.0
 
 
 def _carry_pairs(items, keys, key_labels, carrier, size):
