@@ -216,7 +216,7 @@ def test_the_deepest_lost_pixel_and_the_share_of_an_outline_on_lines():
     assert _enclosed(labels, half, 0, cost) == pytest.approx(1 - 19 / 58)
 
 
-def test_the_horse_thigh_its_scribble_carried_to_a_narrow_end_is_seeded_inside_it():
+def test_a_horse_thigh_whose_scribble_lands_at_its_narrow_end_is_seeded_inside_it():
     # Between the key and frame 2 of the gallop the near thigh shrinks and its
     # scribble lands in its narrow top, where the far leg's scribble would take
     # the rest of it across the open join: the thigh is seeded again inside it.
