@@ -92,8 +92,8 @@ def _forced(ann, drawing, orders):
 
     if not orders:
         return ann
-    completion = ReliefChain(ann, drawing).completion
-    labels, names = completion.labels, list(completion.names)
+    seg = ReliefChain(ann, drawing).segmentation
+    labels, names = seg.labels, list(seg.names)
     entries = list(ann.order)
     for pair in orders:
         front, back = (names.index(n) for n in pair.split("/"))
@@ -102,9 +102,10 @@ def _forced(ann, drawing, orders):
             raise SystemExit(f"--order {pair}: the two regions do not touch")
         k = np.argmin(np.hypot(xs - np.median(xs), ys - np.median(ys)))
         x, y = xs[k], ys[k]
-        by, bx = np.nonzero(labels[y - 1:y + 2, x - 1:x + 2] == back)
+        y0, x0 = max(y - 1, 0), max(x - 1, 0)
+        by, bx = np.nonzero(labels[y0:y + 2, x0:x + 2] == back)
         entries.append(Order(front=(float(x), float(y)),
-                             back=(float(x + bx[0] - 1), float(y + by[0] - 1)),
+                             back=(float(x0 + bx[0]), float(y0 + by[0])),
                              index=len(entries)))
     return replace(ann, order=entries)
 
