@@ -336,8 +336,13 @@ class ReliefChain:
                                                 region=i, name=r.name, boundaries=seams,
                                                 inflation=r.inflation, profile=r.profile,
                                                 options=self.options.mesh)))
+            def inflate(job):
+                # a superseded edit stops here, before the next part (it raises)
+                self.progress.update(job[0], len(regions))
+                return job[2]()
+
             # The parts' solves let go of the GIL: two parts at a time.
-            for (i, key, _), mesh in zip(todo, thread_map(lambda job: job[2](), todo)):
+            for (i, key, _), mesh in zip(todo, thread_map(inflate, todo)):
                 self._cache.put(key, mesh)
                 self.recomputed.append(f"mesh:{regions[i].name}")
                 out[i] = mesh
