@@ -336,12 +336,14 @@ class ReliefChain:
                                                 region=i, name=r.name, boundaries=seams,
                                                 inflation=r.inflation, profile=r.profile,
                                                 options=self.options.mesh)))
+
             def inflate(job):
                 # a superseded edit stops here, before the next part (it raises)
                 self.progress.update(job[0], len(regions))
                 return job[2]()
 
-            # The parts' solves let go of the GIL: two parts at a time.
+            # Two parts at a time: their solves let go of the GIL (their outline
+            # tracing mostly does not, so two threads gain most on a loaded machine).
             for (i, key, _), mesh in zip(todo, thread_map(inflate, todo)):
                 self._cache.put(key, mesh)
                 self.recomputed.append(f"mesh:{regions[i].name}")
