@@ -206,3 +206,19 @@ def test_bad_inputs_are_one_line_errors():
         fill.solve(np.zeros((4, 5), bool), np.zeros((4, 5)))
     with pytest.raises(InputError, match="wx, wy"):
         DraftFill(np.ones((3, 4)), np.ones((3, 5)))
+
+
+def test_the_kept_settle_follows_changed_values_on_the_same_fixed_pixels():
+    # pending() and reduces() settle the fixed values and keep it for solve(); new
+    # values on the same pixels must not reuse it
+    fill = HarmonicFill(np.ones((6, 9)), np.ones((5, 10)), reduced_above=10)
+    fixed = np.zeros((6, 10), bool)
+    fixed[:, [0, 4, 9]] = True
+    flat = np.where(fixed, 2.0, 0.0)
+    assert fill.pending(fixed, flat) == 0 and not fill.reduces(fixed, flat)
+    assert (fill.solve(fixed, flat) == 2.0).all()          # every room settles at 2
+    ramp = np.where(fixed, np.arange(10.0), 0.0)
+    assert fill.pending(fixed, ramp) == 6 * 8 and fill.reduces(fixed, ramp)  # columns 1-8
+    d = fill.solve(fixed, ramp)
+    assert np.allclose(d, np.arange(10.0))                  # linear between the columns
+    assert (fill.solve(fixed, flat) == 2.0).all()          # and back
