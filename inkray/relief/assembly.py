@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
+from inkray.relief.inflation import _CORNER_STRETCH, WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
@@ -50,6 +51,8 @@ SKIRT = 0.3
 #: How near (pixels) outlines of different parts are made to coincide before the booleans
 #: (or, where the parts' slabs do not meet in height, kept half this apart).
 SNAP = 1.5
+# an outline vertex's copy at the top of the rim's wall lies at most this far from it
+_WALL_REACH = 1.01 * _CORNER_STRETCH * WALL_INSET
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -266,7 +269,8 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     if paired:
         # a front's and its back's outlines kept at the very same (x, y): walls a
         # rounding error apart would be cut into slivers
-        sheets = [_skirted(*_filled(*x, fill), skirt, box) for x in pairs]
+        sheets = [_skirted(*_filled(*_unwalled(*x, _WALL_REACH), fill), skirt, box)
+                  for x in pairs]
     for join in (True, False):
         if paired:
             snapped = _snapped(sheets, snap, join_covered=join) if snap else sheets
@@ -533,6 +537,42 @@ def _inserted(vertices, faces, points, reach, *, clear, near=None):
     return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
 
 
+def _unwalled(vertices, faces, reach):
+    """A sheet without the strip of faces along its outline that the rim's wall adds
+    (:func:`~inkray.relief.inflation.rim_wall`): every outline vertex with an inner
+    neighbour within ``reach`` (its copy, the wall's top) is merged into that copy,
+    which takes the outline vertex's ``(x, y)`` and keeps its own heights; the strip's
+    faces vanish. Moves that would fold or flatten a triangle are left out (the copy
+    stays inside). Returns vertices, faces (the input where there is no such strip, or
+    where removing it would not leave one sheet)."""
+    v = np.asarray(vertices, float)
+    a, b = _boundary_edges(faces).T
+    rim = np.zeros(len(v), bool)
+    rim[a] = True
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    e = e[rim[e[:, 0]] & ~rim[e[:, 1]]]
+    d = np.linalg.norm(v[e[:, 0], :2] - v[e[:, 1], :2], axis=1)
+    e, d = e[d < reach], d[d < reach]
+    if not len(e):
+        return v, faces
+    order = np.lexsort((d, e[:, 0]))
+    e = e[order][np.r_[True, np.diff(e[order][:, 0]) != 0]]  # the nearest copy of each
+    e = e[np.bincount(e[:, 1], minlength=len(v))[e[:, 1]] == 1]  # a copy of one vertex only
+    to = np.arange(len(v))
+    to[e[:, 0]] = e[:, 1]
+    f = to[faces]
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
+    w = v.copy()
+    w[e[:, 1], :2] = v[e[:, 0], :2]
+    w = _unfolded(v, w, f)
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    if (np.unique(_edge_keys(edges), return_counts=True)[1].max() > 2
+            or (np.bincount(_boundary_edges(f)[:, 0]) > 1).any()):
+        return v, faces  # (an edge with three faces, or a vertex where loops touch)
+    return _compact(w, f)
+
+
 def _filled(vertices, faces, area):
     """A sheet with the holes of its outline smaller than ``area`` triangulated (no new
     vertex): a pipe through the solid that narrow is no feature the remeshing at the
@@ -755,6 +795,12 @@ def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
     chosen = _dilated(f, bad, rings)
     # the remeshing's every iteration visits the whole mesh it is given: give it the
     # chosen faces and a ring left as they are (which keeps the cut's border in place)
+    ids = _position_ids(v)
+    twin = np.bincount(ids)[ids] > 1
+    if twin.any():
+        # two vertices at one position (a pinch) are merged by the remeshing, which
+        # tears the surface there: the cut keeps a ring clear of the faces around them
+        chosen &= ~_dilated(f, twin[f].any(axis=1), 2)
     cut = _dilated(f, chosen, 1)
     used, sub = np.unique(f[cut], return_inverse=True)
     sv, sf = _remeshed(v[used], sub.reshape(-1, 3), chosen[cut], target=target,
