@@ -243,16 +243,24 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     target = float(np.median(edges))
     # a hole smaller than one of the remeshing's triangles is a pipe it cannot shape
     fill = np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0
-    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill)
+    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill, unwall=True)
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=target)
+        verts, faces, left = _remeshed_solid(verts, faces, target=target)
+        if left:
+            # the faces left bad are where outlines nearly meet, and with the rims'
+            # walls those places differ: the solid with them, where it is better
+            other = _remeshed_solid(*_envelope_solid(parts, skirt, snap, fill=fill),
+                                    target=target)
+            if other[2] < left:
+                verts, faces, _ = other
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
+def _envelope_solid(parts, skirt, snap=0.0, fill=0.0, unwall=False):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
     ``skirt``, outlines within ``snap`` of each other made to coincide, holes of a
-    part's outline under ``fill`` (square pixels) filled (see union_parts)."""
+    part's outline under ``fill`` (square pixels) filled, the rims' wall strips merged
+    away with ``unwall`` (see union_parts)."""
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
     margin = max(1.0, float(np.ptp(z)))
     xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
@@ -269,8 +277,8 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     if paired:
         # a front's and its back's outlines kept at the very same (x, y): walls a
         # rounding error apart would be cut into slivers
-        sheets = [_skirted(*_filled(*_unwalled(*x, _WALL_REACH), fill), skirt, box)
-                  for x in pairs]
+        reach = _WALL_REACH if unwall else 0.0
+        sheets = [_skirted(*_filled(*_unwalled(*x, reach), fill), skirt, box) for x in pairs]
     for join in (True, False):
         if paired:
             snapped = _snapped(sheets, snap, join_covered=join) if snap else sheets
@@ -763,6 +771,14 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
     >>> bool(_min_angles(w, g).min() >= 10.0), _closed_manifold(g)
     (True, True)
     """
+    v, f, _ = _remeshed_solid(vertices, faces, target=target, min_angle=min_angle, rings=rings,
+                              iterations=iterations)
+    return v, f
+
+
+def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
+                    iterations=_ITERATIONS):
+    """:func:`remesh_solid`, and how many faces it leaves bad."""
     v, f = np.asarray(vertices, float), np.asarray(faces, np.int64)
     bad = _min_angles(v, f) < min_angle
     best = (int(bad.sum()), v, f, bad)
@@ -785,8 +801,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
         w, g, bad = _repair(v, f, target=target, min_angle=min_angle,
                             near=_near_faces(v, f, bad), untangle=True)
         if bad.sum() < count:
-            v, f = w, g
-    return v, f
+            v, f, count = w, g, int(bad.sum())
+    return v, f, count
 
 
 def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
@@ -911,11 +927,14 @@ def _left_bad(solid):
 
 
 def _near_faces(vertices, faces, chosen):
-    """The ``chosen`` faces and every face whose bounding sphere meets one of theirs."""
+    """The ``chosen`` faces and every face whose bounding sphere meets one of theirs (every
+    face, when most are chosen)."""
     t = np.asarray(vertices, float)[faces]
     centre = t.mean(axis=1)
     radius = np.linalg.norm(t - centre[:, None], axis=2).max(axis=1)
     near = np.asarray(chosen, bool).copy()
+    if near.mean() > 0.5:
+        return np.ones(len(near), bool)
     if near.any():
         tree = cKDTree(centre[near])
         reach = radius + radius[near].max()
@@ -927,13 +946,10 @@ def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
     """The patches around bad faces re-triangulated (after vertices moved off the faces
     they fold through, with ``untangle``). Faces crossing another are looked for among
     the ``near`` faces only. Returns the vertices, the faces and which are left bad."""
-    from inkray.numerics.tri_intersection import self_intersecting_faces
-
     if untangle:
         v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
     else:
-        v, crossing = vertices, np.zeros(len(faces), bool)
-        crossing[near] = self_intersecting_faces(v, faces[near])
+        v, crossing = vertices, None
     bad = _bad_near(v, faces, near, min_angle=min_angle, crossing=crossing)
     if not bad.any():
         return v, faces, bad
