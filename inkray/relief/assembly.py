@@ -187,7 +187,12 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     booleans decide by symbolic perturbation; where the two parts' slabs do
     not meet in height there (a part floating in front of another) the
     later outline is moved half :data:`SNAP` clear of the other instead, as
-    the two would touch along a line. With snapping, holes of a part's
+    the two would touch along a line. The rims' wall strips
+    (:func:`~inkray.relief.inflation.rim_wall`, needles the textured views
+    need and a print does not) are merged away first, each outline vertex
+    into its copy at the wall's top, at the outline's ``(x, y)``; where that
+    solid keeps bad faces after the remeshing, the solid with the strips is
+    built too and the one with fewer bad faces kept. With snapping, holes of a part's
     outline smaller than one of the remeshing's triangles (a pipe through
     the solid) are filled. Pieces with under a hundredth of the
     smallest part's volume (splinters, or a part's tip cut off at a neck
