@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_order.py [--drawings fox,man] [--no-resolve]
-    python benchmarks/bench_order.py --generated 360 [--without fade] [--cache DIR] [--styles] [--real A.inkray.json]
+    python benchmarks/bench_order.py --generated 360 [--without fade,rest] [--cache DIR] [--styles] [--real A.inkray.json]
     python benchmarks/bench_order.py --timing [--drawings fox,man]
 
 ``--generated N`` (the learned model's protocol): train on N generated drawings
@@ -29,7 +29,7 @@ adds what each generator style does: the model trained on the generated
 drawings that do not use the style, against one trained on as many drawings
 drawn with every style, each scored on the development and the held-out
 drawings' places (without the consistency step). ``--without`` names styles
-never drawn (``--without fade``: the drawings the shipped model was trained
+never drawn (``--without fade,rest``: the drawings the shipped model was trained
 on). The table of the run is in
 docs/regions.md. ``--cache`` keeps each generated drawing's features (about
 1 s a drawing to make again).

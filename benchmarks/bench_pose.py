@@ -10,7 +10,10 @@ every frame solved and drawn), the ARAP energy, the worst handle error (px),
 folded triangles, holes (transparent pixels enclosed by the posed silhouette
 whose place in the drawing is opaque through every part within 2 px: paper
 that a pose encloses, a leg closing on the other, is paper in the drawing and
-no hole) and visibility agreement (pixels that two or more posed
+no hole), open tears (paper the pose reveals beyond a cut, where two parts hidden side
+by side under a third met and neither goes on under the other: transparent pixels
+whose nearest posed part is nearest there, enclosed or not; the figure at rest in
+brackets, 0 when the measure is sound) and visibility agreement (pixels that two or more posed
 parts draw, a surface there and their layer not transparent, whose drawn part
 is the one highest in the relief).
 Through HTTP, as the editor's Pose mode sees it: ``inkray edit`` serves the
@@ -25,6 +28,12 @@ and of the editor's server per drag (its process's CPU time over the drags)
 stand for what they cost on an idle machine.
 
     python benchmarks/bench_pose.py [--names man,figure,turtle] [--no-upscale] [--no-http]
+        [--order FRONT/BACK,...]
+
+``--order tail/body`` adds an order entry (the region ``tail`` in front of ``body``,
+at the middle of their common outline) to the annotation in process, to check a
+drawing whichever way the depth order model decides a relation (the HTTP run keeps
+the bundled annotation).
 
 ``--joins`` prints instead, for every bundled drawing, how the rig joins its
 parts (:mod:`inkray.relief.posing`): parts, joins by kind, the connected
@@ -72,6 +81,35 @@ def _load(name, megapixels):
     return load_input(ann_path, drawing=drawing, rescale=drawing is not None)
 
 
+def _forced(ann, drawing, orders):
+    """``ann`` with an order entry per ``"front/back"`` pair of region names, its points a
+    contact pixel of each region in the middle of their common outline (to check a
+    drawing whichever way the depth order model decides a relation)."""
+    from dataclasses import replace
+
+    from inkray.chain import ReliefChain
+    from inkray.input.annotations import Order
+
+    if not orders:
+        return ann
+    seg = ReliefChain(ann, drawing).segmentation
+    labels, names = seg.labels, list(seg.names)
+    entries = list(ann.order)
+    for pair in orders:
+        front, back = (names.index(n) for n in pair.split("/"))
+        ys, xs = np.nonzero((labels == front) & ndimage.binary_dilation(labels == back))
+        if not len(xs):
+            raise SystemExit(f"--order {pair}: the two regions do not touch")
+        k = np.argmin(np.hypot(xs - np.median(xs), ys - np.median(ys)))
+        x, y = xs[k], ys[k]
+        y0, x0 = max(y - 1, 0), max(x - 1, 0)
+        by, bx = np.nonzero(labels[y0:y + 2, x0:x + 2] == back)
+        entries.append(Order(front=(float(x), float(y)),
+                             back=(float(x0 + bx[0]), float(y0 + by[0])),
+                             index=len(entries)))
+    return replace(ann, order=entries)
+
+
 def _scenario(chain, rig):
     labels = chain.completion.labels
     names = chain.completion.names
@@ -98,7 +136,28 @@ def _turn(p, about, degrees):
     return about + r @ (p - about)
 
 
-def _holes(posed, x, img, rest):
+def _home(rig, x, faces, points, shape, *, on_face=False):
+    """Squared distance from each point to the posed ``faces`` (rig positions ``x``) and the
+    pixel (row, column) it comes from at rest through the nearest face's affine map (with
+    ``on_face``, the nearest point of the face's)."""
+    import igl
+
+    flat = np.column_stack([x, np.zeros(len(x))])
+    query = np.column_stack([points, np.zeros(len(points))])
+    d2, face, near = igl.point_mesh_squared_distance(query, flat, faces)
+    t, home = x[faces[face]], rig.vertices[faces[face]]
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    r = (near[:, :2] if on_face else points) - t[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
+    h, w = shape
+    return (d2, np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1),
+            np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1))
+
+
+def _holes(posed, x, img, rest, *, where=False):
     """Tears: transparent pixels enclosed by the posed silhouette whose place in the drawing
     is opaque.
 
@@ -108,39 +167,88 @@ def _holes(posed, x, img, rest):
     the pixel is paper the pose carried (a leg closing on the other, a notch between two
     parts closing): no hole.
     """
-    import igl
-
     solid = img[..., 3] > 0
     ys, xs = np.nonzero(ndimage.binary_fill_holes(solid, structure=np.ones((3, 3))) & ~solid)
     if not len(xs):
         return 0
     rig = posed.rig
     p = np.column_stack([xs, ys]).astype(float)
-    flat = np.column_stack([x, np.zeros(len(x))])
-    query = np.column_stack([p, np.zeros(len(p))])
-    h, w = rest.shape[:2]
     dist, paper = [], []
     for i in range(len(rig.names)):
         faces = rig.faces[rig.part_of_face == i].astype(np.int64)
         if not len(faces):
             continue
-        d2, face, _ = igl.point_mesh_squared_distance(query, flat, faces)
-        t, home = x[faces[face]], rig.vertices[faces[face]]
-        e1, e2, r = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
-        l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-        q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
-        col = np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1)
-        row = np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1)
+        d2, row, col = _home(rig, x, faces, p, rest.shape[:2])
         dist.append(np.sqrt(d2))
         paper.append(rest[row, col, 3] == 0)
     dist, paper = np.array(dist), np.array(paper)
     near = (dist <= _REACH) | (dist == dist.min(axis=0))
-    return int((~np.any(near & paper, axis=0)).sum())
+    hole = ~np.any(near & paper, axis=0)
+    if where:  # the holes' pixels (x, y), to look at
+        return np.column_stack([xs[hole], ys[hole]])
+    return int(hole.sum())
 
 
 _REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
+
+
+def _tears(posed, x, img, completion, *, where=False):
+    """Open tears: transparent pixels of the posed picture, enclosed or not, whose nearest part
+    ends there in a cut, not in an outline.
+
+    A part's completed area ends either at its outline (drawn, or continued under a part in
+    front) or, under a part in front of it, where another part's hidden area takes over and
+    neither goes on under the other: a *cut* (two parts hidden side by side under an arm).
+    At rest the part in front covers every cut. Paper that a pose reveals beyond an outline
+    is paper (an arm swung off the body); paper beyond a cut is a tear (one of the two
+    hidden parts pulled away from the other). A transparent pixel within ``_TEAR_BAND`` of
+    the posed silhouette is a tear where the nearest point of the nearest posed part is, at
+    rest, within a pixel of a cut of that part: its hidden pixels outside another part's
+    completed area beside that part's hidden area, farther than ``_TEAR_MARGIN`` px from
+    paper at rest (where a cut meets the silhouette the layers' soft edges decide, as for
+    holes). Pixels beside a cut but nearer another part's outline are not counted: the
+    figure is the tear's side along the cut, a lower bound of its area.
+    """
+    labels = completion.labels
+    names = list(completion.names)
+    h, w = labels.shape
+    solid = img[..., 3] > 0
+    band = ~solid & (ndimage.distance_transform_edt(~solid) <= _TEAR_BAND * np.sqrt(h * w))
+    ys, xs = np.nonzero(band)
+    if not len(xs):
+        return 0
+    at_rest = ndimage.distance_transform_edt(
+        posed.image(posed.rig.vertices)[..., 3] > 0) > _TEAR_MARGIN
+    completed = [completion.completed(r) for r in range(len(names))]
+    hidden = [c & (labels != r) for r, c in enumerate(completed)]
+    rig = posed.rig
+    points = np.column_stack([xs, ys]).astype(float)
+    best = np.full(len(xs), np.inf)
+    cut = np.zeros(len(xs), bool)
+    for i, name in enumerate(rig.names):
+        faces = rig.faces[rig.part_of_face == i].astype(np.int64)
+        if not len(faces) or name not in names:
+            continue
+        region = names.index(name)
+        edge = np.zeros((h, w), bool)
+        for other in range(len(names)):
+            if other != region:  # the two hidden areas meet and neither goes on under the other
+                edge |= (completed[region] & ~completed[other] & (labels != region)
+                         & ndimage.binary_dilation(hidden[other] & ~completed[region]))
+        edge = ndimage.binary_dilation(edge & at_rest)
+        d2, row, col = _home(rig, x, faces, points, (h, w), on_face=True)
+        nearer = d2 < best
+        best[nearer] = d2[nearer]
+        cut[nearer] = edge[row, col][nearer]
+    if where:  # the tears as a mask, to look at
+        out = np.zeros((h, w), bool)
+        out[ys[cut], xs[cut]] = True
+        return out
+    return int(cut.sum())
+
+
+_TEAR_BAND = 0.05  # of sqrt(H W): how far from the posed silhouette a tear is looked for
+_TEAR_MARGIN = 3.0  # px: cuts nearer the paper at rest are left to the layers' soft edges
 
 
 def _visibility(posed, relief, part):
@@ -218,11 +326,12 @@ def _idle(pid, timeout=120.0):
         last = now
 
 
-def one(name, megapixels, http=True):
+def one(name, megapixels, http=True, orders=()):
     from inkray.chain import ReliefChain
     from inkray.view.posed import PosedDrawing, posed_image
 
     ann, drawing = _load(name, megapixels)
+    ann = _forced(ann, drawing, orders)
     chain = ReliefChain(ann, drawing)
     relief = chain.relief
     start = time.perf_counter()
@@ -258,6 +367,8 @@ def one(name, megapixels, http=True):
     img, part = posed_image(moved, relief, posed.cutout, drawing.rgb)
     rest = posed.image(rig.vertices)
     holes = _holes(posed, x, img, rest)
+    tears = _tears(posed, x, img, chain.completion)
+    tears_rest = _tears(posed, posed.rig.vertices, rest, chain.completion)
     visibility = _visibility(posed, moved, part)
     t0 = time.perf_counter()
     posed.posing.solver.reset()
@@ -272,6 +383,7 @@ def one(name, megapixels, http=True):
                 name=name, size=f"{w}x{h}", vertices=len(rig.vertices), prepare=prepare,
                 drag=statistics.median(drags), picture=statistics.median(pictures),
                 animation=animation, energy=energy, error=error, folds=folds, holes=holes,
+                tears=tears, tears_rest=tears_rest,
                 visibility=visibility)
 
 
@@ -334,19 +446,22 @@ def main():
     parser.add_argument("--no-upscale", action="store_true")
     parser.add_argument("--no-http", action="store_true", help="skip the editor's route")
     parser.add_argument("--joins", action="store_true", help="the joins table of every drawing")
+    parser.add_argument("--order", default="", metavar="FRONT/BACK,...",
+                        help="add an order entry per pair of region names (in process only)")
     args = parser.parse_args()
     if args.joins:
         return joins_table()
     print("| drawing | size | vertices | prepare s | drag ms (vs 30) | picture ms (CPU) | HTTP drag "
           "ms (vs 60) | HTTP drag CPU ms (vs 60) | HTTP full ms | 24 frames s | ARAP energy | "
-          "handle err px | folds | holes | visibility |")
+          "handle err px | folds | holes | tears (at rest) | visibility |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
-          "| --- |")
+          "| --- | --- |")
     for name in args.names.split(","):
         for mp in ([0.0] if args.no_upscale else [0.0, 1.0]):
-            r = one(name, mp, http=not args.no_http)
+            r = one(name, mp, http=not args.no_http,
+                    orders=[o for o in args.order.split(",") if o])
             if r is None:
-                print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | | |")
+                print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | | | |")
                 continue
             print(f"| {r['name']} | {r['size']} | {r['vertices']} | {r['prepare']:.2f} | "
                   f"{1000 * r['drag']:.1f} ({r['drag'] / 0.03:.2f}x) | {1000 * r['picture']:.0f} "
@@ -354,7 +469,7 @@ def main():
                   f"{1000 * r['http_cpu']:.0f} ({r['http_cpu'] / 0.06:.2f}x) | "
                   f"{1000 * r['http_full']:.0f} | "
                   f"{r['animation']:.1f} | {r['energy']:.2f} | {r['error']:.1e} | {r['folds']} | "
-                  f"{r['holes']} | {100 * r['visibility']:.1f} % |", flush=True)
+                  f"{r['holes']} | {r['tears']} ({r['tears_rest']}) | {100 * r['visibility']:.1f} % |", flush=True)
 
 
 if __name__ == "__main__":

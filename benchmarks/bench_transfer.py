@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_transfer.py [--frames 4] [--no-relief] [--no-timing] [--missed]
+                                        [--pictures DIR]
 
 Shots:
 
@@ -25,6 +26,9 @@ Every frame is carried from the one before it, starting at the key (as
   truth does, next to ``unchanged``: the same for the key's annotation used
   as it is (the baseline a user has without transfer; ``fails`` when the
   segmentation refuses it, e.g. a scribble now on ink, counted as 0);
+- ``spill``: the pixels the carried annotation's segmentation gives to a part
+  where the truth's is background, as a share of the character's pixels (a
+  part's scribble carried onto open paper; not counted in ``pixels``);
 - ``relations``: the share of the key's order relations between two parts
   whose carried points fall in the same two parts of the truth's
   segmentation (and the same for the unchanged annotation); in brackets,
@@ -38,7 +42,11 @@ Every frame is carried from the one before it, starting at the key (as
 
 With ``--missed``, each relation not kept is listed under the table: the two
 parts it names in the key and the truth's parts where its carried points
-landed (``-`` for ink or background).
+landed (``-`` for ink or background). With ``--pictures DIR``, a picture of
+each frame with such a relation is written there: crops around the
+relations' points of the key, the frame with the carried annotation and the
+frame with the truth, each segmented by its annotation (scribbles drawn dark,
+an order entry as a line from a white front point to a black back point).
 
 Then the time per frame at about 1 Mpx (the synthetic figure scaled up),
 against the 2 s target; and, unless ``--no-relief``, the flicker: for each
@@ -152,13 +160,16 @@ def run_shot(label, key_ann, frames, truths, rows, reliefs=None, first=1):
         rows.append(dict(
             shot=label, frame=first + t, next_to_key=t == 1,
             pixels=float((got == truth)[character].mean()),
+            spill=float(np.count_nonzero((got != "-") & ~character)
+                        / np.count_nonzero(character)),
             unchanged=None if base is None else float((base == truth)[character].mean()),
             relations=(_kept(tr.annotations, truth, relations), len(relations)),
             base_relations=(_kept(key_ann if base is not None else None, truth, relations),
                             len(relations)),
             visible=sum(set(pair) <= set(np.unique(truth)) for pair in relations.values()),
             wrong=len(wrong), flagged=len(flagged), caught=len(wrong & flagged), cpu=cpu,
-            missed=_missed(tr.annotations, truth, relations)))
+            missed=_missed(tr.annotations, truth, relations),
+            views=(frames[0], key_ann, frames[t], tr.annotations, truths[t])))
     if reliefs is not None:
         reliefs.append((label, frames, carried_seq, key_ann, truths))
 
@@ -171,17 +182,81 @@ def _print_missed(rows):
             print(f"  {r['shot']} frame {r['frame']}: {m}")
 
 
+def _panel(drawing, ann, box, scale, title):
+    """The drawing in ``box`` with ``ann``'s segmentation, scribbles and order entries."""
+    from PIL import Image, ImageDraw
+
+    try:
+        labels = segment(ann, drawing).labels
+    except InkrayError:
+        labels = np.full(drawing.gray.shape, -1)
+    colours = np.array([(230, 80, 80), (80, 180, 80), (80, 80, 230), (220, 180, 40),
+                        (180, 60, 200), (40, 200, 200), (240, 130, 30), (150, 90, 40)], float)
+    gray = np.clip(drawing.gray, 0, 1)[..., None] * 255
+    tint = 0.55 * colours[np.maximum(labels, 0) % len(colours)] + 0.45 * 255
+    rgb = np.where((labels[..., None] >= 0) & (gray > 127), tint, np.repeat(gray, 3, axis=2))
+    x0, y0, x1, y1 = box
+    image = Image.fromarray(rgb[y0:y1, x0:x1].astype(np.uint8)).resize(
+        ((x1 - x0) * scale, (y1 - y0) * scale), Image.NEAREST)
+    draw = ImageDraw.Draw(image)
+
+    def at(p):
+        return ((p[0] - x0 + 0.5) * scale, (p[1] - y0 + 0.5) * scale)
+
+    for i, r in enumerate(ann.regions):
+        dark = tuple(int(c * 0.6) for c in colours[i % len(colours)])
+        for line in r.scribbles:
+            if len(line) > 1:
+                draw.line([at(p) for p in line], fill=dark, width=2)
+    for o in ann.order:
+        front, back = at(o.front), at(o.back)
+        draw.line([front, back], fill=(0, 0, 0), width=2)
+        for (x, y), fill in ((front, (255, 255, 255)), (back, (0, 0, 0))):
+            draw.ellipse([x - 5, y - 5, x + 5, y + 5], outline=(0, 0, 0), fill=fill)
+        draw.text((front[0] + 6, front[1] - 6), str(o.index), fill=(0, 0, 0))
+    draw.text((4, 4), title, fill=(0, 0, 0))
+    return image
+
+
+def _pictures(rows, folder):
+    """Key, carried and truth crops around the relations not kept, one file per frame."""
+    from PIL import Image
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for r in rows:
+        if not r["missed"]:
+            continue
+        key, key_ann, frame, carried, truth = r["views"]
+        missed = {int(m.split("]")[0].split("[")[1]) for m in r["missed"]}
+        points = np.array([p for ann in (key_ann, carried) for o in ann.order
+                           if o.index in missed for p in (o.front, o.back)])
+        h, w = frame.gray.shape
+        x0, y0 = np.maximum(np.floor(points.min(axis=0)).astype(int) - 40, 0)
+        x1, y1 = np.minimum(np.ceil(points.max(axis=0)).astype(int) + 41, [w, h])
+        scale = max(1, 360 // max(x1 - x0, y1 - y0))
+        panels = [_panel(d, a, (x0, y0, x1, y1), scale, t) for d, a, t in (
+            (key, key_ann, "key"), (frame, carried, "carried"), (frame, truth, "truth"))]
+        sheet = Image.new("RGB", (sum(p.width + 8 for p in panels), panels[0].height), "white")
+        for k, p in enumerate(panels):
+            sheet.paste(p, (k * (p.width + 8), 0))
+        name = r["shot"].split(" (")[0].replace(" ", "_")
+        sheet.save(folder / f"{name}_{r['frame']}.png")
+
+
 def _print_rows(rows):
-    print(f"{'shot':<34} {'frame':>5} {'pixels':>7} {'unchanged':>9} {'relations':>11} "
-          f"{'unchanged':>9} {'wrong':>5} {'flagged':>7} {'caught':>6} {'cpu s':>6}")
+    print(f"{'shot':<34} {'frame':>5} {'pixels':>7} {'unchanged':>9} {'spill':>6} "
+          f"{'relations':>11} {'unchanged':>9} {'wrong':>5} {'flagged':>7} {'caught':>6} "
+          f"{'cpu s':>6}")
     for r in rows:
         unchanged = "fails" if r["unchanged"] is None else f"{100 * r['unchanged']:.1f}%"
         rel = f"{r['relations'][0]}/{r['relations'][1]}"
         if r["visible"] < r["relations"][1]:
             rel += f" ({r['visible']})"
         base = f"{r['base_relations'][0]}/{r['base_relations'][1]}"
-        print(f"{r['shot']:<34} {r['frame']:>5} {100 * r['pixels']:>6.1f}% {unchanged:>9} {rel:>11} "
-              f"{base:>9} {r['wrong']:>5} {r['flagged']:>7} {r['caught']:>6} {r['cpu']:>6.2f}")
+        print(f"{r['shot']:<34} {r['frame']:>5} {100 * r['pixels']:>6.1f}% {unchanged:>9} "
+              f"{100 * r['spill']:>5.1f}% {rel:>11} {base:>9} {r['wrong']:>5} {r['flagged']:>7} "
+              f"{r['caught']:>6} {r['cpu']:>6.2f}")
 
 
 def _targets(rows):
@@ -285,6 +360,8 @@ def main():
     parser.add_argument("--no-relief", action="store_true", help="skip the flicker measurement")
     parser.add_argument("--no-timing", action="store_true", help="skip the 1 Mpx timing")
     parser.add_argument("--missed", action="store_true", help="list the relations not kept")
+    parser.add_argument("--pictures", metavar="DIR",
+                        help="write pictures of the relations not kept to DIR")
     args = parser.parse_args()
     # A degenerate part can make the triangulator allocate without bound: cap it.
     resource.setrlimit(resource.RLIMIT_AS, (6 * 2 ** 30, resource.RLIM_INFINITY))
@@ -315,6 +392,8 @@ def main():
     _print_rows(rows)
     if args.missed:
         _print_missed(rows)
+    if args.pictures:
+        _pictures(rows, args.pictures)
     _targets(rows)
     if not args.no_timing:
         _timing()

@@ -50,7 +50,14 @@ the same drawing, byte for byte):
    ``fade``       the outline of a part in front fading out a little way into
                   the parts behind it, one part in two (a leg drawn into a
                   body without closing its top): no line between them there,
-                  only the scribbles tell them apart.
+                  only the scribbles tell them apart;
+   ``rest``       parts lying over the part below or beside them, each one time
+                  in two (:meth:`_Scene.resting`): a forelock of scalloped locks
+                  over the top of the head and the ears' bases, a collar or bib
+                  under the head (the head over it, its chin line unbroken), an
+                  arm resting over a leg, teeth over the head's lower outline.
+                  Drawn from a stream of its own: a drawing that does not use
+                  the style is the one drawn without it.
 
 The scribbles: one polyline along the middle of every visible piece of a part
 larger than a few stroke widths, and background scribbles in the empty
@@ -70,7 +77,7 @@ from skimage.measure import find_contours
 
 #: The drawing styles :func:`generate` can use (all by default).
 STYLES = ("width", "taper", "gaps", "overshoot", "sketchy", "marker", "antialias", "paper",
-          "lobes", "crowd", "fade")
+          "lobes", "crowd", "fade", "rest")
 _SS = 2  # supersampling of the painted masks and strokes
 
 
@@ -138,8 +145,13 @@ def generate(seed, *, styles=STYLES, size=None):
     if size is None:
         size = (int(rng.integers(300, 461)), int(rng.integers(300, 461)))
     w, h = size
-    used = tuple(s for s in STYLES if s in styles and rng.random() < 0.5)
-    scene = _Scene(rng, w * _SS, h * _SS, used)
+    used = tuple(s for s in STYLES[:-1] if s in styles and rng.random() < 0.5)
+    # The last style draws from a stream of its own: a drawing without it is the drawing the
+    # generator made before the style was added.
+    extra = np.random.default_rng((seed, 1))
+    if STYLES[-1] in styles and extra.random() < 0.5:
+        used += (STYLES[-1],)
+    scene = _Scene(rng, w * _SS, h * _SS, used, extra=extra)
     if rng.random() < 0.8:
         scene.character()
     else:
@@ -162,8 +174,10 @@ def generate(seed, *, styles=STYLES, size=None):
 class _Scene:
     """Parts of one scene, in supersampled pixels."""
 
-    def __init__(self, rng, w, h, used=()):
+    def __init__(self, rng, w, h, used=(), extra=None):
         self.rng, self.w, self.h = rng, w, h
+        self.extra = extra if "rest" in used else None
+        self.legs = []
         self.lobed = "lobes" in used
         self.crowded = "crowd" in used
         self.parts = []
@@ -179,10 +193,12 @@ class _Scene:
         x1, y1 = min(int(x1) + 3, self.w), min(int(y1) + 3, self.h)
         return (slice(y0, max(y1, y0)), slice(x0, max(x1, x0))), np.zeros((self.h, self.w), bool)
 
-    def blob(self, cx, cy, rx, ry, *, angle=0.0, wobble=0.12, lobes=0.0):
+    def blob(self, cx, cy, rx, ry, *, angle=0.0, wobble=0.12, lobes=0.0, scallops=False, rng=None):
         """A star-shaped blob: an ellipse with a random smooth radius, and ``lobes`` the
-        amplitude of 4 to 9 bumps round it (a cloud of hair, a fist: a concave outline)."""
-        rng = self.rng
+        amplitude of 4 to 9 bumps round it (a cloud of hair, a fist: a concave outline),
+        ``scallops``: the bumps meet in sharp inward corners (a forelock's locks); ``rng``
+        the stream it draws from (default the scene's)."""
+        rng = self.rng if rng is None else rng
         reach = max(rx, ry) * (1.0 + wobble + lobes)
         box, mask = self._box(cx - reach, cx + reach, cy - reach, cy + reach)
         dx, dy = self.xx[box] - cx, self.yy[box] - cy
@@ -194,7 +210,9 @@ class _Scene:
         for k in (2, 3, 5):
             bump += wobble / k * rng.uniform(-1, 1) * np.cos(k * t + rng.uniform(0, 2 * np.pi))
         if lobes > 0:
-            bump += lobes * np.cos(int(rng.integers(4, 10)) * t + rng.uniform(0, 2 * np.pi))
+            k, phase = int(rng.integers(4, 10)), rng.uniform(0, 2 * np.pi)
+            bump += (lobes * (2.0 * np.abs(np.sin(0.5 * k * t + phase)) - 1.0) if scallops
+                     else lobes * np.cos(k * t + phase))
         mask[box] = r <= bump
         return mask
 
@@ -257,6 +275,7 @@ class _Scene:
                     if rng.random() < 0.5 else self.capsule(top, foot, r0, r0 * rng.uniform(0.6, 1.0)))
             rank = 12.0 + i if near else 5.0 + i
             self.add(f"leg{i}_{'near' if near else 'far'}", mask, rank)
+            self.legs.append((np.asarray(top), np.asarray(foot), r0, rank))
             if rng.random() < 0.5:
                 paw = self.blob(foot[0] + r0 * 0.5, foot[1], r0 * 1.4, r0 * 0.9, lobes=self.lobes())
                 self.add(f"paw{i}", paw, rank + 0.5)
@@ -338,6 +357,8 @@ class _Scene:
             tilt = s * rng.uniform(-0.08, 0.08)
             self.add("belt", self.capsule((cx - rx * 1.1, y - tilt), (cx + rx * 1.1, y + tilt),
                                           s * rng.uniform(0.02, 0.04), s * rng.uniform(0.02, 0.04)), 10.8)
+        if self.extra is not None:
+            self.resting(cx, cy, rx, ry, (hx, hy, hrx, hry, hr, head_rank))
         # Plants behind the character or in front of its feet.
         for i in range(int(rng.integers(0, 3))):
             front = rng.random() < 0.5
@@ -352,6 +373,43 @@ class _Scene:
                     tip = (px + s * rng.uniform(-0.08, 0.08), py - s * rng.uniform(0.06, 0.16))
                     plant |= self.capsule((px + s * rng.uniform(-0.03, 0.03), py), tip, s * 0.018, 2.0)
             self.add(f"plant{i}", plant, 30.0 + i if front else 1.0 + i)
+
+    def resting(self, cx, cy, rx, ry, head):
+        """The ``rest`` style: parts lying over the part below or beside them, each one time
+        in two, drawn from the style's own stream: a forelock over the top of the head and
+        the ears' bases, a collar or bib under the head (the head over it, its chin line
+        unbroken), an arm resting over a leg, teeth over the head's lower outline."""
+        rng, s = self.extra, min(self.w, self.h)
+        hx, hy, hrx, hry, hr, head_rank = head
+        if rng.random() < 0.5:
+            self.add("forelock", self.blob(hx + hrx * rng.uniform(-0.2, 0.2), hy - hry * rng.uniform(0.7, 1.0),
+                                           hrx * rng.uniform(0.55, 0.95), hry * rng.uniform(0.35, 0.7),
+                                           wobble=0.2, lobes=rng.uniform(0.1, 0.25), scallops=True, rng=rng),
+                     head_rank + 0.95)
+        if rng.random() < 0.5:
+            collar = (self.blob(hx, hy + hry * rng.uniform(0.7, 1.1), hrx * rng.uniform(1.0, 1.8),
+                                hry * rng.uniform(0.35, 0.8), wobble=0.1, lobes=rng.uniform(0.0, 0.1), rng=rng)
+                      if rng.random() < 0.5 else
+                      self.capsule((hx - hrx * rng.uniform(0.9, 1.6), hy + hry * rng.uniform(0.7, 1.0)),
+                                   (hx + hrx * rng.uniform(0.9, 1.6), hy + hry * rng.uniform(0.7, 1.0)),
+                                   hry * rng.uniform(0.2, 0.45), hry * rng.uniform(0.2, 0.45)))
+            self.add("collar", collar, head_rank - 0.3 if head_rank > 10.0 else 10.7)
+        if self.legs and rng.random() < 0.5:
+            top, foot, r0, rank = self.legs[int(rng.integers(len(self.legs)))]
+            side = rng.choice([-1, 1])
+            shoulder = (cx + side * rx * rng.uniform(0.3, 0.9), cy - ry * rng.uniform(0.0, 0.6))
+            hand = top + (foot - top) * rng.uniform(0.3, 0.7) + side * r0 * rng.uniform(-1.0, 1.0)
+            r = s * rng.uniform(0.025, 0.05)
+            self.add("arm_rest", self.bent(shoulder, hand, r, r * 0.8, rng.uniform(-0.15, 0.15)),
+                     max(rank, 10.0) + 1.7)
+        if rng.random() < 0.5:
+            for i in range(int(rng.integers(1, 4))):
+                x = hx + hrx * rng.uniform(-0.6, 0.6)
+                y = hy + hry * rng.uniform(0.75, 0.95)
+                length = hr * rng.uniform(0.25, 0.5)
+                self.add(f"tooth{i}", self.capsule((x, y - length * 0.4), (x + hr * rng.uniform(-0.1, 0.1), y + length),
+                                                   hr * rng.uniform(0.1, 0.18), hr * rng.uniform(0.02, 0.06)),
+                         head_rank + 1.1 + i / 10)
 
     def stack(self):
         rng, w, h = self.rng, self.w, self.h

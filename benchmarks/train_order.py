@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/train_order.py [--count 360] [--without fade] [--cache DIR] [--out inkray/relief/order_model.json]
+    python benchmarks/train_order.py [--count 360] [--without fade,rest] [--cache DIR] [--out inkray/relief/order_model.json]
 
 Draws ``--count`` drawings with :func:`order_drawings.generate` (seeds
 ``0..count-1``; ``--without``: styles never used, a comma-separated list), runs the segmentation and the completion on each with its own
@@ -33,9 +33,10 @@ once, at the end, by ``benchmarks/bench_order.py --generated``; not read
 here). The model
 (``inkray/relief/order_model.json``, a few kB) is read by
 :mod:`inkray.relief.order_model`. With the same count and styles the file is
-the same, byte for byte; the shipped one is ``--count 240 --without fade``
-(the generator draws a style's chance only when the style is allowed, so
-without ``fade`` it draws what it drew before that style was added).
+the same, byte for byte; the shipped one is ``--count 240 --without fade,rest``
+(the generator draws a style's chance only when the style is allowed, and
+``rest`` from a stream of its own, so without ``fade`` and ``rest`` it draws
+what it drew before those styles were added).
 """
 
 import argparse

@@ -12,8 +12,10 @@ limb's lines is ambiguous, and a limb may fold further than the search: a
 part whose carried region the frame's segmentation (LazyBrush of the carried
 scribbles) does not give it is posed again, among its best distinct chamfer
 fits and turns about its attachment, by which of them the frame segmented
-with its scribbles so carried agrees with best. Every entry of the
-annotation moves with its part's motion:
+with its scribbles so carried agrees with best; such a part whose scribbles
+land at one end of its carried region is seeded again inside it, where the
+frame's lines enclose what that gives it. Every entry of the annotation moves
+with its part's motion:
 
 - region and background scribbles, resampled every few pixels so that a
   stroke follows a bending part; a point that lands on ink, or across a line
@@ -46,7 +48,7 @@ from inkray.input.annotations import Annotations
 from inkray.numerics.polyline import resample_polyline
 from inkray.numerics.registration import (arap_register, arap_segments, lattice_interpolate,
                                           rigid_poses, rigid_segments, warp_points)
-from inkray.segmentation import INK_THRESHOLD, segment
+from inkray.segmentation import INK_THRESHOLD, ink_cost, segment
 
 __all__ = ["EntryCheck", "Transfer", "transfer_annotations", "CHECK"]
 
@@ -65,6 +67,11 @@ _POSES = 4
 #: A pose is taken when it raises the agreement of the carried parts with the
 #: frame's segmentation by more than this share of the character's pixels.
 _GAIN = 0.002
+#: A part the segmentation disowns is seeded again at its carried region's
+#: deepest pixel it lost, when that lies at least this far (pixels) inside...
+_CORE = 3.0
+#: ... and the lines of the frame enclose at least this share of what it gains.
+_ENCLOSED = 0.7
 
 
 @dataclass
@@ -188,8 +195,91 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
     key_ink = np.clip(1.0 - key.gray, 0, 1)
     frame_ink = np.clip(1.0 - frame.gray, 0, 1)
     reg = arap_register(key_ink, frame_ink, spacing=spacing)
-    # A part that swings further than the smooth registration follows moves
-    # by its own rigid motion, where that brings its ink clearly closer.
+    motions, fit = _part_motions(key_ink, frame_ink, key_labels, reg, spacing=spacing, reach=reach)
+    pulled = _pull_back(key_labels, reg.displacement)
+    scene = _Scene(frame.gray, reg.confidence, spacing)
+    carried = _paint_parts(pulled, key_labels, motions)
+    carrier = _Carrier(reg=reg, motions=motions, places=_Places(carried, scene.paper, reach),
+                       fit=fit, own=frozenset(motions), scene=scene)
+    regions, region_scores = [], []
+    for i, r in enumerate(annotations.regions):
+        region, score = _carry_region(r, i, carrier, size)
+        regions.append(region)
+        region_scores.append(score)
+    background, background_scores = [], []
+    for s in annotations.background:
+        out, mv, mt = _carry_polyline(s, -1, carrier)
+        background.append(_inside(out, size))
+        background_scores.append((mv.mean(), mt.mean()))
+
+    draft = replace(annotations, size=size, regions=regions, background=background, order=[],
+                    equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
+    # The frame is segmented again for each pose tried: what it alone decides is kept.
+    memo = {}
+    first = segment(draft, frame, memo=memo).labels
+    n = len(annotations.regions)
+    doubt = _overlaps(carried, first, n)
+    carrier, carried, draft, labels, region_scores = _repose(
+        annotations.regions, np.flatnonzero(doubt < _REPOSE), carrier, carried, draft, first,
+        region_scores, key_ink=key_ink, frame_ink=frame_ink, key_labels=key_labels, pulled=pulled,
+        frame=frame, memo=memo, reach=reach, size=size)
+    if labels is not first:
+        # A part that another's new pose took pixels from (or gave them to) is as
+        # unsure.
+        doubt = np.minimum(doubt, _overlaps(first, labels, n))
+
+    carrier = replace(carrier, places=_Places(carried, scene.paper, reach))
+    order, order_scores = _carry_pairs(annotations.order, ("front", "back"), key_labels, carrier,
+                                       size)
+    equal, equal_scores = _carry_pairs(annotations.equal, ("a", "b"), key_labels, carrier, size)
+    named = [item[2] for item in order + equal]
+    # A point of an order or equal entry goes into its part as the frame is
+    # segmented: where the carried parts and the segmentation differ, the
+    # segmentation is what the relief will use.
+    # Paper joined to the image's border is outside every closed part: a
+    # relation's point goes off it where its part has paper that is not (a
+    # part hidden in the frame leaves its point on the open paper beside it).
+    segmented = _Places(labels, scene.paper, reach, avoid=_outside(scene.paper))
+    order, order_scores = _settle(order, order_scores, ("front", "back"), segmented, reg, spacing,
+                                  size)
+    equal, equal_scores = _settle(equal, equal_scores, ("a", "b"), segmented, reg, spacing, size)
+    draft = replace(draft, order=order, equal=equal)
+
+    checks = _Checks(threshold, prior)
+    part_match = _check_parts(checks, draft.regions, region_scores, _overlaps(carried, labels, n),
+                              doubt)
+    for j, (mv, mt) in enumerate(background_scores):
+        # Paper between parts is as sure as the parts around it.
+        near = _labels_near(labels, background[j], scene.far, spacing)
+        checks.add(f"background[{j}]", mv, min([mt] + [part_match[p] for p in near]))
+    # A relation is no surer than the parts it names.
+    for e, (mv, mt), parts in zip(order + equal, order_scores + equal_scores, named):
+        kind = "order" if e in order else "equal"
+        checks.add(f"{kind}[{e.index}]", mv, min([mt] + [part_match[p] for p in parts]))
+    boundaries = []
+    for b in annotations.boundaries:
+        path, mv, mt = _carry_boundary(b.path, key_labels, labels, carrier, reach)
+        boundaries.append(replace(b, path=_inside(path, size)))
+        checks.add(f"boundaries[{b.index}]", mv, mt)
+
+    character = (key_labels >= 0) & (key.gray < INK_THRESHOLD)
+    conf = reg.confidence
+    confidence = float(conf[character].mean()) if character.any() else float(conf.mean())
+    return Transfer(annotations=replace(draft, boundaries=boundaries), entries=checks.entries,
+                    confidence=confidence, warnings=checks.warnings, labels=labels)
+
+
+# -- the steps -----------------------------------------------------------------
+
+def _part_motions(key_ink, frame_ink, key_labels, reg, *, spacing, reach):
+    """The parts that move by their own motion, and how well each part's lines land.
+
+    A part that swings further than the smooth registration follows moves by
+    its own rigid motion (refined by its own ARAP registration), where that
+    brings its ink clearly closer to the frame's. Returns ``motions`` (part ->
+    motion) and ``fit`` (part -> score in [0, 1] from the mean distance of its
+    ink to the frame's ink under the motion it moves by).
+    """
     rigid = rigid_segments(key_ink, frame_ink, key_labels, reg, radius=reach)
     moved = {k: m for k, m in rigid.items() if m.cost < m.base_cost}
     local = arap_segments(key_ink, frame_ink, key_labels, moved, spacing=max(2, spacing // 2))
@@ -198,213 +288,283 @@ def transfer_annotations(annotations, key, frame, *, key_labels=None, threshold=
         best = min((m, local.get(k, m)), key=lambda x: x.cost)
         if best.cost < _OWN * m.base_cost:
             motions[k] = best
-    # How well each part's lines land on the frame's, from the mean distance
-    # of its ink to the frame's ink under the motion it moved by.
-    fit = {k: float(np.exp(-((motions[k].cost if k in motions else m.base_cost)
-                             / (spacing / 4)) ** 2)) for k, m in rigid.items()}
-    pulled = _pull_back(key_labels, reg.displacement)
-    paper = frame.gray >= INK_THRESHOLD
-    carried = _paint_parts(pulled, key_labels, motions)
-    places = _Places(carried, paper, reach)
-    nearest = {}
+    fit = {k: _fit_score(motions[k].cost if k in motions else m.base_cost, spacing)
+           for k, m in rigid.items()}
+    return motions, fit
 
-    def nearest_paper(q):
-        if "index" not in nearest:  # rarely needed: computed once, when it is
-            nearest["index"] = ndimage.distance_transform_edt(
-                frame.gray < INK_THRESHOLD, return_distances=False, return_indices=True)
-        iy, ix = nearest["index"]
+
+def _fit_score(cost, spacing):
+    """Score of a part whose ink lies ``cost`` pixels (mean) from the frame's ink."""
+    return float(np.exp(-(cost / (spacing / 4)) ** 2))
+
+
+def _moved_score(distance, spacing):
+    """Factor of the score of a point that had to move ``distance`` pixels into its part."""
+    return np.exp(-(np.minimum(distance, 1e9) / (2 * spacing)) ** 2)
+
+
+class _Scene:
+    """The frame as a carried point meets it: its paper, the registration's match
+    (``conf``), and the paper farther than ``spacing`` from any line (``far``)."""
+
+    def __init__(self, gray, conf, spacing):
+        self.gray, self.conf, self.spacing = gray, conf, spacing
+        self.paper = gray >= INK_THRESHOLD
+        self.far = (ndimage.distance_transform_edt(self.paper) > spacing).astype(float)
+        self._index = None
+
+    def nearest_paper(self, q):
+        """The paper pixel nearest ``q``."""
+        if self._index is None:  # rarely needed: computed once, when it is
+            self._index = ndimage.distance_transform_edt(
+                self.gray < INK_THRESHOLD, return_distances=False, return_indices=True)
+        iy, ix = self._index
+        h, w = self.gray.shape
         x = int(np.clip(np.rint(q[0]), 0, w - 1))
         y = int(np.clip(np.rint(q[1]), 0, h - 1))
         return np.array([ix[y, x], iy[y, x]], float)
-    conf = reg.confidence
-    frame_far = (ndimage.distance_transform_edt(frame.gray >= INK_THRESHOLD) > spacing).astype(float)
-    h, w = key_labels.shape
 
-    def label_at(p):
-        x = int(np.clip(np.rint(p[0]), 0, w - 1))
-        y = int(np.clip(np.rint(p[1]), 0, h - 1))
-        return int(key_labels[y, x])
 
-    def carry(points, labels, trial=None):
-        """Points carried into their parts: new points, distances moved, scores
-        (``trial``: other ``(motions, places)`` to carry them by)."""
-        by, at = (motions, places) if trial is None else trial
-        points = np.asarray(points, float).reshape(-1, 2)
-        moved = warp_points(reg, points)
-        for lab in set(labels) & set(by):
-            on = np.asarray(labels) == lab
-            moved[on] = by[lab].apply(points[on])
-        out = np.empty_like(moved)
-        snap = np.empty(len(points))
-        for i, (q, lab) in enumerate(zip(moved, labels)):
-            out[i], snap[i] = at.place(q, lab)
-            if not np.isfinite(snap[i]):
-                # No paper of its part within reach: off the ink at least (and
-                # scored 0), so that the frame can be segmented.
-                out[i] = nearest_paper(q)
-        # A point of a part matches as well as its part does (and no better than
-        # the drawings agree around it, where it moved with the registration);
-        # a background point far from any line of the frame is surely background.
-        local = _sample(conf, points)
-        labels = np.asarray(labels)
-        part = np.array([fit.get(lab, 1.0) for lab in labels])
-        own = np.isin(labels, list(motions))
-        match = np.where(own, part, np.minimum(local, part))
-        clear = _sample(frame_far, out, order=0) > 0.5
-        match = np.where((labels < 0) & clear, 1.0, match)
-        match = match * np.exp(-(np.minimum(snap, 1e9) / (2 * spacing)) ** 2)
-        return out, np.linalg.norm(out - points, axis=1), match
+@dataclass(frozen=True)
+class _Carrier:
+    """How a key point is carried into its part of the frame, and scored.
 
-    entries, warnings = [], []
+    ``motions`` (part -> its own motion; the other parts move with the
+    registration ``reg``) and ``places`` (the nearest paper of each part as
+    carried) move the points; ``fit`` (part -> score) and ``own`` (the parts
+    scored by their fit alone) score them.
+    """
 
-    prior = {} if prior is None else prior
+    reg: object
+    motions: dict
+    places: object
+    fit: dict
+    own: frozenset
+    scene: _Scene
 
-    def check(key_path, moved, match, name=None):
-        match = float(np.clip(match, 0, 1)) * float(prior.get(key_path, 1.0))
-        flagged = match < threshold
-        entries.append(EntryCheck(key=key_path, moved=float(moved), match=match, flagged=flagged,
-                                  name=name))
-        if flagged:
-            label = f"{key_path} ({name})" if name else key_path
-            warnings.append(f"{label}: moved {moved:.0f} px, match {match:.2f}: check it")
 
-    def carry_polyline(line, label, trial=None):
-        dense = line if len(line) == 1 else resample_polyline(line, _STEP)
-        out, moved, match = carry(dense, [label] * len(dense), trial)
-        return _simplify(out, 1.0), moved, match
+def _carry_points(points, labels, carrier):
+    """Points of parts ``labels`` carried into their parts: new points, distances
+    moved, scores."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    moved = warp_points(carrier.reg, points)
+    for lab in set(labels) & set(carrier.motions):
+        on = np.asarray(labels) == lab
+        moved[on] = carrier.motions[lab].apply(points[on])
+    out = np.empty_like(moved)
+    snap = np.empty(len(points))
+    for i, (q, lab) in enumerate(zip(moved, labels)):
+        out[i], snap[i] = carrier.places.place(q, lab)
+        if not np.isfinite(snap[i]):
+            # No paper of its part within reach: off the ink at least (and
+            # scored 0), so that the frame can be segmented.
+            out[i] = carrier.scene.nearest_paper(q)
+    # A point of a part matches as well as its part does (and no better than
+    # the drawings agree around it, where it moved with the registration);
+    # a background point far from any line of the frame is surely background.
+    local = _sample(carrier.scene.conf, points)
+    labels = np.asarray(labels)
+    part = np.array([carrier.fit.get(lab, 1.0) for lab in labels])
+    own = np.isin(labels, list(carrier.own))
+    match = np.where(own, part, np.minimum(local, part))
+    clear = _sample(carrier.scene.far, out, order=0) > 0.5
+    match = np.where((labels < 0) & clear, 1.0, match)
+    match = match * _moved_score(snap, carrier.scene.spacing)
+    return out, np.linalg.norm(out - points, axis=1), match
 
-    def carry_region(i, trial=None):
-        r = annotations.regions[i]
-        scribbles, moved, match = [], [], []
-        for s in r.scribbles:
-            out, mv, mt = carry_polyline(s, i, trial)
-            scribbles.append(_inside(out, size))
-            moved.append(mv)
-            match.append(mt)
-        return (replace(r, scribbles=scribbles, pixels=None),
-                (np.concatenate(moved).mean(), np.concatenate(match).mean()))
 
-    regions, region_scores = [], []
-    for i in range(len(annotations.regions)):
-        region, score = carry_region(i)
-        regions.append(region)
-        region_scores.append(score)
-    background, background_scores = [], []
-    for s in annotations.background:
-        out, mv, mt = carry_polyline(s, -1)
-        background.append(_inside(out, size))
-        background_scores.append((mv.mean(), mt.mean()))
+def _carry_polyline(line, label, carrier):
+    """A scribble of part ``label`` carried as points a few pixels apart, then simplified."""
+    dense = line if len(line) == 1 else resample_polyline(line, _STEP)
+    out, moved, match = _carry_points(dense, [label] * len(dense), carrier)
+    return _simplify(out, 1.0), moved, match
 
-    def carry_pairs(items, a, b):
-        out, scores = [], []
-        for e in items:
-            pa, pb = getattr(e, a), getattr(e, b)
-            parts = [label_at(pa), label_at(pb)]
-            pts, mv, mt = carry([pa, pb], parts)
-            pts = _inside(pts, size)
-            if np.allclose(pts[0], pts[1]):  # both into one pixel: keep them apart
-                pts = _inside(warp_points(reg, np.array([pa, pb], float)), size)
-            out.append((e, pts, parts, np.array([pa, pb], float)))
-            scores.append((mv.mean(), mt.min()))
-        return out, scores
 
-    draft = replace(annotations, size=size, regions=regions, background=background, order=[],
-                    equal=[], boundaries=[], background_pixels=None, drawing=None, source=None)
-    # The frame is segmented again for each pose tried: what it alone decides is kept.
-    memo = {}
-    labels = segment(draft, frame, memo=memo).labels
-    # A part whose carried region the frame's segmentation does not give it may
-    # have been posed on another part's lines (chamfer matching of a small limb
-    # is ambiguous) or folded beyond the search: other poses are tried, each
-    # judged by how well the carried parts and the frame segmented with the
-    # part's scribbles so posed agree (a right pose puts them in the enclosed
-    # area its region fills).
-    n = len(annotations.regions)
-    doubt, first = _overlaps(carried, labels, n), labels
+def _carry_region(region, label, carrier, size):
+    """The region with its scribbles carried, and its (mean distance moved, mean score)."""
+    scribbles, moved, match = [], [], []
+    for s in region.scribbles:
+        out, mv, mt = _carry_polyline(s, label, carrier)
+        scribbles.append(_inside(out, size))
+        moved.append(mv)
+        match.append(mt)
+    return (replace(region, scribbles=scribbles, pixels=None),
+            (np.concatenate(moved).mean(), np.concatenate(match).mean()))
+
+
+def _repose(regions, parts, carrier, carried, draft, labels, region_scores, *, key_ink,
+            frame_ink, key_labels, pulled, frame, memo, reach, size):
+    """The ``parts`` posed, or seeded, again where that agrees better with the frame.
+
+    Such a part (its carried region not what the frame's segmentation gives
+    it) may have been posed on another part's lines (chamfer matching of a
+    small limb is ambiguous) or folded beyond the search: its best distinct
+    chamfer fits are tried, each judged by how well the carried parts and the
+    frame segmented with the part's scribbles so posed agree (a right pose puts
+    them in the enclosed area its region fills). Or its region is carried
+    right but its scribbles land at one end of it: a scribble point is added
+    where the carried region lies deepest among the pixels the part lost (see
+    :func:`_core_point`), taken when the agreement rises and the frame's lines
+    enclose most of what the part gains (:func:`_enclosed`). Returns the
+    carrier, the carried parts, the draft, the frame's labels and the region
+    scores after.
+    """
     agree = _agreement(carried, labels)
-    for i in range(n):
-        if doubt[i] >= _REPOSE:
-            continue
-        for pose in rigid_poses(key_ink, frame_ink, key_labels, i, reg, count=_POSES,
+    region_scores = list(region_scores)
+    cost = None
+    for i in parts:
+        i = int(i)
+        for pose in rigid_poses(key_ink, frame_ink, key_labels, i, carrier.reg, count=_POSES,
                                 radius=reach):
-            trial = {**motions, i: pose}
+            trial = {**carrier.motions, i: pose}
             t_carried = _paint_parts(pulled, key_labels, trial)
-            region, score = carry_region(i, (trial, _Places(t_carried, paper, reach)))
-            t_draft = replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+            # Moved by the pose, scored as the part is now.
+            t_carrier = replace(carrier, motions=trial,
+                                places=_Places(t_carried, carrier.scene.paper, reach))
+            region, score = _carry_region(regions[i], i, t_carrier, size)
+            t_draft = _with_region(draft, i, region)
             t_labels = segment(t_draft, frame, memo=memo).labels
             t_agree = _agreement(t_carried, t_labels)
             if t_agree > agree + _GAIN:
-                agree, motions, carried = t_agree, trial, t_carried
-                draft, labels = t_draft, t_labels
-                regions[i], region_scores[i] = region, score
-                fit[i] = float(np.exp(-(pose.cost / (spacing / 4)) ** 2))
-    if labels is not first:
-        # A part that another's new pose took pixels from (or gave them to) is as
-        # unsure.
-        doubt = np.minimum(doubt, _overlaps(first, labels, n))
-    places = _Places(carried, paper, reach)
-    order, order_scores = carry_pairs(annotations.order, "front", "back")
-    equal, equal_scores = carry_pairs(annotations.equal, "a", "b")
-    # A point of an order or equal entry goes into its part as the frame is
-    # segmented: where the carried parts and the segmentation differ, the
-    # segmentation is what the relief will use.
-    # Paper joined to the image's border is outside every closed part: a
-    # relation's point goes off it where its part has paper that is not (a
-    # part hidden in the frame leaves its point on the open paper beside it).
-    segmented = _Places(labels, paper, reach, avoid=_outside(paper))
+                agree, carried, draft, labels = t_agree, t_carried, t_draft, t_labels
+                region_scores[i] = score
+                fit = _fit_score(pose.cost, carrier.scene.spacing)
+                carrier = replace(t_carrier, own=frozenset(trial), fit={**carrier.fit, i: fit})
+        # A scribble carried to the narrow end of its part loses the rest of the
+        # part to a neighbour's scribble across a gap in the lines: the part is
+        # seeded again where its carried region lies deepest among the pixels it
+        # lost, when the frame's lines enclose what that gains it.
+        point = _core_point(carried, labels, carrier.scene.paper, i)
+        if point is None:
+            continue
+        if cost is None:
+            cost = ink_cost(frame.gray)
+        r = draft.regions[i]
+        t_draft = _with_region(draft, i, replace(r, scribbles=[*r.scribbles, np.array([point])]))
+        t_labels = segment(t_draft, frame, memo=memo).labels
+        t_agree = _agreement(carried, t_labels)
+        if t_agree > agree + _GAIN and _enclosed(labels, t_labels, i, cost) >= _ENCLOSED:
+            agree, draft, labels = t_agree, t_draft, t_labels
+    return carrier, carried, draft, labels, region_scores
 
-    def settle(items, scores, a, b):
-        out = []
-        for k, (e, pts, parts, was) in enumerate(items):
-            for j in (0, 1):
-                pts[j], d = segmented.place(pts[j], parts[j])
-                if d > 0:
-                    mv, mt = scores[k]
-                    scores[k] = (mv, mt * np.exp(-(min(d, 1e9) / (2 * spacing)) ** 2))
-            if np.allclose(pts[0], pts[1]):
-                pts = _inside(warp_points(reg, was), size)
-            out.append(replace(e, **{a: tuple(map(float, pts[0])), b: tuple(map(float, pts[1]))}))
-        return out
 
-    named = [item[2] for item in order + equal]
-    order = settle(order, order_scores, "front", "back")
-    equal = settle(equal, equal_scores, "a", "b")
-    draft = replace(draft, order=order, equal=equal)
+def _with_region(draft, i, region):
+    """``draft`` with region ``i`` replaced by ``region``."""
+    return replace(draft, regions=draft.regions[:i] + [region] + draft.regions[i + 1:])
+
+
+def _core_point(carried, labels, paper, label):
+    """The paper pixel of part ``label`` as carried, not given to it by ``labels``, that lies
+    deepest inside the carried part; None when none lies ``_CORE`` pixels inside."""
+    mask = (carried == label) & paper
+    ys, xs = np.nonzero(mask)
+    if not len(xs):
+        return None
+    y0, x0 = max(ys.min() - 1, 0), max(xs.min() - 1, 0)
+    window = (slice(y0, ys.max() + 2), slice(x0, xs.max() + 2))
+    depth = ndimage.distance_transform_edt(mask[window])
+    depth[labels[window] == label] = 0
+    k = int(depth.argmax())
+    y, x = np.unravel_index(k, depth.shape)
+    if depth[y, x] < _CORE:
+        return None
+    return (float(x + x0), float(y + y0))
+
+
+def _enclosed(labels, t_labels, label, cost):
+    """Share of the outline of what part ``label`` gains from ``labels`` to ``t_labels``
+    that runs along a line (a cut next to a pixel of ink cost under one half)."""
+    mine = t_labels == label
+    gained = mine & (labels != label)
+    on_line = total = 0
+    for axis in (0, 1):
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        edge = (mine[lo] != mine[hi]) & (gained[lo] | gained[hi])
+        total += np.count_nonzero(edge)
+        on_line += np.count_nonzero(edge & (np.minimum(cost[lo], cost[hi]) < 0.5))
+    return on_line / total if total else 0.0
+
+
+def _carry_pairs(items, keys, key_labels, carrier, size):
+    """``order`` or ``equal`` entries (their two points named ``keys``) with each point
+    carried into the part it marks in the key: ``(entry, points, parts, key points)`` and
+    ``(mean distance moved, lowest score)`` per entry."""
+    out, scores = [], []
+    for e in items:
+        pa, pb = (getattr(e, k) for k in keys)
+        parts = [_label_at(key_labels, pa), _label_at(key_labels, pb)]
+        pts, mv, mt = _carry_points([pa, pb], parts, carrier)
+        pts = _inside(pts, size)
+        if np.allclose(pts[0], pts[1]):  # both into one pixel: keep them apart
+            pts = _inside(warp_points(carrier.reg, np.array([pa, pb], float)), size)
+        out.append((e, pts, parts, np.array([pa, pb], float)))
+        scores.append((mv.mean(), mt.min()))
+    return out, scores
+
+
+def _settle(items, scores, keys, segmented, reg, spacing, size):
+    """Carried pairs (from :func:`_carry_pairs`) with each point moved into its part as
+    ``segmented`` places it: the entries, and their scores lowered by how far they moved."""
+    out, scores = [], list(scores)
+    for k, (e, pts, parts, was) in enumerate(items):
+        for j in (0, 1):
+            pts[j], d = segmented.place(pts[j], parts[j])
+            if d > 0:
+                mv, mt = scores[k]
+                scores[k] = (mv, mt * _moved_score(d, spacing))
+        if np.allclose(pts[0], pts[1]):
+            pts = _inside(warp_points(reg, was), size)
+        out.append(replace(e, **{k: tuple(map(float, p)) for k, p in zip(keys, pts)}))
+    return out, scores
+
+
+class _Checks:
+    """The entries' checks and the warnings of those below ``threshold``; a score is
+    multiplied by the entry's ``prior`` one."""
+
+    def __init__(self, threshold, prior):
+        self.threshold, self.prior = threshold, {} if prior is None else prior
+        self.entries, self.warnings = [], []
+
+    def add(self, key_path, moved, match, name=None):
+        match = float(np.clip(match, 0, 1)) * float(self.prior.get(key_path, 1.0))
+        flagged = match < self.threshold
+        self.entries.append(EntryCheck(key=key_path, moved=float(moved), match=match,
+                                       flagged=flagged, name=name))
+        if flagged:
+            label = f"{key_path} ({name})" if name else key_path
+            self.warnings.append(f"{label}: moved {moved:.0f} px, match {match:.2f}: check it")
+
+
+def _check_parts(checks, regions, scores, overlaps, doubt):
+    """The regions' checks: a part is no surer than the frame's segmentation gives it its
+    carried region (``overlaps``), nor than before it was posed again (``doubt``: the pose
+    that agrees best with the segmentation is a guess to check). Returns part -> score
+    (``-1``, the background, scoring 1)."""
     part_match = {-1: 1.0}
-    overlaps = _overlaps(carried, labels, n)
-    for i, (r, (mv, mt)) in enumerate(zip(regions, region_scores)):
-        # A part posed again is no surer than its first pose was: the pose that
-        # agrees best with the segmentation is a guess to check.
+    for i, (r, (mv, mt)) in enumerate(zip(regions, scores)):
         part_match[i] = min(mt, overlaps[i], doubt[i])
-        check(f"regions[{i}]", mv, part_match[i], name=r.name)
-    for j, (mv, mt) in enumerate(background_scores):
-        # Paper between parts is as sure as the parts around it.
-        near = _labels_near(labels, background[j], frame_far, spacing)
-        check(f"background[{j}]", mv, min([mt] + [part_match[p] for p in near]))
-    # A relation is no surer than the parts it names.
-    for e, (mv, mt), parts in zip(order + equal, order_scores + equal_scores, named):
-        kind = "order" if e in order else "equal"
-        check(f"{kind}[{e.index}]", mv, min([mt] + [part_match[p] for p in parts]))
+        checks.add(f"regions[{i}]", mv, part_match[i], name=r.name)
+    return part_match
 
-    def move_beside(points, pair):
-        # A boundary beside a part that moved on its own moves with that part.
-        own = [k for k in pair if k in motions]
-        return motions[own[0]].apply(points) if own else warp_points(reg, points)
 
-    boundaries = []
-    for b in annotations.boundaries:
-        path, mv, mt = _carry_boundary(b.path, key_labels, labels, move_beside, conf, reach)
-        boundaries.append(replace(b, path=_inside(path, size)))
-        check(f"boundaries[{b.index}]", mv, mt)
-
-    character = (key_labels >= 0) & (key.gray < INK_THRESHOLD)
-    confidence = float(conf[character].mean()) if character.any() else float(conf.mean())
-    carried_ann = replace(draft, boundaries=boundaries)
-    return Transfer(annotations=carried_ann, entries=entries, confidence=confidence,
-                    warnings=warnings, labels=labels)
+def _move_beside(points, pair, carrier):
+    """Key points beside parts ``pair`` carried: a boundary beside a part that moved on
+    its own moves with that part."""
+    own = [k for k in pair if k in carrier.motions]
+    return carrier.motions[own[0]].apply(points) if own else warp_points(carrier.reg, points)
 
 
 # -- helpers -------------------------------------------------------------------
+
+def _label_at(labels, p):
+    h, w = labels.shape
+    x = int(np.clip(np.rint(p[0]), 0, w - 1))
+    y = int(np.clip(np.rint(p[1]), 0, h - 1))
+    return int(labels[y, x])
 
 class _Places:
     """Nearest paper pixel of each carried part, found within ``reach``.
@@ -597,11 +757,9 @@ def _outline(labels, a, b):
     return out
 
 
-def _carry_boundary(path, key_labels, labels, move, conf, reach):
-    """A boundary path carried and put back on the frame's outline between its two parts.
-
-    ``move(points, pair)`` carries key points beside the two parts ``pair``.
-    """
+def _carry_boundary(path, key_labels, labels, carrier, reach):
+    """A boundary path carried and put back on the frame's outline (``labels``) between
+    the two parts it separates in the key."""
     dense = resample_polyline(path, _STEP)
     h, w = key_labels.shape
     # The two parts the path separates in the key: the commonest labels near it.
@@ -611,8 +769,8 @@ def _carry_boundary(path, key_labels, labels, move, conf, reach):
         seen.append(key_labels[max(0, y0 - 3):y0 + 4, max(0, x0 - 3):x0 + 4].ravel())
     values, counts = np.unique(np.concatenate(seen), return_counts=True)
     pair = [int(v) for v in values[np.argsort(-counts)][:2]]
-    moved = move(dense, pair)
-    match = _sample(conf, dense)
+    moved = _move_beside(dense, pair, carrier)
+    match = _sample(carrier.scene.conf, dense)
     moved_by = float(np.linalg.norm(moved - dense, axis=1).mean())
     outlines = _outline(labels, None, None)
     if not outlines.any():

@@ -34,7 +34,7 @@ def test_styles_switch_off():
             assert len(np.unique(g.gray)) > 20                  # shading and grain
     with pytest.raises(ValueError, match="unknown style 'ink'"):
         generate(0, styles=("ink",))
-    assert len(STYLES) == 11
+    assert len(STYLES) == 12
 
 
 def _unlined(g):
@@ -53,6 +53,29 @@ def test_fading_outlines_leave_parts_unlined():
     assert all(g.styles == ("fade",) for g in faded)
     assert all(_unlined(g).sum() > 10 for g in faded)
     assert not any(_unlined(generate(seed, styles=(), size=(240, 240))).any() for seed in range(2, 4))
+
+
+def test_resting_parts_lie_over_what_they_rest_on():
+    # The forelock over the head and the ears, the head over its collar, the teeth over the
+    # head, an arm resting on a leg; a drawing that does not draw the style is the drawing
+    # made without it (the style draws from a stream of its own).
+    every = [s for s in STYLES if s != "rest"]
+    seen = set()
+    for seed in range(12):
+        g = generate(seed, styles=every + ["rest"], size=(240, 240))
+        if "rest" not in g.styles:
+            plain = generate(seed, styles=every, size=(240, 240))
+            assert np.array_equal(g.gray, plain.gray) and g.annotation == plain.annotation
+            continue
+        pairs = {(f.rstrip("0123456789"), b.rstrip("0123456789")) for f, b in g.relations}
+        seen |= {n for pair in pairs for n in pair}
+        # (front, back) pairs that would put a resting part behind what it rests on; a head
+        # drawn behind the body is behind its collar too.
+        wrong = {("head", "forelock"), ("ear", "forelock"), ("head", "tooth")}
+        if ("body", "head") not in pairs:
+            wrong.add(("collar", "head"))
+        assert not pairs & wrong, (seed, pairs & wrong)
+    assert {"forelock", "collar", "arm_rest", "tooth"} <= seen
 
 
 def test_order_entries_point_into_their_parts():

@@ -28,7 +28,10 @@ them:
   each only if it joins two pieces the joins so far leave apart, so that a
   limb in front of the body that is rooted elsewhere stays free to swing;
   overlaps that grip (glue three vertices or more, not on one line) come
-  before those that would only pin the part at a point it pivots about.
+  before those that would only pin the part at a point it pivots about. A
+  root or a part on top that does not grip (an arm lying on the head over a
+  few pixels) is taken the same way, as a pin: only where nothing else joins
+  its two pieces.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest (for a root also the vertices up to
@@ -400,11 +403,14 @@ def rig_relief(relief, completion, *, boundaries=()):
             got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
             if not got.shape[0]:
                 continue
-            if kind == "overlap":
-                overlaps.append((got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0])))
+            join = Join(rig.names[pb], rig.names[pa], kind, got.shape[0])
+            # A root or a part on top glued at a vertex or two would pivot there: like an
+            # overlap that only pins, it joins only what nothing else joins.
+            if kind == "overlap" or not _grips(rig, got, join.part):
+                overlaps.append((got, join))
             else:
                 rows.append(got)
-                joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
+                joins.append(join)
     for seam in boundaries:
         if seam.type not in ("stitch", "graft"):
             continue
