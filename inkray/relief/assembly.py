@@ -32,7 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
-from inkray.relief.inflation import _CORNER_STRETCH, WALL_INSET
+from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
@@ -51,8 +51,9 @@ SKIRT = 0.3
 #: How near (pixels) outlines of different parts are made to coincide before the booleans
 #: (or, where the parts' slabs do not meet in height, kept half this apart).
 SNAP = 1.5
-# an outline vertex's copy at the top of the rim's wall lies at most this far from it
-_WALL_REACH = 1.01 * _CORNER_STRETCH * WALL_INSET
+# an outline vertex's copy at the top of the rim's wall lies at most four insets from it
+# (farther in at a corner, see rim_wall)
+_WALL_REACH = 4.04 * WALL_INSET
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
