@@ -42,6 +42,7 @@ _SOFT_EDGE = 0.75   # grey level up to which a stroke's soft edge belongs to its
 _RIM_STEPS = 64  # at most this many pixels from the paper into a layer's rim
 _CLEAR = 0.05  # coverage below which a pixel beyond a part is paper
 _MATTE = 24  # levels: a pixel this close to a mix of paper and ink is that mix
+_PAPER_SPREADS = 2.0  # how far below its median tone (in spreads) a part's paper reaches
 _EDGE_SMOOTHING = 0.7  # px: Gaussian over a silhouette's stair-steps for its anti-aliased edge
 
 
@@ -456,8 +457,8 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     hidden = grw & ~vis
     out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
-        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], vis, shp & ~vis,
-                                                hidden, strokes.width), out)
+        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.matte[win],
+                                                vis, shp & ~vis, hidden, strokes.width), out)
     if not outline:
         alpha = grw.astype(np.float64)
     else:
@@ -473,25 +474,47 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
                        rgba=rgba[crop], hidden=hidden[crop])
 
 
-def _fill(colours, gray, vis, hidden, padded, width):
-    """The part's colours continued into its ``hidden`` pixels, then into the padding."""
-    # Ink next to the hidden part (the occluder's outline) is not the part's colour.
-    ink = vis & ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
-    near = ndimage.binary_dilation(hidden, iterations=int(np.ceil(2 * width)) + 1)
-    unknown = hidden | (ink & near)
-    known = vis & ~ink & ndimage.binary_dilation(unknown)
-    if not known.any():
-        known = vis & ndimage.binary_dilation(unknown)
-    mean = colours[vis & ~ink].mean(axis=0) if (vis & ~ink).any() else (
+def _fill(colours, gray, matte, vis, hidden, padded, width):
+    """The part's colours continued into its ``hidden`` pixels, then into the padding.
+
+    Only the part's paper (:func:`_paper`) gives boundary values: ink next to the hidden
+    part (the occluder's outline, the part's own strokes, however thick or soft) is not the
+    part's colour and is filled over like the hidden part.
+    """
+    ink = ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
+    paper = _paper(gray, matte, vis & ~ink)
+    near = ndimage.binary_dilation(hidden, iterations=2 * _STROKE_MAX + 1)
+    unknown = hidden | (vis & ~paper & near)
+    known = paper & ndimage.binary_dilation(unknown)
+    # Where no paper touches the hidden part, the regularization gives it the paper's mean.
+    mean = colours[paper].mean(axis=0) if paper.any() else (
         colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
     fill = _harmonic_fill(colours, known, unknown, mean) if unknown.any() else colours
     pad = padded & ~hidden
     if pad.any():  # the padding continues the completed part, which it does not change
-        done = (vis & ~ink) | hidden
+        done = paper | hidden
         fill = np.where(done[..., None], fill, colours)
         fill = np.where(pad[..., None],
                         _harmonic_fill(fill, done & ndimage.binary_dilation(pad), pad, mean), fill)
     return fill
+
+
+def _paper(gray, matte, candidates):
+    """The pixels of ``candidates`` at the part's own tone (paper or its colour), not ink.
+
+    Ink too wide for the closing that finds strokes (a marker's) and the soft
+    edges of strokes are ink over paper (``matte``) and darker than the part's
+    tone: more than twice its spread below its median grey (the spread from
+    the pixels lighter than the median, which no ink reaches), or a grey level
+    where the paper is flat. A colour of the part's own, however dark, is kept.
+    """
+    values = gray[candidates]
+    if not values.size:
+        return candidates
+    tone = float(np.median(values))
+    spread = 1.4826 * float(np.median(values[values >= tone] - tone))
+    floor = tone - max(_PAPER_SPREADS * spread, 1 / 255)
+    return candidates & ~(matte & (gray < floor))
 
 
 def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
