@@ -503,18 +503,20 @@ def _paper(gray, matte, candidates):
     """The pixels of ``candidates`` at the part's own tone (paper or its colour), not ink.
 
     Ink too wide for the closing that finds strokes (a marker's) and the soft
-    edges of strokes are ink over paper (``matte``) and darker than the part's
-    tone: more than twice its spread below its median grey (the spread from
-    the pixels lighter than the median, which no ink reaches), or a grey level
-    where the paper is flat. A colour of the part's own, however dark, is kept.
+    edges of strokes are darker than the part's tone (more than twice its
+    spread below its median grey, the spread from the pixels lighter than the
+    median, which no ink reaches; or a grey level where the paper is flat)
+    and are ink over paper (``matte``) or darker than their surroundings
+    within four strokes' width. A colour of the part's own, however dark, is
+    kept.
     """
     values = gray[candidates]
     if not values.size:
         return candidates
     tone = float(np.median(values))
     spread = 1.4826 * float(np.median(values[values >= tone] - tone))
-    floor = tone - max(_PAPER_SPREADS * spread, 1 / 255)
-    return candidates & ~(matte & (gray < floor))
+    dark = gray < tone - max(_PAPER_SPREADS * spread, 1 / 255)
+    return candidates & ~(dark & (matte | _ink(gray, size=4 * _STROKE_MAX + 1)))
 
 
 def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
