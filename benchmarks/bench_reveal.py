@@ -10,11 +10,12 @@ versions of inkray are measured alike):
   drawing's ink coverage, 0 paper .. 1 the strokes' core, below 0.25 and no
   pixel of coverage 0.5 or more within 2 px); its floor is their 2nd
   percentile of luminance (Rec. 601, 0..255);
-- the *fill*: the layer's hidden pixels, opaque, farther than a stroke width
-  + 2 px from the layer's transparent pixels (the continued outline lies
-  within a stroke width of the completed silhouette): the wider of the
-  drawing's strokes and the part's own drawn strokes near its hidden part
-  (as ``bench_layers.py`` measures them);
+- the *fill*: the layer's hidden pixels, opaque, more than 10 px from the
+  edge of the part's completed shape (its label and its hidden pixels):
+  the continued outline lies within a stroke width of that edge, and
+  ``cut_out`` draws strokes up to 8 px wide (its measured widths run wider
+  than the drawn strokes' cores: see ``bench_layers.py``), with a soft
+  pixel beyond;
 - ``dark %``: the share of the fill darker than the floor (pooled over the
   layers), ``worst``: the largest share of one layer (its name), ``min``:
   the darkest fill pixel below its layer's floor (levels, 0 when none).
@@ -41,10 +42,10 @@ from scipy import ndimage
 from skimage.morphology import skeletonize
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_layers import _stroke  # noqa: E402
 from bench_pose import _load  # noqa: E402
 
 NAMES = "fox,man,donkey,frog,dragon,turtle,cat,gingerbread"
+OUTLINE = 10  # px from the completed shape's edge: the continued outline's widest reach
 LUMA = np.array([0.299, 0.587, 0.114])
 
 
@@ -61,8 +62,6 @@ def measure(name, megapixels):
     inked = luma < (paper + float(np.percentile(luma, 0.5))) / 2
     core = float(np.median(luma[skeletonize(inked)])) if inked.any() else 0.0
     cover = np.clip((paper - luma) / max(paper - core, 1.0), 0, 1)
-    width, _ = _stroke(cover, labels >= 0)
-    width = 1.0 if width is None else width
     non_ink = (cover < 0.25) & ~ndimage.binary_dilation(cover >= 0.5, iterations=2)
     total = dark = 0
     worst, worst_name, darkest = 0.0, "-", 0.0
@@ -75,11 +74,9 @@ def measure(name, megapixels):
             continue
         floor = float(np.percentile(luma[y0:y1, x0:x1][own], 2))
         alpha = layer.rgba[..., 3]
-        drawn_zone = (labels[y0:y1, x0:x1] == layer.region) & ndimage.binary_dilation(
-            layer.hidden, iterations=32) & ~ndimage.binary_dilation(layer.hidden, iterations=8)
-        own_width, _ = _stroke(cover[y0:y1, x0:x1], drawn_zone)
-        reach = max(width, own_width or 0.0) + 2
-        fill = layer.hidden & (alpha == 255) & (ndimage.distance_transform_edt(alpha > 0) > reach)
+        shape = layer.hidden | (labels[y0:y1, x0:x1] == layer.region)
+        depth = ndimage.distance_transform_edt(np.pad(shape, 1))[1:-1, 1:-1]
+        fill = layer.hidden & (alpha == 255) & (depth > OUTLINE)
         if not fill.any():
             continue
         value = layer.rgba[..., :3][fill].astype(np.float64) @ LUMA

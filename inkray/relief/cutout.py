@@ -417,6 +417,11 @@ class _Strokes:
         # Pixels that are ink over paper (not a colour of their own) can fade with the ink.
         mix = self.paper + self.cover[..., None] * (self.colour.astype(float) - self.paper)
         self.matte = np.abs(rgb - mix).max(axis=2) <= _MATTE
+        # The colours of ink on this paper, also darker than the strokes' measured core (a
+        # thick stroke's middle).
+        toward = self.colour.astype(float) - self.paper
+        step = np.clip((rgb - self.paper) @ toward / max(float(toward @ toward), 1.0), 0.0, None)
+        self.inky = np.abs(rgb - self.paper - step[..., None] * toward).max(axis=2) <= _MATTE
 
     def style(self, hidden, own):
         """Colour and width of the part's strokes (``own``: its pixels, (H, W)) where its
@@ -457,7 +462,7 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     hidden = grw & ~vis
     out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
-        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.matte[win],
+        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.inky[win],
                                                 vis, shp & ~vis, hidden, strokes.width), out)
     if not outline:
         alpha = grw.astype(np.float64)
@@ -474,7 +479,7 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
                        rgba=rgba[crop], hidden=hidden[crop])
 
 
-def _fill(colours, gray, matte, vis, hidden, padded, width):
+def _fill(colours, gray, inky, vis, hidden, padded, width):
     """The part's colours continued into its ``hidden`` pixels, then into the padding.
 
     Only the part's paper (:func:`_paper`) gives boundary values: ink next to the hidden
@@ -482,12 +487,12 @@ def _fill(colours, gray, matte, vis, hidden, padded, width):
     part's colour and is filled over like the hidden part.
     """
     ink = ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
-    paper = _paper(gray, matte, vis & ~ink)
+    paper = _paper(gray, inky, vis & ~ink)
     near = ndimage.binary_dilation(hidden, iterations=2 * _STROKE_MAX + 1)
     unknown = hidden | (vis & ~paper & near)
     known = paper & ndimage.binary_dilation(unknown)
-    # Where no paper touches the hidden part, the regularization gives it the paper's mean.
-    mean = colours[paper].mean(axis=0) if paper.any() else (
+    # Where no paper touches the hidden part, the regularization gives it the paper's colour.
+    mean = np.median(colours[paper], axis=0) if paper.any() else (
         colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
     fill = _harmonic_fill(colours, known, unknown, mean) if unknown.any() else colours
     pad = padded & ~hidden
@@ -499,24 +504,28 @@ def _fill(colours, gray, matte, vis, hidden, padded, width):
     return fill
 
 
-def _paper(gray, matte, candidates):
+def _paper(gray, inky, candidates):
     """The pixels of ``candidates`` at the part's own tone (paper or its colour), not ink.
 
-    Ink too wide for the closing that finds strokes (a marker's) and the soft
-    edges of strokes are darker than the part's tone (more than twice its
-    spread below its median grey, the spread from the pixels lighter than the
-    median, which no ink reaches; or a grey level where the paper is flat)
-    and are ink over paper (``matte``) or darker than their surroundings
-    within four strokes' width. A colour of the part's own, however dark, is
-    kept.
+    Ink too wide for the closing that finds strokes (a marker's, a filled
+    black shape) and the soft edges of strokes are darker than the part's
+    tone and have the colour of ink on this paper (``inky``) or are darker
+    than their surroundings up to four strokes' width. The tone is the median
+    grey of the rest (a thin part's thick outline may cover most of it), and
+    darker means more than twice its spread below (the spread from the pixels
+    lighter than the median, which no ink reaches), or a grey level where the
+    paper is flat. A colour of the part's own, however dark, is kept.
     """
-    values = gray[candidates]
+    wide = _ink(gray, size=4 * _STROKE_MAX + 1)
+    values = gray[candidates & ~wide]
+    if not values.size:
+        values = gray[candidates]
     if not values.size:
         return candidates
     tone = float(np.median(values))
     spread = 1.4826 * float(np.median(values[values >= tone] - tone))
     dark = gray < tone - max(_PAPER_SPREADS * spread, 1 / 255)
-    return candidates & ~(dark & (matte | _ink(gray, size=4 * _STROKE_MAX + 1)))
+    return candidates & ~(dark & (inky | wide))
 
 
 def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
