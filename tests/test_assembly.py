@@ -9,7 +9,8 @@ from scipy.spatial import cKDTree
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.assembly import (MIN_ANGLE, _boundary_edges, _envelope_solid,
+from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _envelope_solid,
+                                    _paired, _sheets, _unwalled,
                                     _min_angles, _signed_areas, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
@@ -375,3 +376,29 @@ def test_a_hole_smaller_than_the_fill_area_is_filled():
     assert -q["volume"] == pytest.approx(2.0 * 16.0, rel=1e-12)  # the unit hole filled
     kept_v, kept_f = _envelope_solid([holed], 0.0, 0.0, fill=0.5)  # larger than the fill
     assert -mesh_quality(kept_v, kept_f)["volume"] == pytest.approx(2.0 * 15.0, rel=1e-12)
+
+
+def test_the_rims_wall_strip_is_merged_away_keeping_the_outline():
+    # a disk inflated with the rim's wall: every outline vertex has a copy 0.02 px inside
+    # (the wall's top), joined to it by a strip of needles two faces per outline edge
+    yy, xx = np.mgrid[:80, :80]
+    region = inflate_region((xx - 40) ** 2 + (yy - 40) ** 2 <= 30 ** 2, name="disk")
+    mesh = region.mesh
+    part = close_part(Part("disk", np.column_stack([mesh.vertices, region.height]),
+                           np.asarray(mesh.faces, np.int64)), -region.height - 1.0)
+    v, front, back = _sheets(part)
+    sheet, faces = _paired(v, front, back)
+    outline = np.unique(_boundary_edges(faces))
+    w, g = _unwalled(sheet, faces, _WALL_REACH)
+    strip = 2 * len(outline)
+    assert len(g) == len(faces) - strip and len(w) == len(sheet) - len(outline)
+    a, b = _boundary_edges(g).T
+    # the outline keeps its (x, y) exactly, at the wall's top: no face of the strip left
+    assert sorted(map(tuple, w[a, :2].tolist())) == sorted(map(tuple, sheet[outline, :2].tolist()))
+    top = np.sort(region.height[len(region.height) - len(outline):])  # the copies come last
+    assert np.array_equal(np.sort(w[a, 2]), top) and top.min() > 0.5
+    assert np.array_equal(np.sort(w[a, 3]), np.sort(-top - 1.0))
+    assert _min_angles(w[:, :3], g).min() > _min_angles(sheet[:, :3], faces).min()
+    assert (np.sign(_signed_areas(w, g)) == np.sign(_signed_areas(sheet, faces)[0])).all()
+    again_v, again_f = _unwalled(w, g, _WALL_REACH)  # nothing more to merge
+    assert np.array_equal(again_v, w) and np.array_equal(again_f, g)

@@ -49,3 +49,15 @@ def test_matches_libigl_on_a_random_soup():
                 expected[[i, j]] = True
     assert 0 < expected.sum() < 60
     assert self_intersecting_faces(v, f).tolist() == expected.tolist()
+
+
+def test_faces_touching_within_a_rounding_cross_once_stored_as_float32():
+    # a corner 1e-9 short of the other triangle's plane, at coordinates near 1e3: apart
+    # in double precision, on or through the plane once rounded to float32 (2^-24 of it)
+    v = np.array([[1000.0, 1000.0, 1000.0], [1002.0, 1000.0, 1000.0], [1000.0, 1002.0, 1000.0],
+                  [1000.5, 1000.5, 1000.0 - 1e-9], [1000.5, 1000.5, 999.0], [1001.0, 1000.5, 999.0]])
+    f = np.array([[0, 1, 2], [3, 4, 5]])
+    assert not self_intersecting_faces(v, f).any()
+    assert self_intersecting_faces(v, f, float32_scales=(1.0,)).all()
+    rounded = (v * 1.0).astype(np.float32).astype(float)
+    assert self_intersecting_faces(rounded, f).all()  # the same as testing the rounded copy

@@ -18,13 +18,18 @@ _SHRINK = 1e-6  # relative shrink of faces that share a corner
 _CHUNK = 200_000  # pairs tested at once (memory)
 
 
-def self_intersecting_faces(vertices, faces):
+def self_intersecting_faces(vertices, faces, *, float32_scales=()):
     """Which faces cross or touch another face they share no edge with.
 
     Parameters
     ----------
     vertices : (n, 3) float array
     faces : (m, 3) int array
+    float32_scales : sequence of float, default ()
+        Also the faces that cross once the positions are multiplied by each of
+        these and rounded to float32 (as files store them): faces touching
+        within a rounding error may cross there. The candidate pairs are found
+        once for all of them.
 
     Returns
     -------
@@ -45,21 +50,25 @@ def self_intersecting_faces(vertices, faces):
     out = np.zeros(len(f), bool)
     if len(f) < 2:
         return out
-    v = v - 0.5 * (v.min(axis=0) + v.max(axis=0))  # digits where the faces differ
-    a, b = _candidate_pairs(v[f])
+    variants = [v] + [(v * s).astype(np.float32).astype(float) for s in float32_scales]
+    # the boxes widened by more than a rounding to float32 moves a corner (2^-24 of it)
+    margin = 1e-6 * float(np.abs(v).max()) if float32_scales else 0.0
+    a, b = _candidate_pairs(v[f], margin)
     shared = (f[a][:, :, None] == f[b][:, None, :]).sum(axis=(1, 2))
     a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
-    for s in range(0, len(a), _CHUNK):
-        i, j, k = a[s:s + _CHUNK], b[s:s + _CHUNK], shared[s:s + _CHUNK]
-        ti, tj = v[f[i]], v[f[j]]
-        corner = k == 1
-        ti[corner] = _shrunk(ti[corner])
-        tj[corner] = _shrunk(tj[corner])
-        near = _straddle(ti, tj) & _straddle(tj, ti)
-        hit = np.zeros(len(i), bool)
-        hit[near] = _overlap(ti[near], tj[near])
-        out[i[hit]] = True
-        out[j[hit]] = True
+    for w in variants:
+        w = w - 0.5 * (w.min(axis=0) + w.max(axis=0))  # digits where the faces differ
+        for s in range(0, len(a), _CHUNK):
+            i, j, k = a[s:s + _CHUNK], b[s:s + _CHUNK], shared[s:s + _CHUNK]
+            ti, tj = w[f[i]], w[f[j]]
+            corner = k == 1
+            ti[corner] = _shrunk(ti[corner])
+            tj[corner] = _shrunk(tj[corner])
+            near = _straddle(ti, tj) & _straddle(tj, ti)
+            hit = np.zeros(len(i), bool)
+            hit[near] = _overlap(ti[near], tj[near])
+            out[i[hit]] = True
+            out[j[hit]] = True
     return out
 
 
@@ -68,9 +77,9 @@ def _shrunk(t):
     return c + (1.0 - _SHRINK) * (t - c)
 
 
-def _candidate_pairs(t):
-    """Pairs ``a < b`` of faces whose bounding boxes overlap."""
-    lo, hi = t.min(axis=1), t.max(axis=1)
+def _candidate_pairs(t, margin=0.0):
+    """Pairs ``a < b`` of faces whose bounding boxes, widened by ``margin``, overlap."""
+    lo, hi = t.min(axis=1) - margin, t.max(axis=1) + margin
     cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
     ilo = np.floor(lo / cell).astype(np.int64)
     ihi = np.floor(hi / cell).astype(np.int64)

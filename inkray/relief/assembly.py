@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
+from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
 from inkray.relief.patches import bad_faces, repair_patches
@@ -50,6 +51,9 @@ SKIRT = 0.3
 #: How near (pixels) outlines of different parts are made to coincide before the booleans
 #: (or, where the parts' slabs do not meet in height, kept half this apart).
 SNAP = 1.5
+# an outline vertex's copy at the top of the rim's wall lies at most four insets from it
+# (farther in at a corner, see rim_wall)
+_WALL_REACH = 4.04 * WALL_INSET
 
 
 def assemble(layers, *, size, texture=None, closed=False, union=False):
@@ -184,7 +188,12 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     booleans decide by symbolic perturbation; where the two parts' slabs do
     not meet in height there (a part floating in front of another) the
     later outline is moved half :data:`SNAP` clear of the other instead, as
-    the two would touch along a line. With snapping, holes of a part's
+    the two would touch along a line. The rims' wall strips
+    (:func:`~inkray.relief.inflation.rim_wall`, needles the textured views
+    need and a print does not) are merged away first, each outline vertex
+    into its copy at the wall's top, at the outline's ``(x, y)``; where that
+    solid keeps bad faces after the remeshing, the solid with the strips is
+    built too and the one with fewer bad faces kept. With snapping, holes of a part's
     outline smaller than one of the remeshing's triangles (a pipe through
     the solid) are filled. Pieces with under a hundredth of the
     smallest part's volume (splinters, or a part's tip cut off at a neck
@@ -240,16 +249,24 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     target = float(np.median(edges))
     # a hole smaller than one of the remeshing's triangles is a pipe it cannot shape
     fill = np.sqrt(3.0) / 4.0 * target ** 2 if snap else 0.0
-    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill)
+    verts, faces = _envelope_solid(parts, skirt, snap, fill=fill, unwall=True)
     if remesh:
-        verts, faces = remesh_solid(verts, faces, target=target)
+        verts, faces, left = _remeshed_solid(verts, faces, target=target)
+        if left:
+            # the faces left bad are where outlines nearly meet, and with the rims'
+            # walls those places differ: the solid with them, where it is better
+            other = _remeshed_solid(*_envelope_solid(parts, skirt, snap, fill=fill),
+                                    target=target)
+            if other[2] < left:
+                verts, faces, _ = other
     return Part(name=name, vertices=verts, faces=faces, closed=True)
 
 
-def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
+def _envelope_solid(parts, skirt, snap=0.0, fill=0.0, unwall=False):
     """The solid ``[B, T]`` over the union of the parts' outlines, each widened by
     ``skirt``, outlines within ``snap`` of each other made to coincide, holes of a
-    part's outline under ``fill`` (square pixels) filled (see union_parts)."""
+    part's outline under ``fill`` (square pixels) filled, the rims' wall strips merged
+    away with ``unwall`` (see union_parts)."""
     z = np.concatenate([np.asarray(p.vertices, float)[:, 2] for p in parts])
     margin = max(1.0, float(np.ptp(z)))
     xy = np.concatenate([np.asarray(p.vertices, float)[:, :2] for p in parts])
@@ -266,7 +283,8 @@ def _envelope_solid(parts, skirt, snap=0.0, fill=0.0):
     if paired:
         # a front's and its back's outlines kept at the very same (x, y): walls a
         # rounding error apart would be cut into slivers
-        sheets = [_skirted(*_filled(*x, fill), skirt, box) for x in pairs]
+        reach = _WALL_REACH if unwall else 0.0
+        sheets = [_skirted(*_filled(*_unwalled(*x, reach), fill), skirt, box) for x in pairs]
     for join in (True, False):
         if paired:
             snapped = _snapped(sheets, snap, join_covered=join) if snap else sheets
@@ -533,6 +551,42 @@ def _inserted(vertices, faces, points, reach, *, clear, near=None):
     return np.concatenate([v, *new_v]), np.concatenate([faces[keep], *new_f])
 
 
+def _unwalled(vertices, faces, reach):
+    """A sheet without the strip of faces along its outline that the rim's wall adds
+    (:func:`~inkray.relief.inflation.rim_wall`): every outline vertex with an inner
+    neighbour within ``reach`` (its copy, the wall's top) is merged into that copy,
+    which takes the outline vertex's ``(x, y)`` and keeps its own heights; the strip's
+    faces vanish. Moves that would fold or flatten a triangle are left out (the copy
+    stays inside). Returns vertices, faces (the input where there is no such strip, or
+    where removing it would not leave one sheet)."""
+    v = np.asarray(vertices, float)
+    a, b = _boundary_edges(faces).T
+    rim = np.zeros(len(v), bool)
+    rim[a] = True
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    e = e[rim[e[:, 0]] & ~rim[e[:, 1]]]
+    d = np.linalg.norm(v[e[:, 0], :2] - v[e[:, 1], :2], axis=1)
+    e, d = e[d < reach], d[d < reach]
+    if not len(e):
+        return v, faces
+    order = np.lexsort((d, e[:, 0]))
+    e = e[order][np.r_[True, np.diff(e[order][:, 0]) != 0]]  # the nearest copy of each
+    e = e[np.bincount(e[:, 1], minlength=len(v))[e[:, 1]] == 1]  # a copy of one vertex only
+    to = np.arange(len(v))
+    to[e[:, 0]] = e[:, 1]
+    f = to[faces]
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
+    w = v.copy()
+    w[e[:, 1], :2] = v[e[:, 0], :2]
+    w = _unfolded(v, w, f)
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    if (np.unique(_edge_keys(edges), return_counts=True)[1].max() > 2
+            or (np.bincount(_boundary_edges(f)[:, 0]) > 1).any()):
+        return v, faces  # (an edge with three faces, or a vertex where loops touch)
+    return _compact(w, f)
+
+
 def _filled(vertices, faces, area):
     """A sheet with the holes of its outline smaller than ``area`` triangulated (no new
     vertex): a pipe through the solid that narrow is no feature the remeshing at the
@@ -723,6 +777,14 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
     >>> bool(_min_angles(w, g).min() >= 10.0), _closed_manifold(g)
     (True, True)
     """
+    v, f, _ = _remeshed_solid(vertices, faces, target=target, min_angle=min_angle, rings=rings,
+                              iterations=iterations)
+    return v, f
+
+
+def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
+                    iterations=_ITERATIONS):
+    """:func:`remesh_solid`, and how many faces it leaves bad."""
     v, f = np.asarray(vertices, float), np.asarray(faces, np.int64)
     bad = _min_angles(v, f) < min_angle
     best = (int(bad.sum()), v, f, bad)
@@ -745,8 +807,8 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
         w, g, bad = _repair(v, f, target=target, min_angle=min_angle,
                             near=_near_faces(v, f, bad), untangle=True)
         if bad.sum() < count:
-            v, f = w, g
-    return v, f
+            v, f, count = w, g, int(bad.sum())
+    return v, f, count
 
 
 def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
@@ -755,6 +817,12 @@ def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
     chosen = _dilated(f, bad, rings)
     # the remeshing's every iteration visits the whole mesh it is given: give it the
     # chosen faces and a ring left as they are (which keeps the cut's border in place)
+    ids = _position_ids(v)
+    twin = np.bincount(ids)[ids] > 1
+    if twin.any():
+        # two vertices at one position (a pinch) are merged by the remeshing, which
+        # tears the surface there: the cut keeps a ring clear of the faces around them
+        chosen &= ~_dilated(f, twin[f].any(axis=1), 2)
     cut = _dilated(f, chosen, 1)
     used, sub = np.unique(f[cut], return_inverse=True)
     sv, sf = _remeshed(v[used], sub.reshape(-1, 3), chosen[cut], target=target,
@@ -865,11 +933,14 @@ def _left_bad(solid):
 
 
 def _near_faces(vertices, faces, chosen):
-    """The ``chosen`` faces and every face whose bounding sphere meets one of theirs."""
+    """The ``chosen`` faces and every face whose bounding sphere meets one of theirs (every
+    face, when most are chosen)."""
     t = np.asarray(vertices, float)[faces]
     centre = t.mean(axis=1)
     radius = np.linalg.norm(t - centre[:, None], axis=2).max(axis=1)
     near = np.asarray(chosen, bool).copy()
+    if near.mean() > 0.5:
+        return np.ones(len(near), bool)
     if near.any():
         tree = cKDTree(centre[near])
         reach = radius + radius[near].max()
@@ -881,13 +952,10 @@ def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
     """The patches around bad faces re-triangulated (after vertices moved off the faces
     they fold through, with ``untangle``). Faces crossing another are looked for among
     the ``near`` faces only. Returns the vertices, the faces and which are left bad."""
-    from inkray.numerics.tri_intersection import self_intersecting_faces
-
     if untangle:
         v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
     else:
-        v, crossing = vertices, np.zeros(len(faces), bool)
-        crossing[near] = self_intersecting_faces(v, faces[near])
+        v, crossing = vertices, None
     bad = _bad_near(v, faces, near, min_angle=min_angle, crossing=crossing)
     if not bad.any():
         return v, faces, bad

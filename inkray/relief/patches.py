@@ -293,12 +293,10 @@ def bad_faces(vertices, faces, *, min_angle, crossing=None):
     [False, True]
     """
     v = np.asarray(vertices, float)
-    if crossing is None:
-        crossing = self_intersecting_faces(v, faces)
-    bad = (min_angles(v, faces) < min_angle) | crossing
-    for scale in _STORED_SCALES:
-        bad |= self_intersecting_faces((v * scale).astype(np.float32).astype(float), faces)
-    return bad
+    bad = self_intersecting_faces(v, faces, float32_scales=_STORED_SCALES)
+    if crossing is not None:
+        bad |= crossing
+    return bad | (min_angles(v, faces) < min_angle)
 
 
 def min_angles(vertices, faces):
