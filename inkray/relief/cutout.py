@@ -9,9 +9,9 @@ into a stack of RGBA layers:
 
 - a layer holds its region's completed shape: the drawing's pixels where the
   region is visible and, where it is hidden, its own colours continued
-  inward by a harmonic fill (the membrane interpolant of the visible colours
-  next to the hidden part, with the ink of the occluder's outline left out
-  of the boundary values), with its outline continued along the completed
+  inward by a harmonic fill (the membrane interpolant of the part's paper
+  next to the hidden part: ink, however thick or soft, left out of the
+  boundary values), with its outline continued along the completed
   silhouette in the drawing's ink colour and stroke width;
 - the layers are stacked back to front by the depth order; a region behind
   none comes first;
@@ -488,6 +488,7 @@ def _fill(colours, gray, inky, vis, hidden, padded, width):
     """
     ink = ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
     paper = _paper(gray, inky, vis & ~ink)
+    # The fill runs over the ink beside the hidden part to the paper beyond it.
     near = ndimage.binary_dilation(hidden, iterations=2 * _STROKE_MAX + 1)
     unknown = hidden | (vis & ~paper & near)
     known = paper & ndimage.binary_dilation(unknown)
@@ -511,10 +512,11 @@ def _paper(gray, inky, candidates):
     black shape) and the soft edges of strokes are darker than the part's
     tone and have the colour of ink on this paper (``inky``) or are darker
     than their surroundings up to four strokes' width. The tone is the median
-    grey of the rest (a thin part's thick outline may cover most of it), and
-    darker means more than twice its spread below (the spread from the pixels
-    lighter than the median, which no ink reaches), or a grey level where the
-    paper is flat. A colour of the part's own, however dark, is kept.
+    grey of the pixels beyond such wide ink (a thin part's thick outline may
+    cover most of it), and darker means more than twice its spread below (the
+    spread from the pixels lighter than the median, which no ink reaches), or
+    a grey level where the paper is flat. A colour of the part's own, however
+    dark, is kept.
     """
     wide = _ink(gray, size=4 * _STROKE_MAX + 1)
     values = gray[candidates & ~wide]
@@ -523,6 +525,7 @@ def _paper(gray, inky, candidates):
     if not values.size:
         return candidates
     tone = float(np.median(values))
+    # A normal distribution's deviation from its median absolute deviation.
     spread = 1.4826 * float(np.median(values[values >= tone] - tone))
     dark = gray < tone - max(_PAPER_SPREADS * spread, 1 / 255)
     return candidates & ~(dark & (inky | wide))
