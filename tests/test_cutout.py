@@ -407,3 +407,27 @@ def test_a_hidden_part_next_to_thick_grey_ink_is_filled_with_its_paper():
     luma = inner[..., :3].astype(float) @ [0.299, 0.587, 0.114]
     assert luma.min() >= floor, (luma.min(), floor)
     assert abs(np.median(luma) - np.median(paper)) < 3
+
+
+@pytest.mark.slow
+def test_the_gingerbreads_hidden_parts_take_its_paper_tone():
+    # Thick clean black strokes, wider than the closing that finds strokes.
+    ann, drawing = load_input(EXAMPLES / "gingerbread" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    labels = chain.completion.labels
+    stack = cut_out(chain.completion, chain.relations, drawing)
+    luma = drawing.rgb.astype(float) @ [0.299, 0.587, 0.114]
+    checked = 0
+    for layer in stack.layers:
+        y0, y1, x0, x1 = layer.box
+        own = labels[y0:y1, x0:x1] == layer.region
+        depth = ndimage.distance_transform_edt(np.pad(layer.hidden | own, 1))[1:-1, 1:-1]
+        inner = layer.hidden & (depth > 10)  # beyond the continued outline
+        if not inner.any():
+            continue
+        paper = luma[y0:y1, x0:x1][own & ~ndimage.binary_dilation(luma[y0:y1, x0:x1] < 128,
+                                                                   iterations=3)]
+        fill = layer.rgba[..., :3][inner].astype(float) @ [0.299, 0.587, 0.114]
+        assert fill.min() >= np.percentile(paper, 2) - 1, layer.name
+        checked += 1
+    assert checked >= 1
