@@ -370,3 +370,64 @@ def test_split_local_writes_each_split_piece_once_with_unique_names():
     assert len(names) == len(set(names)) == 3, names
     character = labels >= 0
     assert psnr(stack.flatten()[..., :3][character], rgb[character]) == np.inf
+
+
+def _thick_grey_ink():
+    """A band behind a bar, both outlined by a 14 px grey (core 90) marker stroke with
+    anti-aliased edges over slightly grainy paper, half of each stroke on either side of the
+    boundary between the labels: the bar's outline lies on the band next to its hidden part."""
+    h, w = 120, 160
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    labels = np.full((h, w), -1, np.int32)
+    labels[30:90, 6:154] = 0
+    labels[10:110, 65:95] = 1
+    cover = np.zeros((h, w))
+    for y in (30, 90):                                     # the band's long sides
+        cover = np.maximum(cover, np.clip(7.5 - np.abs(yy - y), 0, 1) * (xx > 6) * (xx < 154))
+    for x in (65, 95):                                     # the bar's long sides
+        cover = np.maximum(cover, np.clip(7.5 - np.abs(xx - x), 0, 1) * (yy > 10) * (yy < 110))
+    paper = 236 + np.random.default_rng(1).normal(0, 2.0, (h, w))
+    gray = paper + cover * (90 - paper)
+    rgb = np.repeat(np.clip(np.rint(gray), 0, 255).astype(np.uint8)[..., None], 3, axis=2)
+    c = complete_regions(labels, names=["band", "bar"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
+    return labels, rgb, cover, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+
+
+def test_a_hidden_part_next_to_thick_grey_ink_is_filled_with_its_paper():
+    labels, rgb, cover, stack = _thick_grey_ink()
+    band = stack.layers[0]
+    assert band.name == "band" and band.hidden[45 - band.top:75 - band.top, 65 - band.left:95 - band.left].all()
+    paper = rgb[..., 0][(labels == 0) & (cover == 0)].astype(float)
+    floor = np.percentile(paper, 2)
+    # The hidden part away from its continued outline (along the band's long sides).
+    inner = band.rgba[45 - band.top:75 - band.top, 65 - band.left:95 - band.left]
+    assert np.all(inner[..., 3] == 255)
+    luma = inner[..., :3].astype(float) @ [0.299, 0.587, 0.114]
+    assert luma.min() >= floor, (luma.min(), floor)
+    assert abs(np.median(luma) - np.median(paper)) < 3
+
+
+@pytest.mark.slow
+def test_the_gingerbreads_hidden_parts_take_its_paper_tone():
+    # Thick clean black strokes, wider than the closing that finds strokes.
+    ann, drawing = load_input(EXAMPLES / "gingerbread" / "drawing.inkray.json")
+    chain = ReliefChain(ann, drawing)
+    labels = chain.completion.labels
+    stack = cut_out(chain.completion, chain.relations, drawing)
+    luma = drawing.rgb.astype(float) @ [0.299, 0.587, 0.114]
+    checked = 0
+    for layer in stack.layers:
+        y0, y1, x0, x1 = layer.box
+        own = labels[y0:y1, x0:x1] == layer.region
+        depth = ndimage.distance_transform_edt(np.pad(layer.hidden | own, 1))[1:-1, 1:-1]
+        inner = layer.hidden & (depth > 10)  # beyond the continued outline
+        if not inner.any():
+            continue
+        paper = luma[y0:y1, x0:x1][own & ~ndimage.binary_dilation(luma[y0:y1, x0:x1] < 128,
+                                                                   iterations=3)]
+        fill = layer.rgba[..., :3][inner].astype(float) @ [0.299, 0.587, 0.114]
+        assert fill.min() >= np.percentile(paper, 2) - 1, layer.name
+        checked += 1
+    assert checked >= 1

@@ -9,9 +9,9 @@ into a stack of RGBA layers:
 
 - a layer holds its region's completed shape: the drawing's pixels where the
   region is visible and, where it is hidden, its own colours continued
-  inward by a harmonic fill (the membrane interpolant of the visible colours
-  next to the hidden part, with the ink of the occluder's outline left out
-  of the boundary values), with its outline continued along the completed
+  inward by a harmonic fill (the membrane interpolant of the part's paper
+  next to the hidden part: ink, however thick or soft, left out of the
+  boundary values), with its outline continued along the completed
   silhouette in the drawing's ink colour and stroke width;
 - the layers are stacked back to front by the depth order; a region behind
   none comes first;
@@ -42,6 +42,7 @@ _SOFT_EDGE = 0.75   # grey level up to which a stroke's soft edge belongs to its
 _RIM_STEPS = 64  # at most this many pixels from the paper into a layer's rim
 _CLEAR = 0.05  # coverage below which a pixel beyond a part is paper
 _MATTE = 24  # levels: a pixel this close to a mix of paper and ink is that mix
+_PAPER_SPREADS = 2.0  # how far below its median tone (in spreads) a part's paper reaches
 _EDGE_SMOOTHING = 0.7  # px: Gaussian over a silhouette's stair-steps for its anti-aliased edge
 
 
@@ -416,6 +417,11 @@ class _Strokes:
         # Pixels that are ink over paper (not a colour of their own) can fade with the ink.
         mix = self.paper + self.cover[..., None] * (self.colour.astype(float) - self.paper)
         self.matte = np.abs(rgb - mix).max(axis=2) <= _MATTE
+        # The colours of ink on this paper, also darker than the strokes' measured core (a
+        # thick stroke's middle).
+        toward = self.colour.astype(float) - self.paper
+        step = np.clip((rgb - self.paper) @ toward / max(float(toward @ toward), 1.0), 0.0, None)
+        self.inky = np.abs(rgb - self.paper - step[..., None] * toward).max(axis=2) <= _MATTE
 
     def style(self, hidden, own):
         """Colour and width of the part's strokes (``own``: its pixels, (H, W)) where its
@@ -456,8 +462,8 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     hidden = grw & ~vis
     out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
-        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], vis, shp & ~vis,
-                                                hidden, strokes.width), out)
+        out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.inky[win],
+                                                vis, shp & ~vis, hidden, strokes.width), out)
     if not outline:
         alpha = grw.astype(np.float64)
     else:
@@ -473,25 +479,56 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
                        rgba=rgba[crop], hidden=hidden[crop])
 
 
-def _fill(colours, gray, vis, hidden, padded, width):
-    """The part's colours continued into its ``hidden`` pixels, then into the padding."""
-    # Ink next to the hidden part (the occluder's outline) is not the part's colour.
-    ink = vis & ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
-    near = ndimage.binary_dilation(hidden, iterations=int(np.ceil(2 * width)) + 1)
-    unknown = hidden | (ink & near)
-    known = vis & ~ink & ndimage.binary_dilation(unknown)
-    if not known.any():
-        known = vis & ndimage.binary_dilation(unknown)
-    mean = colours[vis & ~ink].mean(axis=0) if (vis & ~ink).any() else (
+def _fill(colours, gray, inky, vis, hidden, padded, width):
+    """The part's colours continued into its ``hidden`` pixels, then into the padding.
+
+    Only the part's paper (:func:`_paper`) gives boundary values: ink next to the hidden
+    part (the occluder's outline, the part's own strokes, however thick or soft) is not the
+    part's colour and is filled over like the hidden part.
+    """
+    ink = ndimage.binary_dilation(_ink(gray, size=2 * int(np.ceil(width)) + 3))
+    paper = _paper(gray, inky, vis & ~ink)
+    # The fill runs over the ink beside the hidden part to the paper beyond it.
+    near = ndimage.binary_dilation(hidden, iterations=2 * _STROKE_MAX + 1)
+    unknown = hidden | (vis & ~paper & near)
+    known = paper & ndimage.binary_dilation(unknown)
+    # Where no paper touches the hidden part, the regularization gives it the paper's colour.
+    mean = np.median(colours[paper], axis=0) if paper.any() else (
         colours[vis].mean(axis=0) if vis.any() else np.full(3, 255.0))
     fill = _harmonic_fill(colours, known, unknown, mean) if unknown.any() else colours
     pad = padded & ~hidden
     if pad.any():  # the padding continues the completed part, which it does not change
-        done = (vis & ~ink) | hidden
+        done = paper | hidden
         fill = np.where(done[..., None], fill, colours)
         fill = np.where(pad[..., None],
                         _harmonic_fill(fill, done & ndimage.binary_dilation(pad), pad, mean), fill)
     return fill
+
+
+def _paper(gray, inky, candidates):
+    """The pixels of ``candidates`` at the part's own tone (paper or its colour), not ink.
+
+    Ink too wide for the closing that finds strokes (a marker's, a filled
+    black shape) and the soft edges of strokes are darker than the part's
+    tone and have the colour of ink on this paper (``inky``) or are darker
+    than their surroundings up to four strokes' width. The tone is the median
+    grey of the pixels beyond such wide ink (a thin part's thick outline may
+    cover most of it), and darker means more than twice its spread below (the
+    spread from the pixels lighter than the median, which no ink reaches), or
+    a grey level where the paper is flat. A colour of the part's own, however
+    dark, is kept.
+    """
+    wide = _ink(gray, size=4 * _STROKE_MAX + 1)
+    values = gray[candidates & ~wide]
+    if not values.size:
+        values = gray[candidates]
+    if not values.size:
+        return candidates
+    tone = float(np.median(values))
+    # A normal distribution's deviation from its median absolute deviation.
+    spread = 1.4826 * float(np.median(values[values >= tone] - tone))
+    dark = gray < tone - max(_PAPER_SPREADS * spread, 1 / 255)
+    return candidates & ~(dark & (inky | wide))
 
 
 def _edges(win, vis, shp, grw, frg, below, air, out, colours, strokes, own):
