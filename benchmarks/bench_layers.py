@@ -20,9 +20,12 @@ of inkray are measured alike):
   drawing's ink edge pixels (beside a stroke, not ink) that are partly
   covered: anti-aliased as the drawing is when both are alike.
 
+Each drawing at its own size and, with ``--upscale``, also upscaled to about
+1 Mpx (as ``bench_pose.py`` does; the drawings' strokes get wider with it).
+
 Usage::
 
-    python benchmarks/bench_layers.py [--names cat,turtle] [--save after.json]
+    python benchmarks/bench_layers.py [--names cat,turtle] [--upscale] [--save after.json]
     python benchmarks/bench_layers.py --compare before.json after.json
 
 Run it with the interpreter of another checkout (its ``inkray`` importable)
@@ -42,6 +45,8 @@ from skimage.morphology import skeletonize
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_pose import _load  # noqa: E402
 
 
 def _edge(alpha):
@@ -110,12 +115,11 @@ def _stroke(cover, zone):
     return float(cover[near].sum() / length), inner
 
 
-def measure(name):
+def measure(name, megapixels=0.0):
     from inkray.chain import ReliefChain
-    from inkray.input.loading import load_input
     from inkray.relief.cutout import cut_out
 
-    ann, drawing = load_input(EXAMPLES / name / "drawing.inkray.json")
+    ann, drawing = _load(name, megapixels)
     chain = ReliefChain(ann, drawing)
     labels = chain.completion.labels
     t0 = time.perf_counter()
@@ -160,7 +164,8 @@ def measure(name):
     ink_edge = ndimage.binary_dilation(cover >= 0.5) & (cover < 0.5) & (labels < 0)
     soft_drawing = float(np.mean((cover[ink_edge] > 0.05))) if ink_edge.any() else 0.0
     partly, total = (sum(v) for v in zip(*soft))
-    return {"name": name, "layers": len(stack.layers), "seconds": seconds,
+    h, w = labels.shape
+    return {"name": name, "size": f"{w}x{h}", "layers": len(stack.layers), "seconds": seconds,
             "cut_px": max(cuts, default=0),
             "width_ratio": float(np.median(widths)) if widths else None,
             "tone_diff": float(np.median(tones)) if tones else None,
@@ -171,28 +176,29 @@ def measure(name):
 def _row(r):
     def f(v, fmt):
         return "-" if v is None else format(v, fmt)
-    return (f"| {r['name']} | {f(r['cut_px'], 'd')} | {f(r['width_ratio'], '.2f')} | "
+    return (f"| {r['name']} | {r.get('size', '-')} | {f(r['cut_px'], 'd')} | {f(r['width_ratio'], '.2f')} | "
             f"{f(r['tone_diff'], '+.0f')} | {r['soft_layers']:.2f} | {r['soft_drawing']:.2f} |")
 
 
-HEADER = ("| drawing | cut px | width cont/drawn | tone cont-drawn | soft edges layers | "
-          "soft edges drawing |\n|---|---|---|---|---|---|")
+HEADER = ("| drawing | size | cut px | width cont/drawn | tone cont-drawn | soft edges layers | "
+          "soft edges drawing |\n|---|---|---|---|---|---|---|")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--names", help="comma-separated drawing names (default: all bundled)")
+    parser.add_argument("--upscale", action="store_true",
+                        help="each drawing also upscaled to about 1 Mpx")
     parser.add_argument("--save", help="write the results as JSON")
     parser.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"),
                         help="print two saved results side by side")
     args = parser.parse_args(argv)
     if args.compare:
         before, after = (json.loads(Path(p).read_text()) for p in args.compare)
-        old = {r["name"]: r for r in before}
-        print("| drawing | cut px | width cont/drawn | tone cont-drawn | soft edges layers | "
-              "soft edges drawing |\n|---|---|---|---|---|---|")
+        old = {(r["name"], r.get("size")): r for r in before}
+        print(HEADER)
         for r in after:
-            b = old.get(r["name"])
+            b = old.get((r["name"], r.get("size")))
             if b is None:
                 continue
             cells = []
@@ -201,16 +207,18 @@ def main(argv=None):
                 fb = "-" if b[key] is None else format(b[key], fmt)
                 fa = "-" if r[key] is None else format(r[key], fmt)
                 cells.append(f"{fb} -> {fa}")
-            print(f"| {r['name']} | " + " | ".join(cells) + f" | {r['soft_drawing']:.2f} |")
+            print(f"| {r['name']} | {r.get('size', '-')} | " + " | ".join(cells) +
+                  f" | {r['soft_drawing']:.2f} |")
         return 0
     names = (args.names.split(",") if args.names else
              sorted(p.name for p in EXAMPLES.iterdir() if (p / "drawing.inkray.json").is_file()))
     print(HEADER)
     results = []
     for name in names:
-        r = measure(name)
-        results.append(r)
-        print(_row(r), flush=True)
+        for mp in ([0.0, 1.0] if args.upscale else [0.0]):
+            r = measure(name, mp)
+            results.append(r)
+            print(_row(r), flush=True)
     if args.save:
         Path(args.save).write_text(json.dumps(results, indent=1) + "\n")
     return 0

@@ -431,3 +431,40 @@ def test_the_gingerbreads_hidden_parts_take_its_paper_tone():
         assert fill.min() >= np.percentile(paper, 2) - 1, layer.name
         checked += 1
     assert checked >= 1
+
+
+def _thick_outlined_band():
+    """A band behind a bar, each outlined by 12 px black strokes (a soft pixel each side),
+    the band's strokes inside its label: wider than the closing that finds ink."""
+    h, w = 130, 240
+    gray = np.ones((h, w))
+    labels = np.full((h, w), -1, np.int32)
+    labels[20:110, 6:234] = 0
+    for top in (20, 96):                      # rows: soft, 12 core, soft
+        gray[top, 6:234] = gray[top + 13, 6:234] = 0.5
+        gray[top + 1:top + 13, 6:234] = 0.0
+    labels[4:126, 90:150] = 1                 # the bar, outlined on its long sides
+    gray[4:126, 90:150] = 1.0
+    for left in (90, 136):
+        gray[4:126, left] = gray[4:126, left + 13] = 0.5
+        gray[4:126, left + 1:left + 13] = 0.0
+    rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
+    c = complete_regions(labels, names=["band", "bar"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
+    return gray, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+
+
+def test_a_continued_outline_is_as_wide_as_thick_drawn_strokes():
+    gray, stack = _thick_outlined_band()
+    band = stack.layers[0]
+    assert band.name == "band" and band.hidden.any()
+    over = _over(band.rgba, (255, 255, 255))[..., 0] / 255   # the layer alone on paper
+    drawn = (1 - gray[:, 40]).sum() / 2                      # one stroke's ink, 13 px
+    for x in (114, 120, 126):                                # across the continued outline
+        column = np.ones(gray.shape[0])
+        column[band.top:band.top + over.shape[0]] = over[:, x - band.left]
+        for rows in (slice(10, 60), slice(70, 120)):
+            width = (1 - column[rows]).sum()
+            assert abs(width / drawn - 1) < 0.25, (x, width, drawn)
+            assert column[rows].min() < 0.1                  # black at its core

@@ -22,6 +22,7 @@ into a stack of RGBA layers:
 """
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,6 +38,7 @@ __all__ = ["CutoutLayer", "Cutout", "Split", "cut_out", "stack_order", "stroke_s
 
 _INK_CONTRAST = 0.15  # ink: this much darker than the closing of the grey image (its surroundings)
 _STROKE_MAX = 8       # px: the widest stroke the ink detection and the outline assume
+_WIDE_STROKE_MAX = 4 * _STROKE_MAX  # px: the widest stroke a continued outline takes
 _REGULARIZE = 1e-6  # pull toward the region's mean colour: fills parts no visible colour reaches
 _SOFT_EDGE = 0.75   # grey level up to which a stroke's soft edge belongs to its part's contour
 _RIM_STEPS = 64  # at most this many pixels from the paper into a layer's rim
@@ -224,8 +226,12 @@ def stroke_style(rgb, gray, *, where=None):
     is the ink's coverage (how far each pixel goes from its surroundings'
     tone to that core tone, 0..1) summed across the strokes, over the
     skeleton's length: the width of a solid stroke of the core colour that
-    puts as much ink on the paper, soft edges included. Clipped to 1..8 px;
-    black and 1 px without ink.
+    puts as much ink on the paper, soft edges included. Strokes wider than
+    8 px (a marker's, a thick clean line) leave their middles to a closing
+    of that size, which then finds only their soft edges: where the
+    skeleton of the ink a four times wider closing finds lies mostly off
+    that ink, the strokes are measured at that scale. Clipped to 1..8 px
+    (1..32 px for wide strokes); black and 1 px without ink.
 
     Parameters
     ----------
@@ -252,31 +258,49 @@ def stroke_style(rgb, gray, *, where=None):
     ([0, 0, 0], 4)
     """
     gray = np.asarray(gray, np.float64)
+    rgb = np.asarray(rgb)
     ink, skeleton = _strokes(gray)
-    return _measure(np.asarray(rgb), gray, ink, skeleton, where)
+    wide = _strokes(gray, size=_WIDE_STROKE_MAX)
+    if _wider(ink, wide[1], where):
+        return _measure(rgb, gray, *wide, where, size=_WIDE_STROKE_MAX)
+    return _measure(rgb, gray, ink, skeleton, where)
 
 
-def _strokes(gray):
-    """The ink (darker than its surroundings by a stroke's width) and its skeleton."""
+def _strokes(gray, *, size=_STROKE_MAX):
+    """The ink (darker than its surroundings by a stroke's width, up to ``size``) and its
+    skeleton."""
     from skimage.morphology import skeletonize
 
-    ink = _ink(gray, size=_STROKE_MAX + 1)
+    ink = _ink(gray, size=size + 1)
     return ink, skeletonize(ink)
 
 
-def _measure(rgb, gray, ink, skeleton, where):
-    """:func:`stroke_style` on the strokes found once."""
+def _wider(ink, wide_skeleton, where):
+    """Whether the strokes (``where``) are wider than the closing that found ``ink``: the
+    skeleton of the ink a wider closing finds runs mostly off it, along the strokes'
+    middles between their soft edges."""
+    local = wide_skeleton if where is None else wide_skeleton & where
+    if local.sum() < 8:
+        local = wide_skeleton
+    return bool(local.any()) and float(np.mean(~ink[local])) > 0.5
+
+
+def _measure(rgb, gray, ink, skeleton, where, *, size=_STROKE_MAX, inside=None):
+    """:func:`stroke_style` on the strokes found once, at most ``size`` px wide; only their
+    ink ``inside`` counts (all of it when None)."""
     local = skeleton if where is None else skeleton & where
     if local.sum() < 8:
         local = skeleton
     if not local.any():
         return np.zeros(3, np.uint8), 1.0
     colour = np.median(rgb[local], axis=0).astype(np.uint8)
-    cover = _coverage(gray, float(np.median(gray[local])), size=_STROKE_MAX + 1)
+    cover = _coverage(gray, float(np.median(gray[local])), size=size + 1)
     # The coverage of the ink (and its soft edge) whose nearest skeleton pixel is measured.
     dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
-    mine = local[iy, ix] & (dist <= _STROKE_MAX / 2 + 1) & ndimage.binary_dilation(ink, iterations=2)
-    width = float(np.clip(cover[mine].sum() / _curve_length(local), 1.0, _STROKE_MAX))
+    mine = local[iy, ix] & (dist <= size / 2 + 1) & ndimage.binary_dilation(ink, iterations=2)
+    if inside is not None:
+        mine &= inside
+    width = float(np.clip(cover[mine].sum() / _curve_length(local), 1.0, size))
     return colour, width
 
 
@@ -423,10 +447,16 @@ class _Strokes:
         step = np.clip((rgb - self.paper) @ toward / max(float(toward @ toward), 1.0), 0.0, None)
         self.inky = np.abs(rgb - self.paper - step[..., None] * toward).max(axis=2) <= _MATTE
 
-    def style(self, hidden, own):
+    def style(self, hidden, own, label):
         """Colour and width of the part's strokes (``own``: its pixels, (H, W)) where its
         outline enters its ``hidden`` area ((H, W)): within 32 px of it, not at the junctions
-        (within 8 px), where the occluder's outline meets them."""
+        (within 8 px), where the occluder's outline meets them.
+
+        A stroke wider than the closing that finds ink is measured at a wider scale, and
+        only its ink on the part's ``label`` counts: the continued outline lies inside the
+        completed shape, which ends at the label's edge, however far the stroke reaches
+        beyond it.
+        """
         rows, cols = np.flatnonzero(hidden.any(axis=1)), np.flatnonzero(hidden.any(axis=0))
         m = 5 * _STROKE_MAX
         big = (slice(max(rows[0] - m, 0), rows[-1] + m + 1),
@@ -434,7 +464,18 @@ class _Strokes:
         near = hidden[big]
         reach = ndimage.binary_dilation(near, iterations=4 * _STROKE_MAX) & own[big] & \
             ~ndimage.binary_dilation(near, iterations=_STROKE_MAX)
-        return _measure(self.rgb[big], self.gray[big], self.ink[big], self.skeleton[big], reach)
+        rgb, gray = self.rgb[big], self.gray[big]
+        wide_ink, wide_skeleton = self.wide
+        if _wider(self.ink[big], wide_skeleton[big], reach):
+            return _measure(rgb, gray, wide_ink[big], wide_skeleton[big], reach,
+                            size=_WIDE_STROKE_MAX, inside=label[big])
+        return _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
+
+    @cached_property
+    def wide(self):
+        """The ink and its skeleton of strokes up to four times as wide (thick strokes whose
+        middles the closing of the stroke width leaves out), found once when needed."""
+        return _strokes(self.gray, size=_WIDE_STROKE_MAX)
 
 
 def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None, fringe=None,
@@ -467,7 +508,7 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     if not outline:
         alpha = grw.astype(np.float64)
     else:
-        own = (shape & ~visible, visible if fringe is None else visible | fringe)
+        own = (shape & ~visible, visible if fringe is None else visible | fringe, visible)
         alpha, out = _edges(win, vis, shp, grw, frg, below, air[win], out, colours, strokes, own)
     a8 = np.rint(alpha * 255).astype(np.uint8)
     rgba = np.dstack([np.where(a8[..., None] > 0, np.clip(np.rint(out), 0, 255), 0), a8])
