@@ -261,7 +261,7 @@ def stroke_style(rgb, gray, *, where=None):
     rgb = np.asarray(rgb)
     ink, skeleton = _strokes(gray)
     wide = _strokes(gray, size=_WIDE_STROKE_MAX)
-    if _wider(ink, wide[1], where):
+    if _wider(gray, ink, skeleton, wide[1], where):
         return _measure(rgb, gray, *wide, where, size=_WIDE_STROKE_MAX)
     return _measure(rgb, gray, ink, skeleton, where)
 
@@ -275,22 +275,28 @@ def _strokes(gray, *, size=_STROKE_MAX):
     return ink, skeletonize(ink)
 
 
-def _wider(ink, wide_skeleton, where):
-    """Whether the strokes (``where``) are wider than the closing that found ``ink``: the
-    skeleton of the ink a wider closing finds runs mostly off it, along the strokes'
-    middles between their soft edges."""
-    local = wide_skeleton if where is None else wide_skeleton & where
-    if local.sum() < 8:
-        local = wide_skeleton
-    return bool(local.any()) and float(np.mean(~ink[local])) > 0.5
+def _wider(gray, ink, skeleton, wide_skeleton, where):
+    """Whether the strokes (``where``) are wider than the closing that found ``ink`` (with
+    its ``skeleton``): the skeleton of the ink a wider closing finds runs mostly off it, at
+    least as dark as its core, along the strokes' middles between their soft edges (not
+    over a colour darker than the paper around it, which is lighter than ink)."""
+    local, core = _local(wide_skeleton, where), _local(skeleton, where)
+    if not core.any():  # no ink this narrow: all of it is wider
+        return bool(local.any())
+    middle = ~ink[local] & (gray[local] <= np.median(gray[core]))
+    return float(np.mean(middle)) > 0.5
+
+
+def _local(skeleton, where):
+    """The skeleton's pixels in ``where``, all of them where it holds too few (8)."""
+    local = skeleton if where is None else skeleton & where
+    return skeleton if local.sum() < 8 else local
 
 
 def _measure(rgb, gray, ink, skeleton, where, *, size=_STROKE_MAX, inside=None):
     """:func:`stroke_style` on the strokes found once, at most ``size`` px wide; only their
     ink ``inside`` counts (all of it when None)."""
-    local = skeleton if where is None else skeleton & where
-    if local.sum() < 8:
-        local = skeleton
+    local = _local(skeleton, where)
     if not local.any():
         return np.zeros(3, np.uint8), 1.0
     colour = np.median(rgb[local], axis=0).astype(np.uint8)
@@ -466,7 +472,7 @@ class _Strokes:
             ~ndimage.binary_dilation(near, iterations=_STROKE_MAX)
         rgb, gray = self.rgb[big], self.gray[big]
         wide_ink, wide_skeleton = self.wide
-        if _wider(self.ink[big], wide_skeleton[big], reach):
+        if _wider(gray, self.ink[big], self.skeleton[big], wide_skeleton[big], reach):
             return _measure(rgb, gray, wide_ink[big], wide_skeleton[big], reach,
                             size=_WIDE_STROKE_MAX, inside=label[big])
         return _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
