@@ -14,7 +14,9 @@ of inkray are measured alike):
   own drawn strokes near the hidden part, both measured the same way: the
   coverage (0 paper, 1 the drawing's ink core) summed over the stroke, over
   the length of its skeleton, and the median grey (0..255) along the
-  skeleton; reported as continued / drawn (medians over the layers);
+  skeleton; reported as continued / drawn (medians over the layers). A
+  drawn stroke counts whole within the part (its skeleton near the hidden
+  part), strokes up to 32 px wide;
 - ``soft``: the share of the layers' edge pixels (opaque at all, beside a
   transparent one) that are partly transparent, against the share of the
   drawing's ink edge pixels (beside a stroke, not ink) that are partly
@@ -45,6 +47,7 @@ from skimage.morphology import skeletonize
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
+HALF = 16  # px: half the widest stroke measured (the frog's strokes are 20 px wide)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_pose import _load  # noqa: E402
 
@@ -99,19 +102,22 @@ def _length(skeleton):
     return total
 
 
-def _stroke(cover, zone):
-    """(coverage-width, skeleton) of the strokes in ``zone`` (coverage >= 0.5 is ink): the
-    coverage of the pixels nearest to the skeleton, away from its ends, over its length."""
-    ink = (cover >= 0.5) & zone
+def _stroke(cover, zone, inside=None):
+    """(coverage-width, skeleton) of the strokes in ``inside`` (coverage >= 0.5 is ink;
+    ``zone`` when None) whose skeleton lies in ``zone``: the coverage of the pixels nearest
+    to that skeleton, away from its ends, over its length. A stroke running along the edge
+    of ``zone`` counts whole (within ``inside``), not cut to the zone."""
+    inside = zone if inside is None else inside
+    ink = (cover >= 0.5) & inside
     skeleton = skeletonize(ink)
     count = ndimage.convolve(skeleton.astype(int), np.ones((3, 3), int), mode="constant")
     ends = skeleton & (count <= 2)
-    inner = skeleton & (ndimage.distance_transform_edt(~ends) > 3)
+    inner = skeleton & (ndimage.distance_transform_edt(~ends) > 3) & zone
     length = _length(inner)
     if length < 5:
-        return None, skeleton
+        return None, inner
     dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
-    near = inner[iy, ix] & (dist <= 5) & ndimage.binary_dilation(ink, iterations=2) & zone
+    near = inner[iy, ix] & (dist <= HALF) & ndimage.binary_dilation(ink, iterations=2) & inside
     return float(cover[near].sum() / length), inner
 
 
@@ -148,14 +154,14 @@ def measure(name, megapixels=0.0):
         value = layer.rgba[..., :3].mean(axis=2) * a + paper * (1 - a)
         layer_cover = np.clip((paper - value) / max(paper - core, 1.0), 0, 1)
         outside = ndimage.distance_transform_edt(alpha > 0)
-        zone = hidden & (outside <= 12) & ~ndimage.binary_dilation(
+        zone = hidden & (outside <= 2 * HALF) & ~ndimage.binary_dilation(
             labels[y0:y1, x0:x1] == layer.region, iterations=8)
         w_cont, sk_cont = _stroke(layer_cover, zone | (edge & ndimage.binary_dilation(zone)))
         # The part's own drawn strokes near the hidden part (not at the junctions).
         own = labels[y0:y1, x0:x1] == layer.region
         drawn_zone = own & ndimage.binary_dilation(hidden, iterations=32) & \
             ~ndimage.binary_dilation(hidden, iterations=8)
-        w_draw, sk_draw = _stroke(cover[y0:y1, x0:x1], drawn_zone)
+        w_draw, sk_draw = _stroke(cover[y0:y1, x0:x1], drawn_zone, own)
         if w_cont is None or w_draw is None:
             continue
         widths.append(w_cont / w_draw)
