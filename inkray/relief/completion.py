@@ -25,10 +25,7 @@ part hidden beside them (:func:`close_gaps`), so that what a posed part
 uncovers is always some part's completed area.
 """
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,6 +34,8 @@ from scipy import ndimage
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.spd import spd_factor
+from inkray.numerics.threads import thread_map
+from inkray.numerics.quadtree_fill import _dissection
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
            "check_labels", "GAP"]
@@ -212,8 +211,8 @@ class Completion:
                     for front, back, p, piece in kept
                     if piece.any() and (front, back, p.index) not in memo}
             # Each reshaping reads only the labels; applied below in the relations' order.
-            calls = [partial(_continuation, self.labels, *args) for args in todo.values()]
-            memo.update(zip(todo, _two_at_a_time(calls)))
+            memo.update(zip(todo, thread_map(lambda args: _continuation(self.labels, *args),
+                                             list(todo.values()))))
             for front, back, p, piece in kept:
                 found = memo.get((front, back, p.index))
                 if piece.any() and found is not None:  # None: no outline of its own to continue
@@ -319,23 +318,6 @@ def close_gaps(labels, owner, hidden, *, width=None):
         own[take] = np.asarray(backs)[np.argmin(score, axis=0)[take]]
         given += int(take.sum())
     return given
-
-
-def _two_at_a_time(calls):
-    """The results of ``calls`` (callables, or None for no call), in order, two computed at once.
-
-    SuperLU lets go of the GIL while it factors, so two threads solve two
-    systems at once. When the caller stops early (an error, a superseded
-    edit), the calls not yet started are cancelled.
-    """
-    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
-        jobs = [None if call is None else pool.submit(call) for call in calls]
-        try:
-            for job in jobs:
-                yield None if job is None else job.result()
-        except BaseException:
-            pool.shutdown(cancel_futures=True)
-            raise
 
 
 def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, band=1.5):
@@ -575,14 +557,15 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, coarse_abo
     count = len(names)
     owner = np.full(labels.shape, -1, np.int32)
     boxes = ndimage.find_objects(labels + 1, max_label=count)
-    # Each occluder writes only its own pixels of ``owner``: two at a time (at 1 Mpx
-    # the frog's body and head take 3.6 and 1.5 s); the result does not depend on it.
-    calls = [None if box is None else
-             partial(_complete_under, labels, a, box, owner, threshold, reach, coarse_above)
-             for a, box in enumerate(boxes)]
-    for a, _ in enumerate(_two_at_a_time(calls)):
-        if progress is not None:
+    # Each occluder writes only its own pixels of ``owner``: two at a time (SuperLU lets
+    # go of the GIL while it factors); the result does not depend on it.
+    def complete_under(a):
+        if boxes[a] is not None:
+            _complete_under(labels, a, boxes[a], owner, threshold, reach, coarse_above)
+        if progress is not None:  # a superseded edit stops here (it raises)
             progress.update(a + 1, count)
+
+    thread_map(complete_under, range(count))
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,
@@ -637,8 +620,12 @@ def _solvable(crop, a):
 def _harmonic(crop, inside, a, nbrs, values=None):
     """The harmonic values (n, k) on the ``inside`` pixels (see ``_dirichlet_system``)."""
     system, rhs = _dirichlet_system(crop, inside, nbrs, values)
+    ys, xs = np.nonzero(inside)
+    order = _dissection(system, ys, xs)
     try:
-        return spd_factor(system).solve(rhs)
+        u = np.empty_like(rhs)
+        u[order] = spd_factor(system[order][:, order], ordered=True).solve(rhs[order])
+        return u
     except np.linalg.LinAlgError as e:  # a singular system would be a bug in the frame handling
         raise StageError(f"completion under region {a}: cannot factor the Laplacian "
                          f"({e})") from None
@@ -866,24 +853,31 @@ def _junction_points(labels):
     s = np.sort(q, axis=0)
     distinct = 1 + (s[1:] != s[:-1]).sum(axis=0)
     by, bx = np.nonzero(distinct >= 3)
-    found = {}
     if by.size == 0:
-        return found
+        return {}
     blocks = s[:, by, bx]
-    for i in range(by.size):
-        present = np.unique(blocks[:, i])
-        regions = present[present >= 0]
-        for j in range(len(regions)):
-            for k in range(j + 1, len(regions)):
-                found.setdefault((int(regions[j]), int(regions[k])), []).append((bx[i], by[i]))
+    # The distinct regions of each block: the sorted values that differ from the one before.
+    first = np.r_[np.ones((1, by.size), bool), blocks[1:] != blocks[:-1]] & (blocks >= 0)
+    pairs = [(j, k) for j in range(4) for k in range(j + 1, 4)]
+    a = np.concatenate([blocks[j][first[j] & first[k]] for j, k in pairs])
+    b = np.concatenate([blocks[k][first[j] & first[k]] for j, k in pairs])
+    block = np.concatenate([np.flatnonzero(first[j] & first[k]) for j, k in pairs])
     out = {}
-    for pair, pts in found.items():
-        pts = np.array(pts)
-        img = np.zeros((pts[:, 1].max() + 1, pts[:, 0].max() + 1), bool)
-        img[pts[:, 1], pts[:, 0]] = True
+    # Per pair, its blocks in raster order; clusters numbered as ``ndimage.label`` numbers them.
+    order = np.lexsort((block, b, a))
+    a, b, block = a[order], b[order], block[order]
+    starts = np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (b[1:] != b[:-1])])
+    for s0, e0 in zip(starts, np.r_[starts[1:], a.size]):
+        py, px = by[block[s0:e0]], bx[block[s0:e0]]
+        y0, x0 = py.min(), px.min()
+        img = np.zeros((py.max() - y0 + 1, px.max() - x0 + 1), bool)
+        img[py - y0, px - x0] = True
         comp, n = ndimage.label(img, structure=np.ones((3, 3)))
-        cent = ndimage.center_of_mass(img, comp, range(1, n + 1))
-        out[pair] = [(float(cx) + 0.5, float(cy) + 0.5) for cy, cx in cent]
+        c = comp[py - y0, px - x0]
+        count = np.bincount(c, minlength=n + 1)[1:]
+        cy = np.bincount(c, weights=py.astype(float), minlength=n + 1)[1:] / count
+        cx = np.bincount(c, weights=px.astype(float), minlength=n + 1)[1:] / count
+        out[(int(a[s0]), int(b[s0]))] = [(float(x) + 0.5, float(y) + 0.5) for y, x in zip(cy, cx)]
     return out
 
 
