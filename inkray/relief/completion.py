@@ -620,15 +620,26 @@ def _solvable(crop, a):
 def _harmonic(crop, inside, a, nbrs, values=None):
     """The harmonic values (n, k) on the ``inside`` pixels (see ``_dirichlet_system``)."""
     system, rhs = _dirichlet_system(crop, inside, nbrs, values)
-    ys, xs = np.nonzero(inside)
-    order = _dissection(system, ys, xs)
     try:
-        u = np.empty_like(rhs)
-        u[order] = spd_factor(system[order][:, order], ordered=True).solve(rhs[order])
-        return u
+        return _grid_solve(system, rhs, *np.nonzero(inside))
     except np.linalg.LinAlgError as e:  # a singular system would be a bug in the frame handling
         raise StageError(f"completion under region {a}: cannot factor the Laplacian "
                          f"({e})") from None
+
+
+def _grid_solve(system, rhs, ys, xs):
+    """``system^-1 rhs`` for a positive definite ``system`` on the pixels ``(ys, xs)``.
+
+    On pixels that fill at least a quarter of their box, a nested dissection
+    of the grid factors faster than SuperLU's minimum degree (the frog's body
+    at 1 Mpx, 177,000 pixels: 1.5 s against 2.6 s); on thin sets (a band
+    along an outline) the minimum degree fills less.
+    """
+    if ys.size < 0.25 * (np.ptp(ys) + 1) * (np.ptp(xs) + 1):
+        return spd_factor(system).solve(rhs)
+    order, out = _dissection(system, ys, xs), np.empty_like(rhs)
+    out[order] = spd_factor(system[order][:, order], ordered=True).solve(rhs[order])
+    return out
 
 
 _BAND = 8  # pixels solved again at full resolution on each side of a coarse owner change
@@ -735,18 +746,24 @@ def _within_reach(crop, a, reach):
     """Mark the pixels of ``a`` farther than ``reach`` contact extents from every contact as cut."""
     inside = crop == a
     keep = np.zeros(crop.shape, bool)
-    near_a = ndimage.binary_dilation(inside)
-    for b in np.unique(crop[near_a & ~inside]):
-        if b < 0:
-            continue
-        contact = inside & ndimage.binary_dilation(crop == b)
-        ys, xs = np.nonzero(contact)
+    iy, ix = np.nonzero(inside)  # the frame padding keeps every neighbour in the array
+    # The contacts of every neighbour at once: the pixels of a beside one of its pixels.
+    found = [(crop[iy + dy, ix + dx], iy, ix) for dy, dx in _STEPS]
+    nb, cy, cx = (np.concatenate(t) for t in zip(*found))
+    hit = nb >= 0
+    nb, cy, cx = nb[hit], cy[hit], cx[hit]
+    order = np.argsort(nb, kind="stable")
+    nb, cy, cx = nb[order], cy[order], cx[order]
+    starts = np.flatnonzero(np.r_[True, nb[1:] != nb[:-1]]) if nb.size else []
+    for s0, e0 in zip(starts, np.r_[starts[1:], nb.size]):
+        ys, xs = cy[s0:e0], cx[s0:e0]
         extent = max(np.ptp(ys), np.ptp(xs)) + 1
         d = int(np.ceil(reach * extent)) + 8
-        wy0, wy1 = max(ys.min() - d, 0), ys.max() + d + 1
-        wx0, wx1 = max(xs.min() - d, 0), xs.max() + d + 1
-        dist = ndimage.distance_transform_edt(~contact[wy0:wy1, wx0:wx1])
-        keep[wy0:wy1, wx0:wx1] |= dist <= d
+        wy0, wy1 = max(ys.min() - d, 0), min(ys.max() + d + 1, crop.shape[0])
+        wx0, wx1 = max(xs.min() - d, 0), min(xs.max() + d + 1, crop.shape[1])
+        free = np.ones((wy1 - wy0, wx1 - wx0), bool)
+        free[ys - wy0, xs - wx0] = False
+        keep[wy0:wy1, wx0:wx1] |= ndimage.distance_transform_edt(free) <= d
     out = crop.copy()
     out[inside & ~keep] = _CUT
     return out
@@ -1031,9 +1048,7 @@ def _poisson_solve(values, hidden, source, extrapolate):
     r, c, v = (np.concatenate(t) for t in (rows, cols, coef))
     system = sp.csc_matrix((v, (r, c)), shape=(n, n))
     if not edge.any():  # symmetric negative definite: SuperLU's symmetric mode, 0.7x the time
-        order, out = _dissection(system, y, x), np.empty(n)
-        out[order] = spd_factor(-system[order][:, order], ordered=True).solve(-rhs[order])
-        return out
+        return _grid_solve(-system, -rhs, y, x)
     # Symmetric but for the edge rows: the minimum-degree order of A^T + A fills
     # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels).
     return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)
