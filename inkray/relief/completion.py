@@ -302,7 +302,7 @@ def close_gaps(labels, owner, hidden, *, width=None):
         backs = [b for b in sorted(under[a]) if (own == b).any()]
         candidate, distance = [], []
         for b in backs:
-            d = ndimage.distance_transform_edt((lab != a) | (own != b))  # from its part under a
+            d = _distance_within(~((lab == a) & (own == b)), reach)  # from its part under a
             # b's parts hidden under other occluders stay apart: the rig joins each on its own
             apart = ndimage.binary_dilation((lab != a) & (own == b), np.ones((3, 3), bool))
             candidate.append(gaps & (d <= reach) & ~apart)
@@ -319,6 +319,20 @@ def close_gaps(labels, owner, hidden, *, width=None):
         own[take] = np.asarray(backs)[np.argmin(score, axis=0)[take]]
         given += int(take.sum())
     return given
+
+
+def _distance_within(free, reach):
+    """The distance transform of ``free`` where it is at most ``reach``, computed on the
+    box of the zeros grown by ``reach`` (inf beyond it)."""
+    ys, xs = np.nonzero(~free)
+    if ys.size == 0:
+        return ndimage.distance_transform_edt(free)
+    pad = int(np.ceil(reach)) + 1
+    box = (slice(max(ys.min() - pad, 0), ys.max() + pad + 1),
+           slice(max(xs.min() - pad, 0), xs.max() + pad + 1))
+    out = np.full(free.shape, np.inf)
+    out[box] = ndimage.distance_transform_edt(free[box])
+    return out
 
 
 def continue_outline(labels, owner, front, back, box, piece, *, margin=0.25, band=1.5):
