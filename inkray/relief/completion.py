@@ -34,8 +34,7 @@ import scipy.sparse.linalg as sla
 from scipy import ndimage
 
 from inkray.errors import InputError, StageError
-from inkray.numerics.quadtree_fill import _dissection
-from inkray.numerics.spd import spd_factor
+from inkray.numerics.spd import nested_dissection, spd_factor
 from inkray.numerics.threads import thread_map
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
@@ -666,7 +665,7 @@ def _grid_solve(system, rhs, ys, xs):
     """
     if ys.size < 0.25 * (np.ptp(ys) + 1) * (np.ptp(xs) + 1):
         return spd_factor(system).solve(rhs)
-    order, out = _dissection(system, ys, xs), np.empty_like(rhs)
+    order, out = nested_dissection(system, ys, xs), np.empty_like(rhs)
     out[order] = spd_factor(system[order][:, order], ordered=True).solve(rhs[order])
     return out
 
