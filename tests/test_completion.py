@@ -399,3 +399,64 @@ def test_ordered_completion_closes_gaps_by_default_and_not_with_zero():
     closed = c.ordered(relations).owner
     # one hidden part, no other region near it: nothing to close
     assert np.array_equal(opened, closed)
+
+
+def _junctions_one_block_at_a_time(labels):
+    """Junction points as the definition reads: each 2x2 block with three labels, per pair."""
+    found = {}
+    h, w = labels.shape
+    for y in range(h - 1):
+        for x in range(w - 1):
+            present = np.unique(labels[y:y + 2, x:x + 2])
+            if present.size < 3:
+                continue
+            regions = present[present >= 0]
+            for i, a in enumerate(regions):
+                for b in regions[i + 1:]:
+                    found.setdefault((int(a), int(b)), []).append((x, y))
+    out = {}
+    for pair, pts in found.items():
+        img = np.zeros((h, w), bool)
+        img[[p[1] for p in pts], [p[0] for p in pts]] = True
+        comp, n = ndimage.label(img, structure=np.ones((3, 3)))
+        out[pair] = [(float(cx) + 0.5, float(cy) + 0.5)
+                     for cy, cx in ndimage.center_of_mass(img, comp, range(1, n + 1))]
+    return out
+
+
+def test_junction_points_match_the_block_by_block_definition():
+    from inkray.relief.completion import _junction_points
+
+    rng = np.random.default_rng(3)
+    labels = np.kron(rng.integers(-1, 5, (12, 14)), np.ones((3, 3), int))
+    labels[::7, ::5] = 2  # single pixels: blocks with four labels
+    assert _junction_points(labels) == _junctions_one_block_at_a_time(labels)
+
+
+def test_the_extrapolated_continuation_is_singular_exactly_when_cornered_here():
+    from inkray.relief.completion import _cornered, _poisson_solve
+
+    values = np.add.outer(np.arange(9.0), np.arange(11.0))
+    for corner in range(4):
+        hidden = np.zeros((9, 11), bool)
+        ys = slice(0, 5) if corner < 2 else slice(4, 9)
+        xs = slice(0, 6) if corner % 2 == 0 else slice(5, 11)
+        hidden[ys, xs] = True
+        assert _cornered(hidden)
+        with pytest.raises(RuntimeError):
+            _poisson_solve(values, hidden, 0.0, True)
+        hidden[(1, 7)[corner // 2], (1, 9)[corner % 2]] = False  # the pixel diagonal to the corner
+        assert not _cornered(hidden)
+        x = _poisson_solve(values, hidden, 0.0, True)  # a linear function is reproduced
+        np.testing.assert_allclose(x, values[hidden], atol=1e-9)
+
+
+def test_distance_within_reach_is_the_full_transform_there():
+    from inkray.relief.completion import _distance_within
+
+    rng = np.random.default_rng(5)
+    free = np.ones((60, 70), bool)
+    free[20:26, 30:33] = rng.random((6, 3)) < 0.5
+    full = ndimage.distance_transform_edt(free)
+    near = _distance_within(free, 4.0)
+    assert np.array_equal(near[full <= 4.0], full[full <= 4.0]) and (near[full > 4.0] > 4.0).all()

@@ -3,7 +3,7 @@ import pytest
 import scipy.sparse as sp
 
 from inkray.numerics.grid import grid_laplacian
-from inkray.numerics.spd import MinQuadWithFixed, min_quad_with_fixed, spd_factor
+from inkray.numerics.spd import MinQuadWithFixed, min_quad_with_fixed, nested_dissection, spd_factor
 
 
 def test_factor_solves_many_right_hand_sides():
@@ -40,3 +40,19 @@ def test_columns_solve_together():
     solver = MinQuadWithFixed(L, np.array([True, False, False, False, True]))
     both = solver.solve(None, np.array([[0.0, 1.0], [4.0, 1.0]]))
     assert np.allclose(both[:, 0], np.arange(5.0)) and np.allclose(both[:, 1], 1.0)
+
+
+def test_nested_dissection_is_a_permutation_that_fills_less_than_the_grid_order():
+    n = 48
+    lap1 = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])
+    K = (sp.kron(lap1, sp.eye(n)) + sp.kron(sp.eye(n), lap1)).tocsc()
+    rows, cols = np.divmod(np.arange(n * n), n)
+    order = nested_dissection(K, rows, cols)
+    assert sorted(order.tolist()) == list(range(n * n))
+    dissected = spd_factor(K[order][:, order], ordered=True)
+    natural = spd_factor(K, ordered=True)
+    assert dissected.L.nnz < 0.7 * natural.L.nnz
+    b = np.random.default_rng(0).normal(size=n * n)
+    x = np.empty(n * n)
+    x[order] = dissected.solve(b[order])
+    np.testing.assert_allclose(K @ x, b, atol=1e-9)

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy import ndimage
 
 from inkray.errors import InputError
-from inkray.numerics.spd import spd_factor
+from inkray.numerics.spd import nested_dissection, spd_factor
 
 __all__ = ["quadtree_fill", "quadtree_blocks"]
 
@@ -88,7 +88,7 @@ def quadtree_fill(wx, wy, known, values, *, weak=0.1, band=1, max_block=64):
     # Unknowns first, then the known pixels they couple to.
     rhs = -(K[:n_free, n_free:] @ out.ravel()[nodes.known_pixels])
     Kuu = K[:n_free, :n_free]
-    order = _dissection(Kuu, nodes.unknown_rows, nodes.unknown_cols)
+    order = nested_dissection(Kuu, nodes.unknown_rows, nodes.unknown_cols)
     u = np.empty(n_free)
     u[order] = spd_factor(Kuu[order][:, order], ordered=True).solve(rhs[order])
     return _interpolated(u, blocks, nodes, owner, out)
@@ -335,32 +335,6 @@ def _block_energy(wx, wy, blocks, nodes, shape):
     rows, cols = _corners(blocks)
     var = nodes.index[rows, cols]
     return np.repeat(var, 4, axis=1).ravel(), np.tile(var, (1, 4)).ravel(), local.ravel()
-
-
-def _dissection(K, rows, cols):
-    """A nested-dissection order of ``K``'s variables from their lattice positions.
-
-    The grid is halved along its rows and its columns in turn (the bits of
-    the positions' Morton code, most significant first); a variable with an
-    edge to the other half of its cell at some halving is a separator there,
-    ordered after both halves. On the reduced systems of 1 Mpx drawings the
-    factor is about twice SuperLU's minimum-degree one, and ordering and
-    factoring take about half the time.
-    """
-    bits = max(int(rows.max()), int(cols.max()), 1).bit_length()
-    top = 2 * bits
-    m = np.zeros(len(rows), np.int64)
-    for b in range(bits):
-        m |= ((rows >> b) & 1) << (2 * b + 1) | ((cols >> b) & 1) << (2 * b)
-    upper = sp.triu(K, 1).tocoo()
-    i, j = upper.row.astype(np.int64), upper.col.astype(np.int64)
-    # The halving that parts an edge's two ends: the highest bit where their codes differ.
-    level = top - np.frexp((m[i] ^ m[j]).astype(np.float64))[1]
-    low = np.where(m[i] < m[j], i, j)
-    depth = np.full(len(rows), top)
-    np.minimum.at(depth, low, level)
-    end = ((m >> (top - depth)) + 1) << (top - depth)
-    return np.lexsort((-depth, end))
 
 
 def _interpolated(u, blocks, nodes, owner, out):

@@ -325,8 +325,10 @@ class _Blocks:
         # Cell c covers pixels [c s - s, c s): node j's block is cells j and j + 1.
         self.cell = ((ys + s) // s) * (nx + 1) + (xs + s) // s
 
-    def sums(self, weights, where=None):
-        cell = self.cell if where is None else self.cell[where]
+    def sums(self, weights, cells=None):
+        """Block sums of ``weights``, given at every pixel or at the pixels of a mask
+        whose cells ``self.cell[mask]`` are ``cells`` (found once for repeated sums)."""
+        cell = self.cell if cells is None else cells
         c = np.bincount(cell.reshape(-1), weights=np.ravel(weights),
                         minlength=self.cells[0] * self.cells[1]).reshape(self.cells)
         return c[:-1, :-1] + c[1:, :-1] + c[:-1, 1:] + c[1:, 1:]
@@ -361,8 +363,8 @@ def _match_blocks(src, tgt, blocks, u, radius, stiffness):
     h, w = src.shape
     ink = src > 1e-3 * max(src.max(), 1e-12)
     py, px = np.nonzero(ink)
-    sv = src[py, px]
-    src2 = blocks.sums(sv * sv, ink)
+    sv, own = src[py, px], blocks.cell[ink]
+    src2 = blocks.sums(sv * sv, cells=own)
     active = src2 > 1e-3 * max(src2.max(), 1e-12)
     # The target is looked at only in the blocks with ink and a cell around
     # them (a cell is wider than any shift tried).
@@ -384,8 +386,10 @@ def _match_blocks(src, tgt, blocks, u, radius, stiffness):
     shifts = [(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1)]
     cost = np.empty((len(shifts),) + lattice.shape)
     energy = np.empty_like(cost)
+    # The ink pixels' flat positions in ``big``, found once for every shift.
+    at, flat = (py + r) * big.shape[1] + px + r, big.ravel()
     for k, (dy, dx) in enumerate(shifts):
-        cross = blocks.sums(sv * big[py + r + dy, px + r + dx], ink)
+        cross = blocks.sums(sv * flat[at + dy * big.shape[1] + dx], cells=own)
         energy[k] = src2 + blocks.shifted_sums(table, dy, dx, r)
         cost[k] = energy[k] - 2 * cross + stiffness * (dx * dx + dy * dy) * src2
     best = cost.argmin(axis=0)
@@ -405,9 +409,10 @@ def _lucas_kanade(src, warped, blocks):
     gy, gx = np.gradient(warped)
     res = warped - src
     m = (np.abs(res) > 1e-6) | (np.abs(gx) + np.abs(gy) > 1e-6)
-    gx, gy, res = gx[m], gy[m], res[m]
-    a, b, c = blocks.sums(gx * gx, m), blocks.sums(gx * gy, m), blocks.sums(gy * gy, m)
-    ex, ey = blocks.sums(gx * res, m), blocks.sums(gy * res, m)
+    gx, gy, res, cells = gx[m], gy[m], res[m], blocks.cell[m]
+    a, b, c = (blocks.sums(gx * gx, cells=cells), blocks.sums(gx * gy, cells=cells),
+               blocks.sums(gy * gy, cells=cells))
+    ex, ey = blocks.sums(gx * res, cells=cells), blocks.sums(gy * res, cells=cells)
     damp = 0.01 * (a + c) + 1e-9
     a, c = a + damp, c + damp
     det = a * c - b * b

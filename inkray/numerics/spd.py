@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["spd_factor", "MinQuadWithFixed", "min_quad_with_fixed"]
+__all__ = ["spd_factor", "nested_dissection", "MinQuadWithFixed", "min_quad_with_fixed"]
 
 
 def spd_factor(A, *, ordered=False):
@@ -50,6 +50,54 @@ def spd_factor(A, *, ordered=False):
                     options={"SymmetricMode": True})
     except RuntimeError as e:  # SuperLU reports an exactly singular matrix this way
         raise np.linalg.LinAlgError(str(e)) from None
+
+
+def nested_dissection(K, rows, cols):
+    """A nested-dissection order of a grid system's variables from their lattice positions.
+
+    The grid is halved along its rows and its columns in turn (the bits of
+    the positions' Morton code, most significant first); a variable with an
+    edge to the other half of its cell at some halving is a separator there,
+    ordered after both halves (George, "Nested dissection of a regular finite
+    element mesh", 1973). On the reduced systems of 1 Mpx drawings the
+    factor is about twice SuperLU's minimum-degree one, and ordering and
+    factoring take about half the time.
+
+    Parameters
+    ----------
+    K : (n, n) sparse matrix
+        Symmetric; its off-diagonal entries are the edges between variables.
+    rows, cols : (n,) int arrays
+        Each variable's lattice position (non-negative).
+
+    Returns
+    -------
+    (n,) int array
+        The permutation: ``K[order][:, order]`` is factored with
+        ``spd_factor(..., ordered=True)``.
+
+    Examples
+    --------
+    >>> import scipy.sparse as sp
+    >>> path = sp.diags([-np.ones(3), 2 * np.ones(4), -np.ones(3)], [-1, 0, 1])
+    >>> nested_dissection(path, np.zeros(4, int), np.arange(4)).tolist()  # 1 parts 0 from 2, 3
+    [0, 3, 2, 1]
+    """
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    bits = max(int(rows.max()), int(cols.max()), 1).bit_length()
+    top = 2 * bits
+    m = np.zeros(len(rows), np.int64)
+    for b in range(bits):
+        m |= ((rows >> b) & 1) << (2 * b + 1) | ((cols >> b) & 1) << (2 * b)
+    upper = sp.triu(K, 1).tocoo()
+    i, j = upper.row.astype(np.int64), upper.col.astype(np.int64)
+    # The halving that parts an edge's two ends: the highest bit where their codes differ.
+    level = top - np.frexp((m[i] ^ m[j]).astype(np.float64))[1]
+    low = np.where(m[i] < m[j], i, j)
+    depth = np.full(len(rows), top)
+    np.minimum.at(depth, low, level)
+    end = ((m >> (top - depth)) + 1) << (top - depth)
+    return np.lexsort((-depth, end))
 
 
 class MinQuadWithFixed:

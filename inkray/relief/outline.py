@@ -604,8 +604,12 @@ def _smooth(p, w, h, sigma):
     pinned = _on_frame(q, w, h)
     pinned[corners] = True
     sm = _clamp(sm, q, _BAND)
+    around = np.empty_like(sm)  # the two neighbours' sum, without rolling two copies
     for _ in range(_RELAX):
-        sm = _clamp(0.5 * sm + 0.25 * (np.roll(sm, 1, axis=0) + np.roll(sm, -1, axis=0)), q, _BAND)
+        around[1:], around[0] = sm[:-1], sm[-1]
+        around[:-1] += sm[1:]
+        around[-1] += sm[0]
+        sm = _clamp(0.5 * sm + 0.25 * around, q, _BAND)
         sm[pinned] = q[pinned]
     # A loop not much longer than the filter (a pixel, a dot) collapses onto a line:
     # it keeps its pixel contour, so that it still encloses its area.
