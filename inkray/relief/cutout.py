@@ -261,7 +261,7 @@ def stroke_style(rgb, gray, *, where=None):
     rgb = np.asarray(rgb)
     ink, skeleton = _strokes(gray)
     wide = _strokes(gray, size=_WIDE_STROKE_MAX)
-    if _wider(gray, ink, skeleton, wide[1], where):
+    if _wider(gray, ink, skeleton, wide[1], where, core=_INK_CONTRAST):
         return _measure(rgb, gray, *wide, where, size=_WIDE_STROKE_MAX)
     return _measure(rgb, gray, ink, skeleton, where)
 
@@ -275,15 +275,18 @@ def _strokes(gray, *, size=_STROKE_MAX):
     return ink, skeletonize(ink)
 
 
-def _wider(gray, ink, skeleton, wide_skeleton, where):
+def _wider(gray, ink, skeleton, wide_skeleton, where, *, core=None):
     """Whether the strokes (``where``) are wider than the closing that found ``ink`` (with
     its ``skeleton``): the skeleton of the ink a wider closing finds runs mostly off it, at
-    least as dark as its core, along the strokes' middles between their soft edges (not
-    over a colour darker than the paper around it, which is lighter than ink)."""
-    local, core = _local(wide_skeleton, where), _local(skeleton, where)
-    if not core.any():  # no ink this narrow: all of it is wider
-        return bool(local.any())
-    middle = ~ink[local] & (gray[local] <= np.median(gray[core]))
+    least as dark as its core (the grey ``core`` where no such ink is near; None: no
+    strokes), along the strokes' middles between their soft edges (not over a colour
+    darker than the paper around it, which is lighter than ink)."""
+    local, narrow = _local(wide_skeleton, where), _local(skeleton, where)
+    if narrow.any():
+        core = float(np.median(gray[narrow]))
+    if not local.any() or core is None:
+        return False
+    middle = ~ink[local] & (gray[local] <= core)
     return float(np.mean(middle)) > 0.5
 
 
@@ -437,7 +440,9 @@ class _Strokes:
         self.rgb, self.gray = rgb, gray
         self.ink, self.skeleton = _strokes(gray)
         self.colour, self.width = _measure(rgb, gray, self.ink, self.skeleton, None)
-        core = float(np.median(gray[self.skeleton])) if self.skeleton.any() else 0.0
+        # The strokes' core tone; without narrow strokes, a wide one's middle is near black.
+        self.core = float(np.median(gray[self.skeleton])) if self.skeleton.any() else None
+        core = 0.0 if self.core is None else self.core
         self.soft = gray < _SOFT_EDGE
         paper = ~ndimage.binary_dilation(self.ink, iterations=2) & (gray >= _SOFT_EDGE)
         self.paper = np.median(rgb[paper], axis=0) if paper.any() else np.full(3, 255.0)
@@ -472,7 +477,8 @@ class _Strokes:
             ~ndimage.binary_dilation(near, iterations=_STROKE_MAX)
         rgb, gray = self.rgb[big], self.gray[big]
         wide_ink, wide_skeleton = self.wide
-        if _wider(gray, self.ink[big], self.skeleton[big], wide_skeleton[big], reach):
+        if _wider(gray, self.ink[big], self.skeleton[big], wide_skeleton[big], reach,
+                  core=_INK_CONTRAST if self.core is None else self.core):
             return _measure(rgb, gray, wide_ink[big], wide_skeleton[big], reach,
                             size=_WIDE_STROKE_MAX, inside=label[big])
         return _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
