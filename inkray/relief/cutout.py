@@ -230,7 +230,9 @@ def stroke_style(rgb, gray, *, where=None):
     8 px (a marker's, a thick clean line) leave their middles to a closing
     of that size, which then finds only their soft edges: where the
     skeleton of the ink a four times wider closing finds lies mostly off
-    that ink, the strokes are measured at that scale. Clipped to 1..8 px
+    that ink and is at least as dark as its core (near black without such
+    ink; a colour of the drawing's own is lighter), the strokes are
+    measured at that scale. Clipped to 1..8 px
     (1..32 px for wide strokes); black and 1 px without ink.
 
     Parameters
