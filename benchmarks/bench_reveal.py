@@ -10,12 +10,12 @@ versions of inkray are measured alike):
   drawing's ink coverage, 0 paper .. 1 the strokes' core, below 0.25 and no
   pixel of coverage 0.5 or more within 2 px); its floor is their 2nd
   percentile of luminance (Rec. 601, 0..255);
-- the *fill*: the layer's hidden pixels, opaque, more than 10 px from the
-  edge of the part's completed shape (its label and its hidden pixels):
-  the continued outline lies within a stroke width of that edge, and
-  ``cut_out`` draws strokes up to 8 px wide (its measured widths run wider
-  than the drawn strokes' cores: see ``bench_layers.py``), with a soft
-  pixel beyond;
+- the *fill*: the layer's hidden pixels, opaque, more than ``OUTLINE`` px
+  from the edge of the part's completed shape (its label and its hidden
+  pixels): the continued outline lies within a stroke width of that edge,
+  and ``cut_out`` draws it as wide as the part's drawn strokes (up to about
+  18 px on the bundled drawings at ~1 Mpx: see ``bench_layers.py``), with
+  a soft pixel beyond;
 - ``dark %``: the share of the fill darker than the floor (pooled over the
   layers), ``worst``: the largest share of one layer (its name), ``min``:
   the darkest fill pixel below its layer's floor (levels, 0 when none).
@@ -45,7 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_pose import _load  # noqa: E402
 
 NAMES = "fox,man,donkey,frog,dragon,turtle,cat,gingerbread"
-OUTLINE = 10  # px from the completed shape's edge: the continued outline's widest reach
+OUTLINE = 24  # px: beyond the widest continued outline and its soft edge
 LUMA = np.array([0.299, 0.587, 0.114])
 
 
