@@ -294,6 +294,14 @@ def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
     assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0
 
 
+def _bar_over_band(labels, rgb):
+    """The layers of a drawing whose region 1 ("bar") lies over region 0 ("band")."""
+    c = complete_regions(labels, names=["band", "bar"])
+    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
+    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
+    return cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+
+
 def _outlined_band():
     """A band drawn with a soft 3 px grey outline (core 60, a half-tone pixel each side),
     a bar across it in front: the band's outline is continued under the bar."""
@@ -312,10 +320,7 @@ def _outlined_band():
         gray[6:64, left + 1:left + 3] = 60 / 255
         gray[6:64, left + 3] = 0.6
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    c = complete_regions(labels, names=["band", "bar"])
-    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
-    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
-    return labels, gray, rgb, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+    return labels, gray, rgb, _bar_over_band(labels, rgb)
 
 
 def test_continued_outline_has_the_drawings_tone_and_width():
@@ -389,10 +394,7 @@ def _thick_grey_ink():
     paper = 236 + np.random.default_rng(1).normal(0, 2.0, (h, w))
     gray = paper + cover * (90 - paper)
     rgb = np.repeat(np.clip(np.rint(gray), 0, 255).astype(np.uint8)[..., None], 3, axis=2)
-    c = complete_regions(labels, names=["band", "bar"])
-    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
-    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
-    return labels, rgb, cover, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+    return labels, rgb, cover, _bar_over_band(labels, rgb)
 
 
 def test_a_hidden_part_next_to_thick_grey_ink_is_filled_with_its_paper():
@@ -449,10 +451,7 @@ def _thick_outlined_band():
         gray[4:126, left] = gray[4:126, left + 13] = 0.5
         gray[4:126, left + 1:left + 13] = 0.0
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    c = complete_regions(labels, names=["band", "bar"])
-    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
-    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
-    return gray, cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+    return gray, _bar_over_band(labels, rgb)
 
 
 def test_a_continued_outline_is_as_wide_as_thick_drawn_strokes():
