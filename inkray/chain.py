@@ -30,7 +30,7 @@ from inkray.depthmap.estimation import METHODS, DepthResult, DepthSession, depth
 from inkray.errors import InputError
 from inkray.input.constraints import constraints
 from inkray.input.scribbles import seed_image
-from inkray.numerics.threads import thread_map
+from inkray.numerics.threads import thread_imap
 from inkray.progress import Progress
 from inkray.relief.assembly import assemble
 from inkray.relief.completion import Completion, complete_regions
@@ -317,7 +317,6 @@ class ReliefChain:
         out, keys, todo = [], [], []
         with self.progress.stage("inflate"):
             for i, region in enumerate(regions):
-                self.progress.update(i, len(regions))
                 mask = completion.completed(i) | (labels == i)
                 if not mask.any():
                     out.append(None)
@@ -337,14 +336,11 @@ class ReliefChain:
                                                 inflation=r.inflation, profile=r.profile,
                                                 options=self.options.mesh)))
 
-            def inflate(job):
-                # a superseded edit stops here, before the next part (it raises)
-                self.progress.update(job[0], len(regions))
-                return job[2]()
-
             # Two parts at a time: their solves let go of the GIL (their outline
             # tracing mostly does not, so two threads gain most on a loaded machine).
-            for (i, key, _), mesh in zip(todo, thread_map(inflate, todo)):
+            # A superseded edit's progress raises: the parts not yet started are dropped.
+            for (i, key, _), mesh in zip(todo, thread_imap(lambda job: job[2](), todo)):
+                self.progress.update(i + 1, len(regions))
                 self._cache.put(key, mesh)
                 self.recomputed.append(f"mesh:{regions[i].name}")
                 out[i] = mesh

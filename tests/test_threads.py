@@ -51,3 +51,25 @@ def test_thread_map_limits_blas_in_its_workers_and_restores_it():
     inside = thread_map(work, range(6))
     assert all(n == 1 for threads in inside for n in threads)
     assert blas() == before
+
+
+def test_thread_imap_yields_in_order_and_drops_what_has_not_started_when_stopped():
+    import threading
+    import time
+
+    from inkray.numerics.threads import thread_imap
+
+    started = []
+    lock = threading.Lock()
+
+    def work(x):
+        with lock:
+            started.append(x)
+        time.sleep(0.01)
+        return x
+
+    results = thread_imap(work, range(20))
+    assert [next(results), next(results)] == [0, 1]
+    results.close()  # the caller stops, as a superseded edit's progress does
+    time.sleep(0.05)
+    assert len(started) < 20

@@ -17,7 +17,7 @@ from functools import lru_cache
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["one_blas_thread", "thread_map"]
+__all__ = ["one_blas_thread", "thread_imap", "thread_map"]
 
 
 @lru_cache(maxsize=1)
@@ -41,15 +41,17 @@ def one_blas_thread():
     return _controller().limit(limits=1, user_api="blas")
 
 
-def thread_map(function, items, *, workers=2):
-    """``[function(x) for x in items]``, computed by up to ``workers`` threads.
+def thread_imap(function, items, *, workers=2):
+    """``function(x) for x in items``, computed by up to ``workers`` threads, yielded in order.
 
-    The results come in the order of ``items`` and each is computed as it
-    would be alone, so the list is the same whatever the scheduling. BLAS
+    Each result is yielded as soon as it and those before it are done, so the
+    caller can report progress (or stop) between them; each is computed as it
+    would be alone, so the results are the same whatever the scheduling. BLAS
     is limited to one thread meanwhile (:func:`one_blas_thread`). With one
     item, one worker or one CPU it runs in the calling thread. The first
     exception (in the order of ``items``) is raised once the calls under way
-    end; the calls not yet started are dropped.
+    end; when it is raised, or the caller stops iterating, the calls not yet
+    started are dropped.
 
     Parameters
     ----------
@@ -58,19 +60,22 @@ def thread_map(function, items, *, workers=2):
     items : iterable
     workers : int, default 2
 
-    Returns
-    -------
-    list
+    Yields
+    ------
+    object
+        ``function(x)``, in the order of ``items``.
 
     Examples
     --------
-    >>> thread_map(lambda x: x * x, range(5))
+    >>> [y for y in thread_imap(lambda x: x * x, range(5))]
     [0, 1, 4, 9, 16]
     """
     items = list(items)
     workers = min(workers, len(items), os.cpu_count() or 1)
     if workers <= 1:
-        return [function(x) for x in items]
+        for x in items:
+            yield function(x)
+        return
     # BLAS limited by the calling thread for the whole map: two threads each
     # limiting and restoring it on their own leave one of them running with two
     # BLAS threads (the limit is the process's), which cost the stitching's
@@ -78,7 +83,20 @@ def thread_map(function, items, *, workers=2):
     with one_blas_thread(), ThreadPoolExecutor(max_workers=workers) as pool:
         jobs = [pool.submit(function, x) for x in items]
         try:
-            return [job.result() for job in jobs]
-        except BaseException:
+            for job in jobs:
+                yield job.result()
+        except BaseException:  # an error, or the caller stopped (GeneratorExit)
             pool.shutdown(cancel_futures=True)
             raise
+
+
+def thread_map(function, items, *, workers=2):
+    """``[function(x) for x in items]``, computed by up to ``workers`` threads
+    (:func:`thread_imap`, its results as a list).
+
+    Examples
+    --------
+    >>> thread_map(lambda x: x * x, range(5))
+    [0, 1, 4, 9, 16]
+    """
+    return list(thread_imap(function, items, workers=workers))

@@ -25,7 +25,6 @@ part hidden beside them (:func:`close_gaps`), so that what a posed part
 uncovers is always some part's completed area.
 """
 
-import threading
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -35,7 +34,7 @@ from scipy import ndimage
 
 from inkray.errors import InputError, StageError
 from inkray.numerics.spd import nested_dissection, spd_factor
-from inkray.numerics.threads import thread_map
+from inkray.numerics.threads import thread_imap, thread_map
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
            "check_labels", "GAP"]
@@ -572,28 +571,15 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, coarse_abo
     owner = np.full(labels.shape, -1, np.int32)
     boxes = ndimage.find_objects(labels + 1, max_label=count)
     # Each occluder writes only its own pixels of ``owner``: two at a time (SuperLU lets
-    # go of the GIL while it factors); the result does not depend on it. The progress is
-    # told in the regions' order, and an error (a superseded edit) stops the next ones.
-    told = {"next": 0, "stop": False}
-    turn = threading.Condition()
-
+    # go of the GIL while it factors); the result does not depend on it. An error of the
+    # progress (a superseded edit) stops the regions not yet started.
     def complete_under(a):
-        try:
-            if not told["stop"] and boxes[a] is not None:
-                _complete_under(labels, a, boxes[a], owner, threshold, reach, coarse_above)
-            with turn:
-                turn.wait_for(lambda: told["next"] == a or told["stop"])
-                if not told["stop"] and progress is not None:
-                    progress.update(a + 1, count)
-                told["next"] = a + 1
-                turn.notify_all()
-        except BaseException:
-            with turn:
-                told["stop"] = True
-                turn.notify_all()
-            raise
+        if boxes[a] is not None:
+            _complete_under(labels, a, boxes[a], owner, threshold, reach, coarse_above)
 
-    thread_map(complete_under, range(count))
+    for a, _ in enumerate(thread_imap(complete_under, range(count))):
+        if progress is not None:
+            progress.update(a + 1, count)
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,
