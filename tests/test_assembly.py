@@ -8,10 +8,11 @@ from scipy.spatial import cKDTree
 
 from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
+from inkray.numerics.arap import signed_areas
 from inkray.numerics.tri_intersection import self_intersecting_faces
 from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _envelope_solid,
                                     _paired, _sheets, _unwalled,
-                                    _min_angles, _signed_areas, _skirted, _untangle, assemble, close_part, remesh_solid,
+                                    _min_angles, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
 from inkray.errors import StageError
@@ -272,7 +273,7 @@ def test_the_skirt_folds_no_triangle_at_a_sharp_spike():
     f = np.array([[7, 4, 6], [4, 8, 5], [4, 7, 8], [2, 3, 9], [0, 1, 7], [1, 2, 8],
                   [2, 9, 8], [1, 8, 7]])
     w, g = _skirted(v, f, 0.3, (np.full(2, -50.0), np.full(2, 50.0)))
-    assert (np.sign(_signed_areas(w, g)) == np.sign(_signed_areas(v, f))).all()
+    assert (np.sign(signed_areas(w, g)) == np.sign(signed_areas(v, f))).all()
     moved = np.linalg.norm(w[:, :2] - v[:, :2], axis=1)
     assert moved.max() <= 0.6 + 1e-12 and (moved > 0.0).sum() >= 6  # the rest still skirted
 
@@ -399,6 +400,6 @@ def test_the_rims_wall_strip_is_merged_away_keeping_the_outline():
     assert np.array_equal(np.sort(w[a, 2]), top) and top.min() > 0.5
     assert np.array_equal(np.sort(w[a, 3]), np.sort(-top - 1.0))
     assert _min_angles(w[:, :3], g).min() > _min_angles(sheet[:, :3], faces).min()
-    assert (np.sign(_signed_areas(w, g)) == np.sign(_signed_areas(sheet, faces)[0])).all()
+    assert (np.sign(signed_areas(w, g)) == np.sign(signed_areas(sheet, faces)[0])).all()
     again_v, again_f = _unwalled(w, g, _WALL_REACH)  # nothing more to merge
     assert np.array_equal(again_v, w) and np.array_equal(again_f, g)

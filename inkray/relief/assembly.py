@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from inkray.errors import StageError
+from inkray.numerics.arap import signed_areas
 from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
@@ -475,20 +476,13 @@ def _runs(before, after, a, b, snapped):
     return w
 
 
-def _signed_areas(vertices, faces):
-    """Twice the signed areas of triangles in ``(x, y)``."""
-    t = vertices[faces][:, :, :2]
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-
-
 def _unfolded(before, after, faces, keep=0.05):
     """``after`` with the moves of the corners of every triangle they fold or flatten
     (its area in ``(x, y)`` below ``keep`` of what it was, or of the other sign) undone."""
-    a0 = _signed_areas(before, faces)
+    a0 = signed_areas(before, faces)
     w = np.array(after, float)
     for _ in range(len(w)):
-        bad = _signed_areas(w, faces) / np.where(a0 == 0.0, 1.0, a0) < keep
+        bad = signed_areas(w, faces) / np.where(a0 == 0.0, 1.0, a0) < keep
         if not bad.any():
             break
         corners = np.unique(faces[bad])
@@ -522,7 +516,7 @@ def _inserted(vertices, faces, points, reach, *, clear, near=None):
     key = {(int(x), int(y)): k for k, (x, y) in enumerate(e.tolist())}
     new_v, new_f, drop = [], [], set()
     count = len(v)
-    a0 = _signed_areas(v, faces)
+    a0 = signed_areas(v, faces)
     idx = np.flatnonzero(take)
     for s in np.unique(seg[idx]).tolist():
         mine = idx[seg[idx] == s]
@@ -537,7 +531,7 @@ def _inserted(vertices, faces, points, reach, *, clear, near=None):
         chain = [int(a)] + list(range(count, count + len(mine))) + [int(b)]
         fan = np.array([[chain[m], chain[m + 1], c] for m in range(len(chain) - 1)])
         w = np.concatenate([v, *new_v, pts]) if new_v else np.concatenate([v, pts])
-        ratio = _signed_areas(w, fan) / a0[face[k]]
+        ratio = signed_areas(w, fan) / a0[face[k]]
         if (ratio <= 0.0).any() or (np.abs(ratio) < 1e-9).any():
             continue
         new_v.append(pts)
@@ -597,7 +591,7 @@ def _filled(vertices, faces, area):
         return vertices, faces
     a, b = _boundary_edges(faces).T
     following = dict(zip(a.tolist(), b.tolist()))
-    turn = np.sign(_signed_areas(vertices, faces).sum())
+    turn = np.sign(signed_areas(vertices, faces).sum())
     seen, added = set(), []
     for start in a.tolist():
         if start in seen:
@@ -620,7 +614,7 @@ def _filled(vertices, faces, area):
         if len(out["vertices"]) != len(loop):
             continue
         tris = np.asarray(loop)[np.asarray(out["triangles"], np.int64)]
-        flip = np.sign(_signed_areas(vertices, tris)) != turn
+        flip = np.sign(signed_areas(vertices, tris)) != turn
         tris[flip] = tris[flip][:, ::-1]
         added.append(tris)
     if not added:
