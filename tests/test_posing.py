@@ -258,9 +258,9 @@ def test_an_overlap_that_glues_a_pin_does_not_grip():
     on_line = np.flatnonzero(np.abs(xy[:, 1] - np.median(xy[:, 1])) < 0.5)
     spread = np.flatnonzero(np.hypot(xy[:, 0] - xy[:, 0].mean(), xy[:, 1] - 53) < 8)
     assert len(on_line) >= 3 and len(spread) >= 3
-    assert not _grips(rig, rows(np.arange(2)), "arm")
-    assert not _grips(rig, rows(on_line), "arm")
-    assert _grips(rig, rows(spread), "arm")
+    assert not _grips(rig, (rows(np.arange(2)), "arm"))
+    assert not _grips(rig, (rows(on_line), "arm"))
+    assert _grips(rig, (rows(spread), "arm"))
 
 
 @pytest.mark.slow

@@ -401,16 +401,25 @@ def rig_relief(relief, completion, *, boundaries=()):
             reach = _GLUE_REACH if kind == "rooted" else 0.0
             near = ndimage.distance_transform_edt(~mask) <= reach
             got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
-            if not got.shape[0]:
+            grips = _grips(rig, (got, rig.names[pb]))
+            if grips and kind != "overlap":
+                rows.append(got)
+                joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
                 continue
-            join = Join(rig.names[pb], rig.names[pa], kind, got.shape[0])
+            # Where the smaller part's vertices in an overlap do not grip, the larger part's
+            # glue it too (both cover an overlap alike): whether the join holds does not hang
+            # on which of the two triangulations happens to put vertices there.
+            held = [(got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))]
+            if not grips and kind == "overlap":
+                back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
+                held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0])))
+                grips = _grips(rig, *held)
+            held = [(g, j) for g, j in held if g.shape[0]]
+            if not held:
+                continue
             # A root or a part on top glued at a vertex or two would pivot there: like an
             # overlap that only pins, it joins only what nothing else joins.
-            if kind == "overlap" or not _grips(rig, got, join.part):
-                overlaps.append((got, join))
-            else:
-                rows.append(got)
-                joins.append(join)
+            overlaps.append((held, grips))
     for seam in boundaries:
         if seam.type not in ("stitch", "graft"):
             continue
@@ -438,15 +447,17 @@ def rig_relief(relief, completion, *, boundaries=()):
 
     # Overlaps that grip (glue at least three vertices not on one line) go first: one that
     # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
-    overlaps.sort(key=lambda o: not _grips(rig, o[0], o[1].part))
-    for got, join in overlaps:
-        touched = {find(int(k)) for k in np.unique(piece[got.tocoo().col])}
+    overlaps.sort(key=lambda o: not o[1])
+    for held, _ in overlaps:
+        cols = np.concatenate([got.tocoo().col for got, _ in held])
+        touched = {find(int(k)) for k in np.unique(piece[cols])}
         if len(touched) > 1:
             first, *others = touched
             for k in others:
                 root[k] = first
-            rows.append(got)
-            joins.append(join)
+            for got, join in held:
+                rows.append(got)
+                joins.append(join)
     rows, joins = _once_per_vertex(rig, rows, joins)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
@@ -454,12 +465,17 @@ def rig_relief(relief, completion, *, boundaries=()):
     return rig
 
 
-def _grips(rig, rows, part):
-    """Whether glue ``rows`` hold at least three vertices of ``part`` not on one line (within
-    ``_LOCATE_TOL``), so that they can hold its rotation as well as its place."""
-    i = rig.names.index(part)
-    cols = np.unique(rows.tocoo().col)
-    xy = rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]]
+def _grips(rig, *held):
+    """Whether glue rows hold at least three vertices not on one line (within
+    ``_LOCATE_TOL``), so that they can hold a rotation as well as a place: ``held`` are
+    ``(rows, part)`` pairs (or joins' ``(rows, Join)``), the vertices of ``part`` each
+    row glues taken together."""
+    xy = []
+    for rows, part in held:
+        i = rig.names.index(part if isinstance(part, str) else part.part)
+        cols = np.unique(rows.tocoo().col)
+        xy.append(rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]])
+    xy = np.concatenate(xy)
     if len(xy) < 3:
         return False
     spread = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
