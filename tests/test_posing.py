@@ -319,10 +319,13 @@ def test_the_fox_at_1_mpx_keeps_its_arm_on_whichever_way_its_tail_and_body_go(or
     img = posed.image(x)
     rest = posed.image(posed.rig.vertices)
     # Pinned to the head the arm opened 74 to 107 px of holes. Left, depending on the solve's
-    # path (the benchmark's warm-started pose has none): a pixel or two where two parts'
-    # soft edges seal the apex of a tear (the tail pulled from the body under the right
-    # arm) or the notch where the left ear's outline meets the head's on the silhouette.
-    assert _holes(posed, x, img, rest) <= 2
-    # the tear measure finds none at rest
+    # path (the benchmark's warm-started pose has none, and solving this pose once more
+    # none or one): a speck of up to 3 px in the soft rim where the left ear's outline
+    # meets the head's on the silhouette, the two parts' layers sliding a pixel apart.
+    assert _holes(posed, x, img, rest) <= 3
+    # The body and the tail continue under each other where they meet under the right arm
+    # (a second hidden layer), so the arm swung off them opens no tear: 11,600 to 11,900 px
+    # without it. The tear measure finds none at rest.
+    assert _tears(posed, x, img, chain.completion) < 1000
     assert _tears(posed, posed.rig.vertices, rest, chain.completion) == 0
 

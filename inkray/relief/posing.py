@@ -392,7 +392,7 @@ def rig_relief(relief, completion, *, boundaries=()):
               heights=np.concatenate(heights), faces=np.concatenate(faces),
               part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
-    rows, joins, overlaps = [], [], []
+    rows, joins, overlaps, mutual = [], [], [], set()
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
@@ -414,6 +414,7 @@ def rig_relief(relief, completion, *, boundaries=()):
                 back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
                 held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0])))
                 grips = _grips(rig, *held)
+                mutual.add(id(held[-1][1]))
             held = [(g, j) for g, j in held if g.shape[0]]
             if not held:
                 continue
@@ -461,8 +462,26 @@ def rig_relief(relief, completion, *, boundaries=()):
     rows, joins = _once_per_vertex(rig, rows, joins)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
-    rig.joins = joins
+    rig.joins = _reported(joins, mutual)
     return rig
+
+
+def _reported(joins, mutual):
+    """The joins as the drawing joins its parts: the larger part's rows of an overlap (those
+    in ``mutual``, by ``id``) counted in the smaller part's join to it."""
+    out, forward = [], {}
+    for join in joins:
+        if id(join) not in mutual:
+            out.append(join)
+            forward[(join.part, join.to, join.kind)] = join
+    for join in joins:
+        if id(join) in mutual:
+            found = forward.get((join.to, join.part, join.kind))
+            if found is None:
+                out.append(Join(join.to, join.part, join.kind, join.vertices))
+            else:
+                found.vertices += join.vertices
+    return out
 
 
 def _grips(rig, *held):
@@ -571,12 +590,17 @@ def _joined_areas(completion):
     ``overlap`` areas (a single cut that neither rule takes) come last, the
     smallest against the smaller part's area first.
     """
-    labels, owner = completion.labels, completion.owner
+    labels, owner, beneath = completion.labels, completion.owner, completion.beneath
     area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
     area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
+    if beneath is not None:
+        area = area + np.bincount(beneath[beneath >= 0].ravel(), minlength=completion.count)
     out, overlaps = [], []
     for b in range(completion.count):
-        pieces, n = ndimage.label(owner == b)
+        # both hidden layers: which of two parts hidden side by side holds a pixel in
+        # ``owner`` and which beneath it does not change where either is hidden
+        hidden = owner == b if beneath is None else (owner == b) | (beneath == b)
+        pieces, n = ndimage.label(hidden)
         if not n:
             continue
         visible = ndimage.binary_dilation(labels == b)
