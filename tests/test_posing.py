@@ -163,6 +163,21 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     # the stack is the drawing but where a layer's soft edge lies over the completed layer
     # under it (28 of the 44 000 pixels)
     assert same[opaque].mean() > 0.999
+    # the layers go on under the parts in front of them (so that a part moved a pixel or
+    # two shows the part behind), and no further than the skirt draws them
+    from inkray.view.posed import _PAD
+
+    c = chain.completion
+    beyond = []
+    for layer in posed.cutout.layers:
+        y0, y1, x0, x1 = layer.box
+        drawn = np.zeros(c.labels.shape, bool)
+        drawn[y0:y1, x0:x1] = layer.rgba[..., 3] > 0
+        shape = c.completed(layer.region)
+        beyond.append(drawn & ~shape & (c.labels >= 0) & (c.labels != layer.region))
+        reach = ndimage.distance_transform_edt(~shape)
+        assert reach[beyond[-1]].max(initial=0) <= _PAD * np.sqrt(2)
+    assert sum(b.sum() for b in beyond) > 100
 
 
 def test_posed_relief_keeps_parts_vertices_faces_and_heights(man):
@@ -329,3 +344,25 @@ def test_the_fox_at_1_mpx_keeps_its_arm_on_whichever_way_its_tail_and_body_go(or
     assert _tears(posed, x, img, chain.completion) < 1000
     assert _tears(posed, posed.rig.vertices, rest, chain.completion) == 0
 
+
+
+def test_both_hidden_layers_of_a_part_are_where_it_is_joined():
+    # Two disks hidden side by side under a bar, the right one in front: the left one's
+    # piece under the bar holds its second layer too, so which of the two holds a pixel
+    # first does not change where either is glued to the bar.
+    import sys
+
+    sys.path.insert(0, str(EXAMPLES.parent / "tests"))
+    from test_completion import _two_disks_under_a_bar, _user_orders
+
+    from inkray.relief.completion import complete_regions
+    from inkray.relief.posing import _joined_areas
+
+    labels, *_ = _two_disks_under_a_bar()
+    c = complete_regions(labels, names=["left", "right", "bar"])
+    o = c.ordered(_user_orders(c, [(2, 0), (2, 1), (1, 0)]))
+    assert (o.beneath == 0).sum() > 100
+    areas = {(part, to): mask for part, to, _, mask in _joined_areas(o)}
+    hidden = next(m for (p, t), m in areas.items() if 0 in (p, t) and 2 in (p, t))
+    assert hidden[o.beneath == 0].all()
+    assert np.array_equal(hidden, (o.owner == 0) | (o.beneath == 0))
