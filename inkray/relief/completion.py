@@ -235,13 +235,13 @@ class Completion:
                                             if piece.any()}, width=gap)
         beneath = np.full(owner.shape, -1, np.int32)
         if curvature:
-            _second_layers(owner, beneath, [(front, back, memo.get((front, back, p.index)))
-                                            for front, back, p, piece in kept if piece.any()],
-                           relations, self.count)
+            continued = [(front, back, memo.get((front, back, p.index)))
+                         for front, back, p, piece in kept if piece.any()]
+            _second_layers(self.labels, owner, beneath, continued, relations, self.count)
         return replace(self, owner=owner, beneath=beneath)
 
 
-def _second_layers(owner, beneath, continued, relations, count):
+def _second_layers(labels, owner, beneath, continued, relations, count):
     """Keep a hidden part's continuation where it reaches under another part hidden beside it.
 
     Under one occluder two hidden parts (a body and the tail behind an arm) meet where
@@ -272,6 +272,26 @@ def _second_layers(owner, beneath, continued, relations, count):
                 under[at] = back
             else:
                 own[at], under[at] = back, other
+    _keep_attached(labels, owner, beneath)
+
+
+def _keep_attached(labels, owner, beneath):
+    """Drop the second-layer pixels cut off from their region (both arrays in place).
+
+    Another part's second layer can take the pixels that joined a continuation to the
+    rest of its region; an island left behind would be a piece of the region that no
+    join holds. Where the region holding it in ``owner`` had taken it over from the one
+    beneath, that one gets it back.
+    """
+    layered = beneath >= 0
+    for region in np.union1d(beneath[layered], owner[layered]):
+        mine = (beneath == region) | ((owner == region) & (beneath >= 0))
+        pieces, _ = ndimage.label((labels == region) | (owner == region) | (beneath == region))
+        cut = mine & ~np.isin(pieces, np.unique(pieces[labels == region]))
+        if cut.any():
+            taken = cut & (owner == region)
+            owner[taken] = beneath[taken]
+            beneath[cut] = -1
 
 
 def close_gaps(labels, owner, hidden, *, width=None):

@@ -599,8 +599,8 @@ def _joined_areas(completion):
     for b in range(completion.count):
         # both hidden layers: which of two parts hidden side by side holds a pixel in
         # ``owner`` and which beneath it does not change where either is hidden
-        hidden = owner == b if beneath is None else (owner == b) | (beneath == b)
-        pieces, n = ndimage.label(hidden)
+        second = np.zeros(labels.shape, bool) if beneath is None else beneath == b
+        pieces, n = _hidden_pieces(owner == b, second, labels)
         if not n:
             continue
         visible = ndimage.binary_dilation(labels == b)
@@ -626,6 +626,27 @@ def _joined_areas(completion):
                 overlaps.append((piece.sum() / area[small], small, large, mask))
     overlaps.sort(key=lambda o: o[0])
     return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
+
+
+def _hidden_pieces(first, second, labels):
+    """The pieces of a part's hidden area (as ``ndimage.label``): those of its ``first``
+    layer, each grown by the ``second`` layer's pixels it touches under the same
+    occluder; second-layer pixels that touch none are pieces of their own. A second
+    layer under another part's hidden area reaches from one occluder's pixels to the
+    next, but each occluder joins it on its own."""
+    pieces, n = ndimage.label(first)
+    for a in np.unique(labels[second]):
+        extra = second & (labels == a)
+        mine = (pieces > 0) & (labels == a)
+        found, k = ndimage.label(extra | mine)
+        host = np.zeros(k + 1, np.int64)
+        np.maximum.at(host, found[mine], pieces[mine])
+        held = extra & (host[found] > 0)
+        pieces[held] = host[found[held]]
+        alone, m = ndimage.label(extra & ~held)
+        pieces[alone > 0] = alone[alone > 0] + n
+        n += m
+    return pieces, n
 
 
 def _glue_rows(rig, pb, pa, where, *, reach):
