@@ -278,7 +278,7 @@ def test_dirichlet_system_with_given_values_matches_the_indicators():
     system, rhs = _dirichlet_system(crop, inside, nbrs)
     values = (crop[..., None] == nbrs).astype(float)
     values[inside] = 7.0  # the unknowns' own entries are never read
-    system2, rhs2 = _dirichlet_system(crop, inside, nbrs, values)
+    system2, rhs2 = _dirichlet_system(crop, inside, nbrs, lambda yy, xx: values[yy, xx])
     assert abs(system - system2).max() == 0
     np.testing.assert_array_equal(rhs, rhs2)
 

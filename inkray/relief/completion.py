@@ -721,8 +721,13 @@ def _coarse_to_fine(crop, inside, a, nbrs, threshold, coarse_above):
         change[dy:, dx:] |= differ
     band = inside & (ndimage.distance_transform_edt(~change) <= _BAND)
     if band.any():
-        values = (crop[..., None] == nbrs).astype(float)
-        values[ys, xs] = u
+        row = np.full(crop.shape, -1, np.int64)
+        row[ys, xs] = np.arange(ys.size)
+
+        def values(yy, xx):  # the coarse values inside, the indicators outside
+            r = row[yy, xx]
+            return np.where(r[:, None] >= 0, u[r], crop[yy, xx][:, None] == nbrs)
+
         fine = _harmonic(crop, band, a, nbrs, values)
         u[band[ys, xs]] = fine
     return u
@@ -734,8 +739,8 @@ def _dirichlet_system(crop, inside, nbrs, values=None):
     ``A`` (n, n) couples the inside pixels in raster order (unit weights
     between 4-neighbours inside the frame); column ``k`` of ``B`` (n, k) is
     what the fixed pixels of label ``nbrs[k]`` (value 1, every other label 0)
-    bring to each row, or, where ``values`` (H, W, k) is given, the fixed
-    pixels' values there. Built on the inside pixels only: the Laplacian of
+    bring to each row, or, where ``values`` is given, the fixed pixels'
+    values there (``values(ys, xs)``, an (m, k) array for m pixels). Built on the inside pixels only: the Laplacian of
     the whole box, then cut down, cost as much as factoring it at 1 Mpx.
     """
     n = int(inside.sum())
@@ -757,7 +762,7 @@ def _dirichlet_system(crop, inside, nbrs, values=None):
         cols.append(j[coupled])
         if values is not None:
             fixed = np.flatnonzero(linked & (j < 0))
-            np.add.at(rhs_values, fixed, values[ys[fixed] + dy, xs[fixed] + dx])
+            np.add.at(rhs_values, fixed, values(ys[fixed] + dy, xs[fixed] + dx))
             continue
         for b, k in col_of.items():
             hit = np.flatnonzero(linked & (j < 0) & (q == b))
@@ -796,6 +801,9 @@ def _within_reach(crop, a, reach):
         d = int(np.ceil(reach * extent)) + 8
         wy0, wy1 = max(ys.min() - d, 0), min(ys.max() + d + 1, crop.shape[0])
         wx0, wx1 = max(xs.min() - d, 0), min(xs.max() + d + 1, crop.shape[1])
+        if np.hypot(wy1 - wy0, wx1 - wx0) <= d:  # the whole window is within reach
+            keep[wy0:wy1, wx0:wx1] = True
+            continue
         free = np.ones((wy1 - wy0, wx1 - wx0), bool)
         free[ys - wy0, xs - wx0] = False
         keep[wy0:wy1, wx0:wx1] |= ndimage.distance_transform_edt(free) <= d
