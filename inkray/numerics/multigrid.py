@@ -24,7 +24,7 @@ __all__ = ["multigrid_solve"]
 
 
 def multigrid_solve(A, b, ys, xs, *, rtol=1e-10, maxiter=60, sweeps=2, omega=0.8,
-                   direct_below=5000):
+                   direct_below=2000):
     """Solve ``A x = b`` for a symmetric positive definite grid system by multigrid-
     preconditioned conjugate gradients.
 
@@ -36,7 +36,7 @@ def multigrid_solve(A, b, ys, xs, *, rtol=1e-10, maxiter=60, sweeps=2, omega=0.8
     b : (n,) or (n, k) array
         Right-hand side, or ``k`` of them solved together.
     ys, xs : (n,) int arrays
-        The pixel of each unknown.
+        The pixel (row, column; non-negative) of each unknown.
     rtol : float, default 1e-10
         Stop when every column's residual norm is below ``rtol`` times its
         right-hand side's.
@@ -46,7 +46,7 @@ def multigrid_solve(A, b, ys, xs, *, rtol=1e-10, maxiter=60, sweeps=2, omega=0.8
         Damped Jacobi sweeps before and after the coarse correction.
     omega : float, default 0.8
         Jacobi damping.
-    direct_below : int, default 5000
+    direct_below : int, default 2000
         The coarsening stops at a grid of at most this many cells, which is
         factored.
 
@@ -160,19 +160,19 @@ def _interpolation(ys, xs):
     """
     cy, cx = ys // 2, xs // 2
     ny, nx = ys - 2 * cy, xs - 2 * cx  # 0: the cell above / left is the nearer other one
-    width = int(cx.max()) + 2
-    keys = np.unique(cy * width + cx)
+    # The cells in raster order, found through an image of their numbers (-1: none).
+    number = np.full((int(cy.max()) + 3, int(cx.max()) + 3), -1, np.int64)
+    number[cy + 1, cx + 1] = 0
+    held = number >= 0
+    number[held] = np.arange(int(held.sum()))
     rows, cols, vals = [], [], []
     for sy, wy in ((0, 0.75), (1, 0.25)):
         for sx, wx in ((0, 0.75), (1, 0.25)):
-            ty = cy + sy * (2 * ny - 1)
-            tx = cx + sx * (2 * nx - 1)
-            key = ty * width + tx
-            j = np.searchsorted(keys, key)
-            hit = (tx >= 0) & (ty >= 0) & (j < keys.size)
-            hit[hit] = keys[j[hit]] == key[hit]
+            j = number[cy + 1 + sy * (2 * ny - 1), cx + 1 + sx * (2 * nx - 1)]
+            hit = j >= 0
             rows.append(np.flatnonzero(hit))
             cols.append(j[hit])
             vals.append(np.full(int(hit.sum()), wy * wx))
     r, c, v = (np.concatenate(t) for t in (rows, cols, vals))
-    return sp.csr_matrix((v, (r, c)), shape=(ys.size, keys.size)), *np.divmod(keys, width)
+    cell_y, cell_x = np.nonzero(held)
+    return sp.csr_matrix((v, (r, c)), shape=(ys.size, cell_y.size)), cell_y - 1, cell_x - 1
