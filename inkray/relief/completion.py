@@ -1099,5 +1099,13 @@ def _poisson_solve(values, hidden, source, extrapolate):
     if not edge.any():  # symmetric negative definite: SuperLU's symmetric mode, 0.7x the time
         return _grid_solve(-system, -rhs, y, x)
     # Symmetric but for the edge rows: the minimum-degree order of A^T + A fills
-    # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels).
-    return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+    # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels), and
+    # where the pixels fill a quarter of their box a nested dissection less still, with
+    # the diagonal as pivot (the donkey's seven such systems at 1 Mpx: 0.28 s of CPU
+    # against 0.40 s, answers 1e-13 apart).
+    if y.size < 0.25 * (np.ptp(y) + 1) * (np.ptp(x) + 1):
+        return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+    order, out = nested_dissection(system + system.T, y, x), np.empty(n)
+    out[order] = sla.splu(system[order][:, order], permc_spec="NATURAL",
+                          diag_pivot_thresh=0.0).solve(rhs[order])
+    return out
