@@ -92,10 +92,8 @@ def multigrid_solve(A, b, ys, xs, *, rtol=1e-10, maxiter=60, sweeps=2, omega=0.8
             e = e + omega * inv_diag[:, None] * r
             r = rhs - A @ e
         e = e + P @ cycle(P.T @ r, level + 1)
-        r = rhs - A @ e
         for _ in range(sweeps):
-            e = e + omega * inv_diag[:, None] * r
-            r = rhs - A @ e
+            e = e + omega * inv_diag[:, None] * (rhs - A @ e)
         return e
 
     x = np.zeros_like(B)
