@@ -655,10 +655,10 @@ def _grid_solve(system, rhs, ys, xs):
 
     Above ``COARSE_ABOVE`` pixels, one right-hand side is solved by
     multigrid conjugate gradients to a relative residual of 1e-10 (the
-    continuation under the frog's body at 1 Mpx, 177,000 pixels: 0.3 s of CPU
+    frog's body continued under its hind leg at 1 Mpx, 177,000 pixels: 0.3 s of CPU
     against 0.8 s, answers 1e-8 apart). Otherwise, on pixels that fill at
     least a quarter of their box, a nested dissection of the grid factors
-    faster than SuperLU's minimum degree (the frog's body: 1.5 s against
+    faster than SuperLU's minimum degree (those 177,000 pixels: 1.5 s against
     2.6 s); on thin sets (a band along an outline) the minimum degree fills
     less.
     """
