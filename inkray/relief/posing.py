@@ -28,10 +28,15 @@ them:
   each only if it joins two pieces the joins so far leave apart, so that a
   limb in front of the body that is rooted elsewhere stays free to swing;
   overlaps that grip (glue three vertices or more, not on one line) come
-  before those that would only pin the part at a point it pivots about. A
-  root or a part on top that does not grip (an arm lying on the head over a
-  few pixels) is taken the same way, as a pin: only where nothing else joins
-  its two pieces.
+  before those that would only pin the part at a point it pivots about. Where
+  the smaller part's vertices in an overlap do not grip, the larger part's
+  vertices there are glued to it too. A root or a part on top that does not
+  grip (an arm lying on the head over a few pixels) is taken the same way, as
+  a pin: only where nothing else joins its two pieces.
+
+A part's hidden area is both its hidden layers
+(:attr:`~inkray.relief.completion.Completion.beneath`): its second layer under
+another part's hidden area belongs to its piece under the same occluder.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest (for a root also the vertices up to
@@ -413,7 +418,7 @@ def rig_relief(relief, completion, *, boundaries=()):
             if not grips and kind == "overlap":
                 back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
                 held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0])))
-                grips = _grips(rig, *held)
+                grips = _grips(rig, *((g, j.part) for g, j in held))
                 mutual.add(id(held[-1][1]))
             held = [(g, j) for g, j in held if g.shape[0]]
             if not held:
@@ -487,11 +492,10 @@ def _reported(joins, mutual):
 def _grips(rig, *held):
     """Whether glue rows hold at least three vertices not on one line (within
     ``_LOCATE_TOL``), so that they can hold a rotation as well as a place: ``held`` are
-    ``(rows, part)`` pairs (or joins' ``(rows, Join)``), the vertices of ``part`` each
-    row glues taken together."""
+    ``(rows, part)`` pairs, the vertices of ``part`` each one's rows glue taken together."""
     xy = []
     for rows, part in held:
-        i = rig.names.index(part if isinstance(part, str) else part.part)
+        i = rig.names.index(part)
         cols = np.unique(rows.tocoo().col)
         xy.append(rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]])
     xy = np.concatenate(xy)
