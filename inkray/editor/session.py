@@ -19,7 +19,7 @@ import re
 import threading
 import time
 from collections import OrderedDict
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +36,7 @@ from inkray.input.drawing import load_drawing
 from inkray.input.files import read_bytes
 from inkray.input.limits import DEFAULT_LIMITS
 from inkray.input.scribbles import polyline_pixels
+from inkray.numerics.threads import reserve_core
 from inkray.progress import Progress
 from inkray.segmentation import INK_THRESHOLD
 from inkray.validation import validate
@@ -443,10 +444,15 @@ class EditSession:
         elif name == "depth.png" and draft:
             params = dict(draft=True)
         key = (name, *sorted(params.items()))
+        # The depth map is the first answer the page waits for: while it computes, the
+        # relief's maps of independent solves run one at a time beside it on two cores
+        # instead of taking both.
+        first = reserve_core() if name == "depth.png" else nullcontext()
         try:
-            return self.newest(lambda chain, digest: (self._encoded(
-                (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
-                lock="depth" if name == "depth.png" else "relief")
+            with first:
+                return self.newest(lambda chain, digest: (self._encoded(
+                    (*key, digest), lambda: artefact.preview(chain, **params)),
+                    artefact.media_type), lock="depth" if name == "depth.png" else "relief")
         finally:
             if name == "relief.glb":
                 self._prepare_depth()
