@@ -689,3 +689,26 @@ def test_an_entry_on_the_background_overrides_the_default(method):
     ann = _ann((120, 80), order=[((30, 50), (80, 40)), ((5, 5), (80, 40))], regions=regions)
     d = depth(ann, gray, method=method).depth
     assert d[5, 5] - d[40, 80] >= 1 - 1e-6
+
+
+def test_fill_weights_are_the_drawings_edge_weights_kept_for_that_array_only():
+    from inkray.depthmap.estimation import fill_weights
+
+    rng = np.random.default_rng(3)
+    gray = rng.uniform(0.0, 1.0, (30, 40)).astype(np.float32)
+    wx, wy = fill_weights(gray)
+    ex, ey, _ = edge_weights(gray.astype(np.float64))
+    assert np.array_equal(wx, ex) and np.array_equal(wy, ey)
+    assert fill_weights(gray)[0] is wx  # kept for the same drawing
+    other = gray.copy()
+    other[:, 20] = 0.0
+    ox, _ = fill_weights(other)  # another drawing: its own weights
+    assert ox is not wx and not np.array_equal(ox, wx)
+    # a session of the drawing answers as with weights of its own
+    s = DepthSession(other)
+    s.add((5, 10), (35, 10))
+    kept = s.solve()
+    fill_weights(gray)  # the kept entry is another drawing's now
+    fresh = DepthSession(other)
+    fresh.add((5, 10), (35, 10))
+    assert np.array_equal(kept, fresh.solve())

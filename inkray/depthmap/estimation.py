@@ -46,7 +46,7 @@ from inkray.numerics.order_graph import OrderGraph
 from inkray.depthmap.quadratic_program import check_constraints, solve_depth_qp
 from inkray.numerics.grid import WEIGHT_FLOOR, edge_weights, grid_laplacian
 
-__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "METHODS"]
+__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "fill_weights", "METHODS"]
 
 METHODS = ("exact", "fast")
 #: Grey level below which a pixel counts as ink when deciding whether a
@@ -69,6 +69,47 @@ BACKGROUND = -1
 #: Pieces (4-connected areas of one label) smaller than this many pixels get no
 #: implicit order in the exact method: slivers along outlines, not parts.
 _MIN_PIECE = 30
+
+
+# (the drawing as given, its fill weights) of the last drawing fill_weights saw
+_kept_weights = None
+_kept_lock = threading.Lock()
+
+
+def fill_weights(gray):
+    """The edge weights of the fast method's Laplace fill for the drawing ``gray``
+    (:func:`~inkray.numerics.grid.edge_weights`), kept for the last drawing asked.
+
+    They depend on the drawing alone: an editor computes them while its depth
+    map waits for the segmentation, and the :class:`DepthSession` of that
+    drawing (the same array, unchanged) takes them from here.
+
+    Parameters
+    ----------
+    gray : (H, W) float array in [0, 1]
+
+    Returns
+    -------
+    wx : (H, W-1) float64 array
+    wy : (H-1, W) float64 array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray = np.ones((4, 5)); gray[:, 2] = 0.0
+    >>> wx, wy = fill_weights(gray)
+    >>> wx.shape, fill_weights(gray)[0] is wx
+    ((4, 4), True)
+    """
+    global _kept_weights
+    with _kept_lock:
+        kept = _kept_weights
+    if kept is not None and kept[0] is gray:
+        return kept[1]
+    weights = edge_weights(np.asarray(gray, np.float64))[:2]
+    with _kept_lock:
+        _kept_weights = gray, weights
+    return weights
 
 
 @dataclass
@@ -394,6 +435,7 @@ class DepthSession:
 
     def __init__(self, gray, *, epsilon=1.0, seeds=None, labels=None, incremental=True,
                  progress=None):
+        self._drawing = gray  # as given: its fill weights may be kept (fill_weights)
         self.gray = np.asarray(gray, np.float64)
         if self.gray.ndim != 2:
             raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
@@ -819,7 +861,7 @@ class DepthSession:
             return self._answer[2].copy()
         self._answer = None
         if self._weights is None:
-            self._weights = edge_weights(self.gray)[:2]
+            self._weights = fill_weights(self._drawing)
         if False not in self._fills:
             self._fills[False] = HarmonicFill(*self._weights, incremental=self._incremental,
                                               progress=self._progress, reduced_above=REDUCED_ABOVE)
