@@ -452,6 +452,9 @@ class DepthSession:
         self._on_background = []  # the region labels touching the background, with scribbles
         self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
         self._answer = None     # (fixed, their values, fill) of the last full fill
+        self._changes = 0       # constraints added or removed and reseeds so far
+        self._solved = None     # (changes, depth map) of the last solve by the full fill
+        self._drafted = False   # whether the last fill was the half-resolution one
         self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
         self._progress = progress
@@ -534,6 +537,7 @@ class DepthSession:
         pixels moved (where the segments changed), not the whole grid.
         """
         self._scribbles, self._given = self._checked(seeds, labels)
+        self._changes += 1
         self.labels = None
         self._split_cache = {}
         self._dirty = set()
@@ -579,6 +583,7 @@ class DepthSession:
         if inequality and p == q:
             raise InputError(f"{label}: front and back are the same pixel")
         self._next += 1
+        self._changes += 1
         self._constraints[k] = (p, q, bool(inequality), label)
         for v in (p, q):
             if v not in self._endpoint_label:
@@ -591,6 +596,7 @@ class DepthSession:
         if handle not in self._constraints:
             raise InputError(f"constraint {handle}: no such constraint in this session")
         p, q, _, _ = self._constraints.pop(handle)
+        self._changes += 1
         used = {v for c in self._constraints.values() for v in c[:2]}
         for v in (p, q):
             if v not in used and v in self._endpoint_label:
@@ -649,6 +655,10 @@ class DepthSession:
             entries are listed). Entries that only disagree about whole
             regions cut those regions into parts instead.
         """
+        if self._solved is not None and self._solved[0] == self._changes:
+            # nothing changed since the full fill answered (a draft request that got
+            # the full map on opening, then the full request)
+            return self._solved[1].copy()
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
@@ -688,6 +698,8 @@ class DepthSession:
         d = self._fill(fixed, lvl, draft)  # the fills read lvl on the fixed pixels only
         d -= d.mean()
         self.timings["laplace"] = time.perf_counter() - t
+        if not self._drafted:
+            self._solved = self._changes, d.copy()
         return d
 
     def _flat(self):
@@ -855,6 +867,7 @@ class DepthSession:
         :data:`DRAFT_ABOVE` pixels (as fast, and exact), or when it has no kept
         factorization and answers from the reduced system (as fast as a draft,
         closer to the exact fill); the full solve that follows is then that answer."""
+        self._drafted = False
         if self._answer is not None and not draft and np.array_equal(fixed, self._answer[0]) \
                 and np.array_equal(vals[fixed], self._answer[1]):
             self.refactored_fronts = 0
@@ -874,6 +887,7 @@ class DepthSession:
             self._fills[draft] = DraftFill(*self._weights, incremental=self._incremental,
                                            progress=self._progress)
         fill = self._fills[draft]
+        self._drafted = draft
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts
         if not draft:
