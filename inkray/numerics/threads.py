@@ -10,10 +10,10 @@ SuperLU and LAPACK let go of the GIL while they factor and solve, so
 independent systems (one per mesh part) solved by two threads take about
 half the time on two cores (:func:`thread_map`).
 
-A thread whose work someone waits for first (the editor's depth map) can
-keep a core for itself (:func:`reserve_core`): meanwhile a map runs no more
-calls at a time than the cores left, so on two cores its calls run one at a
-time instead of taking both cores from it.
+A thread whose result is awaited first (an interactive preview) can keep a
+core for itself (:func:`reserve_core`): meanwhile a map runs no more calls
+at a time than the cores left, so on two cores its calls run one at a time
+instead of taking both cores from it.
 """
 
 import os
