@@ -165,8 +165,11 @@ def measure_stack(stack, labels, drawing, *, layers=None):
         w_cont, sk_cont = _stroke(layer_cover, zone | (edge & ndimage.binary_dilation(zone)))
         # The part's own drawn strokes near the hidden part (not at the junctions).
         own = labels[y0:y1, x0:x1] == layer.region
-        drawn_zone = own & ndimage.binary_dilation(hidden, iterations=32) & \
-            ~ndimage.binary_dilation(hidden, iterations=8)
+        # Measured from the layer's pixels on the other parts' labels: its hidden part and
+        # any drawn stubs of its strokes there, up to the occluder's outline.
+        on_others = hidden | ((alpha > 0) & (labels[y0:y1, x0:x1] >= 0) & ~own)
+        drawn_zone = own & ndimage.binary_dilation(on_others, iterations=32) & \
+            ~ndimage.binary_dilation(on_others, iterations=8)
         w_draw, sk_draw = _stroke(cover[y0:y1, x0:x1], drawn_zone, own)
         if w_cont is None or w_draw is None:
             continue

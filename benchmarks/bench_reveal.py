@@ -15,7 +15,7 @@ versions of inkray are measured alike):
   as wide as the part's drawn strokes (see ``bench_layers.py``). Its width
   is measured on the layer: the depth (px from that edge, in whole pixels)
   at which fewer than half of the layer's hidden pixels are darker than the
-  floor; ``outline`` is the widest over the layers;
+  floor; ``outline`` is the widest over the layers with a fill;
 - the *fill*: the layer's hidden pixels, opaque, deeper than its continued
   outline and one soft pixel;
 - ``dark %``: the share of the fill darker than the floor (pooled over the
@@ -83,10 +83,10 @@ def measure(name, megapixels):
         depth = ndimage.distance_transform_edt(np.pad(shape, 1))[1:-1, 1:-1]
         luma_layer = layer.rgba[..., :3].astype(np.float64) @ LUMA
         outline = _outline_width(depth, layer.hidden & (alpha > 0), luma_layer < floor)
-        widest = max(widest, outline)
         fill = layer.hidden & (alpha == 255) & (depth > outline + SOFT)
         if not fill.any():
             continue
+        widest = max(widest, outline)
         value = luma_layer[fill]
         below = value < floor
         total += int(fill.sum())
@@ -103,15 +103,17 @@ def measure(name, megapixels):
 
 
 def _outline_width(depth, hidden, dark):
-    """The continued outline's width (px): the first whole depth from the completed shape's
-    edge at which fewer than half of the ``hidden`` pixels are ``dark`` (0 when none)."""
+    """The continued outline's width (px): the whole depths from the completed shape's edge
+    at which at least half of the ``hidden`` pixels are ``dark``, up to the first at which
+    fewer are (a hidden part deep inside the shape, no outline at its edge: 0)."""
     rings = np.ceil(depth[hidden]).astype(int)
     shade = dark[hidden]
-    for k in range(1, int(rings.max()) + 1 if rings.size else 1):
-        ring = rings == k
-        if ring.any() and shade[ring].mean() < 0.5:
-            return k - 1
-    return int(rings.max()) if rings.size else 0
+    width = 0
+    for k in np.unique(rings):
+        if shade[rings == k].mean() < 0.5:
+            break
+        width = int(k)
+    return width
 
 
 def _cells(r):
