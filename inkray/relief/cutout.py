@@ -393,7 +393,7 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     strokes = _Strokes(rgb, gray)
     # A part's stroke that runs up to the outline of a part over it belongs to it to its end:
     # the segmentation may cut it off short of that outline.
-    labels = _stubs_given(labels, gray)
+    labels = _stubs_given(labels, strokes.pen)
     moved = labels != completion.labels
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
@@ -479,13 +479,13 @@ class _Strokes:
 
         The strokes are found by a closing half as wide again as their median width
         (:func:`_pen_width`) there, so that a drawing upscaled twice has its strokes
-        measured alike. A stroke wider than that closing finds is measured at a scale four
-        times as wide, and only its ink on the part's ``label`` counts: the continued outline
-        lies inside the completed shape, which ends at the label's edge, however far the
-        stroke reaches beyond it. The width is at least the strokes' median width: the
-        skeleton of a mottled stroke (a dry brush, hatching run into the outline) loops
-        round its light holes, longer than the stroke, and the ink over that length falls
-        short.
+        measured alike, and only their ink on the part's ``label`` counts: the continued
+        outline lies inside the completed shape, which ends at the label's edge, however
+        far the stroke reaches beyond it. Where that closing is the least one (8 px), a
+        stroke wider than it finds is measured at a scale four times as wide. The width is
+        at least the strokes' median width on the label: the skeleton of a mottled stroke
+        (a dry brush, hatching run into the outline) loops round its light holes, longer
+        than the stroke, and the ink over that length falls short.
         """
         scale = self.scale
         rows, cols = np.flatnonzero(hidden.any(axis=1)), np.flatnonzero(hidden.any(axis=0))
@@ -499,45 +499,50 @@ class _Strokes:
         rgb, gray = self.rgb[big], self.gray[big]
         # The closing must find the part's strokes whole (those along the paper reach
         # beyond its label); the continued outline is as wide as their ink on the label.
-        whole = _pen_width(gray, zone & (depth <= scale), inside=own[big])
+        contour = zone & (depth <= scale)
+        whole = _pen_width(gray, contour, own[big], margin=2 * scale)
         size = scale if whole is None else max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * whole)))
-        pen = _pen_width(gray, zone & (depth <= scale), inside=label[big])
+        pen = _pen_width(gray, contour, label[big], margin=2 * scale)
         reach = zone & (depth <= size)
-        if size == _STROKE_MAX:
-            ink, skeleton, core = self.ink[big], self.skeleton[big], self.core
-            wide_ink, wide_skeleton = (a[big] for a in self.wide)
-        else:
-            ink, skeleton, core, wide_ink, wide_skeleton = self._around(big, size)
-        if _wider(gray, ink, skeleton, wide_skeleton, reach,
-                  core=_INK_CONTRAST if core is None else core):
-            colour, width = _measure(rgb, gray, wide_ink, wide_skeleton, reach, size=4 * size,
-                                     inside=label[big])
-        else:
+        if size > _STROKE_MAX:
+            ink, skeleton = self._around(big, size)
             colour, width = _measure(rgb, gray, ink, skeleton, reach, size=size,
-                                     inside=None if size == _STROKE_MAX else label[big])
+                                     inside=label[big])
+        elif _wider(gray, self.ink[big], self.skeleton[big], self.wide[1][big], reach,
+                    core=_INK_CONTRAST if self.core is None else self.core):
+            colour, width = _measure(rgb, gray, self.wide[0][big], self.wide[1][big], reach,
+                                     size=_WIDE_STROKE_MAX, inside=label[big])
+        else:
+            colour, width = _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
         return colour, width if pen is None else max(width, pen)
 
     def _around(self, window, size):
-        """The ink and skeleton at ``size``, their core tone (None without ink), and the ink
-        and skeleton at four times ``size``, in ``window``: found on the window grown by the
-        widest closing, so that the window's edge does not change them."""
+        """The ink and its skeleton at ``size`` in ``window``: found on the window grown by
+        the closing, so that the window's edge does not change them."""
         h, w = self.gray.shape
-        grow = 2 * size + 1
+        grow = size + 1
         outer = tuple(slice(max(s.start - grow, 0), min(s.stop + grow, n))
                       for s, n in zip(window, (h, w)))
         inner = tuple(slice(s.start - o.start, s.stop - o.start) for s, o in zip(window, outer))
-        gray = self.gray[outer]
-        ink, skeleton = (a[inner] for a in _strokes(gray, size=size))
-        wide = (a[inner] for a in _strokes(gray, size=4 * size))
-        core = float(np.median(gray[inner][skeleton])) if skeleton.any() else None
-        return (ink, skeleton, core, *wide)
+        return tuple(a[inner] for a in _strokes(self.gray[outer], size=size))
+
+    @cached_property
+    def pen(self):
+        """The ink darker than mid grey, its depth (px to its edge) and its skeleton."""
+        from skimage.morphology import skeletonize
+
+        ink = self.gray < INK_LEVEL
+        return ink, ndimage.distance_transform_edt(ink), skeletonize(ink)
 
     @cached_property
     def scale(self):
         """The drawing's stroke scale (px): half as wide again as its strokes' median width
-        (:func:`_pen_width`), at least 8."""
-        pen = _pen_width(self.gray)
-        return _STROKE_MAX if pen is None else max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * pen)))
+        (twice the depth of :attr:`pen` along its skeleton), at least 8."""
+        _, depth, skeleton = self.pen
+        if skeleton.sum() < 8:
+            return _STROKE_MAX
+        pen = 2.0 * float(np.median(depth[skeleton]))
+        return max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * pen)))
 
     @cached_property
     def wide(self):
@@ -546,7 +551,7 @@ class _Strokes:
         return _strokes(self.gray, size=_WIDE_STROKE_MAX)
 
 
-def _stubs_given(labels, gray):
+def _stubs_given(labels, pen):
     """``labels`` with the stubs of strokes given to the part whose strokes they are.
 
     Where a part's strokes meet the outline of another part (a leg's outline
@@ -557,13 +562,10 @@ def _stubs_given(labels, gray):
     part's paper than its strokes are wide there and than their median width,
     and a pixel) whose connected piece touches the stroke's own part (its ink)
     goes to that part; the outline stroke and the corners where the strokes
-    join it stay.
+    join it stay. ``pen``: the ink, its depth and its skeleton
+    (:attr:`_Strokes.pen`).
     """
-    from skimage.morphology import skeletonize
-
-    ink = np.asarray(gray) < INK_LEVEL
-    depth = ndimage.distance_transform_edt(ink)
-    skeleton = skeletonize(ink)
+    ink, depth, skeleton = pen
     out = labels.copy()
     parts = labels >= 0
     for region in np.unique(labels[parts]):
@@ -607,18 +609,19 @@ def _stubs_given(labels, gray):
     return out
 
 
-def _pen_width(gray, where=None, *, inside=None):
-    """The median width (px) of the ink (darker than mid grey; only ``inside``) along its
-    skeleton (in ``where``): twice the distance to its edge, which scales with the drawing.
-    None where the skeleton has fewer than 8 pixels."""
+def _pen_width(gray, where, inside, *, margin):
+    """The median width (px) of the ink (darker than mid grey) ``inside`` along its skeleton
+    in ``where``: twice the distance to its edge, which scales with the drawing. Found
+    within ``margin`` px of ``where``; None where the skeleton has fewer than 8 pixels."""
     from skimage.morphology import skeletonize
 
-    ink = gray < INK_LEVEL
-    if inside is not None:
-        ink &= inside
-    skeleton = skeletonize(ink)
-    if where is not None:
-        skeleton &= where
+    rows, cols = np.flatnonzero(where.any(axis=1)), np.flatnonzero(where.any(axis=0))
+    if not rows.size:
+        return None
+    box = (slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+           slice(max(cols[0] - margin, 0), cols[-1] + margin + 1))
+    ink = (gray[box] < INK_LEVEL) & inside[box]
+    skeleton = skeletonize(ink) & where[box]
     if skeleton.sum() < 8:
         return None
     return 2.0 * float(np.median(ndimage.distance_transform_edt(ink)[skeleton]))
