@@ -395,6 +395,8 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     # the segmentation may cut it off short of that outline.
     labels = _stubs_given(labels, strokes.pen)
     moved = labels != completion.labels
+    rank = {region: k for k, region in enumerate(order)}
+    depth_rank = np.array([rank[r] for r in range(completion.count)] + [-1])  # -1: paper
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
     air = labels < 0
@@ -414,7 +416,10 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     for region in order:
         shape = completion.completed(region)
         if moved.any():
-            shape = (shape & ~(moved & (completion.labels == region))) | (moved & (labels == region))
+            # A stub given to a part behind lies beyond this part's outline; one given to a
+            # part in front lies over this part, which continues under it.
+            behind = moved & (completion.labels == region) & (depth_rank[labels] < rank[region])
+            shape = (shape & ~behind) | (moved & (labels == region))
         if not shape.any():
             continue
         grown = shape
@@ -422,7 +427,8 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
             grown = shape | (ndimage.binary_dilation(shape, iterations=int(pad)) & covers[region])
         shapes[region] = _layer(names[region], region, labels == region, shape, grown, strokes,
                                 air=air, under=covers[region],
-                                fringe=fringe & (silhouette == region))
+                                fringe=fringe & (silhouette == region),
+                                stubs=moved & (labels == region))
     cuts = [(s, _piece(completion, shapes[s.region], s)) for s in splits
             if split_local and s.region in shapes]
     for region in (r for r in order if r in shapes):
@@ -633,8 +639,11 @@ def _depth(mask):
 
 
 def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None, fringe=None,
-           outline=True):
+           outline=True, stubs=None):
     """One layer: drawing pixels where visible, fill (and outline) elsewhere in ``grown``.
+
+    ``stubs`` are visible pixels given to the part from another's label (its strokes'
+    stubs): ink, they give the fill no colour.
 
     Its alpha is the drawing's own soft edge where the layer ends at a drawn
     outline (the ink's coverage beyond the stroke's darkest line) and an
@@ -657,8 +666,9 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     hidden = grw & ~vis
     out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
+        known = vis if stubs is None else vis & ~stubs[win]
         out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.inky[win],
-                                                vis, shp & ~vis, hidden, strokes.width), out)
+                                                known, shp & ~vis, hidden, strokes.width), out)
     if not outline:
         alpha = grw.astype(np.float64)
     else:
