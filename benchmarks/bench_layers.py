@@ -15,8 +15,9 @@ of inkray are measured alike):
   coverage (0 paper, 1 the drawing's ink core) summed over the stroke, over
   the length of its skeleton, and the median grey (0..255) along the
   skeleton; reported as continued / drawn (medians over the layers). A
-  drawn stroke counts whole within the part (its skeleton near the hidden
-  part), strokes up to 32 px wide;
+  drawn stroke counts whole within the part (its skeleton 8-32 px from the
+  layer's pixels on other parts' labels: its hidden part and any stubs of
+  its strokes it draws there), strokes up to 32 px wide;
 - ``soft``: the share of the layers' edge pixels (opaque at all, beside a
   transparent one) that are partly transparent, against the share of the
   drawing's ink edge pixels (beside a stroke, not ink) that are partly
