@@ -51,7 +51,8 @@ TARGET_S = 10.0  # at ~1 Mpx
 
 def _closed_parts(name, megapixels, folder):
     """The drawing's size and closed parts, pickled in ``folder`` (when given) once."""
-    path = folder / f"{name}-{'own' if not megapixels else f'{megapixels:g}mpx'}.pkl" if folder else None
+    size = "own" if not megapixels else f"{megapixels:g}mpx"
+    path = folder / f"{name}-{size}.pkl" if folder else None
     if path is not None and path.is_file():
         with open(path, "rb") as handle:
             return pickle.load(handle)

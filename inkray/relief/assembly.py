@@ -1094,7 +1094,8 @@ class _SliverFix:
             changed = False
             for t in live[_min_angles(self.v, self.f[live]) < min_angle].tolist():
                 if self.alive[t] and self._angle(t) < min_angle:
-                    changed |= self._uncrossed(t, lambda: self._flip(t, turn=self._WIDE, any_edge=True))
+                    changed |= self._uncrossed(
+                        t, lambda: self._flip(t, turn=self._WIDE, any_edge=True))
                     changed |= self._uncrossed(t, lambda: self._relax(t))
                     changed |= self._uncrossed(t, lambda: self._collapse(t) or self._split(t))
             if not changed:
@@ -1156,8 +1157,8 @@ class _SliverFix:
             centroid = self.v[sorted(ring)].mean(axis=0)
             for p in (centroid, 0.5 * (here + centroid)):
                 self.v[x] = p
-                if ((np.einsum("ij,ij->i", _normal(self.v[self.f[around]]), before) >= self._WIDE).all()
-                        and _min_angles(self.v, self.f[around]).min() > worst):
+                turned = np.einsum("ij,ij->i", _normal(self.v[self.f[around]]), before)
+                if (turned >= self._WIDE).all() and _min_angles(self.v, self.f[around]).min() > worst:
                     return True
                 self.v[x] = here
         return False

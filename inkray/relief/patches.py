@@ -7,7 +7,8 @@ out, projected onto the plane of their mean normal, triangulated anew there
 (Triangle, quality and area bounded, the patch's boundary kept as it is) and
 lifted back onto the old patch. Thin strips of slivers in one plane (the
 walls of a column under a pixel across) are cut into ladders instead
-(:func:`ladders`): their long edges split evenly, rungs across. A patch is replaced only when its new faces
+(:func:`ladders`): their long edges split evenly, rungs across. A patch is
+replaced only when its new faces
 are all well shaped, cross nothing, and fewer faces around it are bad than
 before. Boundary vertices keep their positions and the boundary its edges, so
 a closed, manifold mesh stays so.
@@ -497,9 +498,10 @@ def _split_points(v, e, edge, cut, pieces):
 
 
 def _fill(w, loop, which, pieces, base, n):
-    """Triangles (indices into ``w``) filling a polygon, its boundary ``loop`` with the
-    split points of its edges (``which``: the split edge of a vertex pair), constrained Delaunay in its mean plane; None where it
-    does not project onto that plane as a simple polygon or gets a point inside."""
+    """Triangles (indices into ``w``) filling a polygon: its boundary ``loop`` with the
+    split points of its edges (``which``: the split edge of a vertex pair), constrained
+    Delaunay in its mean plane; None where it does not project onto that plane as a
+    simple polygon or would get a point inside."""
     import triangle
 
     ring = []
@@ -511,16 +513,17 @@ def _fill(w, loop, which, pieces, base, n):
             ring += (ids if a < b else ids[::-1]).tolist()
     ring = np.array(ring)
     p = w[ring]
-    frame = _frame(np.cross(p - p.mean(axis=0), np.roll(p, -1, axis=0) - p.mean(axis=0)).sum(axis=0))
+    centred = p - p.mean(axis=0)
+    frame = _frame(np.cross(centred, np.roll(centred, -1, axis=0)).sum(axis=0))
     if frame is None:
         return None
-    poly = (p - p.mean(axis=0)) @ frame
+    poly = centred @ frame
     if not _simple(poly):
         return None
     k = np.arange(len(ring))
     try:
-        out = triangle.triangulate({"vertices": poly, "segments": np.column_stack([k, np.roll(k, -1)])},
-                                   "pYQ")
+        out = triangle.triangulate(
+            {"vertices": poly, "segments": np.column_stack([k, np.roll(k, -1)])}, "pYQ")
     except RuntimeError:
         return None
     if len(out["vertices"]) != len(ring) or "triangles" not in out:
