@@ -21,12 +21,14 @@ measured) with their targets:
 With ``--cpu`` the stage columns are the process's CPU seconds (all its
 threads) spent in each stage instead of wall seconds: on a shared machine
 the wall times stretch with the load, the CPU times much less (a stage that
-runs on two threads shows their sum).
+runs on two threads shows their sum). With ``--repeats N`` each case runs
+in N fresh processes and every time and memory column is their median (the
+quality columns are the first run's: the same input gives the same relief).
 
 Usage::
 
     python benchmarks/bench_relief.py [--names turtle,frog] [--no-upscale | --upscale-only]
-                                      [--no-quality] [--cpu]
+                                      [--no-quality] [--cpu] [--repeats 1]
 """
 
 import argparse
@@ -39,6 +41,8 @@ import tempfile
 import time
 from contextlib import contextmanager
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT / "examples"  # the bundled drawings
@@ -120,6 +124,8 @@ def main():
                         help="times and memory only (no quality columns)")
     parser.add_argument("--cpu", action="store_true",
                         help="stage columns in CPU seconds of the process instead of wall seconds")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="fresh processes per case; the times are their medians")
     parser.add_argument("--one", nargs=3, metavar=("NAME", "MPX", "QUALITY"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
@@ -138,18 +144,35 @@ def main():
     print(head)
     print("-" * len(head))
     for name, mpx in cases:
-        run = subprocess.run([sys.executable, __file__, "--one", name, str(mpx),
-                              "0" if args.no_quality else "1"],
-                             capture_output=True, text=True, env={**os.environ, "PYTHONHASHSEED": "0"})
-        if run.returncode != 0:
-            print(f"{name:<12} failed: {run.stderr.strip().splitlines()[-1]}")
+        runs, failed = [], None
+        for k in range(max(args.repeats, 1)):
+            run = subprocess.run([sys.executable, __file__, "--one", name, str(mpx),
+                                  "0" if args.no_quality or k > 0 else "1"],
+                                 capture_output=True, text=True,
+                                 env={**os.environ, "PYTHONHASHSEED": "0"})
+            if run.returncode != 0:
+                failed = run.stderr.strip().splitlines()[-1]
+                break
+            runs.append(json.loads(run.stdout.strip().splitlines()[-1]))
+        if failed is not None:
+            print(f"{name:<12} failed: {failed}")
             continue
-        r = json.loads(run.stdout.strip().splitlines()[-1])
+        r = _median(runs)
         size = f"{r['size'][0]}x{r['size'][1]}"
         print(f"{name:<12} {size:>10} {r['regions']:>3} "
               + " ".join(f"{r['cpu' if args.cpu else 'stages'].get(s, 0):8.2f}" for s in STAGES)
               + f" {r['total']:8.2f} {r['total'] / TARGET_S:6.2f} {r['rss_mb']:7.0f}"
               f" {r['rss_mb'] / TARGET_MB:6.2f} {r['vertices']:>7}" + _quality(r["figures"]))
+
+
+def _median(runs):
+    """The first run with every time and memory figure replaced by the runs' median."""
+    r = dict(runs[0])
+    for key in ("stages", "cpu"):
+        r[key] = {s: float(np.median([x[key].get(s, 0.0) for x in runs])) for s in runs[0][key]}
+    for key in ("total", "rss_mb"):
+        r[key] = float(np.median([x[key] for x in runs]))
+    return r
 
 
 def _quality(f):

@@ -330,17 +330,22 @@ class ReliefChain:
                 keys.append(key)
                 out.append(self._cache.get(key))
                 if out[-1] is None:
-                    todo.append((i, key, lambda i=i, mask=mask, r=region, seams=seams:
+                    todo.append((i, key, np.count_nonzero(mask),
+                                 lambda i=i, mask=mask, r=region, seams=seams:
                                  inflate_region(mask, visible=labels == i, labels=labels,
                                                 region=i, name=r.name, boundaries=seams,
                                                 inflation=r.inflation, profile=r.profile,
                                                 options=self.options.mesh)))
 
-            # Two parts at a time: their solves let go of the GIL (their outline
-            # tracing mostly does not, so two threads gain most on a loaded machine).
-            # A superseded edit's progress raises: the parts not yet started are dropped.
-            for (i, key, _), mesh in zip(todo, thread_imap(lambda job: job[2](), todo)):
-                self.progress.update(i + 1, len(regions))
+            # Two parts at a time, the largest first so that the two workers end about
+            # together: their solves let go of the GIL (their outline tracing mostly
+            # does not, so two threads gain most on a loaded machine). A superseded
+            # edit's progress raises: the parts not yet started are dropped.
+            todo.sort(key=lambda job: -job[2])
+            cached = len(regions) - len(todo)
+            for done, ((i, key, _, _), mesh) in enumerate(
+                    zip(todo, thread_imap(lambda job: job[3](), todo)), cached + 1):
+                self.progress.update(done, len(regions))
                 self._cache.put(key, mesh)
                 self.recomputed.append(f"mesh:{regions[i].name}")
                 out[i] = mesh

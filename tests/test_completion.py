@@ -278,7 +278,7 @@ def test_dirichlet_system_with_given_values_matches_the_indicators():
     system, rhs = _dirichlet_system(crop, inside, nbrs)
     values = (crop[..., None] == nbrs).astype(float)
     values[inside] = 7.0  # the unknowns' own entries are never read
-    system2, rhs2 = _dirichlet_system(crop, inside, nbrs, values)
+    system2, rhs2 = _dirichlet_system(crop, inside, nbrs, lambda yy, xx: values[yy, xx])
     assert abs(system - system2).max() == 0
     np.testing.assert_array_equal(rhs, rhs2)
 
@@ -460,3 +460,32 @@ def test_distance_within_reach_is_the_full_transform_there():
     full = ndimage.distance_transform_edt(free)
     near = _distance_within(free, 4.0)
     assert np.array_equal(near[full <= 4.0], full[full <= 4.0]) and (near[full > 4.0] > 4.0).all()
+
+
+def test_large_single_right_hand_sides_by_multigrid_match_the_factorization(monkeypatch):
+    import inkray.relief.completion as completion
+
+    # A disc behind a wide band (one neighbour each way) and its continuation under the band.
+    yy, xx = np.mgrid[:200, :220]
+    labels = np.full(yy.shape, -1, np.int32)
+    labels[(yy - 100) ** 2 + (xx - 110) ** 2 < 90 ** 2] = 0
+    labels[:, 80:150] = 1
+
+    def run():
+        c = complete_regions(labels)
+        kept = c.ordered([Relation(1, 0, "band", "disc", p.where, "user", 1.0, place=p.index)
+                          for p in c.places])
+        return c.owner, kept.owner
+
+    monkeypatch.setattr(completion, "COARSE_ABOVE", 10 ** 9)
+    exact = run()
+    monkeypatch.setattr(completion, "COARSE_ABOVE", 2000)  # the band and the disc: multigrid
+    calls = []
+    original = completion.multigrid_solve
+    monkeypatch.setattr(completion, "multigrid_solve",
+                        lambda *a, **k: calls.append(1) or original(*a, **k))
+    fast = run()
+    assert len(calls) >= 2
+    assert (exact[1] >= 0).sum() > 3000
+    for e, f in zip(exact, fast):
+        np.testing.assert_array_equal(e, f)

@@ -98,19 +98,8 @@ def test_every_drawing_is_clean(name, tmp_path):
     _check(name, tmp_path)
 
 
-# The donkey's hoof over its hind leg (order[20]) is held on 14 of its 15 samples;
-# one, beside the hoof's open join and outside its band, is 0.39 px under.
-_OPEN_ORDER_MISSED = {"donkey": "order[20] hoof over leg: one sample 0.39 px under, beside the join"}
-
-
-def _open_marks(name):
-    marks = [] if name in FAST else [pytest.mark.slow]
-    if name in _OPEN_ORDER_MISSED:
-        marks.append(pytest.mark.xfail(reason=_OPEN_ORDER_MISSED[name], strict=True))
-    return marks
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=_open_marks(n)) for n in OPEN])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=[] if n in FAST else [pytest.mark.slow])
+                                  for n in OPEN])
 def test_open_joins_are_seams_without_their_graft_entries(name, tmp_path):
     # The same drawing annotated without its graft entries: each open top is found
     # from the drawing and the part grows out of the one behind it there, as with

@@ -33,6 +33,7 @@ import scipy.sparse.linalg as sla
 from scipy import ndimage
 
 from inkray.errors import InputError, StageError
+from inkray.numerics.multigrid import multigrid_solve
 from inkray.numerics.spd import nested_dissection, spd_factor
 from inkray.numerics.threads import thread_imap, thread_map
 
@@ -44,6 +45,11 @@ __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close
 #: diffusion is the same at every resolution, so its strips widen with the drawing
 #: (6 px at 1 Mpx).
 GAP = 0.006
+#: Grid systems of more pixels than this are not factored whole: with one right-hand side
+#: they are solved by multigrid conjugate gradients (the factorization's answer to
+#: rounding), an occluder with several neighbours coarse to fine (``complete_regions``).
+#: The bundled drawings at their own size stay below it but for the four largest.
+COARSE_ABOVE = 60_000
 
 _ROUNDING = 2.0  # px: width over which a continued outline turns into its closing offset
 _OUTSIDE = -2  # beyond the image frame: no neighbour (zero normal derivative there)
@@ -499,8 +505,8 @@ def check_labels(labels, *, names=None):
     return a.astype(np.int32), names
 
 
-def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, coarse_above=200_000,
-                     progress=None):
+def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
+                     coarse_above=COARSE_ABOVE, progress=None):
     """Complete every region under each of its neighbours (illusory surfaces).
 
     For each region ``A`` the Laplace equation is solved on ``A``'s pixels,
@@ -527,14 +533,17 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, coarse_abo
         half circle over the contact), so a large occluder with small
         neighbours costs only the area around them. ``None`` solves on all
         of ``A``.
-    coarse_above : int or None, default 200_000
-        An occluder with more pixels to solve than this is solved at half
-        resolution first, then again at full resolution only within 8
-        pixels of where the half-resolution result changes owner or of its
-        outline, with the half-resolution values as boundary values there
-        (at 1 Mpx the frog's body, 377,000 pixels, takes 0.5 s instead of
-        1.9 s; the owner differs on a few pixels along the 0.5 level).
-        ``None`` solves every occluder at full resolution.
+    coarse_above : int or None, default ``COARSE_ABOVE`` (60,000)
+        An occluder with several neighbours and more pixels to solve than
+        this is solved at half resolution first (itself coarse to fine while
+        above it), then again at full resolution only within 8 pixels of
+        where the half-resolution result changes owner or of its outline,
+        with the half-resolution values as boundary values there (at 1 Mpx
+        the frog's body, 377,000 pixels, takes 0.8 s of CPU instead of 1.9 s;
+        the owner differs on a few pixels along the 0.5 level). One
+        neighbour's values are solved whole (by multigrid above the same
+        size: the same owners). ``None`` solves every occluder at full
+        resolution.
     progress : inkray.progress.Progress, optional
         Receives ``update(done, R)`` after each occluder.
 
@@ -577,9 +586,12 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0, coarse_abo
         if boxes[a] is not None:
             _complete_under(labels, a, boxes[a], owner, threshold, reach, coarse_above)
 
-    for a, _ in enumerate(thread_imap(complete_under, range(count))):
+    # The largest occluders first, so that the two workers end about together.
+    pixels = np.bincount(labels.ravel() + 1, minlength=count + 1)[1:]
+    largest_first = sorted(range(count), key=lambda a: -pixels[a])
+    for done, _ in enumerate(thread_imap(complete_under, largest_first), 1):
         if progress is not None:
-            progress.update(a + 1, count)
+            progress.update(done, count)
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,
@@ -606,10 +618,7 @@ def _complete_under(labels, a, box, owner, threshold, reach, coarse_above):
     # Harmonic interpolation of each neighbour's indicator over a's pixels: unit
     # weights between pixels inside the frame (no flux across it), every pixel
     # that is not a's fixed at 1 for its own label's column and 0 elsewhere.
-    if coarse_above is not None and n > coarse_above:
-        u = _coarse_to_fine(crop, inside, a, nbrs, threshold)
-    else:
-        u = _harmonic(crop, inside, a, nbrs)
+    u = _values(crop, inside, a, nbrs, threshold, coarse_above)
     best = np.argmax(u, axis=1)
     top = u[np.arange(n), best]
     won = top > threshold
@@ -644,11 +653,20 @@ def _harmonic(crop, inside, a, nbrs, values=None):
 def _grid_solve(system, rhs, ys, xs):
     """``system^-1 rhs`` for a positive definite ``system`` on the pixels ``(ys, xs)``.
 
-    On pixels that fill at least a quarter of their box, a nested dissection
-    of the grid factors faster than SuperLU's minimum degree (the frog's body
-    at 1 Mpx, 177,000 pixels: 1.5 s against 2.6 s); on thin sets (a band
-    along an outline) the minimum degree fills less.
+    Above ``COARSE_ABOVE`` pixels, one right-hand side is solved by
+    multigrid conjugate gradients to a relative residual of 1e-10 (the
+    frog's body continued under its hind leg at 1 Mpx, 177,000 pixels: 0.3 s of CPU
+    against 0.8 s, answers 1e-8 apart). Otherwise, on pixels that fill at
+    least a quarter of their box, a nested dissection of the grid factors
+    faster than SuperLU's minimum degree (those 177,000 pixels: 1.5 s against
+    2.6 s); on thin sets (a band along an outline) the minimum degree fills
+    less.
     """
+    if ys.size > COARSE_ABOVE and (rhs.ndim == 1 or rhs.shape[1] == 1):
+        try:
+            return multigrid_solve(system, rhs, ys, xs)
+        except np.linalg.LinAlgError:
+            pass  # factored below
     if ys.size < 0.25 * (np.ptp(ys) + 1) * (np.ptp(xs) + 1):
         return spd_factor(system).solve(rhs)
     order, out = nested_dissection(system, ys, xs), np.empty_like(rhs)
@@ -659,7 +677,16 @@ def _grid_solve(system, rhs, ys, xs):
 _BAND = 8  # pixels solved again at full resolution on each side of a coarse owner change
 
 
-def _coarse_to_fine(crop, inside, a, nbrs, threshold):
+def _values(crop, inside, a, nbrs, threshold, coarse_above):
+    """The harmonic values (n, k) on the ``inside`` pixels: coarse to fine above
+    ``coarse_above`` with several neighbours (one neighbour's large system is solved
+    whole by multigrid, as fast, see ``_grid_solve``)."""
+    if coarse_above is not None and int(inside.sum()) > coarse_above and len(nbrs) > 1:
+        return _coarse_to_fine(crop, inside, a, nbrs, threshold, coarse_above)
+    return _harmonic(crop, inside, a, nbrs)
+
+
+def _coarse_to_fine(crop, inside, a, nbrs, threshold, coarse_above):
     """The harmonic values of ``_harmonic``, solved at half resolution and refined
     at full resolution near the owner changes and the outline.
 
@@ -679,8 +706,8 @@ def _coarse_to_fine(crop, inside, a, nbrs, threshold):
     coarse = _solvable(small, a)
     values_c = np.zeros(small.shape + (len(nbrs),))
     values_c[..., :] = small[..., None] == nbrs
-    if coarse.any():
-        values_c[coarse] = _harmonic(small, coarse, a, nbrs)
+    if coarse.any():  # itself coarse to fine while it is large
+        values_c[coarse] = _values(small, coarse, a, nbrs, threshold, coarse_above)
     # The frame's cells take the values of the nearest cell within it (no flux across it).
     _, (iy, ix) = ndimage.distance_transform_edt(small == _OUTSIDE, return_indices=True)
     values_c = values_c[iy, ix]
@@ -700,8 +727,13 @@ def _coarse_to_fine(crop, inside, a, nbrs, threshold):
         change[dy:, dx:] |= differ
     band = inside & (ndimage.distance_transform_edt(~change) <= _BAND)
     if band.any():
-        values = (crop[..., None] == nbrs).astype(float)
-        values[ys, xs] = u
+        row = np.full(crop.shape, -1, np.int64)
+        row[ys, xs] = np.arange(ys.size)
+
+        def values(yy, xx):  # the coarse values inside, the indicators outside
+            r = row[yy, xx]
+            return np.where(r[:, None] >= 0, u[r], crop[yy, xx][:, None] == nbrs)
+
         fine = _harmonic(crop, band, a, nbrs, values)
         u[band[ys, xs]] = fine
     return u
@@ -713,8 +745,8 @@ def _dirichlet_system(crop, inside, nbrs, values=None):
     ``A`` (n, n) couples the inside pixels in raster order (unit weights
     between 4-neighbours inside the frame); column ``k`` of ``B`` (n, k) is
     what the fixed pixels of label ``nbrs[k]`` (value 1, every other label 0)
-    bring to each row, or, where ``values`` (H, W, k) is given, the fixed
-    pixels' values there. Built on the inside pixels only: the Laplacian of
+    bring to each row, or, where ``values`` is given, the fixed pixels'
+    values there (``values(ys, xs)``, an (m, k) array for m pixels). Built on the inside pixels only: the Laplacian of
     the whole box, then cut down, cost as much as factoring it at 1 Mpx.
     """
     n = int(inside.sum())
@@ -736,7 +768,7 @@ def _dirichlet_system(crop, inside, nbrs, values=None):
         cols.append(j[coupled])
         if values is not None:
             fixed = np.flatnonzero(linked & (j < 0))
-            np.add.at(rhs_values, fixed, values[ys[fixed] + dy, xs[fixed] + dx])
+            np.add.at(rhs_values, fixed, values(ys[fixed] + dy, xs[fixed] + dx))
             continue
         for b, k in col_of.items():
             hit = np.flatnonzero(linked & (j < 0) & (q == b))
@@ -775,6 +807,9 @@ def _within_reach(crop, a, reach):
         d = int(np.ceil(reach * extent)) + 8
         wy0, wy1 = max(ys.min() - d, 0), min(ys.max() + d + 1, crop.shape[0])
         wx0, wx1 = max(xs.min() - d, 0), min(xs.max() + d + 1, crop.shape[1])
+        if np.hypot(wy1 - wy0, wx1 - wx0) <= d:  # the whole window is within reach
+            keep[wy0:wy1, wx0:wx1] = True
+            continue
         free = np.ones((wy1 - wy0, wx1 - wx0), bool)
         free[ys - wy0, xs - wx0] = False
         keep[wy0:wy1, wx0:wx1] |= ndimage.distance_transform_edt(free) <= d
@@ -1064,5 +1099,13 @@ def _poisson_solve(values, hidden, source, extrapolate):
     if not edge.any():  # symmetric negative definite: SuperLU's symmetric mode, 0.7x the time
         return _grid_solve(-system, -rhs, y, x)
     # Symmetric but for the edge rows: the minimum-degree order of A^T + A fills
-    # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels).
-    return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+    # less than COLAMD's on these grids (1.6 s against 1.95 s on 177,000 pixels), and
+    # where the pixels fill a quarter of their box a nested dissection less still, with
+    # the diagonal as pivot (the donkey's seven such systems at 1 Mpx: 0.28 s of CPU
+    # against 0.40 s, answers 1e-13 apart).
+    if y.size < 0.25 * (np.ptp(y) + 1) * (np.ptp(x) + 1):
+        return sla.splu(system, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+    order, out = nested_dissection(system + system.T, y, x), np.empty(n)
+    out[order] = sla.splu(system[order][:, order], permc_spec="NATURAL",
+                          diag_pivot_thresh=0.0).solve(rhs[order])
+    return out

@@ -188,13 +188,24 @@ def dirichlet_vertices(mesh):
     True
     """
     base = np.isin(mesh.kind, DIRICHLET_KINDS)
-    edges = np.sort(np.asarray(mesh.faces)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    uniq, count = np.unique(edges, axis=0, return_counts=True)
-    a, b = uniq[count == 1].T
+    directed, once = _outline_edges(np.asarray(mesh.faces, np.int64))
+    a, b = directed[once].T
     out = base.copy()
     out[a[base[b]]] = True
     out[b[base[a]]] = True
     return out
+
+
+def _outline_edges(faces):
+    """The directed edges of ``faces`` (three per face, in order) and whether each is an
+    outline edge (its undirected edge in one face only)."""
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    if directed.size == 0:
+        return directed, np.zeros(0, bool)
+    # One integer per undirected edge: much faster than unique rows.
+    key = directed.min(axis=1) * (int(directed.max()) + 1) + directed.max(axis=1)
+    _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+    return directed, count[inverse] == 1
 
 
 def apply_profile(f, profile="sqrt"):
@@ -370,11 +381,8 @@ def rim_wall(mesh, *, inset=WALL_INSET):
         raise InputError(f"region {mesh.name}: inset: expected a positive width in px, got {inset!r}")
     v = np.asarray(mesh.vertices, float)
     faces = np.asarray(mesh.faces, np.int64)
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    directed, edge = _outline_edges(faces)
     opposite = faces[:, [2, 0, 1]].ravel()
-    _, inverse, count = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True,
-                                  return_counts=True)
-    edge = count[inverse.ravel()] == 1
     (a, b), c = directed[edge].T, opposite[edge]
     # The inward normal of each outline edge: toward its face's third vertex.
     t = v[b] - v[a]

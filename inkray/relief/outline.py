@@ -609,7 +609,7 @@ def _smooth(p, w, h, sigma):
         around[1:], around[0] = sm[:-1], sm[-1]
         around[:-1] += sm[1:]
         around[-1] += sm[0]
-        sm = _clamp(0.5 * sm + 0.25 * around, q, _BAND)
+        sm = _clamp(0.5 * sm + 0.25 * around, q, _BAND, copy=False)
         sm[pinned] = q[pinned]
     # A loop not much longer than the filter (a pixel, a dot) collapses onto a line:
     # it keeps its pixel contour, so that it still encloses its area.
@@ -618,12 +618,13 @@ def _smooth(p, w, h, sigma):
     return sm
 
 
-def _clamp(x, q, band):
-    """``x`` moved back into the disks of radius ``band`` around ``q``."""
+def _clamp(x, q, band, *, copy=True):
+    """``x`` moved back into the disks of radius ``band`` around ``q`` (in place unless ``copy``)."""
     d = x - q
     length = np.hypot(d[:, 0], d[:, 1])
-    far = length > band
-    x = x.copy()
+    far = np.flatnonzero(length > band)
+    if copy:
+        x = x.copy()
     x[far] = q[far] + d[far] * (band / length[far])[:, None]
     return x
 
