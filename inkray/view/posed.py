@@ -21,6 +21,7 @@ silhouette; at rest the picture is the flattened layer stack.
 """
 
 import numpy as np
+from scipy import ndimage
 
 from inkray.errors import InputError
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
@@ -30,6 +31,7 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
+_SKIRT_MOST = 12.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 
 
@@ -372,7 +374,8 @@ class _PartSource:
     Colours: the part's cut-out layer over its rest box, premultiplied RGBA
     (the drawing, opaque, for a part without a layer). A layer's soft edge
     reaches up to ``_SKIRT`` px beyond the part's triangles (they follow the
-    outline, the layer the ink's anti-aliasing): a band of that width along
+    outline, the layer the ink's anti-aliasing), a stub of its strokes kept
+    past its outline further (``_skirt_width``): a band of that width along
     the mesh's border, carried by the border's posed normals, draws it.
     """
 
@@ -383,7 +386,8 @@ class _PartSource:
         self.rest = (v[:, :2] if part.texcoords is None else
                      np.asarray(part.texcoords, float))[first]
         h, w = rgb.shape[:2]
-        reach = _SKIRT + 2 if layer is not None else 2
+        width = _skirt_width(self.rest, self.faces, layer) if len(self.faces) else _SKIRT
+        reach = width + 2 if layer is not None else 2
         x0, y0 = (max(int(np.floor(c - reach)), 0) for c in self.rest.min(axis=0))
         x1, y1 = (int(np.ceil(c + reach)) + 1 for c in self.rest.max(axis=0))
         x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
@@ -403,7 +407,8 @@ class _PartSource:
         tex = np.pad(tex, ((0, max(2 - tex.shape[0], 0)), (0, max(2 - tex.shape[1], 0)), (0, 0)),
                      mode="edge")
         self.texture = (x0, y0, tex)
-        self.skirt = None if layer is None or not len(self.faces) else _Skirt(self.faces, self.rest)
+        self.skirt = (None if layer is None or not len(self.faces)
+                      else _Skirt(self.faces, self.rest, width))
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
@@ -494,14 +499,32 @@ def _largest(frags, pix, tri, key):
     frags[pix[top]] = tri[top]
 
 
+def _skirt_width(rest, faces, layer):
+    """How far beyond the part's rest triangles its layer holds drawn pixels: ``_SKIRT`` px,
+    or up to ``_SKIRT_MOST`` px where the layer keeps a stub of the part's strokes past them
+    (what it fills in under the parts in front, ``_PAD`` px of it, is not counted)."""
+    if layer is None:
+        return _SKIRT
+    top, bottom, left, right = layer.box
+    opaque = (layer.rgba[..., 3] > 0) & ~layer.hidden
+    pix, _ = _scan(rest - [left, top], faces, (right - left, bottom - top))
+    covered = np.zeros(opaque.size, bool)
+    covered[pix] = True
+    if not covered.any() or not opaque.any():
+        return _SKIRT
+    far = ndimage.distance_transform_edt(~covered.reshape(opaque.shape))[opaque].max()
+    return float(np.clip(far + 0.5, _SKIRT, _SKIRT_MOST))
+
+
 class _Skirt:
     """The band along a mesh's border: per border edge two triangles out to its offset copy.
 
-    Rest offsets are ``_SKIRT`` px along the border's mitred normals; posed,
+    Rest offsets are ``width`` px along the border's mitred normals; posed,
     the same along the posed normals, times the border's stretch.
     """
 
-    def __init__(self, faces, rest):
+    def __init__(self, faces, rest, width=_SKIRT):
+        self.width = width
         edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
         opposite = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
         key = np.sort(edges, axis=1)
@@ -510,7 +533,7 @@ class _Skirt:
         self.edges, self.opposite = edges[border], opposite[border]
         self.ring, ends = np.unique(self.edges, return_inverse=True)
         self.ends = ends.reshape(-1, 2)
-        self.rest_offset = _SKIRT * self._normals(rest)[0]
+        self.rest_offset = width * self._normals(rest)[0]
 
     def _normals(self, xy):
         """Mitred outward unit normals at the ring's vertices, and each border edge's length."""
@@ -542,7 +565,7 @@ class _Skirt:
         a, b = self.edges[:, 0], self.edges[:, 1]
         a2, b2 = self.ends[:, 0] + n, self.ends[:, 1] + n
         band = np.concatenate([np.column_stack([a, b, b2]), np.column_stack([a, b2, a2])])
-        return (np.concatenate([xy, xy[self.ring] + _SKIRT * stretch[:, None] * normal]),
+        return (np.concatenate([xy, xy[self.ring] + self.width * stretch[:, None] * normal]),
                 np.concatenate([z, z[self.ring]]),
                 np.concatenate([rest, rest[self.ring] + self.rest_offset]),
                 np.concatenate([faces, band]))
