@@ -70,6 +70,7 @@ _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order 
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
 _RISE = 1.0  # and at least this times the grafted part's own height at the seam
+_BATCH = 16  # right-hand sides per triangular solve of a block
 _REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
@@ -625,7 +626,9 @@ def _graft_rows(rows, blocks, front, base, stations, line, width, epsilon, key):
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    dist = point_polyline_distance(blk.v, line)
+    dist = np.full(len(blk.v), np.inf)
+    box = _in_box(blk.v, line, width)
+    dist[box] = point_polyline_distance(blk.v[box], line)
     sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
                 _margin(dist[sel], width, epsilon), True, key, graft=True)
@@ -652,10 +655,12 @@ def _blend(g, blocks, front, base, seam, width, lift):
     above the base all the way.
     """
     f, b = blocks[front], blocks[base]
-    foot = _foot(f.v, seam)
-    d = np.linalg.norm(f.v - foot, axis=1)
-    sel = np.flatnonzero(d < width)
-    p, s, d = f.v[sel], foot[sel], d[sel]
+    box = np.flatnonzero(_in_box(f.v, seam, width))
+    foot = _foot(f.v[box], seam)
+    d = np.linalg.norm(f.v[box] - foot, axis=1)
+    near = d < width
+    sel = box[near]
+    p, s, d = f.v[sel], foot[near], d[near]
     away = (p - s) / np.maximum(d, 1e-12)[:, None]
     # the slope at the seam, by the second-order one-sided difference
     at, one, two = (_height(g, b, s - k * _REACH / 2.0 * away)[0] for k in (0, 1, 2))
@@ -672,6 +677,13 @@ def _height(g, blk, points):
     """Final height of ``blk`` at ``points`` (its nearest point's) and their distance to it."""
     tri, w, dist = blk.locate(points)
     return ((blk.h + g[blk.start:blk.start + len(blk.h)])[tri] * w).sum(axis=1), dist
+
+
+def _in_box(points, line, width):
+    """Mask of ``points`` in the bounding box of ``line`` grown by ``width``: the
+    others are farther than ``width`` from it."""
+    return np.all((points >= line.min(axis=0) - width) & (points <= line.max(axis=0) + width),
+                  axis=1)
 
 
 def _foot(points, line):
@@ -747,9 +759,7 @@ def _keepout(zones):
         out = np.zeros(len(pts), bool)
         for front, base, line, width, _, _ in zones:
             if {front, base} == {i, j} and len(pts):
-                # Only the points in the band's bounding box can be in the band.
-                box = np.all((pts >= line.min(axis=0) - width)
-                             & (pts <= line.max(axis=0) + width), axis=1)
+                box = _in_box(pts, line, width)
                 out[box] |= point_polyline_distance(pts[box], line) < width
         return out
     return near
@@ -858,7 +868,12 @@ def _qinv_rows(rows, blocks, owner):
         # Only the rows with a term in this block: the others' columns are zero
         # (a row speaks of two regions, a round's rows of many).
         speak = np.unique(part.indices)
-        out[sl, speak] = b.solve(part[speak].T.toarray())
+        # A few columns at a time: the triangular solves sweep the factor once per
+        # batch, and a narrow batch's columns stay in cache (each column's answer is
+        # the same whatever its batch).
+        for k in range(0, len(speak), _BATCH):
+            cols = speak[k:k + _BATCH]
+            out[sl, cols] = b.solve(part[cols].T.toarray())
 
     # Each block writes its own rows: the same array whatever the scheduling.
     thread_map(solve, np.unique(owner[rows.indices]))
