@@ -379,9 +379,14 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     # graft rows, so a grafted part follows its base without denting it.
     bases = {z[1] for z in zones} - {z[0] for z in zones}
     # Rows that held the last solution (same entry, same point) start in the working set.
-    keys = list(zip(labels, map(tuple, xy.tolist()), ineq.tolist(), graft.tolist()))
+    def keys(sel):
+        return zip([labels[i] for i in sel], map(tuple, xy[sel].tolist()), ineq[sel].tolist(),
+                   graft[sel].tolist())
+
     before = memo.get("held", set()) if memo is not None else set()
-    warm = np.fromiter((k in before for k in keys), bool, len(keys))
+    warm = np.zeros(len(rhs), bool)
+    if before:
+        warm[:] = [k in before for k in keys(np.arange(len(rhs)))]
     g, active, rounds, held = _solve(C, rhs, ineq, ~graft, labels, xy, blocks, owner,
                                      tol, max_rounds, progress, warm)
     if graft.any():
@@ -394,7 +399,7 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         g = np.where(fixed, g, g2)
         active, rounds, held = active2, rounds + rounds2, np.concatenate([held, held2])
     if memo is not None:
-        memo["held"] = {keys[i] for i in held}
+        memo["held"] = set(keys(held))
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
     for front, base, seam, width, _, lift in zones:
