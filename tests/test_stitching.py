@@ -448,4 +448,3 @@ def test_between_the_stations_the_solved_seam_rests_on_the_base(monkeypatch):
                         mesh.station_vertices(index))
     layers, (join,) = _open_layers()
     assert _seam_gap(layers, join).max() > 1.0
-
