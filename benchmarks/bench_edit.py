@@ -1,6 +1,6 @@
 """Benchmark of ``inkray edit``: how soon each preview is ready on opening and after an edit.
 
-Five tables (``--tables open,edits,methods,first,reduced``, default the first three):
+Six tables (``--tables open,edits,methods,first,reduced,path``, default the first three):
 
 - **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
   page asks on opening (the depth draft and then the depth map, beside the
@@ -35,6 +35,17 @@ Five tables (``--tables open,edits,methods,first,reduced``, default the first th
   against the free pixels, and the largest and the mean absolute difference
   over the free pixels, in levels (one ``order`` step is 1).
 
+- **path**: in process, the cold open as in ``open`` (an :class:`EditSession`
+  asked from two threads as the page asks), with each request's thread's
+  seconds on a CPU and waiting for one (``/proc/self/task/*/schedstat``).
+  The full depth map waits for the labels' segmentation, then its draft
+  (on opening the fill itself), then its own request: the sum of those
+  three requests' CPU seconds is what the depth map takes on a machine with
+  a core free for it, whatever the load (``idle estimate``); the wall
+  times beside it stretch with the load. ``--no-reserve`` runs it without
+  the core the depth map keeps while it computes
+  (:func:`inkray.numerics.threads.reserve_core`), as before it.
+
 The edits table: for each bundled drawing a fresh
 ``inkray edit ... --no-browser --port 0`` server is started and driven as the
 page drives it: ``PUT /api/annotations``, then ``GET`` depth.png?quality=draft
@@ -65,8 +76,8 @@ slow on).
 Usage::
 
     python benchmarks/bench_edit.py [--names turtle,frog] [--mpx 1.0] [--own-size-only | --upscaled-only]
-        [--repeats 3] [--tables open,edits,methods,first,reduced] [--pause 0]
-        [--where "in process,process"]
+        [--repeats 3] [--tables open,edits,methods,first,reduced,path] [--pause 0]
+        [--where "in process,process"] [--no-reserve]
 """
 
 import argparse
@@ -485,6 +496,83 @@ def _reduced_table(names, sizes, repeats, **_):
                   f"**{ratio:.2f}** | {r['max']:.4f} | {r['mean']:.5f} |", flush=True)
 
 
+def _sched():
+    """This thread's seconds on a CPU and waiting for one so far (NaN without ``/proc``)."""
+    try:
+        on, waiting, _ = Path(f"/proc/self/task/{threading.get_native_id()}/schedstat") \
+            .read_text().split()
+    except (OSError, ValueError):
+        return float("nan"), float("nan")
+    return int(on) / 1e9, int(waiting) / 1e9
+
+
+def _path(name, megapixels, reserve=True):
+    """The cold open in process, driven as the page drives it: per request, when it
+    ended (s from the first) and its thread's CPU and run-queue seconds in it."""
+    import contextlib
+
+    from inkray.editor import session as editing
+
+    ann, _ = _folder(name, megapixels)
+    kept = editing.reserve_core
+    if not reserve:
+        editing.reserve_core = contextlib.nullcontext
+    row = {}
+    try:
+        session = editing.EditSession(ann)
+        start = time.perf_counter()
+
+        def fetch(requests):
+            for key, ask in requests:
+                before = _sched()
+                try:
+                    ask()
+                    ended = time.perf_counter() - start
+                except Exception as e:  # noqa: BLE001 - reported in the table
+                    ended = f"{type(e).__name__}: {e}"
+                after = _sched()
+                row[key] = (ended, after[0] - before[0], after[1] - before[1])
+
+        beside = threading.Thread(target=fetch, args=([
+            ("draft", lambda: session.preview("depth.png", draft=True)),
+            ("depth", lambda: session.preview("depth.png"))],))
+        beside.start()
+        fetch([("labels", lambda: session.preview("labels.png")),
+               ("relations", session.relations),
+               ("relief", lambda: session.preview("relief.glb"))])
+        beside.join()
+        session.close()
+    finally:
+        editing.reserve_core = kept
+        shutil.rmtree(ann.parent, ignore_errors=True)
+    return row
+
+
+def _path_table(names, sizes, repeats, reserve=True, **_):
+    print("| drawing | size | labels CPU s | draft CPU s | depth CPU s | idle estimate s "
+          "| depth s | depth run-queue s | relief s | relief - depth s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for mpx in sizes:
+        for name in names:
+            size = _folder_size(name, mpx)
+            runs = [_path(name, mpx, reserve) for _ in range(repeats)]
+            failed = [r[k][0] for r in runs for k in r if isinstance(r[k][0], str)]
+            if failed:
+                print(f"| {name} | {size} | failed: {failed[0]} |", flush=True)
+                continue
+
+            def med(key, k):
+                return float(np.median([r[key][k] for r in runs]))
+
+            estimate = float(np.median([r["labels"][1] + r["draft"][1] + r["depth"][1]
+                                        for r in runs]))
+            after = float(np.median([r["relief"][0] - r["depth"][0] for r in runs]))
+            print(f"| {name} | {size} | {med('labels', 1):.2f} | {med('draft', 1):.2f} | "
+                  f"{med('depth', 1):.2f} | **{estimate:.2f}** | {med('depth', 0):.2f} | "
+                  f"{med('draft', 2) + med('depth', 2):.2f} | {med('relief', 0):.2f} | "
+                  f"{after:.2f} |", flush=True)
+
+
 def _folder_size(name, megapixels):
     ann, doc = _folder(name, megapixels)
     shutil.rmtree(ann.parent, ignore_errors=True)
@@ -541,6 +629,8 @@ def main():
                         help="which tables, comma-separated (default open,edits,methods)")
     parser.add_argument("--pause", type=float, default=0.0,
                         help="seconds between an edit's previews and the next edit (default 0)")
+    parser.add_argument("--no-reserve", action="store_true",
+                        help="the path table without the core the depth map keeps")
     parser.add_argument("--where", default="in process,process",
                         help="the methods table's runs, comma-separated (default "
                              "'in process,process')")
@@ -552,13 +642,14 @@ def main():
     sizes = ([] if args.upscaled_only else [0.0]) + ([] if args.own_size_only else [args.mpx])
     repeats = max(args.repeats, 1)
     tables = {"open": _open_table, "edits": _edits_table, "methods": _methods_table,
-              "first": _first_table, "reduced": _reduced_table}
+              "first": _first_table, "reduced": _reduced_table, "path": _path_table}
     for k, table in enumerate(args.tables.split(",")):
         if table not in tables:
             parser.error(f"--tables: unknown table {table!r} (expected {', '.join(tables)})")
         if k:
             print()
-        tables[table](names, sizes, repeats, pause=args.pause, where=where)
+        tables[table](names, sizes, repeats, pause=args.pause, where=where,
+                      reserve=not args.no_reserve)
 
 
 if __name__ == "__main__":

@@ -15,8 +15,9 @@ of inkray are measured alike):
   coverage (0 paper, 1 the drawing's ink core) summed over the stroke, over
   the length of its skeleton, and the median grey (0..255) along the
   skeleton; reported as continued / drawn (medians over the layers). A
-  drawn stroke counts whole within the part (its skeleton near the hidden
-  part), strokes up to 32 px wide;
+  drawn stroke counts whole within the part (its skeleton 8-32 px from the
+  layer's pixels on other parts' labels: its hidden part and any stubs of
+  its strokes it draws there), strokes up to 32 px wide;
 - ``soft``: the share of the layers' edge pixels (opaque at all, beside a
   transparent one) that are partly transparent, against the share of the
   drawing's ink edge pixels (beside a stroke, not ink) that are partly
@@ -127,10 +128,16 @@ def measure(name, megapixels=0.0):
 
     ann, drawing = _load(name, megapixels)
     chain = ReliefChain(ann, drawing)
-    labels = chain.completion.labels
     t0 = time.perf_counter()
     stack = cut_out(chain.completion, chain.relations, drawing)
     seconds = time.perf_counter() - t0
+    return {"name": name, **measure_stack(stack, chain.completion.labels, drawing),
+            "seconds": seconds}
+
+
+def measure_stack(stack, labels, drawing, *, layers=None):
+    """The measures of one layer stack of ``drawing`` segmented as ``labels``; with a list
+    ``layers``, also each layer's (name, continued width, drawn width) appended to it."""
     gray = np.asarray(drawing.gray, np.float64) * 255
     paper = float(np.median(gray[ndimage.binary_erosion(labels < 0, iterations=10)]))
     inked = gray < (paper + float(np.percentile(gray, 0.5))) / 2
@@ -159,11 +166,16 @@ def measure(name, megapixels=0.0):
         w_cont, sk_cont = _stroke(layer_cover, zone | (edge & ndimage.binary_dilation(zone)))
         # The part's own drawn strokes near the hidden part (not at the junctions).
         own = labels[y0:y1, x0:x1] == layer.region
-        drawn_zone = own & ndimage.binary_dilation(hidden, iterations=32) & \
-            ~ndimage.binary_dilation(hidden, iterations=8)
+        # Measured from the layer's pixels on the other parts' labels: its hidden part and
+        # any drawn stubs of its strokes there, up to the occluder's outline.
+        on_others = hidden | ((alpha > 0) & (labels[y0:y1, x0:x1] >= 0) & ~own)
+        drawn_zone = own & ndimage.binary_dilation(on_others, iterations=32) & \
+            ~ndimage.binary_dilation(on_others, iterations=8)
         w_draw, sk_draw = _stroke(cover[y0:y1, x0:x1], drawn_zone, own)
         if w_cont is None or w_draw is None:
             continue
+        if layers is not None:
+            layers.append((layer.name, w_cont, w_draw))
         widths.append(w_cont / w_draw)
         tones.append(float(np.median(value[sk_cont])) - float(np.median(gray[y0:y1, x0:x1][sk_draw])))
     # The drawing's own soft edge: beside ink (4-neighbours), not ink, partly covered.
@@ -171,7 +183,7 @@ def measure(name, megapixels=0.0):
     soft_drawing = float(np.mean((cover[ink_edge] > 0.05))) if ink_edge.any() else 0.0
     partly, total = (sum(v) for v in zip(*soft))
     h, w = labels.shape
-    return {"name": name, "size": f"{w}x{h}", "layers": len(stack.layers), "seconds": seconds,
+    return {"size": f"{w}x{h}", "layers": len(stack.layers),
             "cut_px": max(cuts, default=0),
             "width_ratio": float(np.median(widths)) if widths else None,
             "tone_diff": float(np.median(tones)) if tones else None,

@@ -10,15 +10,20 @@ versions of inkray are measured alike):
   drawing's ink coverage, 0 paper .. 1 the strokes' core, below 0.25 and no
   pixel of coverage 0.5 or more within 2 px); its floor is their 2nd
   percentile of luminance (Rec. 601, 0..255);
-- the *fill*: the layer's hidden pixels, opaque, more than ``OUTLINE`` px
-  from the edge of the part's completed shape (its label and its hidden
-  pixels): the continued outline lies within a stroke width of that edge,
-  and ``cut_out`` draws it as wide as the part's drawn strokes (up to about
-  18 px on the bundled drawings at ~1 Mpx: see ``bench_layers.py``), with
-  a soft pixel beyond;
+- the layer's *continued outline*: ``cut_out`` draws it along the edge of
+  the part's completed shape (its label and its hidden pixels), inside it,
+  as wide as the part's drawn strokes (see ``bench_layers.py``). Its width
+  is measured on the layer: the depth (px from that edge, in whole pixels)
+  at which fewer than half of the layer's hidden pixels are darker than the
+  floor; ``outline`` is the widest over the layers with a fill;
+- the *fill*: the layer's hidden pixels, opaque, deeper than its continued
+  outline and one soft pixel;
 - ``dark %``: the share of the fill darker than the floor (pooled over the
   layers), ``worst``: the largest share of one layer (its name), ``min``:
   the darkest fill pixel below its layer's floor (levels, 0 when none).
+
+A fill dark all through would read as a continued outline as deep as the
+hidden part: its fill px then falls to nothing, which the table shows.
 
 Each bundled drawing at its own size and upscaled to about 1 Mpx (as
 ``bench_pose.py`` does). Target: 0 %.
@@ -45,7 +50,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_pose import _load  # noqa: E402
 
 NAMES = "fox,man,donkey,frog,dragon,turtle,cat,gingerbread"
-OUTLINE = 24  # px: beyond the widest continued outline and its soft edge
+SOFT = 1  # px: the continued outline's soft inner edge, beyond its measured width
 LUMA = np.array([0.299, 0.587, 0.114])
 
 
@@ -64,7 +69,7 @@ def measure(name, megapixels):
     cover = np.clip((paper - luma) / max(paper - core, 1.0), 0, 1)
     non_ink = (cover < 0.25) & ~ndimage.binary_dilation(cover >= 0.5, iterations=2)
     total = dark = 0
-    worst, worst_name, darkest = 0.0, "-", 0.0
+    worst, worst_name, darkest, widest = 0.0, "-", 0.0, 0
     for layer in stack.layers:
         if layer.region < 0 or not layer.hidden.any():
             continue
@@ -76,10 +81,13 @@ def measure(name, megapixels):
         alpha = layer.rgba[..., 3]
         shape = layer.hidden | (labels[y0:y1, x0:x1] == layer.region)
         depth = ndimage.distance_transform_edt(np.pad(shape, 1))[1:-1, 1:-1]
-        fill = layer.hidden & (alpha == 255) & (depth > OUTLINE)
+        luma_layer = layer.rgba[..., :3].astype(np.float64) @ LUMA
+        outline = _outline_width(depth, layer.hidden & (alpha > 0), luma_layer < floor)
+        fill = layer.hidden & (alpha == 255) & (depth > outline + SOFT)
         if not fill.any():
             continue
-        value = layer.rgba[..., :3][fill].astype(np.float64) @ LUMA
+        widest = max(widest, outline)
+        value = luma_layer[fill]
         below = value < floor
         total += int(fill.sum())
         dark += int(below.sum())
@@ -91,16 +99,30 @@ def measure(name, megapixels):
     h, w = labels.shape
     return {"name": name, "size": f"{w}x{h}", "fill_px": total, "dark_px": dark,
             "dark": dark / total if total else 0.0, "worst": worst, "worst_layer": worst_name,
-            "darkest": darkest}
+            "darkest": darkest, "outline": widest}
+
+
+def _outline_width(depth, hidden, dark):
+    """The continued outline's width (px): the whole depths from the completed shape's edge
+    at which at least half of the ``hidden`` pixels are ``dark``, up to the first at which
+    fewer are (a hidden part deep inside the shape, no outline at its edge: 0)."""
+    rings = np.ceil(depth[hidden]).astype(int)
+    shade = dark[hidden]
+    width = 0
+    for k in np.unique(rings):
+        if shade[rings == k].mean() < 0.5:
+            break
+        width = int(k)
+    return width
 
 
 def _cells(r):
-    return (f"{100 * r['dark']:.2f} %", f"{100 * r['worst']:.1f} % ({r['worst_layer']})",
-            f"{r['darkest']:.0f}")
+    return (f"{r.get('outline', '-')}", f"{100 * r['dark']:.2f} %",
+            f"{100 * r['worst']:.1f} % ({r['worst_layer']})", f"{r['darkest']:.0f}")
 
 
-HEADER = ("| drawing | size | fill px | dark % | worst layer | levels below floor |\n"
-          "|---|---|---|---|---|---|")
+HEADER = ("| drawing | size | fill px | outline px | dark % | worst layer | levels below floor |\n"
+          "|---|---|---|---|---|---|---|")
 
 
 def main(argv=None):
@@ -119,7 +141,7 @@ def main(argv=None):
             b = old.get((r["name"], r["size"]))
             if b is not None:
                 cells = " | ".join(f"{x} -> {y}" for x, y in zip(_cells(b), _cells(r)))
-                print(f"| {r['name']} | {r['size']} | {r['fill_px']} | {cells} |")
+                print(f"| {r['name']} | {r['size']} | {b['fill_px']} -> {r['fill_px']} | {cells} |")
         return 0
     results = []
     for name in args.names.split(","):

@@ -58,6 +58,16 @@ the same drawing, byte for byte):
                   arm resting over a leg, teeth over the head's lower outline.
                   Drawn from a stream of its own: a drawing that does not use
                   the style is the one drawn without it.
+   ``onto``       parts lying on a surface drawn within its silhouette, each one
+                  time in two (:meth:`_Scene.within`): a cap of hair over the top
+                  of the head, a saddle or a patch over an edge of the body, and
+                  the belt, the spots, the tuft and the muzzle cut at the outline
+                  of what they lie on. Where such a part reaches the silhouette,
+                  the surface's line is its outline, and a part behind the
+                  surface (an ear, a far leg, the tail) meets it along that line:
+                  the line runs on past the part in front into the surface's
+                  outline, as the bar of a T does for a part in front of it. From
+                  a stream of its own too.
 
 The scribbles: one polyline along the middle of every visible piece of a part
 larger than a few stroke widths, and background scribbles in the empty
@@ -77,7 +87,10 @@ from skimage.measure import find_contours
 
 #: The drawing styles :func:`generate` can use (all by default).
 STYLES = ("width", "taper", "gaps", "overshoot", "sketchy", "marker", "antialias", "paper",
-          "lobes", "crowd", "fade", "rest")
+          "lobes", "crowd", "fade", "rest", "onto")
+#: The styles added last, each drawn from a stream of its own (seeded ``(seed, k)``): a drawing
+#: without them is the drawing the generator made before they were added.
+_OWN = ("rest", "onto")
 _SS = 2  # supersampling of the painted masks and strokes
 
 
@@ -145,15 +158,14 @@ def generate(seed, *, styles=STYLES, size=None):
     if size is None:
         size = (int(rng.integers(300, 461)), int(rng.integers(300, 461)))
     w, h = size
-    used = tuple(s for s in STYLES[:-1] if s in styles and rng.random() < 0.5)
-    # The last style draws from a stream of its own: a drawing without it is the drawing the
-    # generator made before the style was added.
-    extra = np.random.default_rng((seed, 1))
-    if STYLES[-1] in styles and extra.random() < 0.5:
-        used += (STYLES[-1],)
-    scene = _Scene(rng, w * _SS, h * _SS, used, extra=extra)
+    used = tuple(s for s in STYLES if s not in _OWN and s in styles and rng.random() < 0.5)
+    streams = {s: np.random.default_rng((seed, k)) for k, s in enumerate(_OWN, 1)}
+    used += tuple(s for s in _OWN if s in styles and streams[s].random() < 0.5)
+    scene = _Scene(rng, w * _SS, h * _SS, used, extra=streams["rest"])
     if rng.random() < 0.8:
         scene.character()
+        if "onto" in used:
+            scene.within(streams["onto"])
     else:
         scene.stack()
     parts = sorted(scene.parts, key=lambda p: p.rank)
@@ -256,6 +268,7 @@ class _Scene:
             rx, ry = ry * 0.8, rx * 1.1
         self.add("body", self.blob(cx, cy, rx, ry, angle=rng.uniform(-0.3, 0.3),
                                    lobes=self.lobes()), 10.0)
+        self.frame = dict(body=(cx, cy, rx, ry))
         # Legs: down from the body's lower half; far ones behind, near ones over it. Crowded:
         # each near leg beside a far one, over it (a side view's pairs of legs).
         n_legs = int(rng.choice([2, 2, 4]))
@@ -314,6 +327,7 @@ class _Scene:
                      head_rank - 0.5)
         hrx, hry = hr * rng.uniform(0.9, 1.3), hr * rng.uniform(0.8, 1.1)
         self.add("head", self.blob(hx, hy, hrx, hry, lobes=self.lobes()), head_rank)
+        self.frame["head"] = (hx, hy, hrx, hry)
         if rng.random() < 0.85:
             over = rng.random() < 0.25
             for i, side in enumerate((-1, 1)):
@@ -410,6 +424,36 @@ class _Scene:
                 self.add(f"tooth{i}", self.capsule((x, y - length * 0.4), (x + hr * rng.uniform(-0.1, 0.1), y + length),
                                                    hr * rng.uniform(0.1, 0.18), hr * rng.uniform(0.02, 0.06)),
                          head_rank + 1.1 + i / 10)
+
+    def within(self, rng):
+        """The ``onto`` style, drawn from ``rng``: parts lying on the head or the body drawn
+        within its silhouette, each one time in two: a cap of hair over the top of the head
+        (the ears' and horns' bases under its edge), a saddle or patch over an edge of the
+        body (where legs, arms and the tail leave it), and the belt, spots, tuft, muzzle and
+        eyes cut at the outline of what they lie on."""
+        surfaces = {p.name: p for p in self.parts if p.name in ("head", "body")}
+        if "head" in surfaces and rng.random() < 0.5:
+            hx, hy, hrx, hry = self.frame["head"]
+            head = surfaces["head"]
+            cap = self.blob(hx + hrx * rng.uniform(-0.3, 0.3), hy - hry * rng.uniform(0.5, 1.0),
+                            hrx * rng.uniform(0.7, 1.3), hry * rng.uniform(0.4, 0.8),
+                            wobble=0.2, lobes=rng.uniform(0.0, 0.25), scallops=rng.random() < 0.5,
+                            rng=rng)
+            self.add("cap", cap & head.mask, head.rank + 0.95)
+        if "body" in surfaces and rng.random() < 0.5:
+            cx, cy, rx, ry = self.frame["body"]
+            body = surfaces["body"]
+            t = rng.uniform(0, 2 * np.pi)
+            patch = self.blob(cx + rx * np.cos(t) * rng.uniform(0.5, 1.0),
+                              cy + ry * np.sin(t) * rng.uniform(0.5, 1.0),
+                              rx * rng.uniform(0.3, 0.7), ry * rng.uniform(0.3, 0.7),
+                              wobble=0.2, lobes=rng.uniform(0.0, 0.2), rng=rng)
+            self.add("patch", patch & body.mask, body.rank + 0.6)
+        on = {"belt": "body", "tuft": "head", "muzzle": "head", "eye0": "head", "eye1": "head"}
+        on.update({p.name: "body" for p in self.parts if p.name.startswith("spot")})
+        for p in self.parts:
+            if p.name in on and on[p.name] in surfaces and rng.random() < 0.5:
+                p.mask = p.mask & surfaces[on[p.name]].mask
 
     def stack(self):
         rng, w, h = self.rng, self.w, self.h

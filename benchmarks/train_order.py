@@ -35,8 +35,8 @@ here). The model
 :mod:`inkray.relief.order_model`. With the same count and styles the file is
 the same, byte for byte; the shipped one is ``--count 240 --without fade,rest``
 (the generator draws a style's chance only when the style is allowed, and
-``rest`` from a stream of its own, so without ``fade`` and ``rest`` it draws
-what it drew before those styles were added).
+``rest`` and ``onto`` each from a stream of its own, so a drawing that does
+not use ``onto`` is the one drawn before that style was added).
 """
 
 import argparse
@@ -71,7 +71,7 @@ DEVELOPMENT = ("balls", "donkey", "fox", "man", "shots/horse_gallop")
 #: The real drawings scored once at the end, never looked at while choosing.
 HELD_OUT = ("dragon", "frog", "gingerbread", "turtle", "shots/krita_walkcycle")
 #: The features made as evidence that ``x`` is in front: their weights are not negative.
-SIGNED = CUES + ("continuation_raw", "ink_spur")
+SIGNED = CUES + ("continuation_raw", "ink_spur", "runon")
 #: ``name: keyword arguments of train``: the features of the logistic term, the number of
 #: trees, the features they split on, the calibration.
 _RAW = CUES + ("continuation_raw",)
@@ -84,6 +84,8 @@ CANDIDATES = {
     "cues, raw continuation, ink spur": dict(linear=_RAW + ("ink_spur",), trees=0),
     "cues, raw continuation, ink spur, isotonic": dict(linear=_RAW + ("ink_spur",), trees=0,
                                                        calibration="isotonic"),
+    "cues, raw continuation, ink spur, runon, isotonic": dict(
+        linear=_RAW + ("ink_spur", "runon"), trees=0, calibration="isotonic"),
     "cues, raw continuation, 30 trees on them": dict(linear=_RAW, trees=30, split=_RAW),
     "cues, raw continuation, 30 trees on them, isotonic": dict(linear=_RAW, trees=30, split=_RAW,
                                                               calibration="isotonic"),

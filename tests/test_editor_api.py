@@ -654,3 +654,45 @@ def test_the_first_scribble_after_opening_updates_the_depth_fill(tmp_path):
         fresh = depth(parse_annotations(doc), load_input(fox)[1], method="fast",
                       segmentation=chain.segmentation.labels)
         assert np.abs(chain.depth_map.depth - fresh.depth).max() < 1e-9
+
+
+def test_a_depth_map_computing_keeps_a_core_from_the_relief_maps(turtle, monkeypatch):
+    """On two cores a map of independent solves (the relief's) runs one call at a time
+    while a depth map computes, and two at a time otherwise."""
+    import time
+
+    from inkray.numerics.threads import thread_map
+
+    if (os.cpu_count() or 1) != 2:
+        pytest.skip("the reservation leaves maps one call at a time on two cores")
+    session = EditSession(turtle)
+    lock = threading.Lock()
+
+    def most_at_once():
+        now, most = [0], [0]
+
+        def call(_):
+            with lock:
+                now[0] += 1
+                most[0] = max(most[0], now[0])
+            time.sleep(0.05)
+            with lock:
+                now[0] -= 1
+
+        thread_map(call, range(4))
+        return most[0]
+
+    seen = {}
+    for name in ("depth.png", "labels.png"):
+        preview = session_module._PREVIEW[name]
+
+        def compute(chain, _name=name, _preview=preview, **params):
+            seen[_name] = most_at_once()  # as the relief's thread would, meanwhile
+            return _preview.compute(chain, **params)
+
+        monkeypatch.setitem(session_module._PREVIEW, name,
+                            dataclasses.replace(preview, compute=compute))
+    session.preview("labels.png")
+    session.preview("depth.png", draft=True)
+    assert seen == {"labels.png": 2, "depth.png": 1}
+    assert most_at_once() == 2  # kept only while the depth map computed

@@ -580,6 +580,8 @@ def test_session_drafts_and_full_solves_keep_their_own_fills(monkeypatch):
     assert np.abs(full - fresh.solve()).max() < 1e-9
     assert np.abs(draft - full).mean() < 0.02 * np.ptp(full)
     assert not np.array_equal(draft, full)
+    assert np.array_equal(s.solve(draft=True), full)  # nothing changed: the full map
+    s.add((30, 25), (90, 25))  # said again: the same fixed pixels and levels, solved again
     assert np.abs(s.solve(draft=True) - draft).max() < 1e-9  # both fills kept as they were
     assert np.abs(s.solve() - full).max() < 1e-9
     assert s.refactored_fronts == 0
@@ -689,3 +691,41 @@ def test_an_entry_on_the_background_overrides_the_default(method):
     ann = _ann((120, 80), order=[((30, 50), (80, 40)), ((5, 5), (80, 40))], regions=regions)
     d = depth(ann, gray, method=method).depth
     assert d[5, 5] - d[40, 80] >= 1 - 1e-6
+
+
+def test_fill_weights_are_the_drawings_edge_weights_kept_for_that_array_only():
+    from inkray.depthmap.estimation import fill_weights
+
+    rng = np.random.default_rng(3)
+    gray = rng.uniform(0.0, 1.0, (30, 40)).astype(np.float32)
+    wx, wy = fill_weights(gray)
+    ex, ey, _ = edge_weights(gray.astype(np.float64))
+    assert np.array_equal(wx, ex) and np.array_equal(wy, ey)
+    assert fill_weights(gray)[0] is wx  # kept for the same drawing
+    other = gray.copy()
+    other[:, 20] = 0.0
+    ox, _ = fill_weights(other)  # another drawing: its own weights
+    assert ox is not wx and not np.array_equal(ox, wx)
+    # a session of the drawing answers as with weights of its own
+    s = DepthSession(other)
+    s.add((5, 10), (35, 10))
+    kept = s.solve()
+    fill_weights(gray)  # the kept entry is another drawing's now
+    fresh = DepthSession(other)
+    fresh.add((5, 10), (35, 10))
+    assert np.array_equal(kept, fresh.solve())
+
+
+def test_a_solve_with_nothing_changed_since_the_full_fill_is_that_answer():
+    gray = np.ones((40, 60)); gray[5:, 30] = 0.0  # a line with a gap: one free component
+    s = DepthSession(gray)
+    k = s.add((10, 20), (50, 20))
+    first = s.solve()
+    again = s.solve(draft=True)  # small: the draft is the full fill; nothing changed
+    assert np.array_equal(first, again) and again is not first
+    again[:] = 7.0  # the caller's copy
+    assert np.array_equal(s.solve(), first)
+    s.remove(k)
+    s.add((50, 20), (10, 20))  # the same endpoints the other way round
+    flipped = s.solve()
+    assert np.allclose(flipped, -first)

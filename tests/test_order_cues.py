@@ -7,8 +7,9 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.relief.completion import complete_regions
 from inkray.relief.ink_style import InkStyle
-from inkray.relief.order_cues import (CUES, FEATURES, contact_continuation, contact_spur,
-                                      order_cues, outline_lengths, place_features, region_stats)
+from inkray.relief.order_cues import (CUES, FEATURES, contact_continuation, contact_runon,
+                                      contact_spur, order_cues, outline_lengths, place_features,
+                                      region_stats)
 from inkray.relief.ordering import WEIGHTS, predict_place
 
 H, W = 200, 260
@@ -105,7 +106,7 @@ def test_feature_rows_are_the_two_orientations_of_one_place():
         assert f.shape == (2, len(FEATURES))
         swapped = place_features(c, place, ink=CLEAN)[::-1]
         odd = ("junction", "area", "surround", "continuation", "continuation_raw", "log_area",
-               "log_thickness", "inside", "rise")
+               "log_thickness", "inside", "rise", "ink_spur", "runon")
         for k, name in enumerate(FEATURES):
             if name in odd:
                 assert f[0, k] == pytest.approx(-f[1, k])
@@ -217,6 +218,45 @@ def test_without_the_ink_mask_the_spur_is_zero_and_a_wrong_size_is_an_input_erro
     wrong = InkStyle(width=2.0, stroke_ends=0.0, mask=np.zeros((H + 1, W), bool))
     with pytest.raises(InputError, match="ink mask"):
         contact_spur(c.labels, c.places[0], ink=wrong)
+
+
+# -- run-on: the line running on at the contact is a third part's silhouette -------------
+
+
+def _ear_head_cap(names, ear_in_front=False):
+    """An ear behind a head (over it with ``ear_in_front``) and a cap on the head drawn up to
+    its outline, labelled ``names`` (ear, head, cap); the completion and the place of the
+    ear and the cap."""
+    ear = (XX >= 100) & (XX < 180) & (YY >= 20) & (YY < 110)
+    head = (XX >= 60) & (XX < 220) & (YY >= 70) & (YY < 190)
+    cap = head & (XX < 140) & (YY < 110)
+    labels = np.full((H, W), -1, np.int32)
+    for k in ((1, 2, 0) if ear_in_front else (0, 1, 2)):
+        labels[(ear, head, cap)[k]] = names[k]
+    c = complete_regions(labels)
+    return c, _place(c, names[0], names[2])
+
+
+@pytest.mark.parametrize("names", [(0, 1, 2), (2, 1, 0), (1, 0, 2)])
+def test_a_part_ending_on_the_silhouette_of_a_part_in_front_is_over_what_lies_behind(names):
+    # The ear's line runs on past the cap as the head's silhouette (the bar of a T: the
+    # ear read in front), which the head owns at its other junction with the ear: the cap
+    # lies on the head, over the ear, under any naming.
+    c, place = _ear_head_cap(names)
+    cap_is_a = names[2] == place.a
+    runon = contact_runon(c, place, ink=CLEAN)
+    assert (runon if cap_is_a else -runon) > 0.25
+    f = place_features(c, place, ink=CLEAN)
+    assert f[0, FEATURES.index("runon")] == pytest.approx(runon)
+    assert f[1, FEATURES.index("runon")] == pytest.approx(-runon)
+
+
+def test_a_bar_whose_part_owns_its_line_everywhere_gives_no_run_on():
+    # The ear in front of the head: its line is its own, and the T reads as it is drawn.
+    c, place = _ear_head_cap((0, 1, 2), ear_in_front=True)
+    assert contact_runon(c, place, ink=CLEAN) == 0.0
+    c, place = _ear_head_cap((0, 1, 2))
+    assert contact_runon(c, place, ink=InkStyle(width=0.0, stroke_ends=0.0)) == 0.0
 
 
 def test_walk_reaches_the_chessboard_ball_on_open_paper_and_follows_a_bent_line():

@@ -73,3 +73,101 @@ def test_thread_imap_yields_in_order_and_drops_what_has_not_started_when_stopped
     results.close()  # the caller stops, as a superseded edit's progress does
     time.sleep(0.05)
     assert len(started) < 20
+
+
+def _most_at_once(work_s=0.02, items=6, during=None):
+    """The most calls of one thread_map running at once, with ``during`` (a context
+    manager or None) held by another thread for the whole map."""
+    import threading
+    import time
+
+    from inkray.numerics.threads import thread_map
+
+    lock = threading.Lock()
+    now, most = [0], [0]
+
+    def work(x):
+        with lock:
+            now[0] += 1
+            most[0] = max(most[0], now[0])
+        time.sleep(work_s)
+        with lock:
+            now[0] -= 1
+        return x
+
+    held, done = threading.Event(), threading.Event()
+
+    def hold():
+        with during:
+            held.set()
+            done.wait(10)
+
+    holder = threading.Thread(target=hold) if during is not None else None
+    if holder is not None:
+        holder.start()
+        held.wait(10)
+    try:
+        assert thread_map(work, range(items)) == list(range(items))
+    finally:
+        done.set()
+        if holder is not None:
+            holder.join()
+    return most[0]
+
+
+def test_reserve_core_leaves_a_map_the_other_cores_and_all_of_them_after():
+    import os
+
+    import pytest
+
+    from inkray.numerics.threads import reserve_core
+
+    cores = os.cpu_count() or 1
+    if cores < 2:
+        pytest.skip("one core: maps run in the calling thread")
+    # two workers: both at once, unless a core is kept and only one is left
+    assert _most_at_once() == 2
+    assert _most_at_once(during=reserve_core()) == (1 if cores == 2 else 2)
+    assert _most_at_once() == 2  # the reservation ended with its thread's block
+
+
+def test_reserve_core_lets_a_waiting_call_start_when_it_ends():
+    import os
+    import threading
+    import time
+
+    import pytest
+
+    from inkray.numerics.threads import reserve_core, thread_map
+
+    if (os.cpu_count() or 1) != 2:
+        pytest.skip("the reservation leaves a map one call at a time on two cores")
+    first_started, second_started, release, kept = (threading.Event() for _ in range(4))
+
+    def work(x):
+        if x == 0:
+            first_started.set()
+            return second_started.wait(10)  # still running when the second starts?
+        second_started.set()
+        return True
+
+    def reserve():
+        with reserve_core():
+            kept.set()
+            release.wait(10)
+
+    holder = threading.Thread(target=reserve)
+    holder.start()
+    out = []
+    mapper = threading.Thread(target=lambda: out.extend(thread_map(work, range(2))))
+    try:
+        assert kept.wait(10)
+        mapper.start()
+        assert first_started.wait(10)
+        time.sleep(0.1)
+        assert not second_started.is_set()  # one call at a time while the core is kept
+    finally:
+        release.set()
+        holder.join()
+        mapper.join()
+    assert out == [True, True]  # the second started beside the first once it was released

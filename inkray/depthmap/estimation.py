@@ -46,7 +46,7 @@ from inkray.numerics.order_graph import OrderGraph
 from inkray.depthmap.quadratic_program import check_constraints, solve_depth_qp
 from inkray.numerics.grid import WEIGHT_FLOOR, edge_weights, grid_laplacian
 
-__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "METHODS"]
+__all__ = ["DepthResult", "DepthSession", "depth", "depth_constraints", "fill_weights", "METHODS"]
 
 METHODS = ("exact", "fast")
 #: Grey level below which a pixel counts as ink when deciding whether a
@@ -69,6 +69,47 @@ BACKGROUND = -1
 #: Pieces (4-connected areas of one label) smaller than this many pixels get no
 #: implicit order in the exact method: slivers along outlines, not parts.
 _MIN_PIECE = 30
+
+
+# (the drawing as given, its fill weights) of the last drawing fill_weights saw
+_kept_weights = None
+_kept_lock = threading.Lock()
+
+
+def fill_weights(gray):
+    """The edge weights of the fast method's Laplace fill for the drawing ``gray``
+    (:func:`~inkray.numerics.grid.edge_weights`), kept for the last drawing asked.
+
+    They depend on the drawing alone: an editor computes them while its depth
+    map waits for the segmentation, and the :class:`DepthSession` of that
+    drawing (the same array, unchanged) takes them from here.
+
+    Parameters
+    ----------
+    gray : (H, W) float array in [0, 1]
+
+    Returns
+    -------
+    wx : (H, W-1) float64 array
+    wy : (H-1, W) float64 array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray = np.ones((4, 5)); gray[:, 2] = 0.0
+    >>> wx, wy = fill_weights(gray)
+    >>> wx.shape, fill_weights(gray)[0] is wx
+    ((4, 4), True)
+    """
+    global _kept_weights
+    with _kept_lock:
+        kept = _kept_weights
+    if kept is not None and kept[0] is gray:
+        return kept[1]
+    weights = edge_weights(np.asarray(gray, np.float64))[:2]
+    with _kept_lock:
+        _kept_weights = gray, weights
+    return weights
 
 
 @dataclass
@@ -394,6 +435,7 @@ class DepthSession:
 
     def __init__(self, gray, *, epsilon=1.0, seeds=None, labels=None, incremental=True,
                  progress=None):
+        self._drawing = gray  # as given: its fill weights may be kept (fill_weights)
         self.gray = np.asarray(gray, np.float64)
         if self.gray.ndim != 2:
             raise InputError(f"gray: expected an (H, W) image, got shape {self.gray.shape}")
@@ -410,6 +452,9 @@ class DepthSession:
         self._on_background = []  # the region labels touching the background, with scribbles
         self._fills = {}        # draft -> HarmonicFill or DraftFill, kept and updated
         self._answer = None     # (fixed, their values, fill) of the last full fill
+        self._changes = 0       # constraints added or removed and reseeds so far
+        self._solved = None     # (changes, depth map) of the last solve by the full fill
+        self._drafted = False   # whether the last fill was the half-resolution one
         self._weights = None    # the image's edge weights (wx, wy), once
         self._incremental = bool(incremental)
         self._progress = progress
@@ -492,6 +537,7 @@ class DepthSession:
         pixels moved (where the segments changed), not the whole grid.
         """
         self._scribbles, self._given = self._checked(seeds, labels)
+        self._changes += 1
         self.labels = None
         self._split_cache = {}
         self._dirty = set()
@@ -537,6 +583,7 @@ class DepthSession:
         if inequality and p == q:
             raise InputError(f"{label}: front and back are the same pixel")
         self._next += 1
+        self._changes += 1
         self._constraints[k] = (p, q, bool(inequality), label)
         for v in (p, q):
             if v not in self._endpoint_label:
@@ -549,6 +596,7 @@ class DepthSession:
         if handle not in self._constraints:
             raise InputError(f"constraint {handle}: no such constraint in this session")
         p, q, _, _ = self._constraints.pop(handle)
+        self._changes += 1
         used = {v for c in self._constraints.values() for v in c[:2]}
         for v in (p, q):
             if v not in used and v in self._endpoint_label:
@@ -607,6 +655,10 @@ class DepthSession:
             entries are listed). Entries that only disagree about whole
             regions cut those regions into parts instead.
         """
+        if self._solved is not None and self._solved[0] == self._changes:
+            # nothing changed since the full fill answered (a draft request that got
+            # the full map on opening, then the full request)
+            return self._solved[1].copy()
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
@@ -646,6 +698,8 @@ class DepthSession:
         d = self._fill(fixed, lvl, draft)  # the fills read lvl on the fixed pixels only
         d -= d.mean()
         self.timings["laplace"] = time.perf_counter() - t
+        if not self._drafted:
+            self._solved = self._changes, d.copy()
         return d
 
     def _flat(self):
@@ -813,13 +867,14 @@ class DepthSession:
         :data:`DRAFT_ABOVE` pixels (as fast, and exact), or when it has no kept
         factorization and answers from the reduced system (as fast as a draft,
         closer to the exact fill); the full solve that follows is then that answer."""
+        self._drafted = False
         if self._answer is not None and not draft and np.array_equal(fixed, self._answer[0]) \
                 and np.array_equal(vals[fixed], self._answer[1]):
             self.refactored_fronts = 0
             return self._answer[2].copy()
         self._answer = None
         if self._weights is None:
-            self._weights = edge_weights(self.gray)[:2]
+            self._weights = fill_weights(self._drawing)
         if False not in self._fills:
             self._fills[False] = HarmonicFill(*self._weights, incremental=self._incremental,
                                               progress=self._progress, reduced_above=REDUCED_ABOVE)
@@ -832,6 +887,7 @@ class DepthSession:
             self._fills[draft] = DraftFill(*self._weights, incremental=self._incremental,
                                            progress=self._progress)
         fill = self._fills[draft]
+        self._drafted = draft
         d = fill.solve(fixed, vals)
         self.refactored_fronts = fill.refactored_fronts
         if not draft:

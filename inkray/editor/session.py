@@ -19,7 +19,7 @@ import re
 import threading
 import time
 from collections import OrderedDict
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,6 +28,7 @@ from scipy import ndimage
 
 from inkray.artefacts import ARTEFACTS
 from inkray.chain import ChainOptions, ReliefChain
+from inkray.depthmap.estimation import fill_weights
 from inkray.errors import InkrayError, InputError
 from inkray.formats.atomic import write_text
 from inkray.formats.labels import label_palette
@@ -36,6 +37,7 @@ from inkray.input.drawing import load_drawing
 from inkray.input.files import read_bytes
 from inkray.input.limits import DEFAULT_LIMITS
 from inkray.input.scribbles import polyline_pixels
+from inkray.numerics.threads import reserve_core
 from inkray.progress import Progress
 from inkray.segmentation import INK_THRESHOLD
 from inkray.validation import validate
@@ -443,10 +445,15 @@ class EditSession:
         elif name == "depth.png" and draft:
             params = dict(draft=True)
         key = (name, *sorted(params.items()))
+        # The depth map is the first answer the page waits for: while it computes, the
+        # relief's maps of independent solves run one at a time beside it on two cores
+        # instead of taking both.
+        first = reserve_core() if name == "depth.png" else nullcontext()
         try:
-            return self.newest(lambda chain, digest: (self._encoded(
-                (*key, digest), lambda: artefact.preview(chain, **params)), artefact.media_type),
-                lock="depth" if name == "depth.png" else "relief")
+            with first:
+                return self.newest(lambda chain, digest: (self._encoded(
+                    (*key, digest), lambda: artefact.preview(chain, **params)),
+                    artefact.media_type), lock="depth" if name == "depth.png" else "relief")
         finally:
             if name == "relief.glb":
                 self._prepare_depth()
@@ -542,9 +549,11 @@ class EditSession:
                     pass
                 return
             if not prepared:
-                # what the relief's order needs of the drawing alone, in time this
-                # thread waits anyway (a segmentation at 1 Mpx takes five times longer)
+                # what the relief's order and the depth map's fill need of the drawing
+                # alone, in time this thread waits anyway (a segmentation at 1 Mpx
+                # takes about twice as long)
                 chain.prepare_drawing()
+                fill_weights(self.drawing.gray)
                 prepared = True
 
     def _prepare_depth(self):

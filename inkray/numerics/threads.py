@@ -9,15 +9,22 @@ takes milliseconds, so it is done once per process.
 SuperLU and LAPACK let go of the GIL while they factor and solve, so
 independent systems (one per mesh part) solved by two threads take about
 half the time on two cores (:func:`thread_map`).
+
+A thread whose result is awaited first (an interactive preview) can keep a
+core for itself (:func:`reserve_core`): meanwhile a map runs no more calls
+at a time than the cores left, so on two cores its calls run one at a time
+instead of taking both cores from it.
 """
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from functools import lru_cache
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["one_blas_thread", "thread_imap", "thread_map"]
+__all__ = ["one_blas_thread", "reserve_core", "thread_imap", "thread_map"]
 
 
 @lru_cache(maxsize=1)
@@ -39,6 +46,56 @@ def one_blas_thread():
     1.0
     """
     return _controller().limit(limits=1, user_api="blas")
+
+
+# Cores kept by reserve_core, and the condition the maps' calls wait on for them.
+_gate = threading.Condition()
+_reserved = 0
+
+
+@contextmanager
+def reserve_core():
+    """A context manager that keeps one core for the calling thread's work inside it.
+
+    Meanwhile every :func:`thread_imap` runs at most as many of its calls at
+    a time as the cores not kept (and always at least one): on two cores, one
+    at a time. Calls already under way finish; the results do not change.
+
+    Examples
+    --------
+    >>> with reserve_core():
+    ...     thread_map(lambda x: x + 1, range(3))
+    [1, 2, 3]
+    """
+    global _reserved
+    with _gate:
+        _reserved += 1
+    try:
+        yield
+    finally:
+        with _gate:
+            _reserved -= 1
+            _gate.notify_all()
+
+
+def _gated(function, cores):
+    """``function`` as a map's call that waits while another call of the same map
+    runs and :func:`reserve_core` leaves no core for a second."""
+    running = [0]
+
+    def call(x):
+        with _gate:
+            while running[0] and running[0] >= cores - _reserved:
+                _gate.wait()
+            running[0] += 1
+        try:
+            return function(x)
+        finally:
+            with _gate:
+                running[0] -= 1
+                _gate.notify_all()
+
+    return call
 
 
 def thread_imap(function, items, *, workers=2):
@@ -71,7 +128,8 @@ def thread_imap(function, items, *, workers=2):
     [0, 1, 4, 9, 16]
     """
     items = list(items)
-    workers = min(workers, len(items), os.cpu_count() or 1)
+    cores = os.cpu_count() or 1
+    workers = min(workers, len(items), cores)
     if workers <= 1:
         for x in items:
             yield function(x)
@@ -81,7 +139,8 @@ def thread_imap(function, items, *, workers=2):
     # BLAS threads (the limit is the process's), which cost the stitching's
     # solves four times their time.
     with one_blas_thread(), ThreadPoolExecutor(max_workers=workers) as pool:
-        jobs = [pool.submit(function, x) for x in items]
+        call = _gated(function, cores)
+        jobs = [pool.submit(call, x) for x in items]
         try:
             for job in jobs:
                 yield job.result()

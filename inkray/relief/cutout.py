@@ -12,7 +12,10 @@ into a stack of RGBA layers:
   inward by a harmonic fill (the membrane interpolant of the part's paper
   next to the hidden part: ink, however thick or soft, left out of the
   boundary values), with its outline continued along the completed
-  silhouette in the drawing's ink colour and stroke width;
+  silhouette in the colour and width of the part's own outline strokes,
+  measured at the scale of the drawing's strokes; the stubs of a part's
+  strokes that the segmentation left in the part over it (cut short of that
+  part's outline) belong to the part whose strokes they are;
 - the layers are stacked back to front by the depth order; a region behind
   none comes first;
 - local order that no single stack can hold (two interlocking rings: A over
@@ -32,13 +35,14 @@ from inkray.errors import InputError, Notice
 from inkray.numerics.grid import grid_laplacian
 from inkray.numerics.order_graph import OrderGraph
 from inkray.numerics.spd import MinQuadWithFixed
-from inkray.relief.silhouette import grow_over_ink, pad_ink_edge
+from inkray.relief.silhouette import INK_LEVEL, grow_over_ink, pad_ink_edge
 
 __all__ = ["CutoutLayer", "Cutout", "Split", "cut_out", "stack_order", "stroke_style"]
 
 _INK_CONTRAST = 0.15  # ink: this much darker than the closing of the grey image (its surroundings)
 _STROKE_MAX = 8       # px: the widest stroke the ink detection and the outline assume
 _WIDE_STROKE_MAX = 4 * _STROKE_MAX  # px: the widest stroke a continued outline takes
+_PEN_SPREAD = 1.5  # the closing that finds a part's strokes, in their median widths
 _REGULARIZE = 1e-6  # pull toward the region's mean colour: fills parts no visible colour reaches
 _SOFT_EDGE = 0.75   # grey level up to which a stroke's soft edge belongs to its part's contour
 _RIM_STEPS = 64  # at most this many pixels from the paper into a layer's rim
@@ -387,6 +391,12 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     splits = [Split(r.front, r.back, names[r.front], names[r.back],
                   tuple(float(v) for v in r.where), r.place) for r in reversed(once.values())]
     strokes = _Strokes(rgb, gray)
+    # A part's stroke that runs up to the outline of a part over it belongs to it to its end:
+    # the segmentation may cut it off short of that outline.
+    labels = _stubs_given(labels, strokes.pen)
+    moved = labels != completion.labels
+    rank = {region: k for k, region in enumerate(order)}
+    depth_rank = np.array([rank[r] for r in range(completion.count)] + [-1])  # -1: paper
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
     air = labels < 0
@@ -405,6 +415,11 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     shapes = {}
     for region in order:
         shape = completion.completed(region)
+        if moved.any():
+            # A stub given to a part behind lies beyond this part's outline; one given to a
+            # part in front lies over this part, which continues under it.
+            behind = moved & (completion.labels == region) & (depth_rank[labels] < rank[region])
+            shape = (shape & ~behind) | (moved & (labels == region))
         if not shape.any():
             continue
         grown = shape
@@ -412,7 +427,8 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
             grown = shape | (ndimage.binary_dilation(shape, iterations=int(pad)) & covers[region])
         shapes[region] = _layer(names[region], region, labels == region, shape, grown, strokes,
                                 air=air, under=covers[region],
-                                fringe=fringe & (silhouette == region))
+                                fringe=fringe & (silhouette == region),
+                                stubs=moved & (labels == region))
     cuts = [(s, _piece(completion, shapes[s.region], s)) for s in splits
             if split_local and s.region in shapes]
     for region in (r for r in order if r in shapes):
@@ -462,39 +478,172 @@ class _Strokes:
 
     def style(self, hidden, own, label):
         """Colour and width of the part's strokes (``own``: its pixels, (H, W)) where its
-        outline enters its ``hidden`` area ((H, W)): within 32 px of it, not at the junctions
-        (within 8 px), where the occluder's outline meets them.
+        outline enters its ``hidden`` area ((H, W)): within four stroke scales
+        (:attr:`scale`) of it, not at the junctions (within one), where the occluder's
+        outline meets them, and within a stroke scale of the part's edge: its outline's
+        strokes, not hatching or shading inside it.
 
-        A stroke wider than the closing that finds ink is measured at a wider scale, and
-        only its ink on the part's ``label`` counts: the continued outline lies inside the
-        completed shape, which ends at the label's edge, however far the stroke reaches
-        beyond it.
+        The strokes are found by a closing half as wide again as their median width
+        (:func:`_pen_width`) there, so that a drawing upscaled twice has its strokes
+        measured alike, and only their ink on the part's ``label`` counts: the continued
+        outline lies inside the completed shape, which ends at the label's edge, however
+        far the stroke reaches beyond it. Where that closing is the least one (8 px), a
+        stroke wider than it finds is measured at a scale four times as wide. The width is
+        at least the strokes' median width on the label: the skeleton of a mottled stroke
+        (a dry brush, hatching run into the outline) loops round its light holes, longer
+        than the stroke, and the ink over that length falls short.
         """
+        scale = self.scale
         rows, cols = np.flatnonzero(hidden.any(axis=1)), np.flatnonzero(hidden.any(axis=0))
-        m = 5 * _STROKE_MAX
+        m = 5 * scale
         big = (slice(max(rows[0] - m, 0), rows[-1] + m + 1),
                slice(max(cols[0] - m, 0), cols[-1] + m + 1))
         near = hidden[big]
-        reach = ndimage.binary_dilation(near, iterations=4 * _STROKE_MAX) & own[big] & \
-            ~ndimage.binary_dilation(near, iterations=_STROKE_MAX)
+        zone = ndimage.binary_dilation(near, iterations=4 * scale) & own[big] & \
+            ~ndimage.binary_dilation(near, iterations=scale)
+        depth = _depth(own[big] | near)
         rgb, gray = self.rgb[big], self.gray[big]
-        wide_ink, wide_skeleton = self.wide
-        if _wider(gray, self.ink[big], self.skeleton[big], wide_skeleton[big], reach,
-                  core=_INK_CONTRAST if self.core is None else self.core):
-            return _measure(rgb, gray, wide_ink[big], wide_skeleton[big], reach,
-                            size=_WIDE_STROKE_MAX, inside=label[big])
-        return _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
+        # The closing must find the part's strokes whole (those along the paper reach
+        # beyond its label); the continued outline is as wide as their ink on the label.
+        contour = zone & (depth <= scale)
+        whole = _pen_width(gray, contour, own[big], margin=2 * scale)
+        size = scale if whole is None else max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * whole)))
+        pen = _pen_width(gray, contour, label[big], margin=2 * scale)
+        reach = zone & (depth <= size)
+        if size > _STROKE_MAX:
+            ink, skeleton = self._around(big, size)
+            colour, width = _measure(rgb, gray, ink, skeleton, reach, size=size,
+                                     inside=label[big])
+        elif _wider(gray, self.ink[big], self.skeleton[big], self.wide[1][big], reach,
+                    core=_INK_CONTRAST if self.core is None else self.core):
+            colour, width = _measure(rgb, gray, self.wide[0][big], self.wide[1][big], reach,
+                                     size=_WIDE_STROKE_MAX, inside=label[big])
+        else:
+            colour, width = _measure(rgb, gray, self.ink[big], self.skeleton[big], reach)
+        return colour, width if pen is None else max(width, pen)
+
+    def _around(self, window, size):
+        """The ink and its skeleton at ``size`` in ``window``: found on the window grown by
+        the closing, so that the window's edge does not change them."""
+        h, w = self.gray.shape
+        grow = size + 1
+        outer = tuple(slice(max(s.start - grow, 0), min(s.stop + grow, n))
+                      for s, n in zip(window, (h, w)))
+        inner = tuple(slice(s.start - o.start, s.stop - o.start) for s, o in zip(window, outer))
+        return tuple(a[inner] for a in _strokes(self.gray[outer], size=size))
+
+    @cached_property
+    def pen(self):
+        """The ink darker than mid grey, its depth (px to its edge) and its skeleton."""
+        from skimage.morphology import skeletonize
+
+        ink = self.gray < INK_LEVEL
+        return ink, ndimage.distance_transform_edt(ink), skeletonize(ink)
+
+    @cached_property
+    def scale(self):
+        """The drawing's stroke scale (px): half as wide again as its strokes' median width
+        (twice the depth of :attr:`pen` along its skeleton), at least 8."""
+        _, depth, skeleton = self.pen
+        if skeleton.sum() < 8:
+            return _STROKE_MAX
+        pen = 2.0 * float(np.median(depth[skeleton]))
+        return max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * pen)))
 
     @cached_property
     def wide(self):
-        """The ink and its skeleton of strokes up to four times as wide (thick strokes whose
-        middles the closing of the stroke width leaves out), found once when needed."""
+        """The ink and its skeleton of strokes up to four times as wide as the closing of
+        8 px finds (thick strokes whose middles it leaves out), found once when needed."""
         return _strokes(self.gray, size=_WIDE_STROKE_MAX)
 
 
+def _stubs_given(labels, pen):
+    """``labels`` with the stubs of strokes given to the part whose strokes they are.
+
+    Where a part's strokes meet the outline of another part (a leg's outline
+    running up to the body's), the segmentation may cut them short of it,
+    leaving their last stretch in the other part's label: a stub of ink beyond
+    that part's own outline stroke, which its layer would carry as dark specks
+    with straight cut ends. Such ink (darker than mid grey, farther from the
+    part's paper than its strokes are wide there and than their median width,
+    and a pixel) whose connected piece touches the stroke's own part (its ink)
+    goes to that part; the outline stroke and the corners where the strokes
+    join it stay. ``pen``: the ink, its depth and its skeleton
+    (:attr:`_Strokes.pen`).
+    """
+    ink, depth, skeleton = pen
+    out = labels.copy()
+    parts = labels >= 0
+    for region in np.unique(labels[parts]):
+        mine = labels == region
+        rows, cols = np.flatnonzero(mine.any(axis=1)), np.flatnonzero(mine.any(axis=0))
+        win = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+        m, k = mine[win], ink[win]
+        paper = m & ~k
+        along = skeleton[win] & m & k
+        if not paper.any() or along.sum() < 8:
+            continue
+        width = 2.0 * float(np.median(depth[win][along]))
+        away = ndimage.distance_transform_edt(~paper)
+        # Beyond the part's strokes as wide as they are there (at the nearest skeleton
+        # pixel) and as their median.
+        _, (iy, ix) = ndimage.distance_transform_edt(~along, return_indices=True)
+        beyond = m & k & (away > np.maximum(2.0 * depth[win][iy, ix], width) + 1)
+        if not beyond.any():
+            continue
+        pieces, _ = ndimage.label(beyond, structure=np.ones((3, 3), bool))
+        lab = labels[win]
+        # The other parts' ink 4-touching each piece.
+        touch = np.zeros_like(pieces)
+        padded = np.pad(pieces, 1)
+        h, w = pieces.shape
+        for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            beside = padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+            edge = (beside > 0) & (lab >= 0) & (lab != region) & k
+            touch = np.where(edge & (touch == 0), beside, touch)
+        for piece in np.unique(touch[touch > 0]):
+            contact = touch == piece
+            owners = np.unique(lab[contact])
+            # A stroke cut across (the contact no longer than twice its width, not two
+            # outlines run together along a seam), sticking out beyond the outline by about
+            # a stroke's width (not the part's own stroke a little wider than the median,
+            # nor a protrusion of its own).
+            stick = away[pieces == piece].max() - width
+            if len(owners) == 1 and contact.sum() <= 2 * width and \
+                    width / 2 + 1 < stick <= 1.5 * width:
+                out[win][pieces == piece] = owners[0]
+    return out
+
+
+def _pen_width(gray, where, inside, *, margin):
+    """The median width (px) of the ink (darker than mid grey) ``inside`` along its skeleton
+    in ``where``: twice the distance to its edge, which scales with the drawing. Found
+    within ``margin`` px of ``where``; None where the skeleton has fewer than 8 pixels."""
+    from skimage.morphology import skeletonize
+
+    rows, cols = np.flatnonzero(where.any(axis=1)), np.flatnonzero(where.any(axis=0))
+    if not rows.size:
+        return None
+    box = (slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+           slice(max(cols[0] - margin, 0), cols[-1] + margin + 1))
+    ink = (gray[box] < INK_LEVEL) & inside[box]
+    skeleton = skeletonize(ink) & where[box]
+    if skeleton.sum() < 8:
+        return None
+    return 2.0 * float(np.median(ndimage.distance_transform_edt(ink)[skeleton]))
+
+
+def _depth(mask):
+    """Distance (px) from each pixel of ``mask`` to its edge (the array's edge not one)."""
+    return ndimage.distance_transform_edt(np.pad(mask, 1, mode="edge"))[1:-1, 1:-1]
+
+
 def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None, fringe=None,
-           outline=True):
+           outline=True, stubs=None):
     """One layer: drawing pixels where visible, fill (and outline) elsewhere in ``grown``.
+
+    ``stubs`` are visible pixels given to the part from another's label (its strokes'
+    stubs): ink, they give the fill no colour.
 
     Its alpha is the drawing's own soft edge where the layer ends at a drawn
     outline (the ink's coverage beyond the stroke's darkest line) and an
@@ -517,8 +666,9 @@ def _layer(name, region, visible, shape, grown, strokes, *, air=None, under=None
     hidden = grw & ~vis
     out = np.where((vis | frg)[..., None], colours, 0.0)
     if hidden.any():
+        known = vis if stubs is None else vis & ~stubs[win]
         out = np.where(hidden[..., None], _fill(colours, strokes.gray[win], strokes.inky[win],
-                                                vis, shp & ~vis, hidden, strokes.width), out)
+                                                known, shp & ~vis, hidden, strokes.width), out)
     if not outline:
         alpha = grw.astype(np.float64)
     else:

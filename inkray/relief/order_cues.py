@@ -40,8 +40,8 @@ from scipy import ndimage
 from inkray.errors import InputError
 from inkray.numerics.polyline import point_polyline_distance
 
-__all__ = ["CUES", "FEATURES", "contact_continuation", "contact_spur", "order_cues",
-           "outline_lengths", "place_features", "region_stats"]
+__all__ = ["CUES", "FEATURES", "contact_continuation", "contact_runon", "contact_spur",
+           "order_cues", "outline_lengths", "place_features", "region_stats"]
 
 #: Names of the cues :func:`order_cues` returns, in order.
 CUES = ("junction", "area", "surround", "continuation")
@@ -191,10 +191,19 @@ def contact_continuation(labels, place, *, ink, seams=(), continuation_widths=6.
     """
     if ink.width <= 0:
         return 0.0
-    values = [_continuation(np.asarray(labels), place.a, place.b, np.asarray(j, float),
-                            continuation_widths * ink.width)
-              for j in _free_junctions(place, seams, seam_distance)]
-    values = [v for v in values if v is not None]
+    return _mean_continuation(_along(labels, place, continuation_widths * ink.width, seams,
+                                     seam_distance))
+
+
+def _along(labels, place, radius, seams, seam_distance):
+    """``[(junction, value)]``: :func:`_continuation` at each junction of the place away
+    from the seams (None where there is too little outline)."""
+    return [(j, _continuation(np.asarray(labels), place.a, place.b, np.asarray(j, float), radius))
+            for j in _free_junctions(place, seams, seam_distance)]
+
+
+def _mean_continuation(along):
+    values = [v for _, v in along if v is not None]
     return float(np.mean(values)) if values else 0.0
 
 
@@ -251,6 +260,122 @@ def contact_spur(labels, place, *, ink, seams=(), seam_distance=6.0):
     values = [_spur(labels, mask, place.a, place.b, np.asarray(j, float), ink.width)
               for j in _free_junctions(place, seams, seam_distance)]
     return float(np.mean(values)) if values else 0.0
+
+
+def contact_runon(completion, place, *, ink, seams=(), continuation_widths=6.0,
+                  seam_distance=6.0, outlines=None):
+    """Whose line runs on at the contact: the part's, or a third part's in front of it.
+
+    At a junction of the place with a third part ``z``, the outline of the part
+    ``x`` that runs on past the junction (the bar of a T, read as by
+    :func:`contact_continuation`) goes on as its contact with ``z``. When ``z``
+    is in front of ``x`` (``z``'s outline owns their contact at its other
+    junctions) and the place's other part ``y`` lies on ``z`` (much of ``y``'s
+    outline runs along ``z``), the line is ``z``'s silhouette and ``y``, drawn
+    on ``z`` up to it, is in front of ``x``: a forelock on a head, ending on its
+    outline where an ear behind the head meets it. The value at a junction is
+    ``|c| q s``, ``c`` the continuation there, ``q`` how much ``z`` owns its
+    contact with ``x`` elsewhere (0 when ``x`` owns it) and ``s`` the share of
+    ``y``'s outline on its contact with ``z``, signed for ``y`` in front;
+    averaged over the junctions with a third part.
+
+    Parameters
+    ----------
+    completion : inkray.relief.completion.Completion
+    place : inkray.relief.completion.Place
+    ink : inkray.relief.ink_style.InkStyle
+        The drawing's stroke width.
+    seams, continuation_widths, seam_distance
+        As for :func:`contact_continuation`.
+    outlines : (R,) array, optional
+        :func:`outline_lengths` of ``completion.labels`` (computed when needed).
+
+    Returns
+    -------
+    float
+        In [-1, 1], positive when ``place.a`` is in front; 0 without a junction
+        with a third part, or without ink.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from inkray.relief.completion import complete_regions
+    >>> from inkray.relief.ink_style import InkStyle
+    >>> labels = np.full((90, 100), -1)
+    >>> labels[5:50, 30:70] = 0                     # an ear behind ...
+    >>> labels[30:85, 10:90] = 1                    # ... a head, with ...
+    >>> labels[30:50, 10:50] = 2                    # ... a cap on it, up to its outline
+    >>> c = complete_regions(labels)
+    >>> ear_cap = next(p for p in c.places if (p.a, p.b) == (0, 2))
+    >>> contact_runon(c, ear_cap, ink=InkStyle(width=2.0, stroke_ends=0.0)) < 0   # the cap (b)
+    True
+    """
+    if ink.width <= 0:
+        return 0.0
+    radius = continuation_widths * ink.width
+    return _runon(completion, place, _along(completion.labels, place, radius, seams,
+                                            seam_distance),
+                  radius=radius, seams=seams, seam_distance=seam_distance, outlines=outlines)
+
+
+def _runon(completion, place, along, *, radius, seams, seam_distance, outlines):
+    """:func:`contact_runon` from the continuations ``along`` the place's junctions."""
+    labels = np.asarray(completion.labels)
+    values, lies = [], {}  # lies[x, z]: q s, how much y lies on z in front of x
+    for j, c in along:
+        j = np.asarray(j, float)
+        third = _third_part(labels, place.a, place.b, j)
+        if third is None or not c:
+            continue
+        # The part whose outline runs on, and how much the third part owns their contact.
+        x, y, sign = (place.a, place.b, -1.0) if c > 0 else (place.b, place.a, 1.0)
+        if (x, third) not in lies:  # several junctions of a place often meet the same part
+            share = _shared(completion, labels, y, third)
+            owned = (_owned_elsewhere(completion, labels, x, third, y, radius, seams,
+                                      seam_distance) if share else 0.0)
+            if owned > 0 and outlines is None:
+                outlines = outline_lengths(labels)
+            lies[x, third] = owned * share / max(int(outlines[y]), 1) if owned > 0 else 0.0
+        values.append(sign * abs(c) * lies[x, third])
+    return float(np.mean(values)) if values else 0.0
+
+
+def _shared(completion, labels, y, z):
+    """Outline pixels of ``y`` on its contact with ``z``, over all their places."""
+    count = 0
+    for p in completion.places:
+        if (p.a, p.b) == (min(y, z), max(y, z)):
+            y0, y1, x0, x1 = p.box
+            count += int((p.contact & (labels[y0:y1, x0:x1] == y)).sum())
+    return count
+
+
+def _third_part(labels, a, b, point):
+    """The region other than ``a`` and ``b`` (not the background) most present within 3
+    pixels of a junction ``point``; None when there is none."""
+    h, w = labels.shape
+    x, y = int(round(point[0])), int(round(point[1]))
+    crop = labels[max(y - 3, 0):y + 4, max(x - 3, 0):x + 4].ravel()
+    crop = crop[(crop >= 0) & (crop != a) & (crop != b)]
+    return int(np.bincount(crop).argmax()) if len(crop) else None
+
+
+def _owned_elsewhere(completion, labels, x, z, y, radius, seams, seam_distance):
+    """How much ``z``'s outline owns its contact with ``x`` (in [0, 1]) at the junctions of
+    their places away from ``y``; 0 where ``x``'s does or none is."""
+    pair = (min(x, z), max(x, z))
+    values = []
+    for p in completion.places:
+        if (p.a, p.b) != pair:
+            continue
+        for j in _free_junctions(p, seams, seam_distance):
+            # Where ``y`` meets them too, the line is the one in question.
+            if _third_part(labels, x, z, j) == y:
+                continue
+            v = _continuation(labels, z, x, np.asarray(j, float), radius)
+            if v is not None:
+                values.append(v)
+    return max(float(np.mean(values)), 0.0) if values else 0.0
 
 
 def _spur(labels, mask, a, b, point, width):
@@ -428,7 +553,7 @@ def _touches(lab, a, b):
 FEATURES = ("junction", "area", "surround", "continuation", "continuation_raw", "clarity",
             "log_area", "share_x", "share_y", "enclosed_x", "enclosed_y", "log_thickness",
             "inside", "hidden_y", "hidden_x", "near_x", "near_y", "far_x", "far_y", "junctions",
-            "rise", "ink_spur")
+            "rise", "ink_spur", "runon")
 
 
 def place_features(completion, place, *, outlines=None, stats=None, seams=(), ink=None,
@@ -462,7 +587,10 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     - ``rise``: how far ``x``'s centre lies above ``y``'s, over the square
       root of their mean area;
     - ``ink_spur``: :func:`contact_spur` (signed for ``x`` in front), read in
-      the ink at the junctions: the part a line runs on into.
+      the ink at the junctions: the part a line runs on into;
+    - ``runon``: :func:`contact_runon` (signed for ``x`` in front): the line
+      running on at a junction is a third part's silhouette, in front of the
+      part it bounds.
 
     Parameters
     ----------
@@ -491,18 +619,23 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     >>> c = complete_regions(labels)
     >>> f = place_features(c, c.places[0])
     >>> f.shape, bool(f[0, FEATURES.index("log_area")] > 0)
-    ((2, 22), True)
+    ((2, 23), True)
     """
     a, b = place.a, place.b
     labels = completion.labels
     if outlines is None:
         outlines = outline_lengths(labels)
     areas, centres = region_stats(labels) if stats is None else stats
+    # The continuation at the junctions, read once for its cue and the run-on.
     cues = order_cues(completion, place, outlines=outlines, seams=seams,
-                      junction_radius=junction_radius, seam_distance=seam_distance, ink=ink,
-                      continuation_widths=continuation_widths, stroke_end_scale=stroke_end_scale)
+                      junction_radius=junction_radius, seam_distance=seam_distance)
     if cues is None:
         return None
+    along, radius = [], 0.0
+    if ink is not None and ink.width > 0:
+        radius = continuation_widths * ink.width
+        along = _along(labels, place, radius, seams, seam_distance)
+        cues["continuation"] = _mean_continuation(along) * ink.clarity(stroke_end_scale)
     clarity = ink.clarity(stroke_end_scale) if ink is not None else 0.0
     raw = cues["continuation"] / clarity if clarity > 0 else 0.0
     width = ink.width if ink is not None and ink.width > 0 else 2.0
@@ -524,15 +657,17 @@ def place_features(completion, place, *, outlines=None, stats=None, seams=(), in
     rise = (centres[b, 1] - centres[a, 1]) / np.sqrt((areas[a] + areas[b]) / 2.0 + 1.0)
     spur = (contact_spur(labels, place, ink=ink, seams=seams, seam_distance=seam_distance)
             if ink is not None else 0.0)
+    runon = _runon(completion, place, along, radius=radius, seams=seams,
+                   seam_distance=seam_distance, outlines=outlines)
     one = np.array([cues["junction"], cues["area"], cues["surround"], cues["continuation"], raw,
                     clarity, np.log((areas[a] + 1.0) / (areas[b] + 1.0)), share[0], share[1],
                     float(share[0] > 0.98), float(share[1] > 0.98),
                     np.log((thick[0] + 1.0) / (thick[1] + 1.0)), inside, hidden[0], hidden[1],
                     patch[0, 0], patch[0, 1], patch[1, 0], patch[1, 1],
-                    float(min(len(junctions), 4)), rise, spur])
+                    float(min(len(junctions), 4)), rise, spur, runon])
     other = one.copy()
     for k in ("junction", "area", "surround", "continuation", "continuation_raw", "log_area",
-              "log_thickness", "inside", "rise", "ink_spur"):
+              "log_thickness", "inside", "rise", "ink_spur", "runon"):
         other[FEATURES.index(k)] *= -1.0
     for u, v in (("share_x", "share_y"), ("enclosed_x", "enclosed_y"), ("hidden_y", "hidden_x"),
                  ("near_x", "near_y"), ("far_x", "far_y")):
