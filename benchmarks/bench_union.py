@@ -16,13 +16,20 @@ pixel and the remeshing change.
 Targets: <= 10 s at ~1 Mpx, >= 10 degrees, 1 shell, 0 self-intersecting
 faces, watertight and manifold.
 
+With ``--parts DIR`` the closed parts of each drawing and size are pickled
+into ``DIR`` once (``<name>-<size>.pkl``) and read from there afterwards, and
+``union_parts`` alone is timed on them: the same parts for code under
+comparison (the chain's stages change parts as main moves), in a fraction of
+the time.
+
 Usage::
 
-    python benchmarks/bench_union.py [--names turtle,frog] [--mpx 1.0] [--repeat 2]
+    python benchmarks/bench_union.py [--names turtle,frog] [--mpx 1.0] [--repeat 2] [--parts DIR]
 """
 
 import argparse
 import hashlib
+import pickle
 import sys
 import time
 from pathlib import Path
@@ -37,31 +44,45 @@ from relief_metrics import top_distance  # noqa: E402
 
 from inkray.chain import ReliefChain  # noqa: E402
 from inkray.formats.mesh_report import mesh_quality  # noqa: E402
-from inkray.relief.assembly import _envelope_solid, _volume, assemble  # noqa: E402
+from inkray.relief.assembly import _envelope_solid, _volume, assemble, union_parts  # noqa: E402
 
 TARGET_S = 10.0  # at ~1 Mpx
 
 
-def _row(name, megapixels, repeat):
+def _closed_parts(name, megapixels, folder):
+    """The drawing's size and closed parts, pickled in ``folder`` (when given) once."""
+    size = "own" if not megapixels else f"{megapixels:g}mpx"
+    path = folder / f"{name}-{size}.pkl" if folder else None
+    if path is not None and path.is_file():
+        with open(path, "rb") as handle:
+            return pickle.load(handle)
     ann, drawing = _input(name, megapixels)
     layers = ReliefChain(ann, drawing).layers
+    out = ann.size, assemble(layers, size=ann.size, closed=True).parts
+    if path is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as handle:
+            pickle.dump(out, handle)
+    return out
+
+
+def _row(name, megapixels, repeat, folder=None):
+    size, parts = _closed_parts(name, megapixels, folder)
     walls, cpus, digests = [], [], set()
     for _ in range(repeat):
         wall, cpu = time.perf_counter(), time.process_time()
-        relief = assemble(layers, size=ann.size, closed=True, union=True)
+        solid = union_parts(parts)
         walls.append(time.perf_counter() - wall)
         cpus.append(time.process_time() - cpu)
-        solid = relief.parts[0]
         digests.add(hashlib.sha256(np.ascontiguousarray(solid.vertices).tobytes()
                                    + np.ascontiguousarray(solid.faces).tobytes()).hexdigest())
-    parts = assemble(layers, size=ann.size, closed=True).parts
     q = mesh_quality(solid.vertices, solid.faces)
     closed = q["watertight"] and q["edge_manifold"] and q["vertex_manifold"]
     same = "-" if repeat == 1 else ("yes" if len(digests) == 1 else "NO")
     faces = sum(len(p.faces) for p in parts)
     envelope = _volume(*_envelope_solid(parts, 0.0, 0.0))
     met = "yes" if not megapixels or np.median(cpus) <= TARGET_S else "NO"
-    print(f"| {name} | {ann.size[0]}x{ann.size[1]} | {np.median(walls):.1f} | {np.median(cpus):.1f} "
+    print(f"| {name} | {size[0]}x{size[1]} | {np.median(walls):.1f} | {np.median(cpus):.1f} "
           f"| {met} | {len(solid.faces)} | {faces} | {len(solid.faces) / faces:.2f} "
           f"| {'yes' if closed else 'NO'} | {q['shells']} | {q['min_angle_deg']:.1f} "
           f"| {q['self_intersecting_faces']} | {top_distance(solid, parts):.2f} "
@@ -75,6 +96,8 @@ def main(argv=None):
                         help="also upscaled to this many Mpx (default 1; 0: own size only)")
     parser.add_argument("--repeat", type=int, default=1,
                         help="unions per drawing (medians); more than one also checks the bytes repeat")
+    parser.add_argument("--parts", type=Path,
+                        help="folder of pickled closed parts (made on the first run)")
     args = parser.parse_args(argv)
     names = args.names.split(",") if args.names else sorted(
         p.name for p in (ROOT / "examples").iterdir() if (p / "drawing.inkray.json").is_file())
@@ -84,7 +107,7 @@ def main(argv=None):
     print("| --- " * 15 + "|")
     for megapixels in [0.0] + ([args.mpx] if args.mpx else []):
         for name in names:
-            _row(name, megapixels, args.repeat)
+            _row(name, megapixels, args.repeat, args.parts)
 
 
 if __name__ == "__main__":

@@ -462,6 +462,56 @@ def test_distance_within_reach_is_the_full_transform_there():
     assert np.array_equal(near[full <= 4.0], full[full <= 4.0]) and (near[full > 4.0] > 4.0).all()
 
 
+def _two_disks_under_a_bar():
+    """Two disks side by side whose outlines meet under a bar in front of both."""
+    yy, xx = np.mgrid[:120, :160]
+    left = (xx - 52.0) ** 2 + (yy - 60.0) ** 2 <= 32 ** 2
+    right = (xx - 108.0) ** 2 + (yy - 60.0) ** 2 <= 32 ** 2
+    bar = (xx >= 66) & (xx < 94) & (yy >= 5) & (yy < 115)
+    labels = np.full(bar.shape, -1, np.int32)
+    labels[left], labels[right], labels[bar] = 0, 1, 2
+    return labels, left, right, bar
+
+
+def _user_orders(c, pairs):
+    """A user's order relation per (front, back): at their place, else at none (apart)."""
+    out = []
+    for front, back in pairs:
+        places = [p for p in c.places if {p.a, p.b} == {front, back}] or [None]
+        for p in places:
+            out.append(Relation(front, back, c.names[front], c.names[back],
+                                (0.0, 0.0) if p is None else p.where, "user", 1.0,
+                                place=None if p is None else p.index))
+    return out
+
+
+@pytest.mark.parametrize("front", [0, 1])
+def test_two_parts_hidden_side_by_side_both_continue_under_the_other(front):
+    from inkray.relief.cutout import stack_order
+
+    labels, left, right, bar = _two_disks_under_a_bar()
+    c = complete_regions(labels, names=["left", "right", "bar"])
+    back = 1 - front
+    relations = _user_orders(c, [(2, 0), (2, 1), (front, back)])
+    o = c.ordered(relations)
+    # The diffusion gives each pixel under the bar to one disk; their circles continued
+    # overlap in a lens, kept by both: the one in front of the other in owner, the other
+    # beneath it.
+    assert (o.beneath == back).sum() > 100 and not (o.beneath == front).any()
+    under = o.beneath >= 0
+    assert (o.owner[under] == front).all() and (labels[under] == 2).all()
+    order, _ = stack_order(c.count, relations)
+    assert order.index(front) > order.index(back)
+    # Each disk is completed whole under the bar, where the owner alone leaves one short.
+    for region, disk in ((0, left), (1, right)):
+        assert (o.completed(region) & disk & bar).sum() >= 0.99 * (disk & bar).sum()
+    shorter = (o.owner == back) | (labels == back)
+    truth = (left, right)[back]
+    assert (shorter & truth & bar).sum() < 0.8 * (truth & bar).sum()
+    # without the curvature there is no continuation, and no second layer
+    assert not (c.ordered(relations, curvature=False).beneath >= 0).any()
+
+
 def test_large_single_right_hand_sides_by_multigrid_match_the_factorization(monkeypatch):
     import inkray.relief.completion as completion
 

@@ -448,3 +448,30 @@ def test_between_the_stations_the_solved_seam_rests_on_the_base(monkeypatch):
                         mesh.station_vertices(index))
     layers, (join,) = _open_layers()
     assert _seam_gap(layers, join).max() > 1.0
+
+
+def test_a_second_hidden_layer_stays_below_both_parts_over_it():
+    # Two disks side by side behind a bar, the right one in front of the left: the left
+    # disk's circle continued under the bar reaches under the right one's hidden part, its
+    # second layer there, which must lie below that part and below the bar (the place of
+    # the disks' own order lies elsewhere: no row of it speaks there).
+    from test_completion import _two_disks_under_a_bar, _user_orders
+
+    labels, *_ = _two_disks_under_a_bar()
+    names = ["left", "right", "bar"]
+    c = complete_regions(labels, names=names)
+    relations = _user_orders(c, [(2, 0), (2, 1), (1, 0)])
+    c = c.ordered(relations)
+    beneath = c.beneath == 0
+    assert beneath.sum() > 100
+    inflated = [inflate_region(c.completed(i), visible=c.visible(i), labels=labels, region=i,
+                               name=n, options=MeshOptions(max_area=30.0))
+                for i, n in enumerate(names)]
+    layers = stitch(inflated, relations, c)
+    ys, xs = np.nonzero(beneath)
+    pts = np.column_stack([xs, ys]).astype(float)
+    z = [height_at(r.mesh.vertices, r.mesh.faces, layers.z(i), pts) for i, r in enumerate(inflated)]
+    inside = (z[0][1] < 1e-9) & (z[1][1] < 1e-9) & (z[2][1] < 1e-9)
+    assert inside.sum() > 0.9 * len(pts)
+    for over in (1, 2):
+        assert (z[over][0] - z[0][0])[inside].min() >= layers.epsilon - 1e-6

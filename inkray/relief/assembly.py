@@ -36,7 +36,8 @@ from inkray.numerics.arap import signed_areas
 from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
-from inkray.relief.patches import bad_faces, repair_patches
+from inkray.numerics.tri_intersection import self_intersecting_faces
+from inkray.relief.patches import bad_faces, ladders, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE", "SKIRT", "SNAP"]
@@ -46,6 +47,7 @@ MIN_ANGLE = 10.0
 _RINGS = 2  # rings of faces remeshed around each sliver (see remesh_solid)
 _ROUNDS = 3  # of remeshing, two more rings each, while faces are left bad
 _ITERATIONS = 4  # of that remeshing
+_FEW = 32  # bad faces left by the rounds that are worked on one by one (see remesh_solid)
 #: How far (pixels) each part's front and back reach beyond its outline in the union:
 #: two parts' outlines less than twice this apart leave no slot between their fronts.
 SKIRT = 0.3
@@ -740,9 +742,15 @@ def remesh_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RINGS,
     bad faces is kept, and where it leaves some, every vertex of a face that
     crosses another is moved to the centroid of its neighbours (or halfway)
     where that leaves fewer crossings and no angle below ``min_angle``
-    (``_untangle``), and the patches are repaired once more. A step whose
-    result is not watertight and edge-manifold (or puts two vertices at one
-    position) is skipped.
+    (``_untangle``), and the patches are repaired once more. Where at most
+    32 faces are still bad (a column or groove under a pixel across, where
+    outlines nearly meet), its walls are cut into ladders
+    (:func:`~inkray.relief.patches.ladders`), and each face still bad has any
+    of its edges flipped, a corner moved toward its neighbours, or its
+    shortest edge collapsed, within a 60 degree turn and only where no more
+    faces nearby cross another; the patches are repaired once more. A step
+    whose result is not watertight and edge-manifold (or puts two vertices
+    at one position) is skipped.
 
     Parameters
     ----------
@@ -798,10 +806,20 @@ def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RING
     if count:
         # vertices of faces folded through others moved one at a time: slow, so only
         # around the few faces the rounds leave
-        w, g, bad = _repair(v, f, target=target, min_angle=min_angle,
-                            near=_near_faces(v, f, bad), untangle=True)
-        if bad.sum() < count:
-            v, f, count = w, g, int(bad.sum())
+        w, g, left = _repair(v, f, target=target, min_angle=min_angle,
+                             near=_near_faces(v, f, bad), untangle=True)
+        if left.sum() < count:
+            v, f, bad, count = w, g, left, int(left.sum())
+    if 0 < count <= _FEW:
+        # a column or a groove under a pixel across, where outlines nearly meet: its walls
+        # cut into ladders, the faces at its ends flipped or moved harder
+        w, g = ladders(v, f, bad=bad, min_angle=min_angle)
+        w, g = _SliverFix(w, g).polish(min_angle)
+        if _closed_manifold(g) and _twins(w) <= _twins(v):
+            w, g, left = _repair(w, g, target=target, min_angle=min_angle,
+                                 near=_suspects(v, f, bad, w, g))
+            if left.sum() < count:
+                v, f, count = w, g, int(left.sum())
     return v, f, count
 
 
@@ -913,7 +931,6 @@ def _left_bad(solid):
     """A warning when the solid keeps slivers or faces crossing others (where three
     parts' outlines meet within a pixel the booleans leave a column the remeshing
     cannot shape): a printer's slicer may have to repair it."""
-    from inkray.numerics.tri_intersection import self_intersecting_faces
 
     v, f = np.asarray(solid.vertices, float), np.asarray(solid.faces, np.int64)
     thin = _min_angles(v, f) < MIN_ANGLE
@@ -985,7 +1002,6 @@ def _untangle(vertices, faces, *, min_angle, near, rounds=3):
     positions change, so the mesh stays as closed and manifold as it was.
     Returns the vertices and which faces still cross another.
     """
-    from inkray.numerics.tri_intersection import self_intersecting_faces
 
     v = np.array(vertices, float)
     f = np.asarray(faces, np.int64)
@@ -1065,6 +1081,88 @@ class _SliverFix:
         used, faces = np.unique(self.f[self.alive], return_inverse=True)
         return self.v[used], faces.reshape(-1, 3).astype(np.int64)
 
+    def polish(self, min_angle):
+        """Vertices and faces with the faces still bad changed harder: any of a bad face's
+        edges flipped (its neighbour's normal and the new faces' within 60 degrees of its
+        own), else one of its corners moved to the centroid of its neighbours or halfway
+        there (its faces turned by at most 60 degrees), where that raises the smallest
+        angle around. For the few faces the rounds leave (the foot and the top of a
+        column, where faces meet at a crease the remeshing keeps)."""
+        self._min = min_angle
+        for _ in range(self._ROUNDS):
+            live = np.flatnonzero(self.alive)
+            changed = False
+            for t in live[_min_angles(self.v, self.f[live]) < min_angle].tolist():
+                if self.alive[t] and self._angle(t) < min_angle:
+                    changed |= self._uncrossed(
+                        t, lambda: self._flip(t, turn=self._WIDE, any_edge=True))
+                    changed |= self._uncrossed(t, lambda: self._relax(t))
+                    changed |= self._uncrossed(t, lambda: self._collapse(t) or self._split(t))
+            if not changed:
+                break
+        used, faces = np.unique(self.f[self.alive], return_inverse=True)
+        return self.v[used], faces.reshape(-1, 3).astype(np.int64)
+
+    _WIDE = 0.5  # cos 60 degrees: the turn polish allows
+
+    def _uncrossed(self, t, change):
+        """``change()`` (a flip or a move around face ``t``), undone where it leaves more
+        faces near it crossing another (in double precision or once stored as float32)
+        than before: a column's walls under a pixel apart are easily pushed through."""
+        if not self.alive[t] or self._angle(t) >= self._min:
+            return False
+        live = np.flatnonzero(self.alive)
+        corners = self.f[t]
+        reach = 2.0 * max(np.ptp(self.v[corners], axis=0).max(), self._short)
+        lo, hi = self.v[corners].min(axis=0) - reach, self.v[corners].max(axis=0) + reach
+        box = self.v[self.f[live]]
+        near = live[((box.min(axis=1) <= hi) & (box.max(axis=1) >= lo)).all(axis=1)]
+        # what a change around t may touch: the faces around its corners' neighbours
+        ring = self._ring(set().union(*(self._faces(int(x)) for x in corners)))
+        faces = sorted(set().union(*(self._faces(x) for x in ring)))
+        ring = sorted(self._ring(faces))
+        sizes = len(self.v), len(self.f)
+        v, f, alive = self.v[ring].copy(), self.f[faces].copy(), self.alive[faces].copy()
+        around = {x: set(self._faces(x)) for x in ring}
+
+        def crossing():
+            k = np.r_[near, np.arange(sizes[1], len(self.f))]  # (and the faces a split adds)
+            used, g = np.unique(self.f[k[self.alive[k]]], return_inverse=True)
+            w, g = self.v[used], g.reshape(-1, 3)
+            return (int(self_intersecting_faces(w, g).sum()),
+                    int(bad_faces(w, g, min_angle=0.0).sum()))
+
+        before = crossing()
+        if not change():
+            return False
+        after = crossing()
+        if after[0] <= before[0] and after[1] <= before[1]:
+            return True
+        self.v, self.f, self.alive = self.v[:sizes[0]], self.f[:sizes[1]], self.alive[:sizes[1]]
+        self.v[ring], self.f[faces], self.alive[faces] = v, f, alive
+        for x in list(self._around):
+            if x >= sizes[0]:
+                del self._around[x]
+        self._around.update(around)
+        return False
+
+    def _relax(self, t):
+        tri = self.f[t].tolist()
+        for x in tri:
+            around = sorted(self._faces(x))
+            ring = self._ring(around) - {x}
+            here = self.v[x].copy()
+            before = _normal(self.v[self.f[around]])
+            worst = min(self._angle(g) for g in around)
+            centroid = self.v[sorted(ring)].mean(axis=0)
+            for p in (centroid, 0.5 * (here + centroid)):
+                self.v[x] = p
+                turned = np.einsum("ij,ij->i", _normal(self.v[self.f[around]]), before)
+                if (turned >= self._WIDE).all() and _min_angles(self.v, self.f[around]).min() > worst:
+                    return True
+                self.v[x] = here
+        return False
+
     def _faces(self, x):
         """The live faces around vertex ``x`` (a set, updated in place)."""
         if x not in self._around:
@@ -1085,6 +1183,13 @@ class _SliverFix:
         i = int(np.argmax(lengths) if longest else np.argmin(lengths))
         return int(tri[i]), int(tri[(i + 1) % 3]), int(tri[(i + 2) % 3])
 
+    def _edges(self, t):
+        """Corners ``a, b, c`` of face ``t`` for each of its edges ``a -> b``, longest first."""
+        tri = self.f[t].tolist()
+        p = self.v[tri]
+        lengths = np.linalg.norm(p - np.roll(p, -1, axis=0), axis=1)
+        return [(tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]) for i in np.argsort(-lengths).tolist()]
+
     def _across(self, t, a, b):
         """The other face on edge ``a b`` of ``t`` and its corner off the edge."""
         other = self._faces(a) & self._faces(b) - {t}
@@ -1093,16 +1198,17 @@ class _SliverFix:
         u = other.pop()
         return u, int(next(x for x in self.f[u] if x != a and x != b))
 
-    def _flip(self, t):
-        a, b, c = self._edge(t, longest=True)
-        u, d = self._across(t, a, b)
-        if u is None or d == c or self._faces(c) & self._faces(d):
-            return False
-        n = _normal(self.v[self.f[t]])
-        new = np.array([[a, d, c], [d, b, c]])
-        if (_normal(self.v[self.f[u]]) @ n < self._TURN
-                or (_normal(self.v[new]) @ n < self._TURN).any()
-                or _min_angles(self.v, new).min() <= min(self._angle(t), self._angle(u))):
+    def _flip(self, t, turn=_TURN, any_edge=False):
+        for a, b, c in self._edges(t) if any_edge else [self._edge(t, longest=True)]:
+            u, d = self._across(t, a, b)
+            if u is None or d == c or self._faces(c) & self._faces(d):
+                continue
+            n = _normal(self.v[self.f[t]])
+            new = np.array([[a, d, c], [d, b, c]])
+            if (_normal(self.v[self.f[u]]) @ n >= turn and (_normal(self.v[new]) @ n >= turn).all()
+                    and _min_angles(self.v, new).min() > min(self._angle(t), self._angle(u))):
+                break
+        else:
             return False
         self.f[t], self.f[u] = new
         self._faces(b).discard(t)

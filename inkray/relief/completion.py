@@ -36,6 +36,7 @@ from inkray.errors import InputError, StageError
 from inkray.numerics.multigrid import multigrid_solve
 from inkray.numerics.spd import nested_dissection, spd_factor
 from inkray.numerics.threads import thread_imap, thread_map
+from inkray.relief.cutout import stack_order
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
            "check_labels", "GAP"]
@@ -132,6 +133,12 @@ class Completion:
         (4-neighbourhood), ascending.
     places : list of Place
         The overlap areas of all neighbouring pairs.
+    beneath : (H, W) int32 array or None
+        A second hidden layer under ``owner``: where the continued outline of
+        one of two regions hidden side by side under ``labels`` reaches under
+        the other's hidden part, the one lower in the layer stack, else ``-1``
+        (see :meth:`ordered`). At rest ``owner`` covers it; when ``owner``'s
+        part moves away in a pose, it shows. None before the order.
     """
 
     labels: np.ndarray
@@ -139,6 +146,7 @@ class Completion:
     owner: np.ndarray
     neighbours: list
     places: list
+    beneath: np.ndarray = None
 
     @property
     def count(self):
@@ -150,8 +158,11 @@ class Completion:
         return self.labels == region
 
     def completed(self, region):
-        """(H, W) bool mask of the completed region: visible ∪ invented."""
-        return (self.labels == region) | (self.owner == region)
+        """(H, W) bool mask of the completed region: visible ∪ invented (both hidden layers)."""
+        out = (self.labels == region) | (self.owner == region)
+        if self.beneath is not None:
+            out |= self.beneath == region
+        return out
 
     def hidden_by(self, region):
         """(H, W) int32 image: the region hiding each invented pixel of ``region``, else -1."""
@@ -184,8 +195,11 @@ class Completion:
         Returns
         -------
         Completion
-            A copy with ``owner`` reduced (and reshaped); ``places`` are
-            those of the candidates.
+            A copy with ``owner`` reduced (and reshaped) and, with
+            ``curvature``, ``beneath``: where the continued outline of one of
+            two parts hidden side by side under one occluder reaches under the
+            other, both parts keep the pixels, the one lower in the layer
+            stack as a second layer; ``places`` are those of the candidates.
 
         Examples
         --------
@@ -225,7 +239,65 @@ class Completion:
         if gap is None or gap > 0:
             close_gaps(self.labels, owner, {(front, back) for front, back, _, piece in kept
                                             if piece.any()}, width=gap)
-        return replace(self, owner=owner)
+        beneath = np.full(owner.shape, -1, np.int32)
+        if curvature:
+            continued = [(front, back, memo.get((front, back, p.index)))
+                         for front, back, p, piece in kept if piece.any()]
+            _second_layers(self.labels, owner, beneath, continued, relations, self.count)
+        return replace(self, owner=owner, beneath=beneath)
+
+
+def _second_layers(labels, owner, beneath, continued, relations, count):
+    """Keep a hidden part's continuation where it reaches under another part hidden beside it.
+
+    Under one occluder two hidden parts (a body and the tail behind an arm) meet where
+    the diffusion gives each pixel to one of them; the outline of each was continued
+    (:func:`continue_outline`) beyond that cut, under the other's part, but ``owner``
+    holds one region per pixel. Where a continuation reaches under the other part, both
+    are kept: the one higher in the layer stack (:func:`inkray.relief.cutout.stack_order`)
+    in ``owner``, the other as its second layer in ``beneath`` (both modified in place).
+    When either part moves away in a pose, what lay under it is the other's continued
+    part, not paper.
+
+    ``continued`` holds ``(front, back, found)`` per kept hidden part, ``found`` the
+    :func:`_continuation` of ``back`` under ``front`` (or None).
+    """
+    rank = None
+    for front, back, found in continued:
+        if found is None:
+            continue
+        window, _, grown = found
+        own, under = owner[window], beneath[window]
+        over = grown & (own >= 0) & (own != back) & (under < 0)
+        for other in np.unique(own[over]):
+            if rank is None:
+                order, _ = stack_order(count, relations)
+                rank = {r: k for k, r in enumerate(order)}
+            at = over & (own == other)
+            if rank[int(other)] > rank[back]:
+                under[at] = back
+            else:
+                own[at], under[at] = back, other
+    _keep_attached(labels, owner, beneath)
+
+
+def _keep_attached(labels, owner, beneath):
+    """Drop the second-layer pixels cut off from their region (both arrays in place).
+
+    Another part's second layer can take the pixels that joined a continuation to the
+    rest of its region; an island left behind would be a piece of the region that no
+    join holds. Where the region holding it in ``owner`` had taken it over from the one
+    beneath, that one gets it back.
+    """
+    layered = beneath >= 0
+    for region in np.union1d(beneath[layered], owner[layered]):
+        mine = (beneath == region) | ((owner == region) & (beneath >= 0))
+        pieces, _ = ndimage.label((labels == region) | (owner == region) | (beneath == region))
+        cut = mine & ~np.isin(pieces, np.unique(pieces[labels == region]))
+        if cut.any():
+            taken = cut & (owner == region)
+            owner[taken] = beneath[taken]
+            beneath[cut] = -1
 
 
 def close_gaps(labels, owner, hidden, *, width=None):

@@ -5,7 +5,10 @@ where slivers or faces folded through another remain after the remeshing and
 its local fixes, the faces within one ring of them (then two, three) are cut
 out, projected onto the plane of their mean normal, triangulated anew there
 (Triangle, quality and area bounded, the patch's boundary kept as it is) and
-lifted back onto the old patch. A patch is replaced only when its new faces
+lifted back onto the old patch. Thin strips of slivers in one plane (the
+walls of a column under a pixel across) are cut into ladders instead
+(:func:`ladders`): their long edges split evenly, rungs across. A patch is
+replaced only when its new faces
 are all well shaped, cross nothing, and fewer faces around it are bad than
 before. Boundary vertices keep their positions and the boundary its edges, so
 a closed, manifold mesh stays so.
@@ -18,10 +21,11 @@ from scipy.sparse.linalg import spsolve
 
 from inkray.numerics.tri_intersection import self_intersecting_faces
 
-__all__ = ["repair_patches", "bad_faces", "min_angles"]
+__all__ = ["repair_patches", "ladders", "bad_faces", "min_angles"]
 
 _RINGS = (1, 2, 3)  # patch sizes tried, in rings of faces around the bad ones
 _STORED_SCALES = (1.0, 0.001)  # pixels, and the mesh files' default units per pixel
+_RUNG = 4.0  # a ladder's rungs at most this many times its width apart (14 degrees)
 
 
 def repair_patches(vertices, faces, *, target, min_angle, bad=None):
@@ -162,14 +166,9 @@ def _retriangulate(v, pf, *, target, min_angle):
     if loop is None:
         return None
     t = v[pf]
-    normal = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]).sum(axis=0)
-    length = np.linalg.norm(normal)
-    if length == 0.0:
+    frame = _frame(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]).sum(axis=0))
+    if frame is None:
         return None
-    normal /= length
-    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    frame = np.stack([u, np.cross(normal, u)], axis=1)  # (3, 2): right-handed with normal
     origin = v[loop].mean(axis=0)
     poly = (v[loop] - origin) @ frame
     if not _simple(poly):
@@ -189,6 +188,18 @@ def _retriangulate(v, pf, *, target, min_angle):
     points = _lift(xy, tris, len(loop), v[loop], (t - origin) @ frame, t)
     index = np.concatenate([loop, len(v) + np.arange(len(xy) - len(loop))])
     return points, index[tris]
+
+
+def _frame(normal):
+    """Two unit axes (3, 2) of the plane of ``normal``, right-handed with it; None for
+    a zero normal."""
+    length = np.linalg.norm(normal)
+    if length == 0.0:
+        return None
+    normal = normal / length
+    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(normal, u)], axis=1)
 
 
 def _lift(xy, tris, fixed, boundary, old_xy, old):
@@ -260,9 +271,15 @@ def _simple(poly):
         return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1])
                        - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
 
-    meet = ((side(a[i], b[i], a[j]) * side(a[i], b[i], b[j]) <= 0)
-            & (side(a[j], b[j], a[i]) * side(a[j], b[j], b[i]) <= 0))
-    return not meet.any()
+    s1, s2 = side(a[i], b[i], a[j]), side(a[i], b[i], b[j])
+    meet = (s1 * s2 <= 0) & (side(a[j], b[j], a[i]) * side(a[j], b[j], b[i]) <= 0)
+    # segments on one line meet only where their extents along it overlap
+    line = (s1 == 0) & (s2 == 0)
+    d = b[i] - a[i]
+    lo_i, hi_i = np.zeros(len(i)), np.einsum("ij,ij->i", d, d)
+    pa, pb = (np.einsum("ij,ij->i", x - a[i], d) for x in (a[j], b[j]))
+    apart = (np.maximum(pa, pb) < lo_i) | (np.minimum(pa, pb) > hi_i)
+    return not (meet & ~(line & apart)).any()
 
 
 def bad_faces(vertices, faces, *, min_angle, crossing=None):
@@ -327,3 +344,188 @@ def min_angles(vertices, faces):
     a, b, c = squared[:, 0], squared[:, 1], squared[:, 2]
     cos = (b + c - a) / np.maximum(2.0 * np.sqrt(b * c), 1e-300)
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def ladders(vertices, faces, *, bad, min_angle, flat=15.0):
+    """A closed mesh whose thin strips of bad faces are cut into ladders.
+
+    Where the booleans leave a column or a groove under a pixel across, its
+    walls are strips ``w`` wide and many times longer, cut into needles by
+    any isotropic remeshing. Here each connected set of ``bad`` faces lying in
+    one plane (normals within ``flat`` degrees of each other) is a strip: its
+    boundary edges longer than :data:`_RUNG` times its width ``w`` across them
+    (the faces' smallest height over the edge) are split evenly into pieces at
+    most that long, and the strip is triangulated anew between its boundary
+    points (constrained Delaunay in its plane, no point inside): rungs ``w``
+    long at most :data:`_RUNG` ``w`` apart, every angle at least
+    ``atan(1 / _RUNG)`` (14 degrees). A face across a split edge takes its
+    points too (triangulated anew alone). A strip whose new faces are no
+    better than its old, or that leaves a face it touches worse than
+    ``min_angle`` and than it was, is left as it is.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+        A closed, consistently oriented triangle mesh.
+    bad : (m,) bool array
+        The faces to refine.
+    min_angle : float
+        Degrees.
+    flat : float, default 15
+        Largest angle (degrees) between the normals of neighbouring faces of
+        one strip.
+
+    Returns
+    -------
+    vertices : (n', 3) float array
+        The input's, then the split points.
+    faces : (m', 3) int64 array
+        The input itself where no strip is refined.
+
+    Examples
+    --------
+    >>> v = np.array([[0., 0, 0], [0.5, 0, 0], [0.5, 10, 0], [0, 10, 0]])
+    >>> f = np.array([[0, 1, 2], [0, 2, 3]])  # a strip 0.5 wide, 10 long
+    >>> w, g = ladders(v, f, bad=np.ones(2, bool), min_angle=10.0)
+    >>> len(g), round(float(min_angles(w, g).min()), 1)
+    (10, 14.0)
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    bad = np.asarray(bad, bool)
+    m = len(f)
+    if not bad.any():
+        return v, f
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])  # row k: face k % m
+    lo, hi = e.min(axis=1), e.max(axis=1)
+    _, edge = np.unique(lo * (int(f.max()) + 1) + hi, return_inverse=True)
+    edge = edge.ravel()
+    order = np.argsort(edge, kind="stable")
+    first = np.r_[True, edge[order][1:] != edge[order][:-1]]
+    starts = np.flatnonzero(first)
+    face_of = np.tile(np.arange(m), 3)
+    across = np.full(3 * m, -1)
+    pair = np.split(order, starts[1:])
+    for rows in pair:
+        if len(rows) == 2:
+            across[rows[0]], across[rows[1]] = face_of[rows[1]], face_of[rows[0]]
+    t = v[f]
+    normal = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    area2 = np.linalg.norm(normal, axis=1)
+    unit = normal / np.maximum(area2, 1e-300)[:, None]
+    length = np.linalg.norm(v[e[:, 1]] - v[e[:, 0]], axis=1)
+    height = area2[face_of] / np.maximum(length, 1e-300)  # of each face over each of its edges
+    # strips: thin faces (under twice min_angle) joined across edges to thin faces in
+    # nearly their plane, with a bad face among them
+    thin = bad | (min_angles(v, f) < 2.0 * min_angle)
+    k = np.flatnonzero(thin[face_of] & (across >= 0))
+    k = k[thin[across[k]] & (np.einsum("ij,ij->i", unit[face_of[k]], unit[across[k]])
+                             >= np.cos(np.radians(flat)))]
+    graph = coo_matrix((np.ones(len(k)), (face_of[k], across[k])), shape=(m, m))
+    _, label = connected_components(graph, directed=False)
+    label = np.where(thin & np.isin(label, label[bad]), label, -1)
+    bad = label >= 0
+    # each boundary edge of a strip split into pieces at most _RUNG times the strip's width
+    width = np.full(int(edge.max()) + 1, np.inf)
+    rim = bad[face_of] & ((across < 0) | (label[face_of] != label[np.maximum(across, 0)]))
+    np.minimum.at(width, edge[rim], height[rim])
+    pieces = np.ones(len(width), np.int64)
+    split = np.isfinite(width)
+    elen = np.zeros(len(width))
+    elen[edge] = length
+    pieces[split] = np.minimum(np.ceil(elen[split] / (_RUNG * width[split])), 64).astype(np.int64)
+    strips = {int(x) for x in np.unique(label[bad])}
+    while strips:
+        cut = np.zeros(len(pieces), bool)
+        rows = np.flatnonzero(np.isin(label[face_of], list(strips)) & (pieces[edge] > 1))
+        cut[edge[rows]] = True
+        polygons = _ladder_polygons(f, label, strips, cut, edge, face_of)
+        points, base = _split_points(v, e, edge, cut, pieces)
+        w = np.concatenate([v, points])
+        rows = np.flatnonzero(cut[edge])
+        which = dict(zip(map(tuple, e[rows].tolist()), edge[rows].tolist()))
+        worse, done = set(), []
+        for owner, members in polygons:
+            loop = _loop(f[members])
+            tris = None if loop is None else _fill(w, loop, which, pieces, base, len(v))
+            old = float(min_angles(v, f[members]).min())
+            new = -1.0 if tris is None else float(min_angles(w, tris).min())
+            if owner >= 0 and new <= old or owner < 0 and new < min(old, min_angle):
+                # (a strip no better, or a face across its split edges made worse)
+                touched = {owner} if owner >= 0 else set(
+                    label[across[np.flatnonzero(np.isin(face_of, members) & cut[edge])]].tolist())
+                worse |= touched & strips
+            done.append((members, tris))
+        if not worse:
+            break
+        strips -= worse
+    if not strips:
+        return v, f
+    keep = np.ones(m, bool)
+    for members, _ in done:
+        keep[members] = False
+    used = np.concatenate([f[keep]] + [tris for _, tris in done])
+    return w, used.astype(np.int64)
+
+
+
+def _ladder_polygons(f, label, strips, cut, edge, face_of):
+    """The polygons to triangulate anew: each strip's faces, and each other face with
+    a split edge alone. Returns (strip label or -1, face indices) pairs."""
+    out = [(s, np.flatnonzero(label == s)) for s in sorted(strips)]
+    mine = np.isin(label, list(strips))
+    rows = np.flatnonzero(cut[edge] & ~mine[face_of])
+    out += [(-1, np.array([x])) for x in np.unique(face_of[rows]).tolist()]
+    return out
+
+
+def _split_points(v, e, edge, cut, pieces):
+    """The points splitting each ``cut`` edge evenly (from its lower vertex index to its
+    higher), and where each edge's points start among them."""
+    base = np.full(len(pieces), -1)
+    points = []
+    count = 0
+    ends = np.zeros((len(pieces), 2), np.int64)
+    ends[edge] = np.sort(e, axis=1)
+    for x in np.flatnonzero(cut).tolist():
+        a, b = ends[x]
+        s = np.arange(1, pieces[x])[:, None] / pieces[x]
+        points.append(v[a] + s * (v[b] - v[a]))
+        base[x] = count
+        count += pieces[x] - 1
+    return (np.concatenate(points) if points else np.zeros((0, 3))), base
+
+
+def _fill(w, loop, which, pieces, base, n):
+    """Triangles (indices into ``w``) filling a polygon: its boundary ``loop`` with the
+    split points of its edges (``which``: the split edge of a vertex pair), constrained
+    Delaunay in its mean plane; None where it does not project onto that plane as a
+    simple polygon or would get a point inside."""
+    import triangle
+
+    ring = []
+    for a, b in zip(loop.tolist(), np.roll(loop, -1).tolist()):
+        ring.append(a)
+        x = which.get((a, b), which.get((b, a)))
+        if x is not None:
+            ids = n + base[x] + np.arange(pieces[x] - 1)
+            ring += (ids if a < b else ids[::-1]).tolist()
+    ring = np.array(ring)
+    p = w[ring]
+    centred = p - p.mean(axis=0)
+    frame = _frame(np.cross(centred, np.roll(centred, -1, axis=0)).sum(axis=0))
+    if frame is None:
+        return None
+    poly = centred @ frame
+    if not _simple(poly):
+        return None
+    k = np.arange(len(ring))
+    try:
+        out = triangle.triangulate(
+            {"vertices": poly, "segments": np.column_stack([k, np.roll(k, -1)])}, "pYQ")
+    except RuntimeError:
+        return None
+    if len(out["vertices"]) != len(ring) or "triangles" not in out:
+        return None
+    return ring[np.asarray(out["triangles"], np.int64)]

@@ -28,10 +28,15 @@ them:
   each only if it joins two pieces the joins so far leave apart, so that a
   limb in front of the body that is rooted elsewhere stays free to swing;
   overlaps that grip (glue three vertices or more, not on one line) come
-  before those that would only pin the part at a point it pivots about. A
-  root or a part on top that does not grip (an arm lying on the head over a
-  few pixels) is taken the same way, as a pin: only where nothing else joins
-  its two pieces.
+  before those that would only pin the part at a point it pivots about. Where
+  the smaller part's vertices in an overlap do not grip, the larger part's
+  vertices there are glued to it too. A root or a part on top that does not
+  grip (an arm lying on the head over a few pixels) is taken the same way, as
+  a pin: only where nothing else joins its two pieces.
+
+A part's hidden area is both its hidden layers
+(:attr:`~inkray.relief.completion.Completion.beneath`): its second layer under
+another part's hidden area belongs to its piece under the same occluder.
 
 A glue row ties a vertex of one part to the barycentric point of the other
 part's triangle under it at rest (for a root also the vertices up to
@@ -392,7 +397,7 @@ def rig_relief(relief, completion, *, boundaries=()):
               heights=np.concatenate(heights), faces=np.concatenate(faces),
               part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
-    rows, joins, overlaps = [], [], []
+    rows, joins, overlaps, mutual = [], [], [], set()
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
@@ -401,16 +406,26 @@ def rig_relief(relief, completion, *, boundaries=()):
             reach = _GLUE_REACH if kind == "rooted" else 0.0
             near = ndimage.distance_transform_edt(~mask) <= reach
             got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
-            if not got.shape[0]:
+            grips = _grips(rig, (got, rig.names[pb]))
+            if grips and kind != "overlap":
+                rows.append(got)
+                joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
                 continue
-            join = Join(rig.names[pb], rig.names[pa], kind, got.shape[0])
+            # Where the smaller part's vertices in an overlap do not grip, the larger part's
+            # glue it too (both cover an overlap alike): whether the join holds does not hang
+            # on which of the two triangulations happens to put vertices there.
+            held = [(got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))]
+            if not grips and kind == "overlap":
+                back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
+                held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0])))
+                grips = _grips(rig, *((g, j.part) for g, j in held))
+                mutual.add(id(held[-1][1]))
+            held = [(g, j) for g, j in held if g.shape[0]]
+            if not held:
+                continue
             # A root or a part on top glued at a vertex or two would pivot there: like an
             # overlap that only pins, it joins only what nothing else joins.
-            if kind == "overlap" or not _grips(rig, got, join.part):
-                overlaps.append((got, join))
-            else:
-                rows.append(got)
-                joins.append(join)
+            overlaps.append((held, grips))
     for seam in boundaries:
         if seam.type not in ("stitch", "graft"):
             continue
@@ -438,28 +453,52 @@ def rig_relief(relief, completion, *, boundaries=()):
 
     # Overlaps that grip (glue at least three vertices not on one line) go first: one that
     # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
-    overlaps.sort(key=lambda o: not _grips(rig, o[0], o[1].part))
-    for got, join in overlaps:
-        touched = {find(int(k)) for k in np.unique(piece[got.tocoo().col])}
+    overlaps.sort(key=lambda o: not o[1])
+    for held, _ in overlaps:
+        cols = np.concatenate([got.tocoo().col for got, _ in held])
+        touched = {find(int(k)) for k in np.unique(piece[cols])}
         if len(touched) > 1:
             first, *others = touched
             for k in others:
                 root[k] = first
-            rows.append(got)
-            joins.append(join)
+            for got, join in held:
+                rows.append(got)
+                joins.append(join)
     rows, joins = _once_per_vertex(rig, rows, joins)
     if rows:
         rig.glue = sp.vstack(rows).tocsr()
-    rig.joins = joins
+    rig.joins = _reported(joins, mutual)
     return rig
 
 
-def _grips(rig, rows, part):
-    """Whether glue ``rows`` hold at least three vertices of ``part`` not on one line (within
-    ``_LOCATE_TOL``), so that they can hold its rotation as well as its place."""
-    i = rig.names.index(part)
-    cols = np.unique(rows.tocoo().col)
-    xy = rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]]
+def _reported(joins, mutual):
+    """The joins as the drawing joins its parts: the larger part's rows of an overlap (those
+    in ``mutual``, by ``id``) counted in the smaller part's join to it."""
+    out, forward = [], {}
+    for join in joins:
+        if id(join) not in mutual:
+            out.append(join)
+            forward[(join.part, join.to, join.kind)] = join
+    for join in joins:
+        if id(join) in mutual:
+            found = forward.get((join.to, join.part, join.kind))
+            if found is None:
+                out.append(Join(join.to, join.part, join.kind, join.vertices))
+            else:
+                found.vertices += join.vertices
+    return out
+
+
+def _grips(rig, *held):
+    """Whether glue rows hold at least three vertices not on one line (within
+    ``_LOCATE_TOL``), so that they can hold a rotation as well as a place: ``held`` are
+    ``(rows, part)`` pairs, the vertices of ``part`` each one's rows glue taken together."""
+    xy = []
+    for rows, part in held:
+        i = rig.names.index(part)
+        cols = np.unique(rows.tocoo().col)
+        xy.append(rig.vertices[cols[(cols >= rig.offsets[i]) & (cols < rig.offsets[i + 1])]])
+    xy = np.concatenate(xy)
     if len(xy) < 3:
         return False
     spread = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
@@ -555,12 +594,17 @@ def _joined_areas(completion):
     ``overlap`` areas (a single cut that neither rule takes) come last, the
     smallest against the smaller part's area first.
     """
-    labels, owner = completion.labels, completion.owner
+    labels, owner, beneath = completion.labels, completion.owner, completion.beneath
     area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
     area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
+    if beneath is not None:
+        area = area + np.bincount(beneath[beneath >= 0].ravel(), minlength=completion.count)
     out, overlaps = [], []
     for b in range(completion.count):
-        pieces, n = ndimage.label(owner == b)
+        # both hidden layers: which of two parts hidden side by side holds a pixel in
+        # ``owner`` and which beneath it does not change where either is hidden
+        second = np.zeros(labels.shape, bool) if beneath is None else beneath == b
+        pieces, n = _hidden_pieces(owner == b, second, labels)
         if not n:
             continue
         visible = ndimage.binary_dilation(labels == b)
@@ -586,6 +630,27 @@ def _joined_areas(completion):
                 overlaps.append((piece.sum() / area[small], small, large, mask))
     overlaps.sort(key=lambda o: o[0])
     return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
+
+
+def _hidden_pieces(first, second, labels):
+    """The pieces of a part's hidden area (as ``ndimage.label``): those of its ``first``
+    layer, each grown by the ``second`` layer's pixels it touches under the same
+    occluder; second-layer pixels that touch none are pieces of their own. A second
+    layer under another part's hidden area reaches from one occluder's pixels to the
+    next, but each occluder joins it on its own."""
+    pieces, n = ndimage.label(first)
+    for a in np.unique(labels[second]):
+        extra = second & (labels == a)
+        mine = (pieces > 0) & (labels == a)
+        found, k = ndimage.label(extra | mine)
+        host = np.zeros(k + 1, np.int64)
+        np.maximum.at(host, found[mine], pieces[mine])
+        held = extra & (host[found] > 0)
+        pieces[held] = host[found[held]]
+        alone, m = ndimage.label(extra & ~held)
+        pieces[alone > 0] = alone[alone > 0] + n
+        n += m
+    return pieces, n
 
 
 def _glue_rows(rig, pb, pa, where, *, reach):

@@ -366,6 +366,7 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         # Two places at a time, their rows added in the order of the places.
         for part in thread_map(overlap, said.items()):
             rows.merge(part)
+        _beneath_rows(rows, blocks, completion, epsilon, keepout)
 
     C = rows.matrix(n)
     rhs, ineq, graft, labels, xy = rows.rhs, rows.ineq, rows.graft, rows.label, rows.xy
@@ -467,10 +468,19 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
     contact = np.zeros_like(both)
     contact[inner] = place.contact
     zone = binary_dilation(pm, iterations=2) & binary_dilation(both | contact, iterations=2)
+    _zone_rows(rows, blocks, a, b, zone, pm & both, (win[0].start, win[1].start), epsilon,
+               keepout, label)
+
+
+def _zone_rows(rows, blocks, a, b, zone, pixels, corner, epsilon, keepout, label):
+    """``z_a >= z_b + epsilon`` at the vertices of either mesh in ``zone``, the crossings of
+    their edges there and every other pixel centre of ``pixels`` (both masks of a window
+    whose top-left pixel is ``corner``, (row, column))."""
+    top, left = corner
 
     def in_zone(p):
         px = np.rint(p).astype(np.int64)
-        iy, ix = px[:, 1] - win[0].start, px[:, 0] - win[1].start
+        iy, ix = px[:, 1] - top, px[:, 0] - left
         inside = (iy >= 0) & (iy < zone.shape[0]) & (ix >= 0) & (ix < zone.shape[1])
         out = np.zeros(len(p), bool)
         out[inside] = zone[iy[inside], ix[inside]]
@@ -493,11 +503,34 @@ def _overlap_rows(rows, blocks, a, b, place, completion, epsilon, keepout, label
     _terms_rows(rows, blocks, [(a, cross, 1.0), (b, cross, -1.0)], epsilon, True, label)
     # Between the vertices the two meshes interpolate differently: the pixel centres of
     # the overlap (every other one) keep the order there too.
-    ys, xs = np.nonzero(pm & both)
+    ys, xs = np.nonzero(pixels)
     grid = (ys % _PLACE_STEP == 0) & (xs % _PLACE_STEP == 0)
-    pts = np.column_stack([xs[grid] + win[1].start, ys[grid] + win[0].start]).astype(float)
+    pts = np.column_stack([xs[grid] + left, ys[grid] + top]).astype(float)
     pts = pts[~keepout(a, b, pts)]
     _terms_rows(rows, blocks, [(a, pts, 1.0), (b, pts, -1.0)], epsilon, True, label)
+
+
+def _beneath_rows(rows, blocks, completion, epsilon, keepout):
+    """The second hidden layers (:attr:`Completion.beneath`) below both parts over them: the
+    hidden part whose pixels they lie under and the part in front of both."""
+    beneath = completion.beneath
+    if beneath is None or not (beneath >= 0).any():
+        return
+    names, h, w = completion.names, *beneath.shape
+    for b in np.unique(beneath[beneath >= 0]):
+        mine = beneath == b
+        ys, xs = np.nonzero(mine)
+        win = (slice(max(ys.min() - 2, 0), min(ys.max() + 3, h)),
+               slice(max(xs.min() - 2, 0), min(xs.max() + 3, w)))
+        mine = mine[win]
+        for over in (completion.owner[win], completion.labels[win]):
+            for a in np.unique(over[mine]):
+                if blocks[a] is None or blocks[b] is None:
+                    continue
+                at = mine & (over == a)
+                _zone_rows(rows, blocks, int(a), int(b), binary_dilation(at, iterations=2), at,
+                           (win[0].start, win[1].start), epsilon, keepout,
+                           f"{names[b]} under {names[a]} (its second hidden layer)")
 
 
 def _edges_at(blk, sel):

@@ -30,6 +30,7 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
+_PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 
 
 class PosedDrawing:
@@ -51,13 +52,16 @@ class PosedDrawing:
     rig : inkray.relief.posing.Rig
     posing : inkray.relief.posing.Posing
     cutout : inkray.relief.cutout.Cutout
-        The rest layers (their colours are what the posed parts carry).
+        The rest layers (their colours are what the posed parts carry), each
+        continued ``_PAD`` px under the parts in front of it.
     """
 
     def __init__(self, relief, completion, relations, drawing, handles, *, boundaries=()):
         self.rig = rig_relief(relief, completion, boundaries=boundaries)
         self.posing = Posing(self.rig, handles)
-        self.cutout = cut_out(completion, relations, drawing)
+        # Each layer goes on under the parts in front of it as far as its skirt can draw it:
+        # a pose that moves a part in front a pixel or two shows the part behind, not a crack.
+        self.cutout = cut_out(completion, relations, drawing, pad=_PAD)
         self.drawing = drawing
         self._sources = _Sources(relief, self.cutout, drawing.rgb)
 
