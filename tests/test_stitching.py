@@ -303,8 +303,8 @@ def test_the_rows_that_held_start_the_next_working_set():
 
 
 def test_the_block_solves_equal_one_solve_of_every_column():
-    # The rows of three disks' blocks, some of them with terms in two blocks: a block's
-    # columns of the rows without a term in it stay zero.
+    # The rows of three disks' blocks, some of them with terms in two blocks: each block
+    # solves only its own rows' columns, in narrow batches; the others stay zero.
     yy, xx = np.mgrid[:70, :70]
     meshes = [stitching._Mesh(inflate_region((xx - c) ** 2 + (yy - 35) ** 2 <= 14 ** 2))
               for c in (18, 35, 52)]
@@ -316,7 +316,7 @@ def test_the_block_solves_equal_one_solve_of_every_column():
     rng = np.random.default_rng(3)
     rows = stitching._Rows()
     for i, j in [(0, 1), (1, 2), (0, 0), (2, 2)]:
-        k = 37
+        k = 2 * stitching._BATCH + 5  # more columns than one batch
         idx = np.column_stack([blocks[i].start + rng.integers(0, len(meshes[i].h), (k, 3)),
                                blocks[j].start + rng.integers(0, len(meshes[j].h), (k, 3))])
         rows.extend(idx, rng.random((k, 6)), np.zeros(k), True, f"{i}-{j}", False,

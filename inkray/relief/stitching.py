@@ -70,6 +70,7 @@ _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order 
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
 _RISE = 1.0  # and at least this times the grafted part's own height at the seam
+_BATCH = 16  # right-hand sides per triangular solve of a block
 _REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
@@ -901,7 +902,16 @@ def _qinv_rows(rows, blocks, owner):
     def solve(i):
         b = blocks[i]
         sl = slice(b.start, b.start + len(b.h))
-        out[sl] = b.solve(csc[:, sl].T.toarray())
+        part = csc[:, sl]
+        # Only the rows with a term in this block: the others' columns are zero
+        # (a row speaks of two regions, a round's rows of many).
+        speak = np.unique(part.indices)
+        # A few columns at a time: the triangular solves sweep the factor once per
+        # batch, and a narrow batch's columns stay in cache (each column's answer is
+        # the same whatever its batch).
+        for k in range(0, len(speak), _BATCH):
+            cols = speak[k:k + _BATCH]
+            out[sl, cols] = b.solve(part[cols].T.toarray())
 
     # Each block writes its own rows: the same array whatever the scheduling.
     thread_map(solve, np.unique(owner[rows.indices]))
