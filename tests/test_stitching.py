@@ -302,6 +302,76 @@ def test_the_rows_that_held_start_the_next_working_set():
         np.testing.assert_allclose(a, b, atol=1e-9)
 
 
+def test_the_block_solves_equal_one_solve_of_every_column():
+    # The rows of three disks' blocks, some of them with terms in two blocks: each block
+    # solves only its own rows' columns, in narrow batches; the others stay zero.
+    yy, xx = np.mgrid[:70, :70]
+    meshes = [stitching._Mesh(inflate_region((xx - c) ** 2 + (yy - 35) ** 2 <= 14 ** 2))
+              for c in (18, 35, 52)]
+    blocks, start = [], 0
+    for m in meshes:
+        blocks.append(stitching._Region(m, start))
+        start += len(m.h)
+    owner = np.concatenate([np.full(len(m.h), i) for i, m in enumerate(meshes)])
+    rng = np.random.default_rng(3)
+    rows = stitching._Rows()
+    for i, j in [(0, 1), (1, 2), (0, 0), (2, 2)]:
+        k = 2 * stitching._BATCH + 5  # more columns than one batch
+        idx = np.column_stack([blocks[i].start + rng.integers(0, len(meshes[i].h), (k, 3)),
+                               blocks[j].start + rng.integers(0, len(meshes[j].h), (k, 3))])
+        rows.extend(idx, rng.random((k, 6)), np.zeros(k), True, f"{i}-{j}", False,
+                    np.zeros((k, 2)))
+    C = rows.matrix(start)
+    z = stitching._qinv_rows(C, blocks, owner)
+    dense = C.toarray()
+    for i, b in enumerate(blocks):
+        sl = slice(b.start, b.start + len(b.h))
+        expect = b.solve(dense[:, sl].T)
+        np.testing.assert_allclose(z[sl], expect, rtol=1e-12, atol=1e-14)
+        silent = ~dense[:, sl].any(axis=1)
+        assert silent.any() and (z[sl][:, silent] == 0.0).all()
+
+
+def test_rows_kept_in_blocks_read_as_rows_in_their_order():
+    rows, other = stitching._Rows(), stitching._Rows()
+    rows.extend([[0, 1, 2]], [[1.0, 0.5, 0.25]], [2.0], True, "a", False, [[1.0, 2.0]])
+    other.extend([[3, 3, 3, 4, 4, 4], [0, 0, 0, 1, 1, 1]], np.ones((2, 6)), [0.0, -1.0], False,
+                 "b", True, [[3.0, 4.0], [5.0, 6.0]])
+    rows.merge(other)
+    assert rows.rhs.tolist() == [2.0, 0.0, -1.0]
+    assert rows.ineq.tolist() == [True, False, False]
+    assert rows.graft.tolist() == [False, True, True]
+    assert rows.label == ["a", "b", "b"]
+    assert rows.xy.tolist() == [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]
+    C = rows.matrix(5).toarray()
+    np.testing.assert_array_equal(C, [[1.0, 0.5, 0.25, 0, 0], [0, 0, 0, 3.0, 3.0],
+                                      [3.0, 3.0, 0, 0, 0]])
+    assert stitching._Rows().matrix(4).shape == (0, 4)
+
+
+def test_the_graft_band_test_agrees_with_the_distance_everywhere():
+    rng = np.random.default_rng(5)
+    line = np.array([[20.0, 30.0], [35.0, 32.0], [50.0, 45.0]])
+    pts = rng.uniform(0.0, 80.0, (4000, 2))
+    near = stitching._keepout([(0, 1, line, 9.0, "k", 0.0)])
+    expect = point_polyline_distance(pts, line) < 9.0
+    assert 0 < expect.sum() < len(pts)
+    np.testing.assert_array_equal(near(1, 0, pts), expect)
+    assert not near(0, 2, pts).any()
+    assert not stitching._in_box(pts, line, 9.0)[expect == 0].all()
+    assert stitching._in_box(pts, line, 9.0)[expect].all()
+
+
+def test_edges_at_are_the_distinct_edges_of_the_marked_triangles():
+    yy, xx = np.mgrid[:40, :40]
+    blk = stitching._Mesh(inflate_region((xx - 20) ** 2 + (yy - 20) ** 2 <= 12 ** 2))
+    sel = np.arange(0, len(blk.v), 7)
+    f = blk.f[np.isin(blk.f, sel).any(axis=1)]
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                  axis=0)
+    np.testing.assert_array_equal(stitching._edges_at(blk, sel), blk.v[e])
+
+
 def _open_limb():
     """The limb of :func:`_limb` drawn with 3 px strokes along its sides and end that
     stop at its open end inside the body (x = 150), and the body's outline."""

@@ -70,6 +70,7 @@ _PLACE_STEP = 2  # px between the pixel centres of an overlap that get an order 
 _SEGMENT_STEP = 0.5  # px between samples of an order entry's segment
 _BAND_FRACTION = 0.5  # graft band width as a fraction of the seam's length
 _RISE = 1.0  # and at least this times the grafted part's own height at the seam
+_BATCH = 16  # right-hand sides per triangular solve of a block
 _REACH = 2.0  # px before a graft seam over which the base's slope is taken (two fine triangles)
 
 
@@ -122,44 +123,58 @@ class _Rows:
     """Constraint rows ``sum_k w_k g[idx_k] (>= | =) rhs`` with a label per row.
 
     ``graft`` marks the rows that make a grafted region follow its base
-    (solved in the second pass, with the bases fixed).
+    (solved in the second pass, with the bases fixed). The rows are kept in
+    the blocks they were added in and joined once, when read.
     """
 
     def __init__(self):
-        self.idx, self.w, self.rhs, self.ineq, self.label, self.graft = [], [], [], [], [], []
-        self.xy = []  # where the row speaks (its first point), to spread the working set
-
-    def add(self, idx, w, rhs, ineq, label, graft=False, xy=(0.0, 0.0)):
-        self.idx.append(np.asarray(idx, np.int64))
-        self.w.append(np.asarray(w, float))
-        self.rhs.append(float(rhs))
-        self.ineq.append(bool(ineq))
-        self.label.append(label)
-        self.graft.append(bool(graft))
-        self.xy.append(tuple(float(c) for c in xy))
+        self._blocks = []  # (idx (k, m), w (k, m), rhs (k,), ineq, label, graft, xy (k, 2))
 
     def extend(self, idx, w, rhs, ineq, label, graft, xy):
         """Add ``len(rhs)`` rows at once: ``idx``, ``w`` (k, m), ``rhs`` (k,), ``xy`` (k, 2)."""
-        k = len(rhs)
-        self.idx.extend(np.asarray(idx, np.int64))
-        self.w.extend(np.asarray(w, float))
-        self.rhs.extend(np.asarray(rhs, float).tolist())
-        self.ineq.extend([bool(ineq)] * k)
-        self.label.extend([label] * k)
-        self.graft.extend([bool(graft)] * k)
-        self.xy.extend(map(tuple, np.asarray(xy, float).tolist()))
+        self._blocks.append((np.asarray(idx, np.int64), np.asarray(w, float),
+                             np.asarray(rhs, float).reshape(-1), bool(ineq), label, bool(graft),
+                             np.asarray(xy, float).reshape(-1, 2)))
 
     def merge(self, other):
         """Add the rows of ``other`` (a ``_Rows``) after these."""
-        for name in ("idx", "w", "rhs", "ineq", "label", "graft", "xy"):
-            getattr(self, name).extend(getattr(other, name))
+        self._blocks.extend(other._blocks)
+
+    def _each(self, k):
+        return [b[k] for b in self._blocks]
+
+    def _per_row(self, k, dtype):
+        return np.repeat(np.array(self._each(k), dtype), [len(b[2]) for b in self._blocks])
+
+    @property
+    def rhs(self):
+        return np.concatenate([np.zeros(0)] + self._each(2))
+
+    @property
+    def ineq(self):
+        return self._per_row(3, bool)
+
+    @property
+    def graft(self):
+        return self._per_row(5, bool)
+
+    @property
+    def label(self):
+        return [b[4] for b in self._blocks for _ in range(len(b[2]))]
+
+    @property
+    def xy(self):
+        """Where each row speaks (its first point), to spread the working set."""
+        return np.concatenate([np.zeros((0, 2))] + self._each(6))
 
     def matrix(self, n):
-        m = len(self.rhs)
+        m = sum(len(b[2]) for b in self._blocks)
         if m == 0:
             return sp.csr_matrix((0, n))
-        rows = np.repeat(np.arange(m), [len(i) for i in self.idx])
-        return sp.csr_matrix((np.concatenate(self.w), (rows, np.concatenate(self.idx))),
+        widths = np.concatenate([np.full(len(b[2]), b[0].shape[1]) for b in self._blocks])
+        rows = np.repeat(np.arange(m), widths)
+        return sp.csr_matrix((np.concatenate([b[1].ravel() for b in self._blocks]),
+                              (rows, np.concatenate([b[0].ravel() for b in self._blocks]))),
                              shape=(m, n))
 
 
@@ -355,9 +370,7 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
         _beneath_rows(rows, blocks, completion, epsilon, keepout)
 
     C = rows.matrix(n)
-    rhs = np.asarray(rows.rhs, float)
-    ineq = np.asarray(rows.ineq, bool)
-    graft = np.asarray(rows.graft, bool)
+    rhs, ineq, graft, labels, xy = rows.rhs, rows.ineq, rows.graft, rows.label, rows.xy
     owner = np.full(n, -1, np.int64)
     for i, b in enumerate(blocks):
         if b is not None:
@@ -367,22 +380,27 @@ def stitch(inflated, relations, completion, *, seams=(), epsilon=None, band=None
     # graft rows, so a grafted part follows its base without denting it.
     bases = {z[1] for z in zones} - {z[0] for z in zones}
     # Rows that held the last solution (same entry, same point) start in the working set.
-    keys = list(zip(rows.label, rows.xy, rows.ineq, rows.graft))
+    def keys(sel):
+        return zip([labels[i] for i in sel], map(tuple, xy[sel].tolist()), ineq[sel].tolist(),
+                   graft[sel].tolist())
+
     before = memo.get("held", set()) if memo is not None else set()
-    warm = np.fromiter((k in before for k in keys), bool, len(keys))
-    g, active, rounds, held = _solve(C, rhs, ineq, ~graft, rows.label, rows.xy, blocks, owner,
+    warm = np.zeros(len(rhs), bool)
+    if before:
+        warm[:] = [k in before for k in keys(np.arange(len(rhs)))]
+    g, active, rounds, held = _solve(C, rhs, ineq, ~graft, labels, xy, blocks, owner,
                                      tol, max_rounds, progress, warm)
     if graft.any():
         fixed = np.isin(owner, sorted(bases))
         shifted = rhs - C[:, fixed] @ g[fixed]
         Cf = C.multiply(~fixed[None, :]).tocsr()
         touches = np.diff(Cf.indptr) > 0
-        g2, active2, rounds2, held2 = _solve(Cf, shifted, ineq, touches, rows.label, rows.xy,
+        g2, active2, rounds2, held2 = _solve(Cf, shifted, ineq, touches, labels, xy,
                                              blocks, owner, tol, max_rounds, progress, warm)
         g = np.where(fixed, g, g2)
         active, rounds, held = active2, rounds + rounds2, np.concatenate([held, held2])
     if memo is not None:
-        memo["held"] = {keys[i] for i in held}
+        memo["held"] = set(keys(held))
     slack = C @ g - rhs
     violation = max(np.abs(slack[~ineq]).max(initial=0.0), (-slack[ineq]).max(initial=0.0))
     for front, base, seam, width, _, lift in zones:
@@ -522,8 +540,9 @@ def _edges_at(blk, sel):
     mark[sel] = True
     f = blk.f[mark[blk.f].any(axis=1)]
     e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    e = np.unique(e, axis=0)
-    return blk.v[e]
+    # One integer per edge sorts as the (low, high) pairs do.
+    key = np.unique(e[:, 0] * len(blk.v) + e[:, 1])
+    return blk.v[np.column_stack([key // len(blk.v), key % len(blk.v)])]
 
 
 def _entry_rows(rows, blocks, rel, points, epsilon, keepout):
@@ -645,7 +664,9 @@ def _graft_rows(rows, blocks, front, base, stations, line, width, epsilon, key):
     lift = _sagitta(blocks[base], seam)
     _terms_rows(rows, blocks, [(front, stations, 1.0), (base, seam, -1.0)], lift, False,
                 key, graft=True)
-    dist = point_polyline_distance(blk.v, line)
+    dist = np.full(len(blk.v), np.inf)
+    box = _in_box(blk.v, line, width)
+    dist[box] = point_polyline_distance(blk.v[box], line)
     sel = np.setdiff1d(np.flatnonzero(dist <= width), stations)
     _terms_rows(rows, blocks, [(front, sel, 1.0), (base, blk.v[sel], -1.0)],
                 _margin(dist[sel], width, epsilon), True, key, graft=True)
@@ -672,10 +693,12 @@ def _blend(g, blocks, front, base, seam, width, lift):
     above the base all the way.
     """
     f, b = blocks[front], blocks[base]
-    foot = _foot(f.v, seam)
-    d = np.linalg.norm(f.v - foot, axis=1)
-    sel = np.flatnonzero(d < width)
-    p, s, d = f.v[sel], foot[sel], d[sel]
+    box = np.flatnonzero(_in_box(f.v, seam, width))
+    foot = _foot(f.v[box], seam)
+    d = np.linalg.norm(f.v[box] - foot, axis=1)
+    near = d < width
+    sel = box[near]
+    p, s, d = f.v[sel], foot[near], d[near]
     away = (p - s) / np.maximum(d, 1e-12)[:, None]
     # the slope at the seam, by the second-order one-sided difference
     at, one, two = (_height(g, b, s - k * _REACH / 2.0 * away)[0] for k in (0, 1, 2))
@@ -692,6 +715,13 @@ def _height(g, blk, points):
     """Final height of ``blk`` at ``points`` (its nearest point's) and their distance to it."""
     tri, w, dist = blk.locate(points)
     return ((blk.h + g[blk.start:blk.start + len(blk.h)])[tri] * w).sum(axis=1), dist
+
+
+def _in_box(points, line, width):
+    """Mask of ``points`` in the bounding box of ``line`` grown by ``width``: the
+    others are farther than ``width`` from it."""
+    return np.all((points >= line.min(axis=0) - width) & (points <= line.max(axis=0) + width),
+                  axis=1)
 
 
 def _foot(points, line):
@@ -767,7 +797,8 @@ def _keepout(zones):
         out = np.zeros(len(pts), bool)
         for front, base, line, width, _, _ in zones:
             if {front, base} == {i, j} and len(pts):
-                out |= point_polyline_distance(pts, line) < width
+                box = _in_box(pts, line, width)
+                out[box] |= point_polyline_distance(pts[box], line) < width
         return out
     return near
 
@@ -798,7 +829,9 @@ def _solve(C, rhs, ineq, use, labels, xy, blocks, owner, tol, max_rounds, progre
     n = C.shape[1]
     cand = np.flatnonzero(use)
     C, rhs, ineq, xy = C[cand], rhs[cand], ineq[cand], np.asarray(xy, float)[cand]
-    group = np.unique(np.asarray(labels, object)[cand], return_inverse=True)[1].ravel()
+    ids = {}  # one number per entry (its rows' label)
+    group = np.fromiter((ids.setdefault(lab, len(ids)) for lab in labels), np.int64,
+                        len(labels))[cand]
     in_work = ~ineq | warm[cand]
     in_work |= _worst_per_group(np.where(ineq, rhs, 0.0), group, xy, tol, per_group)
     if not in_work.any():
@@ -869,7 +902,16 @@ def _qinv_rows(rows, blocks, owner):
     def solve(i):
         b = blocks[i]
         sl = slice(b.start, b.start + len(b.h))
-        out[sl] = b.solve(csc[:, sl].T.toarray())
+        part = csc[:, sl]
+        # Only the rows with a term in this block: the others' columns are zero
+        # (a row speaks of two regions, a round's rows of many).
+        speak = np.unique(part.indices)
+        # A few columns at a time: the triangular solves sweep the factor once per
+        # batch, and a narrow batch's columns stay in cache (each column's answer is
+        # the same whatever its batch).
+        for k in range(0, len(speak), _BATCH):
+            cols = speak[k:k + _BATCH]
+            out[sl, cols] = b.solve(part[cols].T.toarray())
 
     # Each block writes its own rows: the same array whatever the scheduling.
     thread_map(solve, np.unique(owner[rows.indices]))
