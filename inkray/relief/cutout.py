@@ -547,8 +547,7 @@ class _Strokes:
         _, depth, skeleton = self.pen
         if skeleton.sum() < 8:
             return _STROKE_MAX
-        pen = 2.0 * float(np.median(depth[skeleton]))
-        return max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * pen)))
+        return max(_STROKE_MAX, int(np.ceil(_PEN_SPREAD * _median_width(depth, skeleton))))
 
     @cached_property
     def wide(self):
@@ -583,7 +582,7 @@ def _stubs_given(labels, pen):
         along = skeleton[win] & m & k
         if not paper.any() or along.sum() < 8:
             continue
-        width = 2.0 * float(np.median(depth[win][along]))
+        width = _median_width(depth[win], along)
         away = ndimage.distance_transform_edt(~paper)
         # Beyond the part's strokes as wide as they are there (at the nearest skeleton
         # pixel) and as their median.
@@ -630,7 +629,13 @@ def _pen_width(gray, where, inside, *, margin):
     skeleton = skeletonize(ink) & where[box]
     if skeleton.sum() < 8:
         return None
-    return 2.0 * float(np.median(ndimage.distance_transform_edt(ink)[skeleton]))
+    return _median_width(ndimage.distance_transform_edt(ink), skeleton)
+
+
+def _median_width(depth, skeleton):
+    """The median width (px) of strokes: twice their ink's ``depth`` (distance to its edge)
+    along their ``skeleton``."""
+    return 2.0 * float(np.median(depth[skeleton]))
 
 
 def _depth(mask):
