@@ -8,7 +8,8 @@ handles nudged by 2 px, the factorization reused, 4 warm-started rounds: the
 deformation only, then the picture), a 24-frame animation (rest to the swing,
 every frame solved and drawn), the ARAP energy, the worst handle error (px),
 folded triangles, holes (transparent pixels enclosed by the posed silhouette
-whose place in the drawing is opaque through every part within 2 px: paper
+whose place in the drawing is opaque through every part within 2.5 px, the width
+of the band the picture draws a part's layer in beyond its triangles: paper
 that a pose encloses, a leg closing on the other, is paper in the drawing and
 no hole; in brackets the same on the fresh pose, solved from rest before the
 drags, which the warm-started one can hide), open tears (paper the pose reveals beyond a cut, where two parts hidden side
@@ -190,7 +191,9 @@ def _holes(posed, x, img, rest, *, where=False):
     return int(hole.sum())
 
 
-_REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
+# px: the parts a hole pixel is taken back to the drawing by, as far as the picture draws a
+# part's layer beyond its triangles (a part whose band there reaches only paper says paper)
+_REACH = 2.5
 
 
 def _tears(posed, x, img, completion, *, where=False):

@@ -17,7 +17,10 @@ the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
 its most opaque piece). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
-silhouette; at rest the picture is the flattened layer stack.
+silhouette; at rest the picture is the flattened layer stack. Where posed parts
+slide a pixel apart and leave a speck inside the picture that only their
+transparent rims reach, and the drawing has ink there, the speck is drawn from
+its neighbours (paper the pose encloses stays transparent).
 """
 
 import numpy as np
@@ -182,11 +185,13 @@ def _draw(posed, sources, *, scale=1.0):
     i1 = np.full(h * w, -1, np.int64)
     i2 = np.full(h * w, -1, np.int64)
     colours, owners, count = [], [], 0
+    clear = []
     for i in sources.order:
         got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
         if got is None:
             continue
-        pix, z, rgba = got
+        pix, z, rgba, gone = got
+        clear.append((i, *gone))
         ids = count + np.arange(len(pix))
         count += len(pix)
         colours.append(rgba)
@@ -215,7 +220,94 @@ def _draw(posed, sources, *, scale=1.0):
         rgba = np.clip(np.rint(c), 0, 255).astype(np.uint8)
         rgba[rgba[:, 3] == 0, :3] = 0
         out[covered] = rgba
+    _seal(out, shown, (w, h), clear, sources.parts)
     return out.reshape(h, w, 4), shown.reshape(h, w)
+
+
+def _seal(out, shown, size, clear, parts):
+    """Specks that two parts' soft edges leave transparent inside the picture, drawn from the
+    drawing: ``out`` and ``shown`` (flat) in place.
+
+    Where posed parts meet, each one's layer fades out at its outline: a pose that slides
+    them a pixel apart can leave pixels that they reach only with their transparent rims
+    (their skirts, or triangles where a layer is transparent), enclosed by the picture,
+    where the drawing (the flattened layer stack) has ink or a soft edge at every rest
+    position a part carries them from. Such a pixel is drawn from its neighbours
+    (:func:`_inpaint`) and shows the highest of those parts; one that any part covering it
+    takes back to paper (paper the pose encloses, a leg closed on the other) stays
+    transparent, and so does one joined to the outside. At rest every part carries a pixel
+    from its own place, so a transparent pixel is paper there: the picture is unchanged.
+    """
+    w, h = size
+    if not clear:
+        return
+    part = np.concatenate([np.full(len(c[1]), c[0], np.int64) for c in clear])
+    pix = np.concatenate([c[1] for c in clear])
+    z = np.concatenate([c[2] for c in clear])
+    at = np.concatenate([c[3] for c in clear])
+    alpha = out[:, 3]
+    lone = alpha[pix] == 0
+    if not lone.any():
+        return
+    solid = (alpha > 0).reshape(h, w)
+    rows, cols = np.flatnonzero(solid.any(axis=1)), np.flatnonzero(solid.any(axis=0))
+    if not rows.size:
+        return
+    # transparent pixels not joined (8-connected) to the outside of the picture's box
+    y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    empty = np.pad(~solid[y0:y1, x0:x1], 1, constant_values=True)
+    found, _ = ndimage.label(empty, structure=np.ones((3, 3), bool))
+    inside = np.zeros((h, w), bool)
+    inside[y0:y1, x0:x1] = (found != found[0, 0])[1:-1, 1:-1] & empty[1:-1, 1:-1]
+    pick = np.flatnonzero(lone & inside.ravel()[pix])
+    if not pick.size:
+        return
+    part, pix, z, at = part[pick], pix[pick], z[pick], at[pick]
+    colour = np.empty((len(pix), 4), np.float32)
+    for i in np.unique(part):
+        one = part == i
+        colour[one] = _bilinear(parts[i].backdrop.texture, at[one])
+    paper = np.zeros(out.shape[0], bool)
+    paper[pix[colour[:, 3] < 1.0]] = True
+    keep = ~paper[pix]
+    if not keep.any():
+        return
+    pix, z, part = pix[keep], z[keep], part[keep]
+    order = np.lexsort((z, pix))
+    last = order[np.r_[pix[order][1:] != pix[order][:-1], True]]
+    pix = pix[last]
+    shown[pix] = part[last]
+    _inpaint(out.reshape(h, w, 4), *np.divmod(pix, w))
+
+
+def _inpaint(out, rows, cols):
+    """The pixels ``(rows, cols)`` of ``out`` (RGBA uint8, in place) from their drawn
+    8-neighbours, layer by layer inward: the mean of the ones drawn so far (premultiplied)."""
+    h, w = out.shape[:2]
+    y0, y1 = max(rows.min() - 1, 0), min(rows.max() + 2, h)
+    x0, x1 = max(cols.min() - 1, 0), min(cols.max() + 2, w)
+    c = out[y0:y1, x0:x1].astype(float)
+    c[..., :3] *= c[..., 3:] / 255.0
+    todo = np.zeros(c.shape[:2], bool)
+    todo[rows - y0, cols - x0] = True
+    known = (c[..., 3] > 0) & ~todo
+    while todo.any():
+        k = np.pad(known, 1).astype(float)
+        v = np.pad(c * known[..., None], ((1, 1), (1, 1), (0, 0)))
+        count = sum(k[1 + dy:k.shape[0] - 1 + dy, 1 + dx:k.shape[1] - 1 + dx]
+                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+        total = sum(v[1 + dy:v.shape[0] - 1 + dy, 1 + dx:v.shape[1] - 1 + dx]
+                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+        ready = todo & (count > 0)
+        if not ready.any():
+            break
+        c[ready] = total[ready] / count[ready, None]
+        known |= ready
+        todo &= ~ready
+    c[..., :3] *= 255.0 / np.maximum(c[..., 3:], 1e-12)
+    filled = np.zeros(c.shape[:2], bool)
+    filled[rows - y0, cols - x0] = True
+    out[y0:y1, x0:x1][filled] = np.clip(np.rint(c[filled]), 0, 255).astype(np.uint8)
 
 
 def _scan(points, triangles, size):
@@ -361,11 +453,29 @@ class _Sources:
     def __init__(self, rest, layers, rgb):
         by_name = {layer.name: layer for layer in layers.layers
                    if layer.region is None or layer.region >= 0}
-        self.parts = [_PartSource(part, by_name.get(part.name), rgb) for part in rest.parts]
+        backdrop = _Backdrop(layers)
+        self.parts = [_PartSource(part, by_name.get(part.name), rgb, backdrop)
+                      for part in rest.parts]
         stack = [layer.name for layer in layers.layers]
         rank = {name: k for k, name in enumerate(stack)}
         self.order = sorted(range(len(rest.parts)),
                             key=lambda i: rank.get(rest.parts[i].name, -1))
+
+
+class _Backdrop:
+    """The drawing as its layer stack flattens it, premultiplied, made when first asked for
+    (only a pose that leaves a speck between parts needs it)."""
+
+    def __init__(self, layers):
+        self._layers, self._texture = layers, None
+
+    @property
+    def texture(self):
+        if self._texture is None:
+            flat = self._layers.flatten().astype(np.float32)
+            flat[..., :3] *= flat[..., 3:] / 255.0
+            self._texture = flat
+        return self._texture
 
 
 class _PartSource:
@@ -379,7 +489,8 @@ class _PartSource:
     the mesh's border, carried by the border's posed normals, draws it.
     """
 
-    def __init__(self, part, layer, rgb):
+    def __init__(self, part, layer, rgb, backdrop):
+        self.backdrop = backdrop
         first, _, _, self.faces = front_mesh(part)
         self.vertex = first
         v = np.asarray(part.vertices, float)
@@ -412,7 +523,8 @@ class _PartSource:
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
-        ``vertices`` (the posed part's); None when it covers none."""
+        ``vertices`` (the posed part's), and the pixels where its layer is fully transparent
+        (flat, heights and rest positions (x, y)); None when it covers none."""
         w, h = size
         if not len(self.faces):
             return None
@@ -450,8 +562,10 @@ class _PartSource:
         rgba = _bilinear(tex, at[:, 1:])
         # what is fully transparent is not there: the surface under it shows
         keep = rgba[:, 3] > 0
-        flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
-        return flat, at[keep, 0], rgba[keep]
+        flat = (row + lo[1]) * w + col + lo[0]
+        clear = ~keep
+        return (flat[keep], at[keep, 0], rgba[keep],
+                (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
 
 def _highest(frags, pix, tri, points, faces, z, width):
