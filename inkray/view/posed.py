@@ -14,7 +14,8 @@ exactly once (no cracks between its triangles; where a pose folds a strip of
 a part over the part itself, its highest triangle), and a band of ``_SKIRT`` px
 around it carries the part's layer beyond its triangles (the triangles follow
 the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
-its most opaque piece). The layers' soft edges are
+its most opaque piece; the relief has no height there, so between parts of one
+drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
 silhouette; at rest the picture is the flattened layer stack. Where posed parts
@@ -170,7 +171,8 @@ def _draw(posed, sources, *, scale=1.0):
 
     Every part's front triangles, and a skirt around them where it has a
     layer, are scan-converted on their own; per pixel the two highest
-    surfaces whose colour is not fully transparent are kept and composited,
+    surfaces whose colour is not fully transparent are kept and composited
+    (a skirt against another part of its drawing: the later in the stack is higher),
     the upper over the lower, with their layers' alpha (a soft edge of the
     upper part shows the part under it). Parts are taken back to front by
     the stack, so that of two equally high surfaces the one in front shows.
@@ -184,27 +186,35 @@ def _draw(posed, sources, *, scale=1.0):
     z2 = np.full(h * w, -np.inf)
     i1 = np.full(h * w, -1, np.int64)
     i2 = np.full(h * w, -1, np.int64)
+    # per slot: the drawing of its fragment, and whether it lies beyond its part's triangles
+    g1, g2 = np.full(h * w, -1, np.int64), np.full(h * w, -1, np.int64)
+    s1, s2 = np.zeros(h * w, bool), np.zeros(h * w, bool)
     colours, owners, count = [], [], 0
     clear = []
     for i in sources.order:
         got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
         if got is None:
             continue
-        pix, z, rgba, gone = got
+        pix, z, rgba, skirt, gone = got
         clear.append((i, *gone))
         ids = count + np.arange(len(pix))
         count += len(pix)
         colours.append(rgba)
         owners.append(np.full(len(pix), i, np.int32))
-        # pixels are distinct within a part; equal heights go to the later part (in front)
+        g = sources.drawing[i]
+        # Pixels are distinct within a part; equal heights go to the later part (in front).
+        # Beyond a part's triangles the relief has no height: there, between parts of one
+        # drawing, the layer stack decides (this part is in front of those drawn before it).
         old1 = z1[pix]
-        top = z >= old1
-        second = np.flatnonzero(~top & (z >= z2[pix]))
+        top = (z >= old1) | ((skirt | s1[pix]) & (g1[pix] == g))
+        second = ~top & ((z >= z2[pix]) | ((skirt | s2[pix]) & (g2[pix] == g)))
+        second = np.flatnonzero(second)
         top = np.flatnonzero(top)
-        at, was = pix[top], i1[pix[top]]
-        z2[at], i2[at] = old1[top], was
-        z1[at], i1[at] = z[top], ids[top]
-        z2[pix[second]], i2[pix[second]] = z[second], ids[second]
+        at = pix[top]
+        z2[at], i2[at], g2[at], s2[at] = old1[top], i1[at], g1[at], s1[at]
+        z1[at], i1[at], g1[at], s1[at] = z[top], ids[top], g, skirt[top]
+        at = pix[second]
+        z2[at], i2[at], g2[at], s2[at] = z[second], ids[second], g, skirt[second]
     out = np.zeros((h * w, 4), np.uint8)
     shown = np.full(h * w, -1, np.int32)
     covered = np.flatnonzero(i1 >= 0)
@@ -444,10 +454,11 @@ class _Sources:
     def join(cls, sources):
         """The sources of several reliefs' parts, one after the other."""
         out = cls.__new__(cls)
-        out.parts, out.order = [], []
-        for s in sources:
+        out.parts, out.order, out.drawing = [], [], []
+        for k, s in enumerate(sources):
             out.order += [len(out.parts) + i for i in s.order]
             out.parts += s.parts
+            out.drawing += [k] * len(s.parts)
         return out
 
     def __init__(self, rest, layers, rgb):
@@ -460,6 +471,7 @@ class _Sources:
         rank = {name: k for k, name in enumerate(stack)}
         self.order = sorted(range(len(rest.parts)),
                             key=lambda i: rank.get(rest.parts[i].name, -1))
+        self.drawing = [0] * len(rest.parts)
 
 
 class _Backdrop:
@@ -523,8 +535,9 @@ class _PartSource:
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
-        ``vertices`` (the posed part's), and the pixels where its layer is fully transparent
-        (flat, heights and rest positions (x, y)); None when it covers none."""
+        ``vertices`` (the posed part's), which of them lie beyond its triangles, and the
+        pixels where its layer is fully transparent (flat, heights and rest positions
+        (x, y)); None when it covers none."""
         w, h = size
         if not len(self.faces):
             return None
@@ -564,7 +577,7 @@ class _PartSource:
         keep = rgba[:, 3] > 0
         flat = (row + lo[1]) * w + col + lo[0]
         clear = ~keep
-        return (flat[keep], at[keep, 0], rgba[keep],
+        return (flat[keep], at[keep, 0], rgba[keep], tri[keep] >= inner,
                 (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
 
