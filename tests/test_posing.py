@@ -429,10 +429,12 @@ def test_both_hidden_layers_of_a_part_are_where_it_is_joined():
     assert np.array_equal(hidden, (o.owner == 0) | (o.beneath == 0))
 
 
-def test_identity_pose_draws_every_drawn_pixel_of_the_layers():
+@pytest.mark.parametrize("name", ["turtle", "frog"])
+def test_identity_pose_draws_every_drawn_pixel_of_the_layers(name):
     # the turtle's hind foot layer holds drawn ink ~10 px past the foot's triangles (its
-    # strokes' ends): the skirt reaches as far as the layer's drawn pixels do
-    ann, drawing = load_input(EXAMPLES / "turtle" / "drawing.inkray.json")
+    # strokes' ends), the frog's far leg 13 px: the skirt reaches as far as the layer's drawn
+    # pixels do
+    ann, drawing = load_input(EXAMPLES / name / "drawing.inkray.json")
     chain = ReliefChain(ann, drawing)
     start = chain.relief.parts[0].vertices[0, :2].tolist()
     posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,

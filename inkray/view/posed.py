@@ -35,7 +35,7 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
-_SKIRT_MOST = 12.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
+_SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 
 
