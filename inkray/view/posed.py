@@ -186,9 +186,10 @@ def _draw(posed, sources, *, scale=1.0):
     z2 = np.full(h * w, -np.inf)
     i1 = np.full(h * w, -1, np.int64)
     i2 = np.full(h * w, -1, np.int64)
-    # per slot: the drawing of its fragment, and whether it lies beyond its part's triangles
-    g1, g2 = np.full(h * w, -1, np.int64), np.full(h * w, -1, np.int64)
+    # per slot: whether its fragment lies beyond its part's triangles, and its drawing's
     s1, s2 = np.zeros(h * w, bool), np.zeros(h * w, bool)
+    many = len(set(sources.drawing)) > 1
+    g1, g2 = (np.full(h * w, -1, np.int64) for _ in range(2)) if many else (None, None)
     colours, owners, count = [], [], 0
     clear = []
     for i in sources.order:
@@ -206,15 +207,22 @@ def _draw(posed, sources, *, scale=1.0):
         # Beyond a part's triangles the relief has no height: there, between parts of one
         # drawing, the layer stack decides (this part is in front of those drawn before it).
         old1 = z1[pix]
-        top = (z >= old1) | ((skirt | s1[pix]) & (g1[pix] == g))
-        second = ~top & ((z >= z2[pix]) | ((skirt | s2[pix]) & (g2[pix] == g)))
-        second = np.flatnonzero(second)
+        stack = skirt | s1[pix]
+        top = (z >= old1) | (stack & (g1[pix] == g) if many else stack)
+        below = np.flatnonzero(~top)
+        at = pix[below]
+        stack = s2[at] & (g2[at] == g) if many else s2[at]
+        second = below[(z[below] >= z2[at]) | stack]
         top = np.flatnonzero(top)
         at = pix[top]
-        z2[at], i2[at], g2[at], s2[at] = old1[top], i1[at], g1[at], s1[at]
-        z1[at], i1[at], g1[at], s1[at] = z[top], ids[top], g, skirt[top]
+        z2[at], i2[at], s2[at] = old1[top], i1[at], s1[at]
+        z1[at], i1[at], s1[at] = z[top], ids[top], skirt[top]
+        if many:
+            g2[at], g1[at] = g1[at], g
         at = pix[second]
-        z2[at], i2[at], g2[at], s2[at] = z[second], ids[second], g, skirt[second]
+        z2[at], i2[at], s2[at] = z[second], ids[second], False
+        if many:
+            g2[at] = g
     out = np.zeros((h * w, 4), np.uint8)
     shown = np.full(h * w, -1, np.int32)
     covered = np.flatnonzero(i1 >= 0)
