@@ -134,22 +134,34 @@ def quadtree_blocks(wx, wy, known, *, weak=0.1, band=1, max_block=64):
         empty = np.zeros(0, np.int64)
         return empty, empty, empty
     # Distance to the nearest detail, 0 on the details (and off the grid's tiles).
-    dist = ndimage.distance_transform_cdt(~detail, metric="chessboard").astype(np.int64)
-    covered = np.zeros((h, w), bool)
+    dist = ndimage.distance_transform_cdt(~detail, metric="chessboard")
+    # The nearest detail of every aligned tile of each size, by 2x2 minima of the
+    # next smaller size's (a tile of size s is four of size s / 2).
+    nearest = {1: dist}
+    s = 2
+    while s <= max_block:
+        th, tw = h // s, w // s
+        if not (th and tw):
+            break
+        m = nearest[s // 2][:2 * th, :2 * tw]
+        nearest[s] = np.minimum(np.minimum(m[0::2, 0::2], m[0::2, 1::2]),
+                                np.minimum(m[1::2, 0::2], m[1::2, 1::2]))
+        s *= 2
     found = []
+    taken = None  # the tiles of the size at hand inside a larger block (aligned: all or none)
     s = max_block
     while s >= 2:
         th, tw = h // s, w // s
-        if th and tw:
-            tile = np.s_[:th * s, :tw * s]
-            nearest = dist[tile].reshape(th, s, tw, s).min(axis=(1, 3))
-            taken = covered[tile].reshape(th, s, tw, s).any(axis=(1, 3))
-            rows, cols = np.nonzero((nearest > band + s // 2) & ~taken)
+        if s in nearest:
+            free = nearest[s] > band + s // 2
+            if taken is not None:
+                free &= ~taken
+            rows, cols = np.nonzero(free)
             if len(rows):
                 found.append((rows * s, cols * s, np.full(len(rows), s)))
-                mark = np.zeros((th, tw), bool)
-                mark[rows, cols] = True
-                covered[tile] |= np.repeat(np.repeat(mark, s, axis=0), s, axis=1)
+            inside = free if taken is None else free | taken
+            taken = np.zeros((h // (s // 2), w // (s // 2)), bool)
+            taken[:2 * th, :2 * tw] = inside.repeat(2, axis=0).repeat(2, axis=1)
         s //= 2
     if not found:
         empty = np.zeros(0, np.int64)
