@@ -122,7 +122,8 @@ def nested_dissection_of_edges(i, j, rows, cols):
     # The halving that parts an edge's two ends: the highest bit where their codes differ.
     level = top - np.frexp((m[i] ^ m[j]).astype(np.float64))[1]
     low = np.where(m[i] < m[j], i, j)
-    depth = np.full(len(rows), top)
+    # one dtype for both (np.minimum.at casting between them is some fifty times slower)
+    depth = np.full(len(rows), top, level.dtype)
     np.minimum.at(depth, low, level)
     end = ((m >> (top - depth)) + 1) << (top - depth)
     return np.lexsort((-depth, end))
