@@ -12,13 +12,13 @@ shared corner does not count but a fold over it does.
 
 import numpy as np
 
-__all__ = ["self_intersecting_faces"]
+__all__ = ["self_intersecting_faces", "crossing_faces"]
 
 _SHRINK = 1e-6  # relative shrink of faces that share a corner
 _CHUNK = 200_000  # pairs tested at once (memory)
 
 
-def self_intersecting_faces(vertices, faces, *, float32_scales=()):
+def self_intersecting_faces(vertices, faces, *, float32_scales=(), among=None):
     """Which faces cross or touch another face they share no edge with.
 
     Parameters
@@ -30,6 +30,10 @@ def self_intersecting_faces(vertices, faces, *, float32_scales=()):
         these and rounded to float32 (as files store them): faces touching
         within a rounding error may cross there. The candidate pairs are found
         once for all of them.
+    among : (m,) bool array, optional
+        Only pairs with at least one of these faces are tested: the others
+        are reported only where they cross one of these (see
+        :func:`crossing_faces`).
 
     Returns
     -------
@@ -45,31 +49,78 @@ def self_intersecting_faces(vertices, faces, *, float32_scales=()):
     >>> self_intersecting_faces(apart, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
     [False, False]
     """
+    return crossing_faces(vertices, faces, float32_scales=float32_scales, among=among).any(axis=0)
+
+
+def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
+    """Which faces cross or touch another, in double precision and once rounded, apart.
+
+    :func:`self_intersecting_faces` with one row per precision: a caller that
+    weighs crossings in double precision against those a file's float32
+    positions add finds the candidate pairs once.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    float32_scales : sequence of float, default ()
+        Scales at which the positions are also rounded to float32.
+    among : (m,) bool array, optional
+        Only pairs with at least one of these faces are tested (a face's
+        row is then exact for these faces; another face is marked only where
+        it crosses one of them). The cost grows with the faces near these,
+        not with the mesh.
+
+    Returns
+    -------
+    (1 + len(float32_scales), m) bool array
+        Row 0 in double precision, then one row per scale.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = 1000.0 + np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0],  # a corner 1e-9 off the plane
+    ...                        [0.5, 0.5, -1e-9], [0.5, 0.5, -1], [1, 0.5, -1]])
+    >>> f = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> crossing_faces(v, f, float32_scales=(1.0,)).tolist()
+    [[False, False], [True, True]]
+    >>> crossing_faces(v, f, float32_scales=(1.0,), among=np.array([False, False])).tolist()
+    [[False, False], [False, False]]
+    """
     v = np.asarray(vertices, float)
     f = np.asarray(faces, np.int64)
-    out = np.zeros(len(f), bool)
+    out = np.zeros((1 + len(float32_scales), len(f)), bool)
     if len(f) < 2:
         return out
     variants = [v] + [(v * s).astype(np.float32).astype(float) for s in float32_scales]
     # the boxes widened by more than a rounding to float32 moves a corner (2^-24 of it)
     margin = 1e-6 * float(np.abs(v).max()) if float32_scales else 0.0
-    a, b = _candidate_pairs(v[f], margin)
+    t = v[f]
+    lo, hi = t.min(axis=1), t.max(axis=1)
+    a, b = _candidate_pairs(lo - margin, hi + margin,
+                            None if among is None else np.asarray(among, bool))
     shared = (f[a][:, :, None] == f[b][:, None, :]).sum(axis=(1, 2))
     a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
-    for w in variants:
+    # boxes apart in double precision cannot meet there
+    tight = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    for row, w in enumerate(variants):
         w = w - 0.5 * (w.min(axis=0) + w.max(axis=0))  # digits where the faces differ
-        for s in range(0, len(a), _CHUNK):
-            i, j, k = a[s:s + _CHUNK], b[s:s + _CHUNK], shared[s:s + _CHUNK]
-            ti, tj = w[f[i]], w[f[j]]
-            corner = k == 1
-            ti[corner] = _shrunk(ti[corner])
-            tj[corner] = _shrunk(tj[corner])
-            near = _straddle(ti, tj) & _straddle(tj, ti)
-            hit = np.zeros(len(i), bool)
-            hit[near] = _overlap(ti[near], tj[near])
-            out[i[hit]] = True
-            out[j[hit]] = True
+        i, j, k = (a[tight], b[tight], shared[tight]) if row == 0 else (a, b, shared)
+        for s in range(0, len(i), _CHUNK):
+            hit = _meet(w[f[i[s:s + _CHUNK]]], w[f[j[s:s + _CHUNK]]], k[s:s + _CHUNK] == 1)
+            out[row, i[s:s + _CHUNK][hit]] = True
+            out[row, j[s:s + _CHUNK][hit]] = True
     return out
+
+
+def _meet(ti, tj, corner):
+    """Whether triangles ``ti, tj`` (k, 3, 3) meet, those sharing a ``corner`` shrunk."""
+    ti[corner] = _shrunk(ti[corner])
+    tj[corner] = _shrunk(tj[corner])
+    near = _straddle(ti, tj) & _straddle(tj, ti)
+    hit = np.zeros(len(ti), bool)
+    hit[near] = _overlap(ti[near], tj[near])
+    return hit
 
 
 def _shrunk(t):
@@ -77,15 +128,14 @@ def _shrunk(t):
     return c + (1.0 - _SHRINK) * (t - c)
 
 
-def _candidate_pairs(t, margin=0.0):
-    """Pairs ``a < b`` of faces whose bounding boxes, widened by ``margin``, overlap."""
-    lo, hi = t.min(axis=1) - margin, t.max(axis=1) + margin
+def _candidate_pairs(lo, hi, among=None):
+    """Pairs ``a < b`` of boxes ``[lo, hi]`` that overlap (with at least one box ``among``)."""
     cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
     ilo = np.floor(lo / cell).astype(np.int64)
     ihi = np.floor(hi / cell).astype(np.int64)
     span = ihi - ilo + 1
     count = span.prod(axis=1)
-    face = np.repeat(np.arange(len(t)), count)
+    face = np.repeat(np.arange(len(lo)), count)
     k = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)  # index within a face
     sx, sy = span[face, 0], span[face, 1]
     cell_of = np.stack([ilo[face, 0] + k % sx, ilo[face, 1] + (k // sx) % sy,
@@ -93,6 +143,10 @@ def _candidate_pairs(t, margin=0.0):
     c = cell_of - cell_of.min(axis=0)
     size = c.max(axis=0) + 1
     key = (c[:, 0] * size[1] + c[:, 1]) * size[2] + c[:, 2]  # one integer per cell
+    if among is not None:
+        # only the cells a box among them reaches
+        hot = np.isin(key, key[among[face]])
+        key, face, cell_of = key[hot], face[hot], cell_of[hot]
     order = np.lexsort((face, key))
     key, face, cell_of = key[order], face[order], cell_of[order]
     end = np.searchsorted(key, key, side="right")
@@ -101,6 +155,8 @@ def _candidate_pairs(t, margin=0.0):
     second = first + 1 + np.arange(len(first)) - np.repeat(np.cumsum(later) - later, later)
     a, b = face[first], face[second]
     keep = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    if among is not None:
+        keep &= among[a] | among[b]
     # a pair shares every cell its boxes' overlap spans: keep it in the overlap's lowest one
     corner = np.floor(np.maximum(lo[a], lo[b]) / cell).astype(np.int64)
     keep &= (corner == cell_of[first]).all(axis=1)

@@ -36,8 +36,8 @@ from inkray.numerics.arap import signed_areas
 from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
-from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.patches import bad_faces, ladders, repair_patches
+from inkray.numerics.tri_intersection import crossing_faces, self_intersecting_faces
+from inkray.relief.patches import _STORED_SCALES, bad_faces, ladders, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE", "SKIRT", "SNAP"]
@@ -853,22 +853,23 @@ def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
 
 def _stitched(vertices, faces, cut, sub_vertices, sub_faces):
     """The ``cut`` faces replaced by a mesh of them whose border vertices are where they
-    were (matched by position). Returns vertices and faces, or faces None where the
-    border does not match one to one or the result is not closed."""
+    were (matched by position, within a rounding error: the remeshing may move one by
+    an ulp). Returns vertices and faces, or faces None where the border does not match
+    one to one or the result is not closed."""
     v, f = vertices, faces
     inside, outside = np.zeros(len(v), bool), np.zeros(len(v), bool)
     inside[f[cut]], outside[f[~cut]] = True, True
     border = np.flatnonzero(inside & outside)
-    ids = _position_ids(np.concatenate([v[border], sub_vertices]))
-    at = np.full(int(ids.max()) + 1, -1)
-    at[ids[:len(border)]] = border
-    if (at[ids[:len(border)]] != border).any():
-        return v, None  # two border vertices at one position
-    to = at[ids[len(border):]]
+    if len(sub_vertices) < 2:
+        return v, None
+    tol = 1e-9 * max(1.0, float(np.abs(v).max()))
+    d, at = cKDTree(sub_vertices).query(v[border], k=2)
+    if (d[:, 0] > tol).any() or (d[:, 1] <= tol).any() or len(np.unique(at[:, 0])) < len(border):
+        return v, None  # a border vertex moved, or two sub vertices (or border ones) at it
+    to = np.full(len(sub_vertices), -1)
+    to[at[:, 0]] = border
     new = to < 0
     to[new] = len(v) + np.arange(int(new.sum()))
-    if np.bincount(to[~new], minlength=len(v))[border].tolist() != [1] * len(border):
-        return v, None
     nf = np.concatenate([f[~cut], to[sub_faces]])
     if not _closed_manifold(nf):
         return v, None
@@ -1124,13 +1125,20 @@ class _SliverFix:
         sizes = len(self.v), len(self.f)
         v, f, alive = self.v[ring].copy(), self.f[faces].copy(), self.alive[faces].copy()
         around = {x: set(self._faces(x)) for x in ring}
+        # every face the change moves or adds lies within the box of those faces' corners
+        # (a flip, a collapse or a split keeps to them, a move goes to their centroid):
+        # only faces reaching into it may cross or stop crossing, so only theirs are counted
+        pad = 1e-5 * float(np.abs(self.v).max())  # (and what a rounding to float32 moves)
+        lo, hi = self.v[ring].min(axis=0) - pad, self.v[ring].max(axis=0) + pad
 
         def crossing():
             k = np.r_[near, np.arange(sizes[1], len(self.f))]  # (and the faces a split adds)
             used, g = np.unique(self.f[k[self.alive[k]]], return_inverse=True)
             w, g = self.v[used], g.reshape(-1, 3)
-            return (int(self_intersecting_faces(w, g).sum()),
-                    int(bad_faces(w, g, min_angle=0.0).sum()))
+            t = w[g]
+            touched = ((t.min(axis=1) <= hi) & (t.max(axis=1) >= lo)).all(axis=1)
+            rows = crossing_faces(w, g, float32_scales=_STORED_SCALES, among=touched)[:, touched]
+            return int(rows[0].sum()), int(rows.any(axis=0).sum())
 
         before = crossing()
         if not change():
