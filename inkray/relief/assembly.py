@@ -37,7 +37,7 @@ from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
 from inkray.numerics.tri_intersection import crossing_faces, self_intersecting_faces
-from inkray.relief.patches import _STORED_SCALES, bad_faces, ladders, repair_patches
+from inkray.relief.patches import _STORED_SCALES, ladders, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE", "SKIRT", "SNAP"]
@@ -799,15 +799,15 @@ def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RING
         if w is v:
             continue  # nothing kept closed and manifold: the next round, wider
         v, f, bad = _repair(w, g, target=target, min_angle=min_angle,
-                            near=_suspects(v, f, bad, w, g))
+                            changed=_suspects(v, f, bad, w, g))
         if bad.sum() < best[0]:
             best = (int(bad.sum()), v, f, bad)
     count, v, f, bad = best
     if count:
         # vertices of faces folded through others moved one at a time: slow, so only
         # around the few faces the rounds leave
-        w, g, left = _repair(v, f, target=target, min_angle=min_angle,
-                             near=_near_faces(v, f, bad), untangle=True)
+        w, g, left = _repair(v, f, target=target, min_angle=min_angle, changed=bad,
+                             untangle=True)
         if left.sum() < count:
             v, f, bad, count = w, g, left, int(left.sum())
     if 0 < count <= _FEW:
@@ -817,7 +817,7 @@ def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RING
         w, g = _SliverFix(w, g).polish(min_angle)
         if _closed_manifold(g) and _twins(w) <= _twins(v):
             w, g, left = _repair(w, g, target=target, min_angle=min_angle,
-                                 near=_suspects(v, f, bad, w, g))
+                                 changed=_suspects(v, f, bad, w, g))
             if left.sum() < count:
                 v, f, count = w, g, int(left.sum())
     return v, f, count
@@ -960,15 +960,19 @@ def _near_faces(vertices, faces, chosen):
     return near
 
 
-def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
+def _repair(vertices, faces, *, target, min_angle, changed, untangle=False):
     """The patches around bad faces re-triangulated (after vertices moved off the faces
-    they fold through, with ``untangle``). Faces crossing another are looked for among
-    the ``near`` faces only. Returns the vertices, the faces and which are left bad."""
+    they fold through, with ``untangle``). Faces crossing another are looked for in
+    pairs with a ``changed`` face only (the others cross none). Returns the vertices, the
+    faces and which are left bad."""
+    near = _near_faces(vertices, faces, changed)
     if untangle:
+        # the moves change the faces around the vertices moved too
         v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
+        changed = near
     else:
         v, crossing = vertices, None
-    bad = _bad_near(v, faces, near, min_angle=min_angle, crossing=crossing)
+    bad = _bad_near(v, faces, changed, min_angle=min_angle, crossing=crossing)
     if not bad.any():
         return v, faces, bad
     rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
@@ -979,17 +983,23 @@ def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
 
 def _suspects(old_vertices, old_faces, old_bad, vertices, faces):
     """The faces that may cross another after a change of a mesh whose faces crossed
-    none but its ``old_bad`` ones: those that are new or were bad, and those near them."""
+    none but its ``old_bad`` ones: those that are new or were bad."""
     new = _new_faces(old_vertices, old_faces, vertices, faces)
     kept_bad = ~_new_faces(old_vertices, old_faces[old_bad], vertices, faces)
-    return _near_faces(vertices, faces, new | kept_bad)
+    return new | kept_bad
 
 
-def _bad_near(vertices, faces, near, *, min_angle, crossing=None):
-    """Faces with an angle below ``min_angle``, and ``near`` faces crossing another."""
+def _bad_near(vertices, faces, changed, *, min_angle, crossing=None):
+    """Faces with an angle below ``min_angle``, and faces crossing another where one of
+    the two is ``changed`` (also once rounded to float32, as files store them; those in
+    ``crossing`` too)."""
     bad = _min_angles(vertices, faces) < min_angle
-    bad[near] |= bad_faces(vertices, faces[near], min_angle=min_angle,
-                           crossing=None if crossing is None else crossing[near])
+    near = _near_faces(vertices, faces, changed)
+    hit = crossing_faces(vertices, faces[near], float32_scales=_STORED_SCALES,
+                         among=changed[near]).any(axis=0)
+    if crossing is not None:
+        hit |= crossing[near]
+    bad[near] |= hit
     return bad
 
 
@@ -1064,6 +1074,7 @@ class _SliverFix:
         self._order = np.argsort(flat, kind="stable")
         self._start = np.searchsorted(flat[self._order], np.arange(len(self.v) + 1))
         self._around = {}
+        self._angles = {}  # each face's smallest angle, dropped when the face changes
         e = self.v[self.f] - self.v[np.roll(self.f, 1, axis=1)]
         self._short = 0.25 * float(np.median(np.linalg.norm(e, axis=2)))
 
@@ -1152,6 +1163,7 @@ class _SliverFix:
             if x >= sizes[0]:
                 del self._around[x]
         self._around.update(around)
+        self._changed(list(faces) + [g for g in self._angles if g >= sizes[1]])
         return False
 
     def _relax(self, t):
@@ -1167,6 +1179,7 @@ class _SliverFix:
                 self.v[x] = p
                 turned = np.einsum("ij,ij->i", _normal(self.v[self.f[around]]), before)
                 if (turned >= self._WIDE).all() and _min_angles(self.v, self.f[around]).min() > worst:
+                    self._changed(around)
                     return True
                 self.v[x] = here
         return False
@@ -1181,7 +1194,14 @@ class _SliverFix:
         return self._around[x]
 
     def _angle(self, t):
-        return float(_min_angles(self.v, self.f[[t]])[0])
+        if t not in self._angles:
+            self._angles[t] = float(_min_angles(self.v, self.f[[t]])[0])
+        return self._angles[t]
+
+    def _changed(self, faces):
+        """Faces whose corners moved or changed: their angles are measured again."""
+        for g in faces:
+            self._angles.pop(g, None)
 
     def _edge(self, t, longest):
         """Corners ``a, b, c`` of face ``t`` with ``a -> b`` its longest (shortest) edge."""
@@ -1207,11 +1227,11 @@ class _SliverFix:
         return u, int(next(x for x in self.f[u] if x != a and x != b))
 
     def _flip(self, t, turn=_TURN, any_edge=False):
+        n = _normal(self.v[self.f[t]])
         for a, b, c in self._edges(t) if any_edge else [self._edge(t, longest=True)]:
             u, d = self._across(t, a, b)
             if u is None or d == c or self._faces(c) & self._faces(d):
                 continue
-            n = _normal(self.v[self.f[t]])
             new = np.array([[a, d, c], [d, b, c]])
             if (_normal(self.v[self.f[u]]) @ n >= turn and (_normal(self.v[new]) @ n >= turn).all()
                     and _min_angles(self.v, new).min() > min(self._angle(t), self._angle(u))):
@@ -1219,6 +1239,7 @@ class _SliverFix:
         else:
             return False
         self.f[t], self.f[u] = new
+        self._changed((t, u))
         self._faces(b).discard(t)
         self._faces(a).discard(u)
         self._faces(d).add(t)
@@ -1238,16 +1259,19 @@ class _SliverFix:
         # they turn: only a face turned over (a fold) is refused
         short = np.linalg.norm(self.v[a] - self.v[b]) < self._short
         turn = 0.0 if short else self._TURN
+        normals = _normal(self.v[self.f[moved]])
+        ends = np.isin(self.f[moved], (a, b))
         for p in (0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]):
             tris = self.v[self.f[moved]]
-            tris[np.isin(self.f[moved], (a, b))] = p
-            if (np.einsum("ij,ij->i", _normal(tris), _normal(self.v[self.f[moved]])) < turn).any():
+            tris[ends] = p
+            if (np.einsum("ij,ij->i", _normal(tris), normals) < turn).any():
                 continue
             worst = _min_angles(tris.reshape(-1, 3), np.arange(3 * len(moved)).reshape(-1, 3)).min()
             if worst > best:
                 best, where = worst, p.copy()
         if where is None:
             return False
+        self._changed(fa | fb)
         self.v[b] = where
         for g in shared:
             self.alive[g] = False
@@ -1279,6 +1303,7 @@ class _SliverFix:
         self.f = np.vstack([self.f, [[m, b, c], [b, m, d]]])
         self.alive = np.append(self.alive, [True, True])
         self.f[t], self.f[u] = [a, m, c], [m, a, d]
+        self._changed((t, u))
         self._faces(b).difference_update((t, u))
         self._faces(b).update((k, k + 1))
         self._faces(c).add(k)
