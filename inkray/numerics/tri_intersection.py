@@ -103,22 +103,26 @@ def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
     a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
     # boxes apart in double precision cannot meet there
     tight = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    # each face as it is, then shrunk (for the pairs sharing a corner): index + len(f)
+    a, b = a + len(f) * (shared == 1), b + len(f) * (shared == 1)
     for row, w in enumerate(variants):
         w = w - 0.5 * (w.min(axis=0) + w.max(axis=0))  # digits where the faces differ
-        i, j, k = (a[tight], b[tight], shared[tight]) if row == 0 else (a, b, shared)
+        t = w[f]
+        t = np.concatenate([t, _shrunk(t)])
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        i, j = (a[tight], b[tight]) if row == 0 else (a, b)
         for s in range(0, len(i), _CHUNK):
-            hit = _meet(w[f[i[s:s + _CHUNK]]], w[f[j[s:s + _CHUNK]]], k[s:s + _CHUNK] == 1)
-            out[row, i[s:s + _CHUNK][hit]] = True
-            out[row, j[s:s + _CHUNK][hit]] = True
+            hit = _meet(t, n, i[s:s + _CHUNK], j[s:s + _CHUNK])
+            out[row, i[s:s + _CHUNK][hit] % len(f)] = True
+            out[row, j[s:s + _CHUNK][hit] % len(f)] = True
     return out
 
 
-def _meet(ti, tj, corner):
-    """Whether triangles ``ti, tj`` (k, 3, 3) meet, those sharing a ``corner`` shrunk."""
-    ti[corner] = _shrunk(ti[corner])
-    tj[corner] = _shrunk(tj[corner])
-    near = _straddle(ti, tj) & _straddle(tj, ti)
-    hit = np.zeros(len(ti), bool)
+def _meet(t, n, i, j):
+    """Whether triangles ``t[i]`` and ``t[j]`` (normals ``n``) meet."""
+    ti, tj = t[i], t[j]
+    near = _straddle(ti, tj, n[i]) & _straddle(tj, ti, n[j])
+    hit = np.zeros(len(i), bool)
     hit[near] = _overlap(ti[near], tj[near])
     return hit
 
@@ -147,7 +151,7 @@ def _candidate_pairs(lo, hi, among=None):
         # only the cells a box among them reaches
         hot = np.isin(key, key[among[face]])
         key, face, cell_of = key[hot], face[hot], cell_of[hot]
-    order = np.lexsort((face, key))
+    order = np.argsort(key * len(lo) + face)  # by cell, then by face
     key, face, cell_of = key[order], face[order], cell_of[order]
     end = np.searchsorted(key, key, side="right")
     later = end - np.arange(len(key)) - 1  # members of the same cell after this one
@@ -163,11 +167,20 @@ def _candidate_pairs(lo, hi, among=None):
     return a[keep], b[keep]
 
 
-def _straddle(p, q):
-    """Whether triangles ``q`` touch the planes of triangles ``p`` (cheap rejection)."""
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+def _straddle(p, q, n):
+    """Whether triangles ``q`` touch the planes of triangles ``p`` (normals ``n``): a cheap
+    rejection."""
     d = np.einsum("kij,kj->ki", q - p[:, :1], n)
-    return (d.min(axis=1) <= 0) & (d.max(axis=1) >= 0)
+    return (_least(d) <= 0) & (_most(d) >= 0)
+
+
+def _least(x):
+    """Smallest of each row's three entries (a reduction over so short an axis is slow)."""
+    return np.minimum(np.minimum(x[:, 0], x[:, 1]), x[:, 2])
+
+
+def _most(x):
+    return np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])
 
 
 def _overlap(p, q):
@@ -187,6 +200,6 @@ def _overlap(p, q):
         u = axis / np.maximum(norm, 1e-300)[:, None]
         sp = np.einsum("kij,kj->ki", p, u)
         sq = np.einsum("kij,kj->ki", q, u)
-        apart = (sp.max(axis=1) < sq.min(axis=1)) | (sq.max(axis=1) < sp.min(axis=1))
+        apart = (_most(sp) < _least(sq)) | (_most(sq) < _least(sp))
         meet &= ~(apart & usable)
     return meet
