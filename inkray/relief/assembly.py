@@ -920,10 +920,22 @@ def _new_faces(old_vertices, old_faces, vertices, faces):
 
 
 def _position_ids(points):
-    """One integer per distinct position of ``points`` (n, 3), numbered in sorted order."""
-    order = np.lexsort(np.asarray(points).T[::-1])
-    first = np.r_[True, (np.diff(points[order], axis=0) != 0).any(axis=1)]
-    ids = np.empty(len(points), np.int64)
+    """One integer per distinct position of ``points`` (n, d)."""
+    p = np.ascontiguousarray(points, float) + 0.0  # (-0.0 is 0.0)
+    # one sort of a hash of the positions' bits, not one per coordinate
+    h = np.zeros(len(p), np.uint64)
+    for column in p.view(np.uint64).T:
+        h = (h ^ column) * np.uint64(0x9E3779B97F4A7C15)
+        h ^= h >> np.uint64(29)
+    order = np.argsort(h, kind="stable")
+    first = np.r_[True, h[order][1:] != h[order][:-1]]
+    q = p[order]
+    if (q[1:][~first[1:]] != q[:-1][~first[1:]]).any():
+        # two positions with one hash: sorted by their coordinates instead
+        order = np.lexsort(p.T[::-1])
+        q = p[order]
+        first = np.r_[True, (np.diff(q, axis=0) != 0).any(axis=1)]
+    ids = np.empty(len(p), np.int64)
     ids[order] = np.cumsum(first) - 1
     return ids
 
@@ -965,11 +977,10 @@ def _repair(vertices, faces, *, target, min_angle, changed, untangle=False):
     they fold through, with ``untangle``). Faces crossing another are looked for in
     pairs with a ``changed`` face only (the others cross none). Returns the vertices, the
     faces and which are left bad."""
-    near = _near_faces(vertices, faces, changed)
     if untangle:
         # the moves change the faces around the vertices moved too
-        v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
-        changed = near
+        changed = _near_faces(vertices, faces, changed)
+        v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=changed)
     else:
         v, crossing = vertices, None
     bad = _bad_near(v, faces, changed, min_angle=min_angle, crossing=crossing)
@@ -1283,6 +1294,19 @@ class _SliverFix:
         fa.clear()
         return True
 
+    @staticmethod
+    def _appended(array, rows):
+        """``array`` with ``rows`` appended: a view of a buffer twice as long as needed
+        when it is full (splits add rows one at a time; copying them all each time is
+        slow), which a shorter view of it (an undone change) keeps using."""
+        n, rows = len(array), np.asarray(rows, array.dtype)
+        buffer = array.base
+        if buffer is None or len(buffer) < n + len(rows) or buffer.ctypes.data != array.ctypes.data:
+            buffer = np.empty((2 * (n + len(rows)),) + array.shape[1:], array.dtype)
+            buffer[:n] = array
+        buffer[n:n + len(rows)] = rows
+        return buffer[:n + len(rows)]
+
     def _ring(self, faces):
         """The vertices of ``faces``."""
         return {int(y) for g in faces for y in self.f[g]}
@@ -1298,10 +1322,10 @@ class _SliverFix:
         if not 0.05 < s < 0.95 or np.linalg.norm(self.v[c] - foot) < 1e-3 * np.sqrt(ab @ ab):
             return False  # (a corner on the edge would get a twin at its position)
         m = len(self.v)
-        self.v = np.vstack([self.v, foot])
+        self.v = self._appended(self.v, [foot])
         k = len(self.f)
-        self.f = np.vstack([self.f, [[m, b, c], [b, m, d]]])
-        self.alive = np.append(self.alive, [True, True])
+        self.f = self._appended(self.f, [[m, b, c], [b, m, d]])
+        self.alive = self._appended(self.alive, [True, True])
         self.f[t], self.f[u] = [a, m, c], [m, a, d]
         self._changed((t, u))
         self._faces(b).difference_update((t, u))
