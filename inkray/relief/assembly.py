@@ -909,14 +909,17 @@ def _remeshed(vertices, faces, chosen, *, target, iterations):
     return np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
 
 
-def _new_faces(old_vertices, old_faces, vertices, faces):
-    """Which faces are not among the old ones (compared by their corners' positions)."""
+def _old_faces(old_vertices, old_faces, vertices, faces):
+    """Each face's index among the old ones (compared by their corners' positions), or -1
+    where it is new."""
     ids = _position_ids(np.concatenate([old_vertices, vertices]))
     old = np.sort(ids[:len(old_vertices)][old_faces], axis=1)
     new = np.sort(ids[len(old_vertices):][faces], axis=1)
     span = int(ids.max()) + 1
-    key = (np.concatenate([old, new]) * np.array([span * span, span, 1])).sum(axis=1)
-    return ~np.isin(key[len(old):], key[:len(old)])
+    old, new = (x @ np.array([span * span, span, 1]) for x in (old, new))
+    order = np.argsort(old, kind="stable")
+    at = np.minimum(np.searchsorted(old[order], new), len(old) - 1)
+    return np.where(old[order][at] == new, order[at], -1)
 
 
 def _position_ids(points):
@@ -995,9 +998,8 @@ def _repair(vertices, faces, *, target, min_angle, changed, untangle=False):
 def _suspects(old_vertices, old_faces, old_bad, vertices, faces):
     """The faces that may cross another after a change of a mesh whose faces crossed
     none but its ``old_bad`` ones: those that are new or were bad."""
-    new = _new_faces(old_vertices, old_faces, vertices, faces)
-    kept_bad = ~_new_faces(old_vertices, old_faces[old_bad], vertices, faces)
-    return new | kept_bad
+    old = _old_faces(old_vertices, old_faces, vertices, faces)
+    return (old < 0) | old_bad[old]
 
 
 def _bad_near(vertices, faces, changed, *, min_angle, crossing=None):
