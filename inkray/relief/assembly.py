@@ -1272,16 +1272,17 @@ class _SliverFix:
         # they turn: only a face turned over (a fold) is refused
         short = np.linalg.norm(self.v[a] - self.v[b]) < self._short
         turn = 0.0 if short else self._TURN
-        normals = _normal(self.v[self.f[moved]])
+        # the moved faces with the edge's ends at its midpoint, at a, at b: all at once
+        points = np.stack([0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]])
+        tris = np.repeat(self.v[self.f[moved]][None], 3, axis=0)
         ends = np.isin(self.f[moved], (a, b))
-        for p in (0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]):
-            tris = self.v[self.f[moved]]
-            tris[ends] = p
-            if (np.einsum("ij,ij->i", _normal(tris), normals) < turn).any():
-                continue
-            worst = _min_angles(tris.reshape(-1, 3), np.arange(3 * len(moved)).reshape(-1, 3)).min()
-            if worst > best:
-                best, where = worst, p.copy()
+        tris[:, ends] = points[:, None]
+        folded = (np.einsum("kij,ij->ki", _normal(tris), _normal(self.v[self.f[moved]])) < turn)
+        worst = _min_angles(tris.reshape(-1, 3), np.arange(9 * len(moved)).reshape(-1, 3))
+        worst = worst.reshape(3, -1).min(axis=1)
+        for k in range(3):
+            if not folded[k].any() and worst[k] > best:
+                best, where = worst[k], points[k].copy()
         if where is None:
             return False
         self._changed(fa | fb)
@@ -1341,9 +1342,10 @@ class _SliverFix:
 def _normal(tris):
     """Unit normals of triangles given by their corners (..., 3, 3)."""
     u, w = tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
-    n = np.stack([u[..., 1] * w[..., 2] - u[..., 2] * w[..., 1],
-                  u[..., 2] * w[..., 0] - u[..., 0] * w[..., 2],
-                  u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]], axis=-1)
+    n = np.empty(u.shape)
+    n[..., 0] = u[..., 1] * w[..., 2] - u[..., 2] * w[..., 1]
+    n[..., 1] = u[..., 2] * w[..., 0] - u[..., 0] * w[..., 2]
+    n[..., 2] = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
     return n / np.maximum(np.sqrt((n * n).sum(axis=-1, keepdims=True)), 1e-300)
 
 
