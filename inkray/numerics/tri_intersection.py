@@ -92,9 +92,17 @@ def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
     out = np.zeros((1 + len(float32_scales), len(f)), bool)
     if len(f) < 2:
         return out
-    variants = [v] + [(v * s).astype(np.float32).astype(float) for s in float32_scales]
+    # the positions are centred on all the vertices' box (rounding is monotonic, so the
+    # rounded box is the box rounded), but only those of the faces are rounded
+    low, high = v.min(axis=0), v.max(axis=0)
+    used, f = np.unique(f, return_inverse=True)
+    v, f = v[used], f.reshape(-1, 3)
+    variants = [(v, 0.5 * (low + high))]
+    for s in float32_scales:
+        low_s, high_s = (_rounded(x * s) for x in (low, high))
+        variants.append((_rounded(v * s), 0.5 * (low_s + high_s)))
     # the boxes widened by more than a rounding to float32 moves a corner (2^-24 of it)
-    margin = 1e-6 * float(np.abs(v).max()) if float32_scales else 0.0
+    margin = 1e-6 * float(np.maximum(-low, high).max()) if float32_scales else 0.0
     t = v[f]
     lo, hi = t.min(axis=1), t.max(axis=1)
     a, b = _candidate_pairs(lo - margin, hi + margin,
@@ -105,8 +113,8 @@ def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
     tight = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
     # each face as it is, then shrunk (for the pairs sharing a corner): index + len(f)
     a, b = a + len(f) * (shared == 1), b + len(f) * (shared == 1)
-    for row, w in enumerate(variants):
-        w = w - 0.5 * (w.min(axis=0) + w.max(axis=0))  # digits where the faces differ
+    for row, (w, centre) in enumerate(variants):
+        w = w - centre  # digits where the faces differ
         t = w[f]
         t = np.concatenate([t, _shrunk(t)])
         n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
@@ -125,6 +133,10 @@ def _meet(t, n, i, j):
     hit = np.zeros(len(i), bool)
     hit[near] = _overlap(ti[near], tj[near])
     return hit
+
+
+def _rounded(x):
+    return x.astype(np.float32).astype(float)
 
 
 def _shrunk(t):
