@@ -912,6 +912,8 @@ def _remeshed(vertices, faces, chosen, *, target, iterations):
 def _old_faces(old_vertices, old_faces, vertices, faces):
     """Each face's index among the old ones (compared by their corners' positions), or -1
     where it is new."""
+    if len(old_faces) == 0:
+        return np.full(len(faces), -1)
     ids = _position_ids(np.concatenate([old_vertices, vertices]))
     old = np.sort(ids[:len(old_vertices)][old_faces], axis=1)
     new = np.sort(ids[len(old_vertices):][faces], axis=1)
