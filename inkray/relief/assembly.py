@@ -1098,7 +1098,9 @@ class _SliverFix:
         for _ in range(self._ROUNDS):
             live = np.flatnonzero(self.alive)
             angles = _min_angles(self.v, self.f[live])
-            bad = live[np.argsort(angles, kind="stable")[: int((angles < min_angle).sum())]]
+            order = np.argsort(angles, kind="stable")[: int((angles < min_angle).sum())]
+            bad = live[order]
+            self._angles.update(zip(bad.tolist(), angles[order].tolist()))
             changed = False
             for t in bad.tolist():
                 if self.alive[t] and self._angle(t) < min_angle:
