@@ -107,10 +107,13 @@ def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
     lo, hi = t.min(axis=1), t.max(axis=1)
     a, b = _candidate_pairs(lo - margin, hi + margin,
                             None if among is None else np.asarray(among, bool))
-    shared = (f[a][:, :, None] == f[b][:, None, :]).sum(axis=(1, 2))
+    fa, fb = f[a], f[b]
+    shared = sum((fa[:, i] == fb[:, j]).astype(np.int64) for i in range(3) for j in range(3))
     a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
     # boxes apart in double precision cannot meet there
-    tight = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
+    tight = np.ones(len(a), bool)
+    for axis in range(3):
+        tight &= (lo[a, axis] <= hi[b, axis]) & (lo[b, axis] <= hi[a, axis])
     # each face as it is, then shrunk (for the pairs sharing a corner): index + len(f)
     a, b = a + len(f) * (shared == 1), b + len(f) * (shared == 1)
     for row, (w, centre) in enumerate(variants):
@@ -170,12 +173,15 @@ def _candidate_pairs(lo, hi, among=None):
     first = np.repeat(np.arange(len(key)), later)
     second = first + 1 + np.arange(len(first)) - np.repeat(np.cumsum(later) - later, later)
     a, b = face[first], face[second]
-    keep = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
     if among is not None:
-        keep &= among[a] | among[b]
-    # a pair shares every cell its boxes' overlap spans: keep it in the overlap's lowest one
-    corner = np.floor(np.maximum(lo[a], lo[b]) / cell).astype(np.int64)
-    keep &= (corner == cell_of[first]).all(axis=1)
+        keep = among[a] | among[b]
+        first, a, b = first[keep], a[keep], b[keep]
+    keep = np.ones(len(a), bool)
+    for axis in range(lo.shape[1]):  # (a column at a time: reductions over rows of 3 are slow)
+        la, lb = lo[a, axis], lo[b, axis]
+        keep &= (la <= hi[b, axis]) & (lb <= hi[a, axis])
+        # a pair shares every cell its boxes' overlap spans: kept in the overlap's lowest one
+        keep &= np.floor(np.maximum(la, lb) / cell).astype(np.int64) == cell_of[first, axis]
     return a[keep], b[keep]
 
 
