@@ -1,7 +1,8 @@
 """Self-intersections of a triangle mesh, tested exactly in double precision.
 
-Candidate pairs come from a uniform grid over the faces' bounding boxes;
-each pair is tested with the separating axis theorem (two triangles are
+Candidate pairs come from a uniform grid over the faces' bounding boxes
+(or only its cells that a given set of faces reaches, when the rest of the
+mesh is known to cross nothing); each pair is tested with the separating axis theorem (two triangles are
 disjoint exactly when their projections on one of 17 axes - the two
 normals, the nine cross products of their edges and the six in-plane edge
 normals, which separate coplanar triangles - do not overlap). Faces sharing
