@@ -128,7 +128,10 @@ class DepthResult:
         ``exact``: ``kkt`` (measured KKT residuals), ``objective``,
         ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
         (``{label: level}`` for the segments, or parts of segments, holding
-        endpoints), ``labels`` (the segmentation with those parts), ``timings``.
+        endpoints), ``labels`` (the segmentation with those parts), ``timings``
+        (seconds: ``segment``, ``laplace``) and, from a chain's kept session,
+        ``draft`` (whether the fill was the half-resolution one, see
+        :meth:`DepthSession.solve`).
     """
 
     depth: np.ndarray
@@ -463,7 +466,7 @@ class DepthSession:
         self.parts = None       # the segmentation with split segments, after solve()
         self._split_cache = {}  # (segment, endpoint groups) -> labels of its parts
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
-        self.timings = {}
+        self.timings = {}       # of the last solve: "segment", "laplace"
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
         self._warming = None    # the thread factoring the draft fill in prepare(), if any
 
@@ -641,7 +644,7 @@ class DepthSession:
             factorizations (the draft's about a quarter of the full one's
             memory). When the full fill works on a box of at most
             :data:`DRAFT_ABOVE` pixels (its fixed values settle the rest), the
-            draft is the full fill.
+            draft is the full fill; :attr:`drafted` says which one answered.
 
         Returns
         -------
@@ -662,6 +665,8 @@ class DepthSession:
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
+        self.timings = {}
+        self._drafted = False
         if not len(p) and self._scribbles is None:
             return self._flat()
         t = time.perf_counter()
@@ -701,6 +706,12 @@ class DepthSession:
         if not self._drafted:
             self._solved = self._changes, d.copy()
         return d
+
+    @property
+    def drafted(self):
+        """Whether the last :meth:`solve` was answered by the half-resolution fill
+        (a draft), not the full one."""
+        return self._drafted
 
     def _flat(self):
         """No entry and no default order: one depth everywhere."""
