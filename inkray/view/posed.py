@@ -186,7 +186,8 @@ def _draw(posed, sources, *, scale=1.0):
     z2 = np.full(h * w, -np.inf)
     i1 = np.full(h * w, -1, np.int64)
     i2 = np.full(h * w, -1, np.int64)
-    # per slot: whether its fragment lies beyond its part's triangles, and its drawing's
+    # per slot: whether its fragment lies beyond its part's triangles, and (in a scene of
+    # several drawings) the drawing it belongs to
     s1, s2 = np.zeros(h * w, bool), np.zeros(h * w, bool)
     many = len(set(sources.drawing)) > 1
     g1, g2 = (np.full(h * w, -1, np.int64) for _ in range(2)) if many else (None, None)
