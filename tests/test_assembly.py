@@ -12,7 +12,7 @@ from _reliefs import disk_part
 from inkray.numerics.arap import signed_areas
 from inkray.numerics.tri_intersection import self_intersecting_faces
 from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _envelope_solid,
-                                    _paired, _sheets, _unwalled,
+                                    _paired, _sheets, _uncrowded, _unwalled,
                                     _min_angles, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
@@ -389,6 +389,17 @@ def test_a_floating_part_is_kept_clear_of_a_curved_outline_along_its_whole_edge(
     x, y = circle.T
     area = 0.5 * abs((x * np.roll(y, -1) - np.roll(x, -1) * y).sum())
     assert abs(lowest.volume) == pytest.approx(area * 1.0, rel=1e-12)
+
+
+def test_outline_vertices_moved_together_into_one_corner_stay_where_they_were():
+    before = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [5.0, 5.0]])
+    after = before.copy()
+    after[1] = after[2] = [1.5, 0.7]  # moved onto one point: the union would pinch there
+    after[2, 0] += 0.01
+    after[3] = [3.0, 0.75]  # moved alone: kept
+    out = _uncrowded(before, after, np.arange(4), 0.075)
+    assert np.array_equal(out[[1, 2]], before[[1, 2]])
+    assert np.array_equal(out[[0, 3, 4]], after[[0, 3, 4]])
 
 
 def test_a_hole_smaller_than_the_fill_area_is_filled():

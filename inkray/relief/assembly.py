@@ -347,9 +347,11 @@ def _snapped(sheets, reach, *, join_covered=True):
     half ``reach`` clear of it instead, unless a third sheet covers the place: then
     they coincide too (``join_covered``) or stay; the edges moved clear take the
     other outline's vertices they pass, pushed clear too (``_cleared``), so that a
-    long edge beside a curve does not cut across it between its ends. A move or an insertion that would fold or
-    flatten a triangle of its sheet (in ``(x, y)``) is left out. Returns the list of
-    ``(vertices, faces)``.
+    long edge beside a curve does not cut across it between its ends. A move or an
+    insertion that would fold or flatten a triangle of its sheet (in ``(x, y)``) is
+    left out, and so are moves that bring two outline vertices within a twentieth of
+    ``reach`` of each other (into a corner of the other outline's offset). Returns the
+    list of ``(vertices, faces)``.
     """
     done, outlines = [], []
     rims = [_outline_segments(v, f) for v, f in sheets]
@@ -393,7 +395,7 @@ def _snapped(sheets, reach, *, join_covered=True):
             snapped = np.zeros(len(v), bool)
             snapped[on[found & ~apart]] = True
             for _ in range(len(on)):  # (undoing a move may fold a triangle, or leave one alone)
-                u = _runs(v, _unfolded(v, w, f), a, b, snapped)
+                u = _runs(v, _uncrowded(v, _unfolded(v, w, f), on, 0.05 * reach), a, b, snapped)
                 if np.array_equal(u, w):
                     break
                 w = u
@@ -418,6 +420,23 @@ def _snapped(sheets, reach, *, join_covered=True):
             v, f = _inserted(v, f, np.concatenate(others), on, clear=on)
         out.append((v, f))
     return out
+
+
+def _uncrowded(before, after, on, near):
+    """``after`` with the moves of outline vertices ``on`` undone where two of them end
+    nearer than ``near`` to each other (moved together into a corner of the other
+    outline's offset, they would pinch the union)."""
+    w = np.array(after, float)
+    moved = on[(w[on] != before[on]).any(axis=1)]
+    if len(moved) < 2:
+        return w
+    pairs = cKDTree(w[on, :2]).query_pairs(near, output_type="ndarray")
+    if not len(pairs):
+        return w
+    crowd = on[np.unique(pairs)]
+    crowd = crowd[(w[crowd] != before[crowd]).any(axis=1)]
+    w[crowd] = before[crowd]
+    return w
 
 
 def _cleared(vertices, faces, away, others, reach, rims, this):
@@ -453,21 +472,56 @@ def _cleared(vertices, faces, away, others, reach, rims, this):
     ending[ids[len(s0):]] = np.arange(len(s0))
     before = ending[ids[:len(s0)]]
     normal = out + np.where(before[:, None] >= 0, out[np.maximum(before, 0)], out)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-12)[:, None]
+    length = np.linalg.norm(normal, axis=1)
+    # (at a corner sharper than a right angle "out of the outline" has no one direction)
+    take &= length > np.sqrt(2.0)
+    normal /= np.maximum(length, 1e-12)[:, None]
+    if not take.any():
+        return v, faces
     # one point for vertices of two outlines at one place (made to coincide before)
     points, normal = s0[take, :2], normal[take]
     twin = cKDTree(points).query_pairs(0.1 * reach, output_type="ndarray")
     single = np.ones(len(points), bool)
     single[twin.max(axis=1)] = False
     points, normal = points[single], normal[single]
-    # pushed less far where the fan would fold a triangle (the edge's third corner near)
-    for push in (0.5, 0.25, 0.1):
-        v, faces = _inserted(v, faces, points + push * reach * normal, reach,
-                             clear=0.5 * reach, only=edges)
-        edges = edges[_among(edges, _boundary_edges(faces), len(v))]
-        if not len(edges):
-            break
+    for _ in range(len(points)):
+        w, g, over = _pushed_in(v, faces, edges, points, normal, reach)
+        if not over.any():
+            return w, g
+        # a point pushed across a narrow spike into the sheet beyond: left out
+        points, normal = points[~over], normal[~over]
     return v, faces
+
+
+def _pushed_in(vertices, faces, edges, points, normal, reach):
+    """``points`` moved along ``normal`` by half ``reach`` put into the outline
+    ``edges``, or by a quarter or a tenth where the fan would fold a triangle (the
+    edge's third corner near), each into one edge only. Returns the vertices, the
+    faces and which points landed inside a triangle of the sheet they are no corner
+    of (the sheet then overlaps itself)."""
+    v, f = vertices, faces
+    at = np.full(len(points), -1)
+    for push in (0.5, 0.25, 0.1):
+        todo = np.flatnonzero(at < 0)
+        pushed = points[todo] + push * reach * normal[todo]
+        n = len(v)
+        v, f = _inserted(v, f, pushed, reach, clear=0.5 * reach, only=edges)
+        edges = edges[_among(edges, _boundary_edges(f), len(v))]
+        if len(v) > n:
+            same = (pushed[:, None, :] == v[None, n:, :2]).all(axis=2)
+            found = same.any(axis=1)
+            at[todo[found]] = n + same[found].argmax(axis=1)
+        if not len(edges) or (at >= 0).all():
+            break
+    over = np.zeros(len(at), bool)
+    for k in np.flatnonzero(at >= 0).tolist():
+        p = v[at[k], :2]
+        t = v[f[(f != at[k]).all(axis=1)]][:, :, :2]
+        d = [(t[:, (j + 1) % 3, 0] - t[:, j, 0]) * (p[1] - t[:, j, 1])
+             - (t[:, (j + 1) % 3, 1] - t[:, j, 1]) * (p[0] - t[:, j, 0]) for j in range(3)]
+        over[k] = (((d[0] > 0) & (d[1] > 0) & (d[2] > 0))
+                   | ((d[0] < 0) & (d[1] < 0) & (d[2] < 0))).any()
+    return v, f, over
 
 
 def _among(edges, others, n):
