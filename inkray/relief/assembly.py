@@ -406,7 +406,7 @@ def _snapped(sheets, reach, *, join_covered=True):
             if (cleared & moved).any():
                 # an edge whose ends were moved clear can still cut across the other
                 # outline between them (a long edge beside a curve): the other's vertices
-                # it passes, pushed half ``reach`` out, put into it
+                # it leaves inside, pushed half ``reach`` out, put into it
                 v, f = _cleared(v, f, np.r_[cleared & moved, np.zeros(len(v) - len(w), bool)],
                                 (s0, s1, out, owner), reach, rims, len(done))
         done.append((v, f))
@@ -424,16 +424,19 @@ def _snapped(sheets, reach, *, join_covered=True):
 
 def _uncrowded(before, after, on, near):
     """``after`` with the moves of outline vertices ``on`` undone where two of them end
-    nearer than ``near`` to each other (moved together into a corner of the other
-    outline's offset, they would pinch the union)."""
+    nearer than ``near`` to each other and than half as far as they were (moved
+    together into a corner of the other outline's offset, they would pinch the union)."""
     w = np.array(after, float)
     moved = on[(w[on] != before[on]).any(axis=1)]
     if len(moved) < 2:
         return w
-    pairs = cKDTree(w[on, :2]).query_pairs(near, output_type="ndarray")
+    pairs = on[cKDTree(w[on, :2]).query_pairs(near, output_type="ndarray")].reshape(-1, 2)
+    # (two vertices of the part's own triangulation that near each other stay so)
+    gap = [np.linalg.norm(x[pairs[:, 0], :2] - x[pairs[:, 1], :2], axis=1) for x in (w, before)]
+    pairs = pairs[gap[0] < 0.5 * gap[1]]
     if not len(pairs):
         return w
-    crowd = on[np.unique(pairs)]
+    crowd = np.unique(pairs)
     crowd = crowd[(w[crowd] != before[crowd]).any(axis=1)]
     w[crowd] = before[crowd]
     return w
@@ -441,8 +444,8 @@ def _uncrowded(before, after, on, near):
 
 def _cleared(vertices, faces, away, others, reach, rims, this):
     """A sheet whose outline edges with an ``away`` end (moved clear of other outlines)
-    take the other outlines' vertices that lie inside the sheet or nearer than half
-    ``reach`` outside such an edge, each pushed half ``reach`` out of its own outline
+    take the other outlines' vertices that lie inside the sheet beyond such an edge
+    (within ``reach`` of it), each pushed half ``reach`` out of its own outline
     (along the mean of the outward normals of its two edges); only where the two
     sheets' slabs do not meet in height and no third sheet's outline (``rims``, this
     one's at index ``this``) covers the place (see ``_snapped``). ``others``: the
@@ -458,7 +461,7 @@ def _cleared(vertices, faces, away, others, reach, rims, this):
     z = e0[k, 2:] + t[:, None] * (e1[k, 2:] - e0[k, 2:])
     apart = (z[:, 1] > s0[:, 2]) | (s0[:, 3] > z[:, 0])
     mine = _outward(v, faces, edges[:, 0], edges[:, 1])[k]
-    inside = np.einsum("ij,ij->i", s0[:, :2] - c, mine) < 0.5 * reach
+    inside = np.einsum("ij,ij->i", s0[:, :2] - c, mine) < 0.0
     take = found & apart & inside
     for m, x in enumerate(rims):
         third = take & (owner != m)
