@@ -3,7 +3,8 @@
 Six tables (``--tables open,edits,methods,first,reduced,path``, default the first three):
 
 - **open**: a fresh ``inkray edit`` server on the whole annotation, asked as the
-  page asks on opening (the depth draft and then the depth map, beside the
+  page asks on opening (the depth draft and then, unless the draft's answer is
+  the full map (``X-Inkray-Quality: full``), the depth map, beside the
   labels, the relations and then the relief); each preview's time is from the
   page's first request to the end of that preview's answer. Targets at ~1 Mpx:
   the full depth map <= 2 s, the relief <= 3 s after it. Beside the wall
@@ -39,7 +40,8 @@ Six tables (``--tables open,edits,methods,first,reduced,path``, default the firs
   asked from two threads as the page asks), with each request's thread's
   seconds on a CPU and waiting for one (``/proc/self/task/*/schedstat``).
   The full depth map waits for the labels' segmentation, then its draft
-  (on opening the fill itself), then its own request: the sum of those
+  (on opening the fill itself, and then the full map: no full request,
+  its CPU 0), then its own request: the sum of those
   three requests' CPU seconds is what the depth map takes on a machine with
   a core free for it, whatever the load (``idle estimate``); the wall
   times beside it stretch with the load. ``--no-reserve`` runs it without
@@ -218,6 +220,13 @@ def _own_cpu():
     return r.ru_utime + r.ru_stime
 
 
+def _full_draft(preview, headers, previews):
+    """Whether the depth draft's answer was the full map, so that the page asks no more
+    (the full request's time is then the draft's)."""
+    return preview == DRAFT and "depth.png" in previews and \
+        headers.get("X-Inkray-Quality") == "full"
+
+
 def _open(name, megapixels):
     """The cold open: the page's first requests to a fresh server, timed from the first."""
     ann, doc = _folder(name, megapixels)
@@ -235,6 +244,9 @@ def _open(name, megapixels):
                                 json.loads(body).get("error", str(status)),
                                 float(headers.get("X-Inkray-Compute-Ms", "nan")))
                 row[f"cpu {preview}"] = (_cpu(proc.pid) - cpu, 0.0)
+                if _full_draft(preview, headers, previews):
+                    row["depth.png"], row["cpu depth.png"] = row[DRAFT], row[f"cpu {DRAFT}"]
+                    break
 
         beside = threading.Thread(target=fetch, args=([DRAFT, "depth.png"],))
         beside.start()
@@ -267,6 +279,9 @@ def _one(name, megapixels, pause=0.0):
                     row[preview] = (time.perf_counter() - start if status == 200 else
                                     json.loads(body).get("error", str(status)),
                                     float(headers.get("X-Inkray-Compute-Ms", "nan")))
+                    if _full_draft(preview, headers, previews):
+                        row["depth.png"] = row[DRAFT]
+                        break
 
             # as the page asks: the depth draft and then the depth map beside the
             # labels, then the relief
@@ -526,12 +541,15 @@ def _path(name, megapixels, reserve=True):
             for key, ask in requests:
                 before = _sched()
                 try:
-                    ask()
+                    answer = ask()
                     ended = time.perf_counter() - start
                 except Exception as e:  # noqa: BLE001 - reported in the table
-                    ended = f"{type(e).__name__}: {e}"
+                    answer, ended = None, f"{type(e).__name__}: {e}"
                 after = _sched()
                 row[key] = (ended, after[0] - before[0], after[1] - before[1])
+                if key == "draft" and answer is not None and not answer.draft:
+                    row["depth"] = (ended, 0.0, 0.0)  # the full map: the page asks no more
+                    break
 
         beside = threading.Thread(target=fetch, args=([
             ("draft", lambda: session.preview("depth.png", draft=True)),

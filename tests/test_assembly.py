@@ -11,8 +11,9 @@ from inkray.input.annotations import parse_annotations
 from _reliefs import disk_part
 from inkray.numerics.arap import signed_areas
 from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _envelope_solid,
-                                    _paired, _sheets, _uncrowded, _unwalled,
+from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _closed_manifold,
+                                    _envelope_solid, _paired, _position_ids, _sheets,
+                                    _stitched, _uncrowded, _unwalled,
                                     _min_angles, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
@@ -444,3 +445,37 @@ def test_the_rims_wall_strip_is_merged_away_keeping_the_outline():
     assert (np.sign(signed_areas(w, g)) == np.sign(signed_areas(sheet, faces)[0])).all()
     again_v, again_f = _unwalled(w, g, _WALL_REACH)  # nothing more to merge
     assert np.array_equal(again_v, w) and np.array_equal(again_f, g)
+
+
+def test_a_cut_is_stitched_back_where_its_border_moved_by_a_rounding_error():
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=300.0)
+    v, f = np.asarray(sphere.vertices, float), np.asarray(sphere.faces, np.int64)
+    cut = v[f].mean(axis=1)[:, 2] > 100.0
+    used, sub = np.unique(f[cut], return_inverse=True)
+    sub = sub.reshape(-1, 3)
+    outside = np.zeros(len(v), bool)
+    outside[f[~cut]] = True
+    border = np.flatnonzero(outside[used])
+    for shift, stitched in [(1e-13, True), (1e-3, False)]:
+        sv = v[used].copy()
+        sv[border[0]] += shift  # (a remeshing may move a border vertex by an ulp, not more)
+        w, g = _stitched(v, f, cut, sv, sub)
+        assert (g is not None) == stitched
+        if stitched:
+            assert len(g) == len(f) and len(w) == len(v) and _closed_manifold(g)
+            # the border kept exactly where it was, so the faces are the old ones
+            assert np.array_equal(np.unique(w, axis=0), np.unique(v, axis=0))
+            assert np.array_equal(np.unique(np.sort(w[g].reshape(len(g), -1), axis=1), axis=0),
+                                  np.unique(np.sort(v[f].reshape(len(f), -1), axis=1), axis=0))
+
+
+def test_position_ids_number_equal_positions_alike():
+    rng = np.random.default_rng(2)
+    p = rng.normal(size=(500, 3))
+    q = np.concatenate([p, p[::7], [[0.0, -0.0, 1.0], [-0.0, 0.0, 1.0]]])
+    ids = _position_ids(q)
+    assert ids.max() + 1 == 500 + 1  # the two zeros of either sign are one position
+    assert ids[500:500 + len(p[::7])].tolist() == ids[:500:7].tolist()
+    assert len(np.unique(ids[:500])) == 500
+    flat = _position_ids(np.concatenate([p[:, :2], p[:3, :2]]))  # any number of coordinates
+    assert flat[500:].tolist() == flat[:3].tolist() and flat.max() + 1 == 500

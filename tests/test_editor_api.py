@@ -459,6 +459,7 @@ def test_depth_draft_first(turtle, tmp_path, monkeypatch):
         bad = _json(call(url + "/api/preview/depth.png?quality=best"))
         exact = _json(call(url + "/api/preview/depth.png?quality=draft&method=exact"))
     assert small[0] == full[0] == 200
+    assert small[1]["X-Inkray-Quality"] == full[1]["X-Inkray-Quality"] == "full"
     (tmp_path / "small.png").write_bytes(small[2])
     (tmp_path / "full.png").write_bytes(full[2])
     d_full = read_depth_png(tmp_path / "full.png")[0]
@@ -470,6 +471,7 @@ def test_depth_draft_first(turtle, tmp_path, monkeypatch):
     with running(EditSession(turtle)) as url:
         draft = call(url + "/api/preview/depth.png?quality=draft")
     assert draft[0] == 200 and draft[1]["X-Inkray-Compute-Ms"]
+    assert draft[1]["X-Inkray-Quality"] == "draft"
     (tmp_path / "draft.png").write_bytes(draft[2])
     d_draft = read_depth_png(tmp_path / "draft.png")[0]
     assert d_draft.shape == d_full.shape and not np.array_equal(d_draft, d_full)
@@ -479,8 +481,9 @@ def test_depth_draft_first(turtle, tmp_path, monkeypatch):
 
 def test_the_open_answers_the_draft_with_the_reduced_full_map(turtle, tmp_path, monkeypatch):
     """On opening, a fill over more than REDUCED_ABOVE pixels with nothing factored is
-    solved on the reduced system: the draft request gets the full map, the full request
-    the same, and after the relief the session readies the exact and the draft fill."""
+    solved on the reduced system: the draft request gets the full map, says so and is
+    encoded as it, the full request the same bytes, and after the relief the session
+    readies the exact and the draft fill."""
     from inkray.depthmap import estimation
 
     monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)
@@ -496,6 +499,8 @@ def test_the_open_answers_the_draft_with_the_reduced_full_map(turtle, tmp_path, 
         if warming is not None:
             warming.join()
     assert draft[0] == full[0] == relief[0] == 200 and reduced
+    assert draft[1]["X-Inkray-Quality"] == full[1]["X-Inkray-Quality"] == "full"
+    assert draft[2] == full[2]
     (tmp_path / "draft.png").write_bytes(draft[2])
     (tmp_path / "full.png").write_bytes(full[2])
     d_full = read_depth_png(tmp_path / "full.png")[0]

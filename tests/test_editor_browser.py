@@ -175,6 +175,9 @@ def test_the_depth_draft_comes_first_then_the_full_map(page, tmp_path, monkeypat
 
     monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)  # the turtle drafts too
     with _turtle_page(page, tmp_path) as (ann, doc, session, url):
+        warming = session._chain._cache.session[1]._warming
+        if warming is not None:
+            warming.join()  # the draft's own fill ready: the arrow's draft is a draft
         page.evaluate("""() => {
             window.depthShown = [];
             new MutationObserver(() => window.depthShown.push(
@@ -187,3 +190,22 @@ def test_the_depth_draft_comes_first_then_the_full_map(page, tmp_path, monkeypat
         _wait_previews(page, 1)
         assert page.evaluate("window.depthShown") == ["draft", "full"]
         assert page.get_attribute("#depth", "data-quality") == "full"
+
+
+def test_an_open_whose_draft_is_the_full_map_asks_for_the_depth_map_once(page, tmp_path,
+                                                                          monkeypatch):
+    """Opening a drawing whose depth draft the server answers with the full map (the
+    reduced system's fill, as at 1 Mpx): the page shows it as the full map and makes no
+    second depth request."""
+    from inkray.depthmap import estimation
+
+    monkeypatch.setattr(estimation, "DRAFT_ABOVE", 1000)    # the turtle drafts ...
+    monkeypatch.setattr(estimation, "REDUCED_ABOVE", 1000)  # ... but opens on the reduced fill
+    asked = []
+    page.on("request", lambda r: asked.append(r.url) if "/depth.png" in r.url else None)
+    with _turtle_page(page, tmp_path) as (ann, doc, session, url):
+        assert session._chain._cache.session[1]._fills[False].reduced
+        assert [a.split("/api/preview/")[1] for a in asked] == ["depth.png?quality=draft"]
+        assert page.get_attribute("#depth", "data-quality") == "full"
+        assert page.evaluate("document.getElementById('depth').naturalWidth") == \
+            session.drawing.gray.shape[1]

@@ -3,7 +3,8 @@ import pytest
 import scipy.sparse as sp
 
 from inkray.numerics.grid import grid_laplacian
-from inkray.numerics.spd import MinQuadWithFixed, min_quad_with_fixed, nested_dissection, spd_factor
+from inkray.numerics.spd import (MinQuadWithFixed, min_quad_with_fixed, nested_dissection,
+                                 nested_dissection_of_edges, spd_factor)
 
 
 def test_factor_solves_many_right_hand_sides():
@@ -56,3 +57,22 @@ def test_nested_dissection_is_a_permutation_that_fills_less_than_the_grid_order(
     x = np.empty(n * n)
     x[order] = dissected.solve(b[order])
     np.testing.assert_allclose(K @ x, b, atol=1e-9)
+
+
+def test_nested_dissection_of_edges_in_any_direction_and_repeated_is_the_matrix_one():
+    n = 20
+    lap1 = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])
+    K = (sp.kron(lap1, sp.eye(n)) + sp.kron(sp.eye(n), lap1)).tocoo()
+    rows, cols = np.divmod(np.arange(n * n), n)
+    off = K.row != K.col  # every edge twice, once each way
+    order = nested_dissection_of_edges(K.row[off], K.col[off], rows, cols)
+    assert order.tolist() == nested_dissection(K, rows, cols).tolist()
+
+
+def test_without_equilibration_a_well_scaled_system_has_the_same_factor():
+    m = sp.random(60, 60, density=0.1, random_state=2)
+    A = (m @ m.T + 60 * sp.eye(60)).tocsc()
+    b = np.random.default_rng(1).normal(size=60)
+    x = spd_factor(A, equilibrate=False).solve(b)
+    assert np.array_equal(x, spd_factor(A).solve(b))
+    np.testing.assert_allclose(A @ x, b, atol=1e-10)

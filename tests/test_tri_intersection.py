@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from inkray.numerics.tri_intersection import self_intersecting_faces
+from inkray.numerics.tri_intersection import crossing_faces, self_intersecting_faces
 
 
 def _pair(p, q):
@@ -61,3 +61,39 @@ def test_faces_touching_within_a_rounding_cross_once_stored_as_float32():
     assert self_intersecting_faces(v, f, float32_scales=(1.0,)).all()
     rounded = (v * 1.0).astype(np.float32).astype(float)
     assert self_intersecting_faces(rounded, f).all()  # the same as testing the rounded copy
+
+
+def _soup(count=80, seed=5):
+    rng = np.random.default_rng(seed)
+    tris = rng.uniform(0, 8, (count, 1, 3)) + rng.normal(0, 1, (count, 3, 3))
+    return tris.reshape(-1, 3), np.arange(3 * count).reshape(-1, 3)
+
+
+def test_crossing_faces_rows_are_the_precisions_apart():
+    v, f = _soup()
+    v = v + 1000.0  # where a float32 rounding is 6e-5
+    rows = crossing_faces(v, f, float32_scales=(1.0, 0.001))
+    assert rows.shape == (3, len(f))
+    assert rows[0].tolist() == self_intersecting_faces(v, f).tolist()
+    assert rows.any(axis=0).tolist() == self_intersecting_faces(
+        v, f, float32_scales=(1.0, 0.001)).tolist()
+    rounded = (v * 0.001).astype(np.float32).astype(float)
+    assert rows[2].tolist() == self_intersecting_faces(rounded, f).tolist()
+
+
+def test_crossing_faces_among_tests_only_pairs_with_one_of_them():
+    v, f = _soup()
+    full = crossing_faces(v, f)[0]
+    assert 0 < full.sum() < len(f)
+    among = np.zeros(len(f), bool)
+    among[::3] = True
+    part = crossing_faces(v, f, among=among)[0]
+    assert part[among].tolist() == full[among].tolist()  # exact for those faces
+    assert not (part & ~full).any()  # the others only where they cross one of them
+    t = v[f]
+    lo, hi = t.min(axis=1), t.max(axis=1)
+    touching = ((lo[:, None] <= hi[among][None]).all(axis=2)
+                & (hi[:, None] >= lo[among][None]).all(axis=2)).any(axis=1)
+    assert not (part & ~among & ~touching).any()
+    assert crossing_faces(v, f, among=np.ones(len(f), bool))[0].tolist() == full.tolist()
+    assert not crossing_faces(v, f, among=np.zeros(len(f), bool)).any()

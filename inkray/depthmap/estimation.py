@@ -128,7 +128,9 @@ class DepthResult:
         ``exact``: ``kkt`` (measured KKT residuals), ``objective``,
         ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
         (``{label: level}`` for the segments, or parts of segments, holding
-        endpoints), ``labels`` (the segmentation with those parts), ``timings``.
+        endpoints), ``labels`` (the segmentation with those parts), ``timings``
+        (seconds: ``segment``, and ``laplace`` for the full fill or ``laplace
+        draft`` for a half-resolution one, see :meth:`DepthSession.solve`).
     """
 
     depth: np.ndarray
@@ -463,7 +465,7 @@ class DepthSession:
         self.parts = None       # the segmentation with split segments, after solve()
         self._split_cache = {}  # (segment, endpoint groups) -> labels of its parts
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
-        self.timings = {}
+        self.timings = {}       # of the last solve: "segment", "laplace" or "laplace draft"
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
         self._warming = None    # the thread factoring the draft fill in prepare(), if any
 
@@ -641,7 +643,8 @@ class DepthSession:
             factorizations (the draft's about a quarter of the full one's
             memory). When the full fill works on a box of at most
             :data:`DRAFT_ABOVE` pixels (its fixed values settle the rest), the
-            draft is the full fill.
+            draft is the full fill. :attr:`timings` then names the fill
+            ``laplace`` (the full one) or ``laplace draft`` (half resolution).
 
         Returns
         -------
@@ -662,6 +665,7 @@ class DepthSession:
         h, w = self.shape
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
+        self.timings = {}
         if not len(p) and self._scribbles is None:
             return self._flat()
         t = time.perf_counter()
@@ -697,7 +701,7 @@ class DepthSession:
         fixed.flat[np.concatenate([p, q])] = True
         d = self._fill(fixed, lvl, draft)  # the fills read lvl on the fixed pixels only
         d -= d.mean()
-        self.timings["laplace"] = time.perf_counter() - t
+        self.timings["laplace draft" if self._drafted else "laplace"] = time.perf_counter() - t
         if not self._drafted:
             self._solved = self._changes, d.copy()
         return d

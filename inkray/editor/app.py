@@ -18,7 +18,9 @@ Endpoints (a public contract, see ``docs/editor.md``):
   with ``X-Inkray-Compute-Ms`` and ``X-Inkray-Generation``; 422 ``{"error",
   "paths"}`` when the document cannot be computed; ``depth.png?method=exact``
   the exact depth map, ``depth.png?quality=draft`` the fast one with its fill
-  at half resolution (the first answer after an edit);
+  at half resolution (the first answer after an edit); a depth map's
+  ``X-Inkray-Quality`` is ``draft`` or ``full`` (a draft request answered by
+  the full map, as on opening: the full request would give the same bytes);
 - ``GET /api/relations`` the user's and predicted relations and the warnings;
 - ``GET /api/shot`` the shot being stepped through (``inkray edit FRAME.png``):
   its frames, keys, the current frame and its entries to check (404 when the
@@ -190,9 +192,11 @@ def editor_app(session, *, allowed_hosts=None):
                 name, exact=method == "exact", draft=quality == "draft"))
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e, session)
-        return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **{
-            "X-Inkray-Compute-Ms": f"{p.compute_ms:.1f}",
-            "X-Inkray-Generation": str(p.generation)}))
+        headers = {"X-Inkray-Compute-Ms": f"{p.compute_ms:.1f}",
+                   "X-Inkray-Generation": str(p.generation)}
+        if name == "depth.png":
+            headers["X-Inkray-Quality"] = "draft" if p.draft else "full"
+        return Response(p.body, media_type=p.media_type, headers=dict(_NO_STORE, **headers))
 
     async def relations(request):
         try:

@@ -74,12 +74,16 @@ class Preview:
         The document generation it shows.
     compute_ms : float
         Time spent computing it (0 when every stage came from the cache).
+    draft : bool, default False
+        A depth draft (the fill at half resolution); a draft request that
+        got the full depth map has False, and the full map need not be asked.
     """
 
     body: bytes
     media_type: str
     generation: int
     compute_ms: float
+    draft: bool = False
 
 
 def autosave_path(path):
@@ -420,7 +424,9 @@ class EditSession:
             The fast depth map with its Laplace fill solved at half
             resolution (above 0.3 Mpx): the first answer after an edit,
             before the full one. On opening it is the full map (its
-            reduced system is as fast), which the full request then reuses.
+            reduced system is as fast): then it is encoded as the full map,
+            which the full request reuses, and the answer's ``draft`` is
+            False.
 
         Returns
         -------
@@ -449,11 +455,17 @@ class EditSession:
         # relief's maps of independent solves run one at a time beside it on two cores
         # instead of taking both.
         first = reserve_core() if name == "depth.png" else nullcontext()
+        if name == "depth.png" and draft:
+            def compute(chain, digest):
+                body, drafted = self._draft(chain, digest)
+                return body, artefact.media_type, drafted
+        else:
+            def compute(chain, digest):
+                return (self._encoded((*key, digest), lambda: artefact.preview(chain, **params)),
+                        artefact.media_type)
         try:
             with first:
-                return self.newest(lambda chain, digest: (self._encoded(
-                    (*key, digest), lambda: artefact.preview(chain, **params)),
-                    artefact.media_type), lock="depth" if name == "depth.png" else "relief")
+                return self.newest(compute, lock="depth" if name == "depth.png" else "relief")
         finally:
             if name == "relief.glb":
                 self._prepare_depth()
@@ -591,6 +603,25 @@ class EditSession:
                and time.monotonic() < end):
             time.sleep(_POLL)
 
+    def _draft(self, chain, digest):
+        """The depth draft's bytes and whether they are a draft, not the full map.
+
+        The full map when it is known for this document, or when the fill
+        that answered the draft was the full one (a cold open): then encoded
+        once, as the full request's answer.
+        """
+        artefact = _PREVIEW["depth.png"]
+        full, half = ("depth.png", digest), ("depth.png", ("draft", True), digest)
+        for key, drafted in ((full, False), (half, True)):
+            with self._files_lock:
+                if key in self._files:
+                    self._files.move_to_end(key)
+                    return self._files[key], drafted
+        result = artefact.make(chain, draft=True)
+        drafted = "laplace draft" in result.info.get("timings", {})
+        return self._encoded(half if drafted else full,
+                             lambda: artefact.encode(result, draft=drafted)), drafted
+
     def _encoded(self, key, make):
         """The file bytes of a preview of a document, kept by the document's digest.
 
@@ -616,7 +647,7 @@ class EditSession:
         For work on the session's chain beside the previews (the Pose mode's
         pictures): ``lock`` is ``"depth"`` or ``"relief"``, the stages it
         shares a lock with; with ``wrap`` the value ``(body, media type)``
-        comes back as a :class:`Preview`.
+        (or ``(body, media type, draft)``) comes back as a :class:`Preview`.
         """
         while True:
             with self._state:
@@ -636,8 +667,9 @@ class EditSession:
                 break
         if not wrap:
             return dict(value, generation=generation, compute_ms=ms)
-        body, media_type = value
-        return Preview(body=body, media_type=media_type, generation=generation, compute_ms=ms)
+        body, media_type, *drafted = value
+        return Preview(body=body, media_type=media_type, generation=generation, compute_ms=ms,
+                       draft=bool(drafted and drafted[0]))
 
 
 class _Superseded(BaseException):

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy import ndimage
 
 from inkray.errors import InputError
-from inkray.numerics.spd import nested_dissection, spd_factor
+from inkray.numerics.spd import nested_dissection_of_edges, spd_factor
 
 __all__ = ["quadtree_fill", "quadtree_blocks"]
 
@@ -80,17 +80,14 @@ def quadtree_fill(wx, wy, known, values, *, weak=0.1, band=1, max_block=64):
     owner = _owner(blocks, (h, w))
     nodes, n_free = _nodes(blocks, owner, known)
     n = n_free + nodes.known_pixels.size
-    # One sum of every part's entries (duplicates add up when it is compressed).
-    parts = [_block_energy(wx, wy, blocks, nodes, (h, w)),
-             *_edge_energy(wx, wy, blocks, owner, nodes, known, n)]
-    i, j, v = (np.concatenate([part[k] for part in parts]) for k in range(3))
-    K = sp.csr_matrix((v, (i, j)), shape=(n, n))
-    # Unknowns first, then the known pixels they couple to.
-    rhs = -(K[:n_free, n_free:] @ out.ravel()[nodes.known_pixels])
-    Kuu = K[:n_free, :n_free]
-    order = nested_dissection(Kuu, nodes.unknown_rows, nodes.unknown_cols)
+    pairs, mixed = _edge_energy(wx, wy, blocks, owner, nodes, known, n)
+    entries = [_block_energy(wx, wy, blocks, nodes, (h, w)), *mixed]
+    i, j, v = (np.concatenate([e[k] for e in entries]) for k in range(3))
+    A, rhs, order = _ordered_system(pairs, (i, j, v), n_free, out.ravel()[nodes.known_pixels],
+                                    nodes)
     u = np.empty(n_free)
-    u[order] = spd_factor(Kuu[order][:, order], ordered=True).solve(rhs[order])
+    # SuperLU finds these systems well scaled (the same factor either way)
+    u[order] = spd_factor(A, ordered=True, equilibrate=False).solve(rhs)
     return _interpolated(u, blocks, nodes, owner, out)
 
 
@@ -137,22 +134,34 @@ def quadtree_blocks(wx, wy, known, *, weak=0.1, band=1, max_block=64):
         empty = np.zeros(0, np.int64)
         return empty, empty, empty
     # Distance to the nearest detail, 0 on the details (and off the grid's tiles).
-    dist = ndimage.distance_transform_cdt(~detail, metric="chessboard").astype(np.int64)
-    covered = np.zeros((h, w), bool)
+    dist = ndimage.distance_transform_cdt(~detail, metric="chessboard")
+    # The nearest detail of every aligned tile of each size, by 2x2 minima of the
+    # next smaller size's (a tile of size s is four of size s / 2).
+    nearest = {1: dist}
+    s = 2
+    while s <= max_block:
+        th, tw = h // s, w // s
+        if not (th and tw):
+            break
+        m = nearest[s // 2][:2 * th, :2 * tw]
+        nearest[s] = np.minimum(np.minimum(m[0::2, 0::2], m[0::2, 1::2]),
+                                np.minimum(m[1::2, 0::2], m[1::2, 1::2]))
+        s *= 2
     found = []
+    taken = None  # the tiles of the size at hand inside a larger block (aligned: all or none)
     s = max_block
     while s >= 2:
         th, tw = h // s, w // s
-        if th and tw:
-            tile = np.s_[:th * s, :tw * s]
-            nearest = dist[tile].reshape(th, s, tw, s).min(axis=(1, 3))
-            taken = covered[tile].reshape(th, s, tw, s).any(axis=(1, 3))
-            rows, cols = np.nonzero((nearest > band + s // 2) & ~taken)
+        if s in nearest:
+            free = nearest[s] > band + s // 2
+            if taken is not None:
+                free &= ~taken
+            rows, cols = np.nonzero(free)
             if len(rows):
                 found.append((rows * s, cols * s, np.full(len(rows), s)))
-                mark = np.zeros((th, tw), bool)
-                mark[rows, cols] = True
-                covered[tile] |= np.repeat(np.repeat(mark, s, axis=0), s, axis=1)
+            inside = free if taken is None else free | taken
+            taken = np.zeros((h // (s // 2), w // (s // 2)), bool)
+            taken[:2 * th, :2 * tw] = inside.repeat(2, axis=0).repeat(2, axis=1)
         s //= 2
     if not found:
         empty = np.zeros(0, np.int64)
@@ -239,6 +248,44 @@ def _nodes(blocks, owner, known):
     return _Nodes(index.reshape(h + 1, w + 1), uy, ux, gy * w + gx), len(unknown)
 
 
+def _ordered_system(pairs, entries, n_free, known_values, nodes):
+    """The unknowns' system ``(A, rhs, order)``: ``A`` (CSC) and ``rhs`` in the
+    nested-dissection ``order`` of the unknowns, so that ``u[order] = A^-1 rhs``.
+
+    ``pairs`` ``(a, b, w)`` are edges between two variables (at most one end
+    known), each once: the Laplacian's off-diagonal ``-w`` and ``w`` on both
+    diagonals; ``entries`` ``(i, j, v)`` are symmetric matrix entries. The
+    variables are the unknowns first, then the known pixels of value
+    ``known_values``. The entries are compressed once, in that order;
+    duplicates add up.
+    """
+    a, b, w = pairs
+    i, j, v = entries
+    n = n_free + len(known_values)
+    # the diagonal of the pairs, the unknowns' couplings to known values as the rhs
+    diagonal = np.bincount(a, weights=w, minlength=n) + np.bincount(b, weights=w, minlength=n)
+    rhs = np.zeros(n_free)
+    for p, q, x in ((a, b, w), (b, a, w), (i, j, -v)):
+        coupled = (p < n_free) & (q >= n_free)
+        rhs += np.bincount(p[coupled], weights=x[coupled] * known_values[q[coupled] - n_free],
+                           minlength=n_free)
+    inner = (a < n_free) & (b < n_free)
+    a, b, w = a[inner], b[inner], w[inner]
+    inner = (i < n_free) & (j < n_free)
+    i, j, v = i[inner], j[inner], v[inner]
+    upper = i < j
+    order = nested_dissection_of_edges(np.concatenate([a, i[upper]]),
+                                       np.concatenate([b, j[upper]]),
+                                       nodes.unknown_rows, nodes.unknown_cols)
+    rank = np.empty(n_free, np.int32)
+    rank[order] = np.arange(n_free, dtype=np.int32)
+    ra, rb = rank[a], rank[b]
+    A = sp.csc_matrix((np.concatenate([-w, -w, v, diagonal[:n_free]]),
+                       (np.concatenate([ra, rb, rank[i], rank]),
+                        np.concatenate([rb, ra, rank[j], rank]))), shape=(n_free, n_free))
+    return A, rhs[order], order
+
+
 def _slots(y, x, blocks, owner, nodes):
     """Each pixel's value as a combination of variables: (n, 4) variable indices and
     (n, 4) coefficients (a full-resolution or known pixel is its own variable)."""
@@ -260,13 +307,13 @@ def _slots(y, x, blocks, owner, nodes):
 
 
 def _edge_energy(wx, wy, blocks, owner, nodes, known, n):
-    """The energy of the edges not inside one block and not between two known pixels,
-    as ``(rows, cols, values)`` triplets: between two pixels that are their own
-    variables the Laplacian's four entries, otherwise those of ``G^T diag(w) G``
-    with ``G`` the edges' differences in the ``n`` variables."""
+    """The energy of the edges not inside one block and not between two known pixels:
+    ``(a, b, w)`` the edges between two pixels that are their own variables, each
+    once, and a list of ``(rows, cols, values)`` triplets (empty or one), those of
+    ``G^T diag(w) G`` with ``G`` the other edges' differences in the ``n``
+    variables."""
     h, w = known.shape
-    single = nodes.index[:h, :w]
-    single = np.where(owner < 0, single, -1)
+    single = np.where(owner < 0, nodes.index[:h, :w], -1)
     i, j, v = [], [], []
     mixed = []
     for weights, dy, dx in ((wx, 0, 1), (wy, 1, 0)):
@@ -275,17 +322,16 @@ def _edge_energy(wx, wy, blocks, owner, nodes, known, n):
         sa, sb = single[a], single[b]
         some = ~(known[a] & known[b])
         plain = (sa >= 0) & (sb >= 0) & some
-        pa, pb, wt = sa[plain], sb[plain], weights[plain]
-        i += [pa, pb, pa, pb]
-        j += [pa, pb, pb, pa]
-        v += [wt, wt, -wt, -wt]
+        i.append(sa[plain])
+        j.append(sb[plain])
+        v.append(weights[plain])
         oa, ob = owner[a], owner[b]
         y, x = np.nonzero(((sa < 0) | (sb < 0)) & ((oa < 0) | (oa != ob)) & some)
         if len(y):
             mixed.append((y, x, dy, dx, weights[y, x]))
     plain = np.concatenate(i), np.concatenate(j), np.concatenate(v)
     if not mixed:
-        return [plain]
+        return plain, []
     var, coef, wts = [], [], []
     for y, x, dy, dx, wt in mixed:
         vp, cp = _slots(y, x, blocks, owner, nodes)
@@ -298,7 +344,7 @@ def _edge_energy(wx, wy, blocks, owner, nodes, known, n):
     nz = coef.ravel() != 0
     G = sp.csr_matrix((coef.ravel()[nz], (rows[nz], var.ravel()[nz])), shape=(len(wts), n))
     M = (G.T @ G.multiply(wts[:, None]).tocsr()).tocoo()
-    return [plain, (M.row, M.col, M.data)]
+    return plain, [(M.row, M.col, M.data)]
 
 
 def _block_energy(wx, wy, blocks, nodes, shape):

@@ -13,10 +13,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["spd_factor", "nested_dissection", "MinQuadWithFixed", "min_quad_with_fixed"]
+__all__ = ["spd_factor", "nested_dissection", "nested_dissection_of_edges", "MinQuadWithFixed",
+           "min_quad_with_fixed"]
 
 
-def spd_factor(A, *, ordered=False):
+def spd_factor(A, *, ordered=False, equilibrate=True):
     """Factor a sparse symmetric positive definite matrix.
 
     Parameters
@@ -27,6 +28,10 @@ def spd_factor(A, *, ordered=False):
         ``A``'s rows and columns are already in a fill-reducing order (a
         nested dissection of the caller's); otherwise SuperLU orders them by
         minimum degree.
+    equilibrate : bool, default True
+        Let SuperLU scale the rows and columns of a badly scaled ``A``; a
+        caller whose systems it leaves as they are saves the pass that
+        measures them.
 
     Returns
     -------
@@ -47,7 +52,7 @@ def spd_factor(A, *, ordered=False):
     try:
         return splu(sp.csc_matrix(A), permc_spec="NATURAL" if ordered else "MMD_AT_PLUS_A",
                     diag_pivot_thresh=0.0,
-                    options={"SymmetricMode": True})
+                    options={"SymmetricMode": True, "Equil": bool(equilibrate)})
     except RuntimeError as e:  # SuperLU reports an exactly singular matrix this way
         raise np.linalg.LinAlgError(str(e)) from None
 
@@ -83,18 +88,42 @@ def nested_dissection(K, rows, cols):
     >>> nested_dissection(path, np.zeros(4, int), np.arange(4)).tolist()  # 1 parts 0 from 2, 3
     [0, 3, 2, 1]
     """
+    upper = sp.triu(K, 1).tocoo()
+    return nested_dissection_of_edges(upper.row, upper.col, rows, cols)
+
+
+def nested_dissection_of_edges(i, j, rows, cols):
+    """:func:`nested_dissection` of the variables joined by the edges ``(i[k], j[k])``.
+
+    Parameters
+    ----------
+    i, j : (m,) int arrays
+        The edges' two variables, each edge once or more (``i != j``).
+    rows, cols : (n,) int arrays
+        Each variable's lattice position (non-negative).
+
+    Returns
+    -------
+    (n,) int array
+        The permutation.
+
+    Examples
+    --------
+    >>> nested_dissection_of_edges([0, 1, 2], [1, 2, 3], np.zeros(4, int), np.arange(4)).tolist()
+    [0, 3, 2, 1]
+    """
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     bits = max(int(rows.max()), int(cols.max()), 1).bit_length()
     top = 2 * bits
     m = np.zeros(len(rows), np.int64)
     for b in range(bits):
         m |= ((rows >> b) & 1) << (2 * b + 1) | ((cols >> b) & 1) << (2 * b)
-    upper = sp.triu(K, 1).tocoo()
-    i, j = upper.row.astype(np.int64), upper.col.astype(np.int64)
+    i, j = np.asarray(i, np.int64), np.asarray(j, np.int64)
     # The halving that parts an edge's two ends: the highest bit where their codes differ.
     level = top - np.frexp((m[i] ^ m[j]).astype(np.float64))[1]
     low = np.where(m[i] < m[j], i, j)
-    depth = np.full(len(rows), top)
+    # one dtype for both (np.minimum.at casting between them is some fifty times slower)
+    depth = np.full(len(rows), top, level.dtype)
     np.minimum.at(depth, low, level)
     end = ((m >> (top - depth)) + 1) << (top - depth)
     return np.lexsort((-depth, end))

@@ -1,7 +1,8 @@
 """Self-intersections of a triangle mesh, tested exactly in double precision.
 
-Candidate pairs come from a uniform grid over the faces' bounding boxes;
-each pair is tested with the separating axis theorem (two triangles are
+Candidate pairs come from a uniform grid over the faces' bounding boxes
+(or only its cells that a given set of faces reaches, when the rest of the
+mesh is known to cross nothing); each pair is tested with the separating axis theorem (two triangles are
 disjoint exactly when their projections on one of 17 axes - the two
 normals, the nine cross products of their edges and the six in-plane edge
 normals, which separate coplanar triangles - do not overlap). Faces sharing
@@ -12,13 +13,13 @@ shared corner does not count but a fold over it does.
 
 import numpy as np
 
-__all__ = ["self_intersecting_faces"]
+__all__ = ["self_intersecting_faces", "crossing_faces"]
 
 _SHRINK = 1e-6  # relative shrink of faces that share a corner
 _CHUNK = 200_000  # pairs tested at once (memory)
 
 
-def self_intersecting_faces(vertices, faces, *, float32_scales=()):
+def self_intersecting_faces(vertices, faces, *, float32_scales=(), among=None):
     """Which faces cross or touch another face they share no edge with.
 
     Parameters
@@ -30,6 +31,10 @@ def self_intersecting_faces(vertices, faces, *, float32_scales=()):
         these and rounded to float32 (as files store them): faces touching
         within a rounding error may cross there. The candidate pairs are found
         once for all of them.
+    among : (m,) bool array, optional
+        Only pairs with at least one of these faces are tested: the others
+        are reported only where they cross one of these (see
+        :func:`crossing_faces`).
 
     Returns
     -------
@@ -45,31 +50,97 @@ def self_intersecting_faces(vertices, faces, *, float32_scales=()):
     >>> self_intersecting_faces(apart, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
     [False, False]
     """
+    return crossing_faces(vertices, faces, float32_scales=float32_scales, among=among).any(axis=0)
+
+
+def crossing_faces(vertices, faces, *, float32_scales=(), among=None):
+    """Which faces cross or touch another, in double precision and once rounded, apart.
+
+    :func:`self_intersecting_faces` with one row per precision: a caller that
+    weighs crossings in double precision against those a file's float32
+    positions add finds the candidate pairs once.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    float32_scales : sequence of float, default ()
+        Scales at which the positions are also rounded to float32.
+    among : (m,) bool array, optional
+        Only pairs with at least one of these faces are tested (a face's
+        row is then exact for these faces; another face is marked only where
+        it crosses one of them). The cost grows with the faces near these,
+        not with the mesh.
+
+    Returns
+    -------
+    (1 + len(float32_scales), m) bool array
+        Row 0 in double precision, then one row per scale.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = 1000.0 + np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0],  # a corner 1e-9 off the plane
+    ...                        [0.5, 0.5, -1e-9], [0.5, 0.5, -1], [1, 0.5, -1]])
+    >>> f = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> crossing_faces(v, f, float32_scales=(1.0,)).tolist()
+    [[False, False], [True, True]]
+    >>> crossing_faces(v, f, float32_scales=(1.0,), among=np.array([False, False])).tolist()
+    [[False, False], [False, False]]
+    """
     v = np.asarray(vertices, float)
     f = np.asarray(faces, np.int64)
-    out = np.zeros(len(f), bool)
+    out = np.zeros((1 + len(float32_scales), len(f)), bool)
     if len(f) < 2:
         return out
-    variants = [v] + [(v * s).astype(np.float32).astype(float) for s in float32_scales]
+    # the positions are centred on all the vertices' box (rounding is monotonic, so the
+    # rounded box is the box rounded), but only those of the faces are rounded
+    low, high = v.min(axis=0), v.max(axis=0)
+    used, f = np.unique(f, return_inverse=True)
+    v, f = v[used], f.reshape(-1, 3)
+    variants = [(v, 0.5 * (low + high))]
+    for s in float32_scales:
+        low_s, high_s = (_rounded(x * s) for x in (low, high))
+        variants.append((_rounded(v * s), 0.5 * (low_s + high_s)))
     # the boxes widened by more than a rounding to float32 moves a corner (2^-24 of it)
-    margin = 1e-6 * float(np.abs(v).max()) if float32_scales else 0.0
-    a, b = _candidate_pairs(v[f], margin)
-    shared = (f[a][:, :, None] == f[b][:, None, :]).sum(axis=(1, 2))
+    margin = 1e-6 * float(np.maximum(-low, high).max()) if float32_scales else 0.0
+    t = v[f]
+    lo, hi = t.min(axis=1), t.max(axis=1)
+    a, b = _candidate_pairs(lo - margin, hi + margin,
+                            None if among is None else np.asarray(among, bool))
+    fa, fb = f[a], f[b]
+    shared = sum((fa[:, i] == fb[:, j]).astype(np.int64) for i in range(3) for j in range(3))
     a, b, shared = a[shared < 2], b[shared < 2], shared[shared < 2]
-    for w in variants:
-        w = w - 0.5 * (w.min(axis=0) + w.max(axis=0))  # digits where the faces differ
-        for s in range(0, len(a), _CHUNK):
-            i, j, k = a[s:s + _CHUNK], b[s:s + _CHUNK], shared[s:s + _CHUNK]
-            ti, tj = w[f[i]], w[f[j]]
-            corner = k == 1
-            ti[corner] = _shrunk(ti[corner])
-            tj[corner] = _shrunk(tj[corner])
-            near = _straddle(ti, tj) & _straddle(tj, ti)
-            hit = np.zeros(len(i), bool)
-            hit[near] = _overlap(ti[near], tj[near])
-            out[i[hit]] = True
-            out[j[hit]] = True
+    # boxes apart in double precision cannot meet there
+    tight = np.ones(len(a), bool)
+    for axis in range(3):
+        tight &= (lo[a, axis] <= hi[b, axis]) & (lo[b, axis] <= hi[a, axis])
+    # each face as it is, then shrunk (for the pairs sharing a corner): index + len(f)
+    a, b = a + len(f) * (shared == 1), b + len(f) * (shared == 1)
+    for row, (w, centre) in enumerate(variants):
+        w = w - centre  # digits where the faces differ
+        t = w[f]
+        t = np.concatenate([t, _shrunk(t)])
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        i, j = (a[tight], b[tight]) if row == 0 else (a, b)
+        for s in range(0, len(i), _CHUNK):
+            hit = _meet(t, n, i[s:s + _CHUNK], j[s:s + _CHUNK])
+            out[row, i[s:s + _CHUNK][hit] % len(f)] = True
+            out[row, j[s:s + _CHUNK][hit] % len(f)] = True
     return out
+
+
+def _meet(t, n, i, j):
+    """Whether triangles ``t[i]`` and ``t[j]`` (normals ``n``) meet."""
+    ti, tj = t[i], t[j]
+    near = _straddle(ti, tj, n[i]) & _straddle(tj, ti, n[j])
+    hit = np.zeros(len(i), bool)
+    hit[near] = _overlap(ti[near], tj[near])
+    return hit
+
+
+def _rounded(x):
+    return x.astype(np.float32).astype(float)
 
 
 def _shrunk(t):
@@ -77,15 +148,14 @@ def _shrunk(t):
     return c + (1.0 - _SHRINK) * (t - c)
 
 
-def _candidate_pairs(t, margin=0.0):
-    """Pairs ``a < b`` of faces whose bounding boxes, widened by ``margin``, overlap."""
-    lo, hi = t.min(axis=1) - margin, t.max(axis=1) + margin
+def _candidate_pairs(lo, hi, among=None):
+    """Pairs ``a < b`` of boxes ``[lo, hi]`` that overlap (with at least one box ``among``)."""
     cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
     ilo = np.floor(lo / cell).astype(np.int64)
     ihi = np.floor(hi / cell).astype(np.int64)
     span = ihi - ilo + 1
     count = span.prod(axis=1)
-    face = np.repeat(np.arange(len(t)), count)
+    face = np.repeat(np.arange(len(lo)), count)
     k = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)  # index within a face
     sx, sy = span[face, 0], span[face, 1]
     cell_of = np.stack([ilo[face, 0] + k % sx, ilo[face, 1] + (k // sx) % sy,
@@ -93,25 +163,43 @@ def _candidate_pairs(t, margin=0.0):
     c = cell_of - cell_of.min(axis=0)
     size = c.max(axis=0) + 1
     key = (c[:, 0] * size[1] + c[:, 1]) * size[2] + c[:, 2]  # one integer per cell
-    order = np.lexsort((face, key))
+    if among is not None:
+        # only the cells a box among them reaches
+        hot = np.isin(key, key[among[face]])
+        key, face, cell_of = key[hot], face[hot], cell_of[hot]
+    order = np.argsort(key * len(lo) + face)  # by cell, then by face
     key, face, cell_of = key[order], face[order], cell_of[order]
     end = np.searchsorted(key, key, side="right")
     later = end - np.arange(len(key)) - 1  # members of the same cell after this one
     first = np.repeat(np.arange(len(key)), later)
     second = first + 1 + np.arange(len(first)) - np.repeat(np.cumsum(later) - later, later)
     a, b = face[first], face[second]
-    keep = (lo[a] <= hi[b]).all(axis=1) & (lo[b] <= hi[a]).all(axis=1)
-    # a pair shares every cell its boxes' overlap spans: keep it in the overlap's lowest one
-    corner = np.floor(np.maximum(lo[a], lo[b]) / cell).astype(np.int64)
-    keep &= (corner == cell_of[first]).all(axis=1)
+    if among is not None:
+        keep = among[a] | among[b]
+        first, a, b = first[keep], a[keep], b[keep]
+    keep = np.ones(len(a), bool)
+    for axis in range(lo.shape[1]):  # (a column at a time: reductions over rows of 3 are slow)
+        la, lb = lo[a, axis], lo[b, axis]
+        keep &= (la <= hi[b, axis]) & (lb <= hi[a, axis])
+        # a pair shares every cell its boxes' overlap spans: kept in the overlap's lowest one
+        keep &= np.floor(np.maximum(la, lb) / cell).astype(np.int64) == cell_of[first, axis]
     return a[keep], b[keep]
 
 
-def _straddle(p, q):
-    """Whether triangles ``q`` touch the planes of triangles ``p`` (cheap rejection)."""
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+def _straddle(p, q, n):
+    """Whether triangles ``q`` touch the planes of triangles ``p`` (normals ``n``): a cheap
+    rejection."""
     d = np.einsum("kij,kj->ki", q - p[:, :1], n)
-    return (d.min(axis=1) <= 0) & (d.max(axis=1) >= 0)
+    return (_least(d) <= 0) & (_most(d) >= 0)
+
+
+def _least(x):
+    """Smallest of each row's three entries (a reduction over so short an axis is slow)."""
+    return np.minimum(np.minimum(x[:, 0], x[:, 1]), x[:, 2])
+
+
+def _most(x):
+    return np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])
 
 
 def _overlap(p, q):
@@ -131,6 +219,6 @@ def _overlap(p, q):
         u = axis / np.maximum(norm, 1e-300)[:, None]
         sp = np.einsum("kij,kj->ki", p, u)
         sq = np.einsum("kij,kj->ki", q, u)
-        apart = (sp.max(axis=1) < sq.min(axis=1)) | (sq.max(axis=1) < sp.min(axis=1))
+        apart = (_most(sp) < _least(sq)) | (_most(sq) < _least(sp))
         meet &= ~(apart & usable)
     return meet

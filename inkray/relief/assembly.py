@@ -36,8 +36,8 @@ from inkray.numerics.arap import signed_areas
 from inkray.relief.inflation import WALL_INSET
 from inkray.relief.model import Part, Relief
 from inkray.relief.patches import min_angles as _min_angles
-from inkray.numerics.tri_intersection import self_intersecting_faces
-from inkray.relief.patches import bad_faces, ladders, repair_patches
+from inkray.numerics.tri_intersection import crossing_faces, self_intersecting_faces
+from inkray.relief.patches import _STORED_SCALES, ladders, repair_patches
 
 __all__ = ["assemble", "close_part", "union_parts", "remesh_solid", "shell_parts",
            "MIN_ANGLE", "SKIRT", "SNAP"]
@@ -931,15 +931,15 @@ def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RING
         if w is v:
             continue  # nothing kept closed and manifold: the next round, wider
         v, f, bad = _repair(w, g, target=target, min_angle=min_angle,
-                            near=_suspects(v, f, bad, w, g))
+                            changed=_suspects(v, f, bad, w, g))
         if bad.sum() < best[0]:
             best = (int(bad.sum()), v, f, bad)
     count, v, f, bad = best
     if count:
         # vertices of faces folded through others moved one at a time: slow, so only
         # around the few faces the rounds leave
-        w, g, left = _repair(v, f, target=target, min_angle=min_angle,
-                             near=_near_faces(v, f, bad), untangle=True)
+        w, g, left = _repair(v, f, target=target, min_angle=min_angle, changed=bad,
+                             untangle=True)
         if left.sum() < count:
             v, f, bad, count = w, g, left, int(left.sum())
     if 0 < count <= _FEW:
@@ -949,7 +949,7 @@ def _remeshed_solid(vertices, faces, *, target, min_angle=MIN_ANGLE, rings=_RING
         w, g = _SliverFix(w, g).polish(min_angle)
         if _closed_manifold(g) and _twins(w) <= _twins(v):
             w, g, left = _repair(w, g, target=target, min_angle=min_angle,
-                                 near=_suspects(v, f, bad, w, g))
+                                 changed=_suspects(v, f, bad, w, g))
             if left.sum() < count:
                 v, f, count = w, g, int(left.sum())
     return v, f, count
@@ -985,22 +985,23 @@ def _remesh_around(v, f, bad, *, target, min_angle, rings, iterations):
 
 def _stitched(vertices, faces, cut, sub_vertices, sub_faces):
     """The ``cut`` faces replaced by a mesh of them whose border vertices are where they
-    were (matched by position). Returns vertices and faces, or faces None where the
-    border does not match one to one or the result is not closed."""
+    were (matched by position, within a rounding error: the remeshing may move one by
+    an ulp). Returns vertices and faces, or faces None where the border does not match
+    one to one or the result is not closed."""
     v, f = vertices, faces
     inside, outside = np.zeros(len(v), bool), np.zeros(len(v), bool)
     inside[f[cut]], outside[f[~cut]] = True, True
     border = np.flatnonzero(inside & outside)
-    ids = _position_ids(np.concatenate([v[border], sub_vertices]))
-    at = np.full(int(ids.max()) + 1, -1)
-    at[ids[:len(border)]] = border
-    if (at[ids[:len(border)]] != border).any():
-        return v, None  # two border vertices at one position
-    to = at[ids[len(border):]]
+    if len(sub_vertices) < 2:
+        return v, None
+    tol = 1e-9 * max(1.0, float(np.abs(v).max()))
+    d, at = cKDTree(sub_vertices).query(v[border], k=2)
+    if (d[:, 0] > tol).any() or (d[:, 1] <= tol).any() or len(np.unique(at[:, 0])) < len(border):
+        return v, None  # a border vertex moved, or two sub vertices (or border ones) at it
+    to = np.full(len(sub_vertices), -1)
+    to[at[:, 0]] = border
     new = to < 0
     to[new] = len(v) + np.arange(int(new.sum()))
-    if np.bincount(to[~new], minlength=len(v))[border].tolist() != [1] * len(border):
-        return v, None
     nf = np.concatenate([f[~cut], to[sub_faces]])
     if not _closed_manifold(nf):
         return v, None
@@ -1040,21 +1041,38 @@ def _remeshed(vertices, faces, chosen, *, target, iterations):
     return np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
 
 
-def _new_faces(old_vertices, old_faces, vertices, faces):
-    """Which faces are not among the old ones (compared by their corners' positions)."""
+def _old_faces(old_vertices, old_faces, vertices, faces):
+    """Each face's index among the old ones (compared by their corners' positions), or -1
+    where it is new."""
+    if len(old_faces) == 0:
+        return np.full(len(faces), -1)
     ids = _position_ids(np.concatenate([old_vertices, vertices]))
     old = np.sort(ids[:len(old_vertices)][old_faces], axis=1)
     new = np.sort(ids[len(old_vertices):][faces], axis=1)
     span = int(ids.max()) + 1
-    key = (np.concatenate([old, new]) * np.array([span * span, span, 1])).sum(axis=1)
-    return ~np.isin(key[len(old):], key[:len(old)])
+    old, new = (x @ np.array([span * span, span, 1]) for x in (old, new))
+    order = np.argsort(old, kind="stable")
+    at = np.minimum(np.searchsorted(old[order], new), len(old) - 1)
+    return np.where(old[order][at] == new, order[at], -1)
 
 
 def _position_ids(points):
-    """One integer per distinct position of ``points`` (n, 3), numbered in sorted order."""
-    order = np.lexsort(np.asarray(points).T[::-1])
-    first = np.r_[True, (np.diff(points[order], axis=0) != 0).any(axis=1)]
-    ids = np.empty(len(points), np.int64)
+    """One integer per distinct position of ``points`` (n, d)."""
+    p = np.ascontiguousarray(points, float) + 0.0  # (-0.0 is 0.0)
+    # one sort of a hash of the positions' bits, not one per coordinate
+    h = np.zeros(len(p), np.uint64)
+    for column in p.view(np.uint64).T:
+        h = (h ^ column) * np.uint64(0x9E3779B97F4A7C15)
+        h ^= h >> np.uint64(29)
+    order = np.argsort(h, kind="stable")
+    first = np.r_[True, h[order][1:] != h[order][:-1]]
+    q = p[order]
+    if (q[1:][~first[1:]] != q[:-1][~first[1:]]).any():
+        # two positions with one hash: sorted by their coordinates instead
+        order = np.lexsort(p.T[::-1])
+        q = p[order]
+        first = np.r_[True, (np.diff(q, axis=0) != 0).any(axis=1)]
+    ids = np.empty(len(p), np.int64)
     ids[order] = np.cumsum(first) - 1
     return ids
 
@@ -1091,15 +1109,18 @@ def _near_faces(vertices, faces, chosen):
     return near
 
 
-def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
+def _repair(vertices, faces, *, target, min_angle, changed, untangle=False):
     """The patches around bad faces re-triangulated (after vertices moved off the faces
-    they fold through, with ``untangle``). Faces crossing another are looked for among
-    the ``near`` faces only. Returns the vertices, the faces and which are left bad."""
+    they fold through, with ``untangle``). Faces crossing another are looked for in
+    pairs with a ``changed`` face only (the others cross none). Returns the vertices, the
+    faces and which are left bad."""
     if untangle:
-        v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=near)
+        # the moves change the faces around the vertices moved too
+        changed = _near_faces(vertices, faces, changed)
+        v, crossing = _untangle(vertices, faces, min_angle=min_angle, near=changed)
     else:
         v, crossing = vertices, None
-    bad = _bad_near(v, faces, near, min_angle=min_angle, crossing=crossing)
+    bad = _bad_near(v, faces, changed, min_angle=min_angle, crossing=crossing)
     if not bad.any():
         return v, faces, bad
     rv, rf = repair_patches(v, faces, target=target, min_angle=min_angle, bad=bad)
@@ -1110,17 +1131,22 @@ def _repair(vertices, faces, *, target, min_angle, near, untangle=False):
 
 def _suspects(old_vertices, old_faces, old_bad, vertices, faces):
     """The faces that may cross another after a change of a mesh whose faces crossed
-    none but its ``old_bad`` ones: those that are new or were bad, and those near them."""
-    new = _new_faces(old_vertices, old_faces, vertices, faces)
-    kept_bad = ~_new_faces(old_vertices, old_faces[old_bad], vertices, faces)
-    return _near_faces(vertices, faces, new | kept_bad)
+    none but its ``old_bad`` ones: those that are new or were bad."""
+    old = _old_faces(old_vertices, old_faces, vertices, faces)
+    return (old < 0) | old_bad[old]
 
 
-def _bad_near(vertices, faces, near, *, min_angle, crossing=None):
-    """Faces with an angle below ``min_angle``, and ``near`` faces crossing another."""
+def _bad_near(vertices, faces, changed, *, min_angle, crossing=None):
+    """Faces with an angle below ``min_angle``, and faces crossing another where one of
+    the two is ``changed`` (also once rounded to float32, as files store them; those in
+    ``crossing`` too)."""
     bad = _min_angles(vertices, faces) < min_angle
-    bad[near] |= bad_faces(vertices, faces[near], min_angle=min_angle,
-                           crossing=None if crossing is None else crossing[near])
+    near = _near_faces(vertices, faces, changed)
+    hit = crossing_faces(vertices, faces[near], float32_scales=_STORED_SCALES,
+                         among=changed[near]).any(axis=0)
+    if crossing is not None:
+        hit |= crossing[near]
+    bad[near] |= hit
     return bad
 
 
@@ -1195,6 +1221,7 @@ class _SliverFix:
         self._order = np.argsort(flat, kind="stable")
         self._start = np.searchsorted(flat[self._order], np.arange(len(self.v) + 1))
         self._around = {}
+        self._angles = {}  # each face's smallest angle, dropped when the face changes
         e = self.v[self.f] - self.v[np.roll(self.f, 1, axis=1)]
         self._short = 0.25 * float(np.median(np.linalg.norm(e, axis=2)))
 
@@ -1203,7 +1230,9 @@ class _SliverFix:
         for _ in range(self._ROUNDS):
             live = np.flatnonzero(self.alive)
             angles = _min_angles(self.v, self.f[live])
-            bad = live[np.argsort(angles, kind="stable")[: int((angles < min_angle).sum())]]
+            order = np.argsort(angles, kind="stable")[: int((angles < min_angle).sum())]
+            bad = live[order]
+            self._angles.update(zip(bad.tolist(), angles[order].tolist()))
             changed = False
             for t in bad.tolist():
                 if self.alive[t] and self._angle(t) < min_angle:
@@ -1256,13 +1285,20 @@ class _SliverFix:
         sizes = len(self.v), len(self.f)
         v, f, alive = self.v[ring].copy(), self.f[faces].copy(), self.alive[faces].copy()
         around = {x: set(self._faces(x)) for x in ring}
+        # every face the change moves or adds lies within the box of those faces' corners
+        # (a flip, a collapse or a split keeps to them, a move goes to their centroid):
+        # only faces reaching into it may cross or stop crossing, so only theirs are counted
+        pad = 1e-5 * float(np.abs(self.v).max())  # (and what a rounding to float32 moves)
+        lo, hi = self.v[ring].min(axis=0) - pad, self.v[ring].max(axis=0) + pad
 
         def crossing():
             k = np.r_[near, np.arange(sizes[1], len(self.f))]  # (and the faces a split adds)
             used, g = np.unique(self.f[k[self.alive[k]]], return_inverse=True)
             w, g = self.v[used], g.reshape(-1, 3)
-            return (int(self_intersecting_faces(w, g).sum()),
-                    int(bad_faces(w, g, min_angle=0.0).sum()))
+            t = w[g]
+            touched = ((t.min(axis=1) <= hi) & (t.max(axis=1) >= lo)).all(axis=1)
+            rows = crossing_faces(w, g, float32_scales=_STORED_SCALES, among=touched)[:, touched]
+            return int(rows[0].sum()), int(rows.any(axis=0).sum())
 
         before = crossing()
         if not change():
@@ -1276,6 +1312,7 @@ class _SliverFix:
             if x >= sizes[0]:
                 del self._around[x]
         self._around.update(around)
+        self._changed(list(faces) + [g for g in self._angles if g >= sizes[1]])
         return False
 
     def _relax(self, t):
@@ -1291,6 +1328,7 @@ class _SliverFix:
                 self.v[x] = p
                 turned = np.einsum("ij,ij->i", _normal(self.v[self.f[around]]), before)
                 if (turned >= self._WIDE).all() and _min_angles(self.v, self.f[around]).min() > worst:
+                    self._changed(around)
                     return True
                 self.v[x] = here
         return False
@@ -1305,7 +1343,14 @@ class _SliverFix:
         return self._around[x]
 
     def _angle(self, t):
-        return float(_min_angles(self.v, self.f[[t]])[0])
+        if t not in self._angles:
+            self._angles[t] = float(_min_angles(self.v, self.f[[t]])[0])
+        return self._angles[t]
+
+    def _changed(self, faces):
+        """Faces whose corners moved or changed: their angles are measured again."""
+        for g in faces:
+            self._angles.pop(g, None)
 
     def _edge(self, t, longest):
         """Corners ``a, b, c`` of face ``t`` with ``a -> b`` its longest (shortest) edge."""
@@ -1331,11 +1376,11 @@ class _SliverFix:
         return u, int(next(x for x in self.f[u] if x != a and x != b))
 
     def _flip(self, t, turn=_TURN, any_edge=False):
+        n = _normal(self.v[self.f[t]])
         for a, b, c in self._edges(t) if any_edge else [self._edge(t, longest=True)]:
             u, d = self._across(t, a, b)
             if u is None or d == c or self._faces(c) & self._faces(d):
                 continue
-            n = _normal(self.v[self.f[t]])
             new = np.array([[a, d, c], [d, b, c]])
             if (_normal(self.v[self.f[u]]) @ n >= turn and (_normal(self.v[new]) @ n >= turn).all()
                     and _min_angles(self.v, new).min() > min(self._angle(t), self._angle(u))):
@@ -1343,6 +1388,7 @@ class _SliverFix:
         else:
             return False
         self.f[t], self.f[u] = new
+        self._changed((t, u))
         self._faces(b).discard(t)
         self._faces(a).discard(u)
         self._faces(d).add(t)
@@ -1362,16 +1408,20 @@ class _SliverFix:
         # they turn: only a face turned over (a fold) is refused
         short = np.linalg.norm(self.v[a] - self.v[b]) < self._short
         turn = 0.0 if short else self._TURN
-        for p in (0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]):
-            tris = self.v[self.f[moved]]
-            tris[np.isin(self.f[moved], (a, b))] = p
-            if (np.einsum("ij,ij->i", _normal(tris), _normal(self.v[self.f[moved]])) < turn).any():
-                continue
-            worst = _min_angles(tris.reshape(-1, 3), np.arange(3 * len(moved)).reshape(-1, 3)).min()
-            if worst > best:
-                best, where = worst, p.copy()
+        # the moved faces with the edge's ends at its midpoint, at a, at b: all at once
+        points = np.stack([0.5 * (self.v[a] + self.v[b]), self.v[a], self.v[b]])
+        tris = np.repeat(self.v[self.f[moved]][None], 3, axis=0)
+        ends = np.isin(self.f[moved], (a, b))
+        tris[:, ends] = points[:, None]
+        folded = (np.einsum("kij,ij->ki", _normal(tris), _normal(self.v[self.f[moved]])) < turn)
+        worst = _min_angles(tris.reshape(-1, 3), np.arange(9 * len(moved)).reshape(-1, 3))
+        worst = worst.reshape(3, -1).min(axis=1)
+        for k in range(3):
+            if not folded[k].any() and worst[k] > best:
+                best, where = worst[k], points[k].copy()
         if where is None:
             return False
+        self._changed(fa | fb)
         self.v[b] = where
         for g in shared:
             self.alive[g] = False
@@ -1382,6 +1432,19 @@ class _SliverFix:
             fb.add(g)
         fa.clear()
         return True
+
+    @staticmethod
+    def _appended(array, rows):
+        """``array`` with ``rows`` appended: a view of a buffer twice as long as needed
+        when it is full (splits add rows one at a time; copying them all each time is
+        slow), which a shorter view of it (an undone change) keeps using."""
+        n, rows = len(array), np.asarray(rows, array.dtype)
+        buffer = array.base
+        if buffer is None or len(buffer) < n + len(rows) or buffer.ctypes.data != array.ctypes.data:
+            buffer = np.empty((2 * (n + len(rows)),) + array.shape[1:], array.dtype)
+            buffer[:n] = array
+        buffer[n:n + len(rows)] = rows
+        return buffer[:n + len(rows)]
 
     def _ring(self, faces):
         """The vertices of ``faces``."""
@@ -1398,11 +1461,12 @@ class _SliverFix:
         if not 0.05 < s < 0.95 or np.linalg.norm(self.v[c] - foot) < 1e-3 * np.sqrt(ab @ ab):
             return False  # (a corner on the edge would get a twin at its position)
         m = len(self.v)
-        self.v = np.vstack([self.v, foot])
+        self.v = self._appended(self.v, [foot])
         k = len(self.f)
-        self.f = np.vstack([self.f, [[m, b, c], [b, m, d]]])
-        self.alive = np.append(self.alive, [True, True])
+        self.f = self._appended(self.f, [[m, b, c], [b, m, d]])
+        self.alive = self._appended(self.alive, [True, True])
         self.f[t], self.f[u] = [a, m, c], [m, a, d]
+        self._changed((t, u))
         self._faces(b).difference_update((t, u))
         self._faces(b).update((k, k + 1))
         self._faces(c).add(k)
@@ -1414,9 +1478,10 @@ class _SliverFix:
 def _normal(tris):
     """Unit normals of triangles given by their corners (..., 3, 3)."""
     u, w = tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
-    n = np.stack([u[..., 1] * w[..., 2] - u[..., 2] * w[..., 1],
-                  u[..., 2] * w[..., 0] - u[..., 0] * w[..., 2],
-                  u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]], axis=-1)
+    n = np.empty(u.shape)
+    n[..., 0] = u[..., 1] * w[..., 2] - u[..., 2] * w[..., 1]
+    n[..., 1] = u[..., 2] * w[..., 0] - u[..., 0] * w[..., 2]
+    n[..., 2] = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
     return n / np.maximum(np.sqrt((n * n).sum(axis=-1, keepdims=True)), 1e-300)
 
 

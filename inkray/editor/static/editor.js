@@ -215,6 +215,8 @@ function refresh() {
       if (shown !== null && +shown !== generation) return;  // never show an older annotation
       if (r.ok) {
         S.errors[kind] = null;
+        // a draft request the server answered with the full map (on opening): nothing to follow
+        if (r.headers.get("X-Inkray-Quality") === "full") final = true;
         await use(r);
         const target = kind === "relations" ? $("relations") : $(kind);
         target.dataset.generation = String(generation);
@@ -253,7 +255,8 @@ function refresh() {
   if (!hasEntries(doc)) skip("depth");
   else {
     // The depth map (its own lock on the server) beside the rest, which goes cheapest first;
-    // the fast one as a half-resolution draft first, at once, then in full.
+    // the fast one as a half-resolution draft first, at once, then in full (unless the
+    // draft's answer is already the full map).
     (async () => {
       const depth = async (r) => setImage("depth", await r.blob());
       if (method === "fast" && !await get("depth", "/api/preview/depth.png?quality=draft", depth, false)) return;
