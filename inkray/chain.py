@@ -601,7 +601,7 @@ class ReliefChain:
             raise
         return DepthResult(depth=d, method="fast", epsilon=o.depth_epsilon,
                            info={"levels": dict(session.region_levels), "labels": session.parts,
-                                 "timings": dict(session.timings)})
+                                 "timings": dict(session.timings), "draft": session.drafted})
 
 
 def build_relief(annotations, drawing, *, predict=True, max_area=DEFAULT_MAX_AREA, epsilon=None,

@@ -129,8 +129,9 @@ class DepthResult:
         ``multipliers``, ``sigma``, ``timings``. ``fast``: ``levels``
         (``{label: level}`` for the segments, or parts of segments, holding
         endpoints), ``labels`` (the segmentation with those parts), ``timings``
-        (seconds: ``segment``, and ``laplace`` for the full fill or ``laplace
-        draft`` for a half-resolution one, see :meth:`DepthSession.solve`).
+        (seconds: ``segment``, ``laplace``) and, from a chain's kept session,
+        ``draft`` (whether the fill was the half-resolution one, see
+        :meth:`DepthSession.solve`).
     """
 
     depth: np.ndarray
@@ -465,7 +466,7 @@ class DepthSession:
         self.parts = None       # the segmentation with split segments, after solve()
         self._split_cache = {}  # (segment, endpoint groups) -> labels of its parts
         self.region_levels = {}  # label in ``parts`` -> level, after solve()
-        self.timings = {}       # of the last solve: "segment", "laplace" or "laplace draft"
+        self.timings = {}       # of the last solve: "segment", "laplace"
         self.refactored_fronts = 0  # fronts of the fill factored by the last solve()
         self._warming = None    # the thread factoring the draft fill in prepare(), if any
 
@@ -643,8 +644,7 @@ class DepthSession:
             factorizations (the draft's about a quarter of the full one's
             memory). When the full fill works on a box of at most
             :data:`DRAFT_ABOVE` pixels (its fixed values settle the rest), the
-            draft is the full fill. :attr:`timings` then names the fill
-            ``laplace`` (the full one) or ``laplace draft`` (half resolution).
+            draft is the full fill; :attr:`drafted` says which one answered.
 
         Returns
         -------
@@ -666,6 +666,7 @@ class DepthSession:
         p, q, ineq, labels = self.constraints()
         check_constraints(p, q, ineq, labels)  # point-level cycles, before any work
         self.timings = {}
+        self._drafted = False
         if not len(p) and self._scribbles is None:
             return self._flat()
         t = time.perf_counter()
@@ -701,10 +702,16 @@ class DepthSession:
         fixed.flat[np.concatenate([p, q])] = True
         d = self._fill(fixed, lvl, draft)  # the fills read lvl on the fixed pixels only
         d -= d.mean()
-        self.timings["laplace draft" if self._drafted else "laplace"] = time.perf_counter() - t
+        self.timings["laplace"] = time.perf_counter() - t
         if not self._drafted:
             self._solved = self._changes, d.copy()
         return d
+
+    @property
+    def drafted(self):
+        """Whether the last :meth:`solve` was answered by the half-resolution fill
+        (a draft), not the full one."""
+        return self._drafted
 
     def _flat(self):
         """No entry and no default order: one depth everywhere."""

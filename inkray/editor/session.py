@@ -618,7 +618,7 @@ class EditSession:
                     self._files.move_to_end(key)
                     return self._files[key], drafted
         result = artefact.make(chain, draft=True)
-        drafted = "laplace draft" in result.info.get("timings", {})
+        drafted = result.info.get("draft", False)
         return self._encoded(half if drafted else full,
                              lambda: artefact.encode(result, draft=drafted)), drafted
 
