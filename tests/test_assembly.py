@@ -3,6 +3,7 @@
 import manifold3d as m3d
 import numpy as np
 import pytest
+import triangle
 import trimesh
 from scipy.spatial import cKDTree
 
@@ -12,7 +13,7 @@ from inkray.numerics.arap import signed_areas
 from inkray.numerics.tri_intersection import self_intersecting_faces
 from inkray.relief.assembly import (MIN_ANGLE, _WALL_REACH, _boundary_edges, _closed_manifold,
                                     _envelope_solid, _paired, _position_ids, _sheets,
-                                    _stitched, _unwalled,
+                                    _stitched, _uncrowded, _unwalled,
                                     _min_angles, _skirted, _untangle, assemble, close_part, remesh_solid,
                                     shell_parts, union_parts)
 from inkray.relief.completion import complete_regions
@@ -360,6 +361,46 @@ def test_a_part_floating_over_another_by_a_sliver_is_kept_clear_of_it():
     # closed form: the high box's near side half a pixel clear of the low box (x = 6.5)
     assert v[v[:, 2] > 1.0, 0].min() == pytest.approx(6.5, abs=1e-12)
     assert -q["volume"] == pytest.approx(4.0 * 6.0 * 1.0 + 2.0 * 5.2 * 5.0, rel=1e-12)
+
+
+def _slab(outline, bottom, top, name):
+    """A closed flat slab over the polygon ``outline`` from ``bottom`` to ``top``."""
+    k = np.arange(len(outline))
+    t = triangle.triangulate({"vertices": outline,
+                              "segments": np.column_stack([k, np.roll(k, -1)])}, "pQ")
+    v = np.column_stack([t["vertices"], np.full(len(t["vertices"]), float(top))])
+    faces = np.asarray(t["triangles"], np.int64)[:, ::-1]  # clockwise in (x, y)
+    return close_part(Part(name, v, faces), np.full(len(v), float(bottom)))
+
+
+def test_a_floating_part_is_kept_clear_of_a_curved_outline_along_its_whole_edge():
+    a = 2.0 * np.pi * np.arange(40) / 40
+    circle = 10.0 * np.column_stack([np.cos(a), np.sin(a)])
+    low = _slab(circle, 0.0, 1.0, "low")
+    # one straight 8 px edge whose ends lie within a pixel outside the circle and whose
+    # middle cuts 0.8 px into it; floating from 5 to 6 over the low slab
+    high = _slab(np.array([[9.2, -4.0], [15.0, -4.0], [15.0, 4.0], [9.2, 4.0]]), 5.0, 6.0, "high")
+    v, f = _envelope_solid([low, high], 0.0, 1.5)
+    q = mesh_quality(v, f)
+    # a column where the edge crosses the circle would join the two: apart, and the low
+    # slab whole (closed form: the polygon's area times its thickness)
+    assert q["watertight"] and q["shells"] == 2 and q["self_intersecting_faces"] == 0
+    pieces = trimesh.Trimesh(v, f, process=False).split(only_watertight=True)
+    lowest = min(pieces, key=lambda m: m.vertices[:, 2].max())
+    x, y = circle.T
+    area = 0.5 * abs((x * np.roll(y, -1) - np.roll(x, -1) * y).sum())
+    assert abs(lowest.volume) == pytest.approx(area * 1.0, rel=1e-12)
+
+
+def test_outline_vertices_moved_together_into_one_corner_stay_where_they_were():
+    before = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [5.0, 5.0]])
+    after = before.copy()
+    after[1] = after[2] = [1.5, 0.7]  # moved onto one point: the union would pinch there
+    after[2, 0] += 0.01
+    after[3] = [3.0, 0.75]  # moved alone: kept
+    out = _uncrowded(before, after, np.arange(4), 0.075)
+    assert np.array_equal(out[[1, 2]], before[[1, 2]])
+    assert np.array_equal(out[[0, 3, 4]], after[[0, 3, 4]])
 
 
 def test_a_hole_smaller_than_the_fill_area_is_filled():

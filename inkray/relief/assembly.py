@@ -191,7 +191,10 @@ def union_parts(parts, *, name="union", remesh=True, skirt=SKIRT, snap=SNAP):
     booleans decide by symbolic perturbation; where the two parts' slabs do
     not meet in height there (a part floating in front of another) the
     later outline is moved half :data:`SNAP` clear of the other instead, as
-    the two would touch along a line. The rims' wall strips
+    the two would touch along a line, along its whole length (the other's
+    vertices that a long edge passes put into it, pushed clear): an overlap
+    left between the moved ends would be a column under a pixel wide from
+    the lower part's back to the upper part's front. The rims' wall strips
     (:func:`~inkray.relief.inflation.rim_wall`, needles the textured views
     need and a print does not) are merged away first, each outline vertex
     into its copy at the wall's top, at the outline's ``(x, y)``; where that
@@ -342,9 +345,13 @@ def _snapped(sheets, reach, *, join_covered=True):
     ``reach`` between them. Sheets with a fourth column (the back's height under the
     front, see ``_paired``) whose heights do not meet the other's there are moved
     half ``reach`` clear of it instead, unless a third sheet covers the place: then
-    they coincide too (``join_covered``) or stay. A move or an insertion that would fold or
-    flatten a triangle of its sheet (in ``(x, y)``) is left out. Returns the list of
-    ``(vertices, faces)``.
+    they coincide too (``join_covered``) or stay; the edges moved clear take the
+    other outline's vertices they pass, pushed clear too (``_cleared``), so that a
+    long edge beside a curve does not cut across it between its ends. A move or an
+    insertion that would fold or flatten a triangle of its sheet (in ``(x, y)``) is
+    left out, and so are moves that bring two outline vertices within a twentieth of
+    ``reach`` of each other (into a corner of the other outline's offset). Returns the
+    list of ``(vertices, faces)``.
     """
     done, outlines = [], []
     rims = [_outline_segments(v, f) for v, f in sheets]
@@ -388,12 +395,20 @@ def _snapped(sheets, reach, *, join_covered=True):
             snapped = np.zeros(len(v), bool)
             snapped[on[found & ~apart]] = True
             for _ in range(len(on)):  # (undoing a move may fold a triangle, or leave one alone)
-                u = _runs(v, _unfolded(v, w, f), a, b, snapped)
+                u = _runs(v, _uncrowded(v, _unfolded(v, w, f), on, 0.05 * reach), a, b, snapped)
                 if np.array_equal(u, w):
                     break
                 w = u
-            moved = snapped & (w != v).any(axis=1)
-            v, f = _inserted(w, f, s0[:, :2], reach, clear=0.5 * reach, near=moved)
+            moved = (w != v).any(axis=1)
+            cleared = np.zeros(len(v), bool)
+            cleared[on[found & apart]] = True
+            v, f = _inserted(w, f, s0[:, :2], reach, clear=0.5 * reach, near=snapped & moved)
+            if (cleared & moved).any():
+                # an edge whose ends were moved clear can still cut across the other
+                # outline between them (a long edge beside a curve): the other's vertices
+                # it leaves inside, pushed half ``reach`` out, put into it
+                v, f = _cleared(v, f, np.r_[cleared & moved, np.zeros(len(v) - len(w), bool)],
+                                (s0, s1, out, owner), reach, rims, len(done))
         done.append((v, f))
         outlines.append(_outline_segments(v, f))
     out = []
@@ -405,6 +420,120 @@ def _snapped(sheets, reach, *, join_covered=True):
             v, f = _inserted(v, f, np.concatenate(others), on, clear=on)
         out.append((v, f))
     return out
+
+
+def _uncrowded(before, after, on, near):
+    """``after`` with the moves of outline vertices ``on`` undone where two of them end
+    nearer than ``near`` to each other and than half as far as they were (moved
+    together into a corner of the other outline's offset, they would pinch the union)."""
+    w = np.array(after, float)
+    moved = on[(w[on] != before[on]).any(axis=1)]
+    if len(moved) < 2:
+        return w
+    pairs = on[cKDTree(w[on, :2]).query_pairs(near, output_type="ndarray")].reshape(-1, 2)
+    # (two vertices of the part's own triangulation that near each other stay so)
+    gap = [np.linalg.norm(x[pairs[:, 0], :2] - x[pairs[:, 1], :2], axis=1) for x in (w, before)]
+    pairs = pairs[gap[0] < 0.5 * gap[1]]
+    if not len(pairs):
+        return w
+    crowd = np.unique(pairs)
+    crowd = crowd[(w[crowd] != before[crowd]).any(axis=1)]
+    w[crowd] = before[crowd]
+    return w
+
+
+def _cleared(vertices, faces, away, others, reach, rims, this):
+    """A sheet whose outline edges with an ``away`` end (moved clear of other outlines)
+    take the other outlines' vertices that lie inside the sheet beyond such an edge
+    (within ``reach`` of it), each pushed half ``reach`` out of its own outline
+    (along the mean of the outward normals of its two edges); only where the two
+    sheets' slabs do not meet in height and no third sheet's outline (``rims``, this
+    one's at index ``this``) covers the place (see ``_snapped``). ``others``: the
+    outline edges' starts and ends, outward normals and owners (indices into ``rims``)."""
+    s0, s1, out, owner = others
+    v = np.asarray(vertices, float)
+    edges = _boundary_edges(faces)
+    edges = edges[away[edges].any(axis=1)]
+    e0, e1 = v[edges[:, 0]], v[edges[:, 1]]
+    c, dist, seg, t = _closest_on(s0[:, :2], e0[:, :2], e1[:, :2], reach)
+    found = np.isfinite(dist)
+    k = np.maximum(seg, 0)
+    z = e0[k, 2:] + t[:, None] * (e1[k, 2:] - e0[k, 2:])
+    apart = (z[:, 1] > s0[:, 2]) | (s0[:, 3] > z[:, 0])
+    mine = _outward(v, faces, edges[:, 0], edges[:, 1])[k]
+    inside = np.einsum("ij,ij->i", s0[:, :2] - c, mine) < 0.0
+    take = found & apart & inside
+    for m, x in enumerate(rims):
+        third = take & (owner != m)
+        if m != this and third.any():
+            take[third] = ~_inside(s0[third, :2], x[0][:, :2], x[1][:, :2])
+    if not take.any():
+        return v, faces
+    # the edge of the same outline that ends at each vertex: the mean of the two normals
+    ids = _position_ids(np.column_stack([np.r_[s0[:, :2], s1[:, :2]], np.r_[owner, owner]]))
+    ending = np.full(int(ids.max()) + 1, -1)
+    ending[ids[len(s0):]] = np.arange(len(s0))
+    before = ending[ids[:len(s0)]]
+    normal = out + np.where(before[:, None] >= 0, out[np.maximum(before, 0)], out)
+    length = np.linalg.norm(normal, axis=1)
+    # (at a corner sharper than a right angle "out of the outline" has no one direction)
+    take &= length > np.sqrt(2.0)
+    normal /= np.maximum(length, 1e-12)[:, None]
+    if not take.any():
+        return v, faces
+    # one point for vertices of two outlines at one place (made to coincide before)
+    points, normal = s0[take, :2], normal[take]
+    twin = cKDTree(points).query_pairs(0.1 * reach, output_type="ndarray")
+    single = np.ones(len(points), bool)
+    single[twin.max(axis=1)] = False
+    points, normal = points[single], normal[single]
+    for _ in range(len(points)):
+        w, g, over = _pushed_in(v, faces, edges, points, normal, reach)
+        if not over.any():
+            return w, g
+        # a point pushed across a narrow spike into the sheet beyond: left out
+        points, normal = points[~over], normal[~over]
+    return v, faces
+
+
+def _pushed_in(vertices, faces, edges, points, normal, reach):
+    """``points`` moved along ``normal`` by half ``reach`` put into the outline
+    ``edges``, or by a quarter or a tenth where the fan would fold a triangle (the
+    edge's third corner near), each into one edge only. Returns the vertices, the
+    faces and which points landed inside a triangle of the sheet they are no corner
+    of (the sheet then overlaps itself)."""
+    v, f = vertices, faces
+    at = np.full(len(points), -1)
+    for push in (0.5, 0.25, 0.1):
+        todo = np.flatnonzero(at < 0)
+        pushed = points[todo] + push * reach * normal[todo]
+        n = len(v)
+        v, f = _inserted(v, f, pushed, reach, clear=0.5 * reach, only=edges)
+        edges = edges[_among(edges, _boundary_edges(f), len(v))]
+        if len(v) > n:
+            same = (pushed[:, None, :] == v[None, n:, :2]).all(axis=2)
+            found = same.any(axis=1)
+            at[todo[found]] = n + same[found].argmax(axis=1)
+        if not len(edges) or (at >= 0).all():
+            break
+    over = np.zeros(len(at), bool)
+    for k in np.flatnonzero(at >= 0).tolist():
+        p = v[at[k], :2]
+        t = v[f[(f != at[k]).all(axis=1)]][:, :, :2]
+        d = [(t[:, (j + 1) % 3, 0] - t[:, j, 0]) * (p[1] - t[:, j, 1])
+             - (t[:, (j + 1) % 3, 1] - t[:, j, 1]) * (p[0] - t[:, j, 0]) for j in range(3)]
+        over[k] = (((d[0] > 0) & (d[1] > 0) & (d[2] > 0))
+                   | ((d[0] < 0) & (d[1] < 0) & (d[2] < 0))).any()
+    return v, f, over
+
+
+def _among(edges, others, n):
+    """Which ``edges`` (vertex pairs, either way round, indices below ``n``) are among
+    ``others``."""
+    def key(e):
+        e = np.sort(np.asarray(e, np.int64), axis=1)
+        return e[:, 0] * n + e[:, 1]
+    return np.isin(key(edges), key(others))
 
 
 def _outline_segments(vertices, faces):
@@ -492,16 +621,19 @@ def _unfolded(before, after, faces, keep=0.05):
     return w
 
 
-def _inserted(vertices, faces, points, reach, *, clear, near=None):
+def _inserted(vertices, faces, points, reach, *, clear, near=None, only=None):
     """A sheet with ``points`` (k, 2) within ``reach`` of an outline edge and farther
     than ``clear`` from its ends put into that edge, at heights interpolated along
     it, the edge's triangle split into a fan; an edge whose fan would fold or
     flatten a triangle keeps its points out. With ``near`` (a flag per vertex), only
-    edges with a flagged end take points."""
+    edges with a flagged end take points; with ``only`` ((k, 2) vertex pairs), only
+    those edges."""
     v = np.asarray(vertices, float)
     edges = _boundary_edges(faces)
     if near is not None:
         edges = edges[near[edges].any(axis=1)]
+    if only is not None:
+        edges = edges[_among(edges, only, len(v))]
     if not len(edges):
         return v, faces
     s0, s1 = v[edges[:, 0], :2], v[edges[:, 1], :2]
