@@ -37,6 +37,11 @@ at the middle of their common outline) to the annotation in process, to check a
 drawing whichever way the depth order model decides a relation (the HTTP run keeps
 the bundled annotation).
 
+``--sweep`` prints instead, per drawing and size, the holes and folds along a
+drag: the limb swung from rest to 60 degrees in steps of 2.5, each step solved
+warm from the one before (as the Pose mode's drag and an animation's frames
+are), with the worst step and the steps that have holes.
+
 ``--joins`` prints instead, for every bundled drawing, how the rig joins its
 parts (:mod:`inkray.relief.posing`): parts, joins by kind, the connected
 pieces a drag can move (1: the whole character hangs together), and the
@@ -446,26 +451,66 @@ def joins_table():
               flush=True)
 
 
+def sweep_table(names, sizes, orders):
+    """Holes and folds at every step of a drag from rest to a 60 degree swing."""
+    from inkray.chain import ReliefChain
+    from inkray.relief.posing import rig_relief
+    from inkray.view.posed import PosedDrawing
+
+    print("| drawing | size | steps | worst holes (at degrees) | steps with holes (degrees: px) "
+          "| folds |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name in names:
+        for mp in sizes:
+            ann, drawing = _load(name, mp)
+            ann = _forced(ann, drawing, orders)
+            chain = ReliefChain(ann, drawing)
+            rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+            pins, tip, join = _scenario(chain, rig)
+            if tip is None:
+                print(f"| {name} | | | no limb joined to the largest part | | |")
+                continue
+            posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
+                                 np.vstack([pins, tip]), boundaries=ann.boundaries)
+            rest = posed.image(rig.vertices)
+            steps = np.arange(0.0, 60.0 + 1e-9, 2.5)
+            holes, folds = [], 0
+            for angle in steps:
+                x = posed.positions(np.vstack([pins, _turn(tip, join, angle)]))
+                holes.append(_holes(posed, x, posed.image(x), rest))
+                folds += rig.folds(x)
+            worst = int(np.argmax(holes))
+            bad = ", ".join(f"{a:g}: {h}" for a, h in zip(steps, holes) if h)
+            w, h = ann.size
+            print(f"| {name} | {w}x{h} | {len(steps)} | {holes[worst]} ({steps[worst]:g}) | "
+                  f"{bad or '-'} | {folds} |", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--names", default="man,figure,turtle")
     parser.add_argument("--no-upscale", action="store_true")
     parser.add_argument("--no-http", action="store_true", help="skip the editor's route")
     parser.add_argument("--joins", action="store_true", help="the joins table of every drawing")
+    parser.add_argument("--sweep", action="store_true",
+                        help="holes at every step of a drag from rest to a 60 degree swing")
     parser.add_argument("--order", default="", metavar="FRONT/BACK,...",
                         help="add an order entry per pair of region names (in process only)")
     args = parser.parse_args()
     if args.joins:
         return joins_table()
+    orders = [o for o in args.order.split(",") if o]
+    sizes = [0.0] if args.no_upscale else [0.0, 1.0]
+    if args.sweep:
+        return sweep_table(args.names.split(","), sizes, orders)
     print("| drawing | size | vertices | prepare s | drag ms (vs 30) | picture ms (CPU) | HTTP drag "
           "ms (vs 60) | HTTP drag CPU ms (vs 60) | HTTP full ms | 24 frames s | ARAP energy | "
           "handle err px | folds | holes (fresh) | tears (at rest) | visibility |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
           "| --- | --- |")
     for name in args.names.split(","):
-        for mp in ([0.0] if args.no_upscale else [0.0, 1.0]):
-            r = one(name, mp, http=not args.no_http,
-                    orders=[o for o in args.order.split(",") if o])
+        for mp in sizes:
+            r = one(name, mp, http=not args.no_http, orders=orders)
             if r is None:
                 print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | | | |")
                 continue
