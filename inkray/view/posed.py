@@ -37,6 +37,7 @@ __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
 _SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
+_GRID = 2.0 ** 16  # posed positions are drawn rounded to 1 / _GRID px
 
 
 class PosedDrawing:
@@ -554,7 +555,10 @@ class _PartSource:
         rest, faces = self.rest, self.faces
         if self.skirt is not None:
             xy, z, rest, faces = self.skirt.around(xy, z, rest, faces)
-        out = (xy + 0.5) * scale - 0.5
+        # On a grid of 2^-16 px: a pixel centre on a triangle's edge at rest (a part's
+        # straight outline along a pixel row) stays on it when a solve brings the vertex back
+        # within round-off, instead of flipping to the next row and opening a slit.
+        out = np.round(((xy + 0.5) * scale - 0.5) * _GRID) / _GRID
         lo = np.maximum(np.floor(out.min(axis=0)).astype(int), 0)
         hi = np.minimum(np.ceil(out.max(axis=0)).astype(int) + 1, [w, h])
         if (hi <= lo).any():
