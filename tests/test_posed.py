@@ -38,6 +38,22 @@ def test_a_translation_carries_the_drawing():
     assert (img[2:6, 5:9, 3] == 255).all() and img[:2].sum() == 0 and (part[2:6, 5:9] == 0).all()
 
 
+def test_a_pose_within_round_off_of_rest_draws_the_rest_picture():
+    # Two squares meet along a pixel row (y = 4, through pixel centres): the lower one's top
+    # edge covers that row. A solve that brings the lower one back to rest within round-off
+    # (1e-11 px down) must not drop the row: the picture equals the rest picture.
+    rgb = np.full((8, 4, 3), 90, np.uint8)
+    v = np.array([[0, 0, 1], [3, 0, 1], [3, 4, 1], [0, 4, 1]], float)
+    faces = np.array([[0, 3, 2], [0, 2, 1]])
+    rest = Relief([Part("a", v, faces), Part("b", v + [0, 4, 0], faces)], size=(4, 8))
+    at_rest, _ = posed_image(rest, rest, Cutout([], (4, 8)), rgb)
+    assert (at_rest[:, :3, 3] == 255).all()
+    for off in (1e-11, -1e-11):
+        posed = Relief([Part("a", v, faces), Part("b", v + [0, 4 + off, 0], faces)], size=(4, 8))
+        img, _ = posed_image(posed, rest, Cutout([], (4, 8)), rgb)
+        assert np.array_equal(img, at_rest)
+
+
 def test_the_higher_part_is_drawn_where_posed_parts_overlap():
     rgb = np.zeros((4, 12, 3), np.uint8)
     a_moved, a_rest = square((2.0, 0.0), z=1.0, name="a")
