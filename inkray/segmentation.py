@@ -195,9 +195,9 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         labels = _coarse_to_fine(cost, seeds, strength, paper, progress, memo=memo)
     else:
         labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress, memo=memo)
-    if len(regions):
+    if len(regions) and regions[-1] != len(regions) - 1:  # not already 0..m-1
         labels = np.where(labels >= 0, regions[np.maximum(labels, 0)], labels)
-    return labels.astype(np.int32)
+    return labels.astype(np.int32, copy=False)
 
 
 _HARD = 1e9  # a seed cost no cut can pay
@@ -268,11 +268,12 @@ def _seed_strength(seeds, area, soft, memo=None):
     (overshoots). With a ``memo``, a label whose seed pixels did not change
     keeps its costs."""
     out = np.zeros(seeds.shape)
-    # Bounding box of each label (value v is at index v + 1 of the label image
-    # seeds + 2, whose 0 is the unseeded pixels).
-    boxes = ndimage.find_objects(seeds - UNSEEDED)
-    for c in np.unique(seeds[seeds != UNSEEDED]):
-        box = boxes[c - UNSEEDED - 1]
+    at = np.flatnonzero(seeds.ravel() != UNSEEDED)  # a few pixels
+    rows, cols = np.divmod(at, seeds.shape[1])
+    label = seeds.ravel()[at]
+    for c in np.unique(label):
+        r, k = rows[label == c], cols[label == c]
+        box = (slice(int(r.min()), int(r.max()) + 1), slice(int(k.min()), int(k.max()) + 1))
         mask = seeds[box] == c
         kept = None if memo is None else memo.get(("strength", c))
         if kept is not None and kept[0] == box and np.array_equal(kept[1], mask):
@@ -293,7 +294,10 @@ def _label_strength(mask, area, soft):
     on = ar > 0
     home = np.zeros(n + 1, np.int64)
     if on.any():
-        pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+        # The (stroke, area) pairs in lexicographic order, as one sorted key.
+        span = int(ar.max()) + 1
+        key, counts = np.unique(st[on].astype(np.int64) * span + ar[on], return_counts=True)
+        pairs = np.divmod(key, span)
         # Ties go to the lowest area number: deterministic.
         best = np.lexsort((pairs[1], -counts, pairs[0]))
         first = np.unique(pairs[0][best], return_index=True)[1]
@@ -391,7 +395,7 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
                             f"on the background or on ink?)")
     warnings += _unscribbled_areas(_paper_areas(gray, memo), seeds, labels, names, frame,
                                    min_area)
-    return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
+    return Segmentation(labels=labels.astype(np.int32, copy=False), names=names, warnings=warnings)
 
 
 def _with_boundary_cuts(gray, boundaries):
@@ -486,7 +490,8 @@ def _order(seeds):
     most pixels from the later cuts), then regions ascending."""
     # Labels run from UNSEEDED up (regions are 0..R-1 inside lazybrush): counting
     # them is a sort-free np.unique.
-    present = np.flatnonzero(np.bincount(seeds.ravel() - UNSEEDED)[1:]) + UNSEEDED + 1
+    present = np.flatnonzero(np.bincount(np.subtract(seeds.ravel(), UNSEEDED, dtype=np.intp))[1:])
+    present = present + UNSEEDED + 1
     return [int(v) for v in present]  # -1 sorts first
 
 
@@ -568,11 +573,26 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
     order = sorted(set(placed) | set(_order(seed_idx)))
     flat_labels = labels.ravel()
     alive = np.ones(len(idx), bool)  # which of ``idx`` are still unlabelled
+    # The 4-connected pieces of the unlabelled pixels, numbered from 1, by
+    # position in ``idx``. A cut splits only the pieces it ran on, and a piece
+    # that is assigned whole goes: only the rest of those is labelled again.
+    piece, count, again = np.zeros(len(idx), np.int32), 0, None
     for step, c in enumerate(order):
         pos = np.flatnonzero(alive)
         if not len(pos):
             break
-        ci, n = _pieces(idx[pos], rows[pos], cols[pos], ("pieces", h, w, c), memo)
+        kept = None if memo is None else memo.get(("pieces", h, w, c))
+        if kept is not None and np.array_equal(kept[0], idx[pos]):
+            piece[pos], count = kept[1], kept[2]
+        else:
+            at = pos if again is None else again[alive[again]]
+            if len(at):
+                more, n = _pieces(rows[at], cols[at])
+                piece[at] = more + (0 if again is None else count)
+                count = n + (0 if again is None else count)
+            if memo is not None:
+                memo[("pieces", h, w, c)] = (idx[pos], piece[pos], count)
+        ci, n, again = piece[pos], count, pos[:0]
         si = seed_idx[pos]
         own = np.bincount(ci[si == c], minlength=n + 1)
         other = np.bincount(ci[si > c], minlength=n + 1)
@@ -601,6 +621,7 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
                               memo)]
             flat_labels[idx[won]] = c
             alive[won] = False
+            again = on
         if progress is not None:
             progress.update(step + 1, len(order))
     free = labels == UNSEEDED
@@ -619,16 +640,22 @@ def _cut_edges(level, on, pull=None):
     ends among those pixels. ``pull(p)`` (or None) is the extra cost of a
     cut edge whose source side is the pixel of flat index ``p``."""
     n_level = len(level["idx"])
-    node = np.full(n_level + 1, -1, np.intp)  # the last: "no neighbour to label"
-    node[on] = np.arange(len(on))
+    every = len(on) == n_level  # then a pixel's node is its position
+    if not every:
+        node = np.full(n_level + 1, -1, np.intp)  # the last: "no neighbour to label"
+        node[on] = np.arange(len(on))
     pull_on = None if pull is None else pull(level["idx"][on])
     out = []
     for cap, pos in (level["right"], level["down"]):
-        b = node[pos[on]]
-        both = np.flatnonzero(b >= 0)
+        if every:
+            both = np.flatnonzero(pos < n_level)
+            b = pos
+        else:
+            b = node[pos[on]]
+            both = np.flatnonzero(b >= 0)
         if not len(both):
             continue
-        fwd = rev = cap[on[both]]
+        fwd = rev = cap[both if every else on[both]]
         if pull is not None:  # a -> b is cut when a takes c and b does not
             fwd = fwd + pull_on[both]
             rev = rev + pull_on[b[both]]
@@ -636,24 +663,16 @@ def _cut_edges(level, on, pull=None):
     return out
 
 
-def _pieces(flat, rows, cols, key, memo):
-    """The 4-connected piece of unlabelled pixels that each of the unlabelled
-    pixels ``flat`` (all of them; at ``(rows, cols)``) lies in, numbered from
-    1, and the count: labelled within their bounding box only, and kept in
-    ``memo`` under ``key`` for the same pixels."""
-    kept = None if memo is None else memo.get(key)
-    if kept is not None and np.array_equal(kept[0], flat):
-        return kept[1], kept[2]
+def _pieces(rows, cols):
+    """The 4-connected pieces of the pixels at ``(rows, cols)``: each one's,
+    numbered from 1, and their count; labelled within their bounding box only."""
     y0, x0 = rows.min(), cols.min()
     width = cols.max() - x0 + 1
     at = (rows - y0) * width + (cols - x0)
     box = np.zeros((rows.max() - y0 + 1, width), bool)
-    box.ravel()[at] = True  # the unlabelled pixels are these, whatever else the box holds
+    box.ravel()[at] = True
     comp, n = ndimage.label(box)
-    pieces = comp.ravel()[at]
-    if memo is not None:
-        memo[key] = (flat, pieces, n)
-    return pieces, n
+    return comp.ravel()[at], n
 
 
 def _terminals(flat, seeds, c, strength, nbrs, pull):
@@ -816,9 +835,7 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     resolution, and so are whole paper areas (``cost >= paper``) that the
     pooling may have cut wrongly: see below."""
     h, w = cost.shape
-    hp, wp = h + h % 2, w + w % 2
-    small_cost = _kept(memo, ("pooled", h, w), lambda: _pool(
-        np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge"), np.minimum))
+    small_cost = _kept(memo, ("pooled", h, w), lambda: _pool_min(cost))
     small_seeds = _pool_max(seeds, UNSEEDED)
     small_strength = _pool_max(strength, 0.0)
     sh, sw = small_cost.shape
@@ -836,24 +853,32 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
         free = _near(_boundaries(up), band)
         if memo is not None:
             memo[("band", h, w, band)] = (coarse, free.copy())
-    wrong = (seeds != UNSEEDED) & (seeds != up)
+    seed_at = np.flatnonzero(seeds.ravel() != UNSEEDED)  # a few pixels
+    rows, cols = np.divmod(seed_at, w)
+    wrong_at = seed_at[seeds.ravel()[seed_at] != coarse[rows // 2, cols // 2]]
+    wrong = np.zeros((h, w), bool)
+    wrong.ravel()[wrong_at] = True
     free |= _near(wrong, band)
     # Pooling may close a thin neck of a small paper area and split it there:
     # a small area whose fixed pixels and seeds hold two labels, or any area
     # holding a wrongly labelled seed, is solved again as a whole. (Large
     # areas that hold several labels are gap closures the band refines.)
     comp, n = _kept(memo, ("paper", h, w), lambda: ndimage.label(cost >= paper))
-    seeded = seeds != UNSEEDED
-    inner = np.concatenate([comp[~free], comp[seeded]])
-    inner_up = np.concatenate([up[~free], seeds[seeded]])
+    flat_comp = comp.ravel()
+    small = np.bincount(flat_comp, minlength=n + 1) <= small_area
+    small[0] = False
+    fixed_at = np.flatnonzero(small[comp] & ~free)
+    rows, cols = np.divmod(fixed_at, w)
+    small_seed_at = seed_at[small[flat_comp[seed_at]]]
+    inner = flat_comp[np.concatenate([fixed_at, small_seed_at])]
+    inner_up = np.concatenate([coarse[rows // 2, cols // 2], seeds.ravel()[small_seed_at]])
     some = np.zeros(n + 1, np.int32)
-    some[inner] = inner_up  # one label of each area (the last written)
-    mixed = np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0
-    redo = mixed & (np.bincount(comp.ravel(), minlength=n + 1) <= small_area)
-    redo[comp[wrong]] = True
+    some[inner] = inner_up  # one label of each small area (the last written)
+    redo = small & (np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0)
+    redo[flat_comp[wrong_at]] = True
     redo[0] = False
     free |= redo[comp]
-    fixed = np.where(free, UNSEEDED, up).astype(np.int32)
+    fixed = np.where(free, UNSEEDED, up).astype(np.int32, copy=False)
     return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress,
                   memo=memo)
 
@@ -904,4 +929,20 @@ def _pool_max(a, fill):
     out = np.full(((h + 1) // 2, sw), fill, a.dtype)
     rows, cols = np.divmod(at, w)
     np.maximum.at(out.ravel(), rows // 2 * sw + cols // 2, values)
+    return out
+
+
+def _pool_min(a):
+    """2x2 minimum pooling of ``a`` padded by repeating its last row and column
+    to an even size; the odd row and column pooled on their own (no padded copy)."""
+    h, w = a.shape
+    he, we = h - h % 2, w - w % 2
+    out = np.empty(((h + 1) // 2, (w + 1) // 2), a.dtype)
+    out[:he // 2, :we // 2] = _pool(a[:he, :we], np.minimum)
+    if w % 2:
+        out[:he // 2, -1] = np.minimum(a[0:he:2, -1], a[1:he:2, -1])
+    if h % 2:
+        out[-1, :we // 2] = np.minimum(a[-1, 0:we:2], a[-1, 1:we:2])
+    if h % 2 and w % 2:
+        out[-1, -1] = a[-1, -1]
     return out
