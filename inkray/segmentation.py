@@ -527,8 +527,6 @@ def _level(cost, fixed, floor):
         return out
     c = cost.ravel()
     c_idx = c[idx]
-    rank = np.full(h * w, n, np.intp)
-    rank[idx] = np.arange(n)
     for name, offset, ok in (("right", 1, cols < w - 1), ("left", -1, cols > 0),
                              ("down", w, rows < h - 1), ("up", -w, rows > 0)):
         at = np.flatnonzero(ok)
@@ -540,7 +538,9 @@ def _level(cost, fixed, floor):
             cap[at] = _quantized(np.minimum(c_idx[at], c[nb]) + floor)
             inner = lab[at] == UNSEEDED
             pos = np.full(n, n, np.intp)
-            pos[at[inner]] = rank[nb[inner]]
+            # the next free pixel is the next position; the one below, found by
+            # bisection (the queries ascend: numpy narrows each search by the last)
+            pos[at[inner]] = at[inner] + 1 if offset == 1 else np.searchsorted(idx, nb[inner])
             out[name] = (cap, pos)
         else:
             has = lab != UNSEEDED

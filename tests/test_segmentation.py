@@ -607,3 +607,22 @@ def test_grown_cut_is_the_fresh_cut_on_random_graphs():
             fresh = _binary_cut(len(flat), _grid_edges(h, w, cost, flat), src, snk)[1]
             np.testing.assert_array_equal(won, fresh)
     assert 20 < grown < 300
+
+
+def test_pooling_without_a_padded_copy_is_pooling_the_padded_image():
+    from inkray.segmentation import _pool, _pool_max, _pool_min
+
+    rng = np.random.default_rng(5)
+    for h, w in ((6, 8), (7, 8), (6, 9), (7, 9), (1, 1), (1, 4), (5, 1)):
+        a = rng.random((h, w))
+        padded = np.pad(a, ((0, h % 2), (0, w % 2)), mode="edge")
+        np.testing.assert_array_equal(_pool_min(a), _pool(padded, np.minimum))
+        # a few seeds on an unseeded image, their strengths on zeros; and values
+        # below the fill, where only the padded pooling is right
+        for fill, values in ((-2, rng.integers(-1, 5, (h, w)).astype(np.int32)),
+                             (0.0, rng.random((h, w))), (0.0, -rng.random((h, w)))):
+            sparse = np.where(rng.random((h, w)) < 0.3, values, fill).astype(values.dtype)
+            padded = np.pad(sparse, ((0, h % 2), (0, w % 2)), constant_values=fill)
+            pooled = _pool_max(sparse, fill)
+            assert pooled.dtype == sparse.dtype
+            np.testing.assert_array_equal(pooled, _pool(padded, np.maximum))
