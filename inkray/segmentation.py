@@ -569,7 +569,7 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
         if memo is not None:
             memo[("free", h, w)] = (fixed.copy(), level)
     idx, rows, cols, nbrs, placed = (level[k] for k in ("idx", "rows", "cols", "nbrs", "placed"))
-    seed_idx = seeds.ravel()[idx]
+    seed_idx, strength_idx = seeds.ravel()[idx], strength.ravel()[idx]
     order = sorted(set(placed) | set(_order(seed_idx)))
     flat_labels = labels.ravel()
     alive = np.ones(len(idx), bool)  # which of ``idx`` are still unlabelled
@@ -616,7 +616,7 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
                 if c == BACKGROUND else None
             flat = idx[on]
             sub = [(lab[on], wt[on], off) for lab, wt, off in nbrs]
-            src, snk = _terminals(flat, seeds, c, strength, sub, pull)
+            src, snk = _terminals(flat, seed_idx[on], strength_idx[on], c, sub, pull)
             won = on[_min_cut(flat, (h, w), c, lambda: _cut_edges(level, on, pull), src, snk,
                               memo)]
             flat_labels[idx[won]] = c
@@ -675,13 +675,11 @@ def _pieces(rows, cols):
     return comp.ravel()[at], n
 
 
-def _terminals(flat, seeds, c, strength, nbrs, pull):
+def _terminals(flat, s, st, c, nbrs, pull):
     """Source (take ``c``) and sink (a greater label) capacities of the pixels
-    ``flat`` of a binary cut; ``nbrs`` are their fixed neighbours, ``pull(p)``
-    (or None) the extra cost of a cut edge whose ``c`` side is the pixel of flat
-    index ``p``."""
-    s = seeds.ravel()[flat]
-    st = strength.ravel()[flat]
+    ``flat`` of a binary cut, whose seeds are ``s`` and seed strengths ``st``;
+    ``nbrs`` are their fixed neighbours, ``pull(p)`` (or None) the extra cost of
+    a cut edge whose ``c`` side is the pixel of flat index ``p``."""
     src = np.where(s == c, st, 0.0)
     snk = np.where(s > c, st, 0.0)
     for lab, wt, offset in nbrs:
