@@ -8,7 +8,8 @@ handles nudged by 2 px, the factorization reused, 4 warm-started rounds: the
 deformation only, then the picture), a 24-frame animation (rest to the swing,
 every frame solved and drawn), the ARAP energy, the worst handle error (px),
 folded triangles, holes (transparent pixels enclosed by the posed silhouette
-whose place in the drawing is opaque through every part within 2 px: paper
+whose place in the drawing is opaque through every part within 2.5 px, the width
+of the band the picture draws a part's layer in beyond its triangles: paper
 that a pose encloses, a leg closing on the other, is paper in the drawing and
 no hole; in brackets the same on the fresh pose, solved from rest before the
 drags, which the warm-started one can hide), open tears (paper the pose reveals beyond a cut, where two parts hidden side
@@ -35,6 +36,11 @@ stand for what they cost on an idle machine.
 at the middle of their common outline) to the annotation in process, to check a
 drawing whichever way the depth order model decides a relation (the HTTP run keeps
 the bundled annotation).
+
+``--sweep`` prints instead, per drawing and size, the holes and folds along a
+drag: the limb swung from rest to 60 degrees in steps of 2.5, each step solved
+warm from the one before (as the Pose mode's drag and an animation's frames
+are), with the worst step and the steps that have holes.
 
 ``--joins`` prints instead, for every bundled drawing, how the rig joins its
 parts (:mod:`inkray.relief.posing`): parts, joins by kind, the connected
@@ -190,7 +196,9 @@ def _holes(posed, x, img, rest, *, where=False):
     return int(hole.sum())
 
 
-_REACH = 2.0  # px: the parts a hole pixel is taken back to the drawing by
+# px: the parts a hole pixel is taken back to the drawing by, as far as the picture draws a
+# part's layer beyond its triangles (a part whose band there reaches only paper says paper)
+_REACH = 2.5
 
 
 def _tears(posed, x, img, completion, *, where=False):
@@ -443,26 +451,66 @@ def joins_table():
               flush=True)
 
 
+def sweep_table(names, sizes, orders):
+    """Holes and folds at every step of a drag from rest to a 60 degree swing."""
+    from inkray.chain import ReliefChain
+    from inkray.relief.posing import rig_relief
+    from inkray.view.posed import PosedDrawing
+
+    print("| drawing | size | steps | worst holes (at degrees) | steps with holes (degrees: px) "
+          "| folds |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name in names:
+        for mp in sizes:
+            ann, drawing = _load(name, mp)
+            ann = _forced(ann, drawing, orders)
+            chain = ReliefChain(ann, drawing)
+            rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+            pins, tip, join = _scenario(chain, rig)
+            if tip is None:
+                print(f"| {name} | | | no limb joined to the largest part | | |")
+                continue
+            posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
+                                 np.vstack([pins, tip]), boundaries=ann.boundaries)
+            rest = posed.image(rig.vertices)
+            steps = np.arange(0.0, 60.0 + 1e-9, 2.5)
+            holes, folds = [], 0
+            for angle in steps:
+                x = posed.positions(np.vstack([pins, _turn(tip, join, angle)]))
+                holes.append(_holes(posed, x, posed.image(x), rest))
+                folds += rig.folds(x)
+            worst = int(np.argmax(holes))
+            bad = ", ".join(f"{a:g}: {h}" for a, h in zip(steps, holes) if h)
+            w, h = ann.size
+            print(f"| {name} | {w}x{h} | {len(steps)} | {holes[worst]} ({steps[worst]:g}) | "
+                  f"{bad or '-'} | {folds} |", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--names", default="man,figure,turtle")
     parser.add_argument("--no-upscale", action="store_true")
     parser.add_argument("--no-http", action="store_true", help="skip the editor's route")
     parser.add_argument("--joins", action="store_true", help="the joins table of every drawing")
+    parser.add_argument("--sweep", action="store_true",
+                        help="holes at every step of a drag from rest to a 60 degree swing")
     parser.add_argument("--order", default="", metavar="FRONT/BACK,...",
                         help="add an order entry per pair of region names (in process only)")
     args = parser.parse_args()
     if args.joins:
         return joins_table()
+    orders = [o for o in args.order.split(",") if o]
+    sizes = [0.0] if args.no_upscale else [0.0, 1.0]
+    if args.sweep:
+        return sweep_table(args.names.split(","), sizes, orders)
     print("| drawing | size | vertices | prepare s | drag ms (vs 30) | picture ms (CPU) | HTTP drag "
           "ms (vs 60) | HTTP drag CPU ms (vs 60) | HTTP full ms | 24 frames s | ARAP energy | "
           "handle err px | folds | holes (fresh) | tears (at rest) | visibility |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
           "| --- | --- |")
     for name in args.names.split(","):
-        for mp in ([0.0] if args.no_upscale else [0.0, 1.0]):
-            r = one(name, mp, http=not args.no_http,
-                    orders=[o for o in args.order.split(",") if o])
+        for mp in sizes:
+            r = one(name, mp, http=not args.no_http, orders=orders)
             if r is None:
                 print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | | | |")
                 continue

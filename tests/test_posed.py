@@ -165,3 +165,48 @@ def test_where_a_part_s_skirt_overlaps_itself_its_ink_shows(inked):
                             Cutout([layer], (16, 4)), np.zeros((4, 16, 3), np.uint8))
     assert (img[:, 4:6, 3] == 255).all() and (img[:, 4:6, 0] == 0).all()
     assert (part[:, :10] == 0).all()
+
+
+def _rect(name, x0, x1, y0, y1):
+    v = np.array([[x0, y0, 1], [x1, y0, 1], [x1, y1, 1], [x0, y1, 1]], float)
+    v += [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]]
+    return Part(name, v, np.array([[0, 3, 2], [0, 2, 1]]))
+
+
+@pytest.mark.parametrize("case", ["ink", "paper", "open"])
+def test_a_speck_two_parts_leave_inside_the_picture_is_drawn_where_the_drawing_has_ink(case):
+    # Two bars with a left and a right block between them; the blocks' layers fade out where
+    # they meet (a column each at alpha 128), or leave paper there. The right block moved a
+    # pixel right leaves column 6 to the two blocks' transparent rims: inside the picture
+    # where the drawing has ink there, it is drawn (from its neighbours); paper stays
+    # paper, and so does a speck joined to the outside (no bottom bar).
+    from inkray.relief.cutout import CutoutLayer
+
+    w, h = 12, 7
+    boxes = {"top": (0, 11, 0, 1), "left": (0, 5, 2, 4), "right": (6, 11, 2, 4),
+             "bottom": (0, 11, 5, 6)}
+    if case == "open":
+        del boxes["bottom"]
+    layers, rest = [], []
+    for k, (name, (x0, x1, y0, y1)) in enumerate(boxes.items()):
+        rgba = np.zeros((h, w, 4), np.uint8)
+        rgba[y0:y1 + 1, x0:x1 + 1] = [100, 100, 100, 255]
+        rest.append(_rect(name, x0, x1, y0, y1))
+        layers.append(CutoutLayer(name=name, region=k, top=0, left=0, rgba=rgba,
+                                  hidden=np.zeros((h, w), bool)))
+        if name in ("left", "right"):
+            rgba[y0:y1 + 1, 5 if name == "left" else 6, 3] = 0 if case == "paper" else 128
+    cutout = Cutout(layers, (w, h))
+    rest = Relief(rest, size=(w, h))
+    rgb = np.full((h, w, 3), 100, np.uint8)
+    still, _ = posed_image(rest, rest, cutout, rgb)
+    assert np.array_equal(still, cutout.flatten())
+    moved = Relief([Part(p.name, p.vertices + ([1.0, 0, 0] if p.name == "right" else 0.0),
+                         p.faces) for p in rest.parts], size=(w, h))
+    img, part = posed_image(moved, rest, cutout, rgb)
+    speck = img[2:5, 6, 3]
+    if case == "ink":
+        assert (speck > 0).all() and (part[2:5, 6] >= 0).all()
+        assert (img[2:5, 6, :3] == 100).all()
+    else:
+        assert (speck == 0).all() and (part[2:5, 6] == -1).all()

@@ -49,7 +49,7 @@ Parts that crossing alone relates (interlocking rings) stay separate. A
 connected piece of the rig that holds no handle stays where it is.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -397,7 +397,9 @@ def rig_relief(relief, completion, *, boundaries=()):
               heights=np.concatenate(heights), faces=np.concatenate(faces),
               part_of_face=np.concatenate(part_of_face), offsets=np.array(offsets),
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
-    rows, joins, overlaps, mutual = [], [], [], set()
+    # Row blocks: (glue rows, their join, whether they are the larger part's rows of an
+    # overlap, reported within the smaller part's join to it).
+    blocks, overlaps = [], []
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
@@ -408,19 +410,17 @@ def rig_relief(relief, completion, *, boundaries=()):
             got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
             grips = _grips(rig, (got, rig.names[pb]))
             if grips and kind != "overlap":
-                rows.append(got)
-                joins.append(Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))
+                blocks.append((got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]), False))
                 continue
             # Where the smaller part's vertices in an overlap do not grip, the larger part's
             # glue it too (both cover an overlap alike): whether the join holds does not hang
             # on which of the two triangulations happens to put vertices there.
-            held = [(got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]))]
+            held = [(got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]), False)]
             if not grips and kind == "overlap":
                 back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
-                held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0])))
-                grips = _grips(rig, *((g, j.part) for g, j in held))
-                mutual.add(id(held[-1][1]))
-            held = [(g, j) for g, j in held if g.shape[0]]
+                held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0]), True))
+                grips = _grips(rig, *((g, j.part) for g, j, _ in held))
+            held = [block for block in held if block[0].shape[0]]
             if not held:
                 continue
             # A root or a part on top glued at a vertex or two would pivot there: like an
@@ -437,12 +437,13 @@ def rig_relief(relief, completion, *, boundaries=()):
                 got = _glue_rows(rig, pb, pa, lambda xy, p=path: _near(p, xy, _SEAM_REACH),
                                  reach=0.0)
                 if got.shape[0]:
-                    rows.append(got)
-                    joins.append(Join(rig.names[pb], rig.names[pa], seam.type, got.shape[0]))
+                    blocks.append((got, Join(rig.names[pb], rig.names[pa], seam.type,
+                                             got.shape[0]), False))
     # An overlap joins two pieces that nothing else joins: the smallest overlaps first (the
     # most joint-like), none between parts already connected, so that a limb in front of the
     # body stays free to swing where it is rooted elsewhere.
-    piece = pieces(len(vertices), rig.faces, sp.vstack(rows) if rows else None)
+    piece = pieces(len(vertices), rig.faces,
+                   sp.vstack([got for got, _, _ in blocks]) if blocks else None)
     root = list(range(piece.max() + 1))
 
     def find(k):
@@ -455,37 +456,35 @@ def rig_relief(relief, completion, *, boundaries=()):
     # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
     overlaps.sort(key=lambda o: not o[1])
     for held, _ in overlaps:
-        cols = np.concatenate([got.tocoo().col for got, _ in held])
+        cols = np.concatenate([got.tocoo().col for got, _, _ in held])
         touched = {find(int(k)) for k in np.unique(piece[cols])}
         if len(touched) > 1:
             first, *others = touched
             for k in others:
                 root[k] = first
-            for got, join in held:
-                rows.append(got)
-                joins.append(join)
-    rows, joins = _once_per_vertex(rig, rows, joins)
-    if rows:
-        rig.glue = sp.vstack(rows).tocsr()
-    rig.joins = _reported(joins, mutual)
+            blocks += held
+    blocks = _once_per_vertex(rig, blocks)
+    if blocks:
+        rig.glue = sp.vstack([got for got, _, _ in blocks]).tocsr()
+    rig.joins = _reported(blocks)
     return rig
 
 
-def _reported(joins, mutual):
-    """The joins as the drawing joins its parts: the larger part's rows of an overlap (those
-    in ``mutual``, by ``id``) counted in the smaller part's join to it."""
+def _reported(blocks):
+    """The joins as the drawing joins its parts: the larger part's rows of an overlap (the
+    blocks flagged so) counted in the smaller part's join to it."""
     out, forward = [], {}
-    for join in joins:
-        if id(join) not in mutual:
+    for _, join, back in blocks:
+        if not back:
+            forward[(join.part, join.to, join.kind)] = len(out)
             out.append(join)
-            forward[(join.part, join.to, join.kind)] = join
-    for join in joins:
-        if id(join) in mutual:
-            found = forward.get((join.to, join.part, join.kind))
-            if found is None:
+    for _, join, back in blocks:
+        if back:
+            k = forward.get((join.to, join.part, join.kind))
+            if k is None:
                 out.append(Join(join.to, join.part, join.kind, join.vertices))
             else:
-                found.vertices += join.vertices
+                out[k] = replace(out[k], vertices=out[k].vertices + join.vertices)
     return out
 
 
@@ -505,13 +504,13 @@ def _grips(rig, *held):
     return bool(spread[1] / np.sqrt(len(xy)) > _LOCATE_TOL)
 
 
-def _once_per_vertex(rig, rows, joins):
+def _once_per_vertex(rig, blocks):
     """Each vertex glued by its first row only (areas of two joins can share vertices): the
-    rows then pivot on distinct vertices and all can be held exactly. Joins left with no row
-    are dropped."""
+    rows then pivot on distinct vertices and all can be held exactly. Blocks left with no row
+    are dropped; each join counts the rows kept."""
     taken = np.zeros(len(rig.vertices), bool)
-    out_rows, out_joins = [], []
-    for got, join in zip(rows, joins):
+    out = []
+    for got, join, back in blocks:
         pb = rig.names.index(join.part)
         coo = got.tocoo()
         own = (coo.col >= rig.offsets[pb]) & (coo.col < rig.offsets[pb + 1])
@@ -522,10 +521,9 @@ def _once_per_vertex(rig, rows, joins):
             np.unique(vertex), vertex)] == np.arange(len(vertex))
         taken[vertex[fresh]] = True
         if fresh.any():
-            out_rows.append(got[np.flatnonzero(fresh)])
-            join.vertices = int(fresh.sum())
-            out_joins.append(join)
-    return out_rows, out_joins
+            out.append((got[np.flatnonzero(fresh)], replace(join, vertices=int(fresh.sum())),
+                        back))
+    return out
 
 
 def front_mesh(part):

@@ -14,10 +14,14 @@ exactly once (no cracks between its triangles; where a pose folds a strip of
 a part over the part itself, its highest triangle), and a band of ``_SKIRT`` px
 around it carries the part's layer beyond its triangles (the triangles follow
 the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
-its most opaque piece). The layers' soft edges are
+its most opaque piece; the relief has no height there, so between parts of one
+drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
 composited, so the edge of a part shows the part under it, or nothing at the
-silhouette; at rest the picture is the flattened layer stack.
+silhouette; at rest the picture is the flattened layer stack. Where posed parts
+slide a pixel apart and leave a speck inside the picture that only their
+transparent rims reach, and the drawing has ink there, the speck is drawn from
+its neighbours (paper the pose encloses stays transparent).
 """
 
 import numpy as np
@@ -31,7 +35,7 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
-_SKIRT_MOST = 12.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
+_SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 
 
@@ -167,7 +171,8 @@ def _draw(posed, sources, *, scale=1.0):
 
     Every part's front triangles, and a skirt around them where it has a
     layer, are scan-converted on their own; per pixel the two highest
-    surfaces whose colour is not fully transparent are kept and composited,
+    surfaces whose colour is not fully transparent are kept and composited
+    (a skirt against another part of its drawing: the later in the stack is higher),
     the upper over the lower, with their layers' alpha (a soft edge of the
     upper part shows the part under it). Parts are taken back to front by
     the stack, so that of two equally high surfaces the one in front shows.
@@ -181,25 +186,44 @@ def _draw(posed, sources, *, scale=1.0):
     z2 = np.full(h * w, -np.inf)
     i1 = np.full(h * w, -1, np.int64)
     i2 = np.full(h * w, -1, np.int64)
+    # per slot: whether its fragment lies beyond its part's triangles, and (in a scene of
+    # several drawings) the drawing it belongs to
+    s1, s2 = np.zeros(h * w, bool), np.zeros(h * w, bool)
+    many = len(set(sources.drawing)) > 1
+    g1, g2 = (np.full(h * w, -1, np.int64) for _ in range(2)) if many else (None, None)
     colours, owners, count = [], [], 0
+    clear = []
     for i in sources.order:
         got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
         if got is None:
             continue
-        pix, z, rgba = got
+        pix, z, rgba, skirt, gone = got
+        clear.append((i, *gone))
         ids = count + np.arange(len(pix))
         count += len(pix)
         colours.append(rgba)
         owners.append(np.full(len(pix), i, np.int32))
-        # pixels are distinct within a part; equal heights go to the later part (in front)
+        g = sources.drawing[i]
+        # Pixels are distinct within a part; equal heights go to the later part (in front).
+        # Beyond a part's triangles the relief has no height: there, between parts of one
+        # drawing, the layer stack decides (this part is in front of those drawn before it).
         old1 = z1[pix]
-        top = z >= old1
-        second = np.flatnonzero(~top & (z >= z2[pix]))
+        stack = skirt | s1[pix]
+        top = (z >= old1) | (stack & (g1[pix] == g) if many else stack)
+        below = np.flatnonzero(~top)
+        at = pix[below]
+        stack = s2[at] & (g2[at] == g) if many else s2[at]
+        second = below[(z[below] >= z2[at]) | stack]
         top = np.flatnonzero(top)
-        at, was = pix[top], i1[pix[top]]
-        z2[at], i2[at] = old1[top], was
-        z1[at], i1[at] = z[top], ids[top]
-        z2[pix[second]], i2[pix[second]] = z[second], ids[second]
+        at = pix[top]
+        z2[at], i2[at], s2[at] = old1[top], i1[at], s1[at]
+        z1[at], i1[at], s1[at] = z[top], ids[top], skirt[top]
+        if many:
+            g2[at], g1[at] = g1[at], g
+        at = pix[second]
+        z2[at], i2[at], s2[at] = z[second], ids[second], False
+        if many:
+            g2[at] = g
     out = np.zeros((h * w, 4), np.uint8)
     shown = np.full(h * w, -1, np.int32)
     covered = np.flatnonzero(i1 >= 0)
@@ -215,7 +239,94 @@ def _draw(posed, sources, *, scale=1.0):
         rgba = np.clip(np.rint(c), 0, 255).astype(np.uint8)
         rgba[rgba[:, 3] == 0, :3] = 0
         out[covered] = rgba
+    _seal(out, shown, (w, h), clear, sources.parts)
     return out.reshape(h, w, 4), shown.reshape(h, w)
+
+
+def _seal(out, shown, size, clear, parts):
+    """Specks that two parts' soft edges leave transparent inside the picture, drawn from the
+    drawing: ``out`` and ``shown`` (flat) in place.
+
+    Where posed parts meet, each one's layer fades out at its outline: a pose that slides
+    them a pixel apart can leave pixels that they reach only with their transparent rims
+    (their skirts, or triangles where a layer is transparent), enclosed by the picture,
+    where the drawing (the flattened layer stack) has ink or a soft edge at every rest
+    position a part carries them from. Such a pixel is drawn from its neighbours
+    (:func:`_inpaint`) and shows the highest of those parts; one that any part covering it
+    takes back to paper (paper the pose encloses, a leg closed on the other) stays
+    transparent, and so does one joined to the outside. At rest every part carries a pixel
+    from its own place, so a transparent pixel is paper there: the picture is unchanged.
+    """
+    w, h = size
+    if not clear:
+        return
+    part = np.concatenate([np.full(len(c[1]), c[0], np.int64) for c in clear])
+    pix = np.concatenate([c[1] for c in clear])
+    z = np.concatenate([c[2] for c in clear])
+    at = np.concatenate([c[3] for c in clear])
+    alpha = out[:, 3]
+    lone = alpha[pix] == 0
+    if not lone.any():
+        return
+    solid = (alpha > 0).reshape(h, w)
+    rows, cols = np.flatnonzero(solid.any(axis=1)), np.flatnonzero(solid.any(axis=0))
+    if not rows.size:
+        return
+    # transparent pixels not joined (8-connected) to the outside of the picture's box
+    y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    empty = np.pad(~solid[y0:y1, x0:x1], 1, constant_values=True)
+    found, _ = ndimage.label(empty, structure=np.ones((3, 3), bool))
+    inside = np.zeros((h, w), bool)
+    inside[y0:y1, x0:x1] = (found != found[0, 0])[1:-1, 1:-1] & empty[1:-1, 1:-1]
+    pick = np.flatnonzero(lone & inside.ravel()[pix])
+    if not pick.size:
+        return
+    part, pix, z, at = part[pick], pix[pick], z[pick], at[pick]
+    colour = np.empty((len(pix), 4), np.float32)
+    for i in np.unique(part):
+        one = part == i
+        colour[one] = _bilinear(parts[i].backdrop.texture, at[one])
+    paper = np.zeros(out.shape[0], bool)
+    paper[pix[colour[:, 3] < 1.0]] = True
+    keep = ~paper[pix]
+    if not keep.any():
+        return
+    pix, z, part = pix[keep], z[keep], part[keep]
+    order = np.lexsort((z, pix))
+    last = order[np.r_[pix[order][1:] != pix[order][:-1], True]]
+    pix = pix[last]
+    shown[pix] = part[last]
+    _inpaint(out.reshape(h, w, 4), *np.divmod(pix, w))
+
+
+def _inpaint(out, rows, cols):
+    """The pixels ``(rows, cols)`` of ``out`` (RGBA uint8, in place) from their drawn
+    8-neighbours, layer by layer inward: the mean of the ones drawn so far (premultiplied)."""
+    h, w = out.shape[:2]
+    y0, y1 = max(rows.min() - 1, 0), min(rows.max() + 2, h)
+    x0, x1 = max(cols.min() - 1, 0), min(cols.max() + 2, w)
+    c = out[y0:y1, x0:x1].astype(float)
+    c[..., :3] *= c[..., 3:] / 255.0
+    todo = np.zeros(c.shape[:2], bool)
+    todo[rows - y0, cols - x0] = True
+    known = (c[..., 3] > 0) & ~todo
+    while todo.any():
+        k = np.pad(known, 1).astype(float)
+        v = np.pad(c * known[..., None], ((1, 1), (1, 1), (0, 0)))
+        count = sum(k[1 + dy:k.shape[0] - 1 + dy, 1 + dx:k.shape[1] - 1 + dx]
+                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+        total = sum(v[1 + dy:v.shape[0] - 1 + dy, 1 + dx:v.shape[1] - 1 + dx]
+                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+        ready = todo & (count > 0)
+        if not ready.any():
+            break
+        c[ready] = total[ready] / count[ready, None]
+        known |= ready
+        todo &= ~ready
+    c[..., :3] *= 255.0 / np.maximum(c[..., 3:], 1e-12)
+    filled = np.zeros(c.shape[:2], bool)
+    filled[rows - y0, cols - x0] = True
+    out[y0:y1, x0:x1][filled] = np.clip(np.rint(c[filled]), 0, 255).astype(np.uint8)
 
 
 def _scan(points, triangles, size):
@@ -352,20 +463,40 @@ class _Sources:
     def join(cls, sources):
         """The sources of several reliefs' parts, one after the other."""
         out = cls.__new__(cls)
-        out.parts, out.order = [], []
-        for s in sources:
+        out.parts, out.order, out.drawing = [], [], []
+        for k, s in enumerate(sources):
             out.order += [len(out.parts) + i for i in s.order]
             out.parts += s.parts
+            out.drawing += [k] * len(s.parts)
         return out
 
     def __init__(self, rest, layers, rgb):
         by_name = {layer.name: layer for layer in layers.layers
                    if layer.region is None or layer.region >= 0}
-        self.parts = [_PartSource(part, by_name.get(part.name), rgb) for part in rest.parts]
+        backdrop = _Backdrop(layers)
+        self.parts = [_PartSource(part, by_name.get(part.name), rgb, backdrop)
+                      for part in rest.parts]
         stack = [layer.name for layer in layers.layers]
         rank = {name: k for k, name in enumerate(stack)}
         self.order = sorted(range(len(rest.parts)),
                             key=lambda i: rank.get(rest.parts[i].name, -1))
+        self.drawing = [0] * len(rest.parts)
+
+
+class _Backdrop:
+    """The drawing as its layer stack flattens it, premultiplied, made when first asked for
+    (only a pose that leaves a speck between parts needs it)."""
+
+    def __init__(self, layers):
+        self._layers, self._texture = layers, None
+
+    @property
+    def texture(self):
+        if self._texture is None:
+            flat = self._layers.flatten().astype(np.float32)
+            flat[..., :3] *= flat[..., 3:] / 255.0
+            self._texture = flat
+        return self._texture
 
 
 class _PartSource:
@@ -379,7 +510,8 @@ class _PartSource:
     the mesh's border, carried by the border's posed normals, draws it.
     """
 
-    def __init__(self, part, layer, rgb):
+    def __init__(self, part, layer, rgb, backdrop):
+        self.backdrop = backdrop
         first, _, _, self.faces = front_mesh(part)
         self.vertex = first
         v = np.asarray(part.vertices, float)
@@ -412,7 +544,9 @@ class _PartSource:
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
-        ``vertices`` (the posed part's); None when it covers none."""
+        ``vertices`` (the posed part's), which of them lie beyond its triangles, and the
+        pixels where its layer is fully transparent (flat, heights and rest positions
+        (x, y)); None when it covers none."""
         w, h = size
         if not len(self.faces):
             return None
@@ -450,8 +584,10 @@ class _PartSource:
         rgba = _bilinear(tex, at[:, 1:])
         # what is fully transparent is not there: the surface under it shows
         keep = rgba[:, 3] > 0
-        flat = (row[keep] + lo[1]) * w + col[keep] + lo[0]
-        return flat, at[keep, 0], rgba[keep]
+        flat = (row + lo[1]) * w + col + lo[0]
+        clear = ~keep
+        return (flat[keep], at[keep, 0], rgba[keep], tri[keep] >= inner,
+                (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
 
 def _highest(frags, pix, tri, points, faces, z, width):
