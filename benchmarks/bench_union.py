@@ -5,7 +5,9 @@ megapixels (as ``bench_chain.py`` does), the stitched layers are built
 once, then ``assemble(..., closed=True, union=True)`` is timed (the union
 alone: wall clock and the process's CPU time, which shared cores inflate
 less) and its solid measured with ``inkray.formats.mesh_report``: smallest
-angle, shells, self-intersecting faces (exact), watertight and manifold,
+angle, shells, self-intersecting faces (exact in double precision, and
+also once rounded to float32 as PLY and GLB store them:
+``inkray.relief.patches.bad_faces``), watertight and manifold,
 and ``top_distance`` (``relief_metrics.py`` beside this file): how far the
 solid's top strays from the relief's visible fronts. Also the faces of the
 solid against those of the closed parts it is made of (the ratio), and its
@@ -47,6 +49,7 @@ from relief_metrics import top_distance  # noqa: E402
 from inkray.chain import ReliefChain  # noqa: E402
 from inkray.formats.mesh_report import mesh_quality  # noqa: E402
 from inkray.relief.assembly import _envelope_solid, _volume, assemble, union_parts  # noqa: E402
+from inkray.relief.patches import bad_faces  # noqa: E402
 
 TARGET_S = 10.0  # at ~1 Mpx
 
@@ -79,6 +82,7 @@ def _row(name, megapixels, repeat, folder=None):
         digests.add(hashlib.sha1(np.ascontiguousarray(solid.vertices).tobytes()
                                  + np.ascontiguousarray(solid.faces).tobytes()).hexdigest()[:12])
     q = mesh_quality(solid.vertices, solid.faces)
+    stored = int(bad_faces(solid.vertices, solid.faces, min_angle=0.0).sum())
     closed = q["watertight"] and q["edge_manifold"] and q["vertex_manifold"]
     same = "-" if repeat == 1 else ("yes" if len(digests) == 1 else "NO")
     faces = sum(len(p.faces) for p in parts)
@@ -87,7 +91,7 @@ def _row(name, megapixels, repeat, folder=None):
     print(f"| {name} | {size[0]}x{size[1]} | {np.median(walls):.1f} | {np.median(cpus):.1f} "
           f"| {met} | {len(solid.faces)} | {faces} | {len(solid.faces) / faces:.2f} "
           f"| {'yes' if closed else 'NO'} | {q['shells']} | {q['min_angle_deg']:.1f} "
-          f"| {q['self_intersecting_faces']} | {top_distance(solid, parts):.2f} "
+          f"| {q['self_intersecting_faces']} / {stored} | {top_distance(solid, parts):.2f} "
           f"| {_volume(solid.vertices, solid.faces) / envelope - 1:+.1e} | {same} "
           f"| {min(digests)} |", flush=True)
 
@@ -106,7 +110,7 @@ def main(argv=None):
         p.name for p in (ROOT / "examples").iterdir() if (p / "drawing.inkray.json").is_file())
     print(f"| drawing | size | union wall (s) | union CPU (s) | <= {TARGET_S:g} s | faces "
           "| parts' faces | ratio | watertight, manifold | shells | min angle (deg) "
-          "| self-intersecting faces | top distance (px) | volume / envelope - 1 | same bytes "
+          "| self-intersecting faces, double / float32 | top distance (px) | volume / envelope - 1 | same bytes "
           "| digest |")
     print("| --- " * 16 + "|")
     for megapixels in [0.0] + ([args.mpx] if args.mpx else []):

@@ -195,9 +195,9 @@ def lazybrush(gray, seeds, *, frame_background=False, seed_strength=0.95, ink_le
         labels = _coarse_to_fine(cost, seeds, strength, paper, progress, memo=memo)
     else:
         labels = _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), progress=progress, memo=memo)
-    if len(regions):
+    if len(regions) and regions[-1] != len(regions) - 1:  # not already 0..m-1
         labels = np.where(labels >= 0, regions[np.maximum(labels, 0)], labels)
-    return labels.astype(np.int32)
+    return labels.astype(np.int32, copy=False)
 
 
 _HARD = 1e9  # a seed cost no cut can pay
@@ -268,11 +268,12 @@ def _seed_strength(seeds, area, soft, memo=None):
     (overshoots). With a ``memo``, a label whose seed pixels did not change
     keeps its costs."""
     out = np.zeros(seeds.shape)
-    # Bounding box of each label (value v is at index v + 1 of the label image
-    # seeds + 2, whose 0 is the unseeded pixels).
-    boxes = ndimage.find_objects(seeds - UNSEEDED)
-    for c in np.unique(seeds[seeds != UNSEEDED]):
-        box = boxes[c - UNSEEDED - 1]
+    at = np.flatnonzero(seeds.ravel() != UNSEEDED)  # a few pixels
+    rows, cols = np.divmod(at, seeds.shape[1])
+    label = seeds.ravel()[at]
+    for c in np.unique(label):
+        r, k = rows[label == c], cols[label == c]
+        box = (slice(int(r.min()), int(r.max()) + 1), slice(int(k.min()), int(k.max()) + 1))
         mask = seeds[box] == c
         kept = None if memo is None else memo.get(("strength", c))
         if kept is not None and kept[0] == box and np.array_equal(kept[1], mask):
@@ -293,7 +294,10 @@ def _label_strength(mask, area, soft):
     on = ar > 0
     home = np.zeros(n + 1, np.int64)
     if on.any():
-        pairs, counts = np.unique(np.stack([st[on], ar[on]]), axis=1, return_counts=True)
+        # The (stroke, area) pairs in lexicographic order, as one sorted key.
+        span = int(ar.max()) + 1
+        key, counts = np.unique(st[on].astype(np.int64) * span + ar[on], return_counts=True)
+        pairs = np.divmod(key, span)
         # Ties go to the lowest area number: deterministic.
         best = np.lexsort((pairs[1], -counts, pairs[0]))
         first = np.unique(pairs[0][best], return_index=True)[1]
@@ -391,7 +395,7 @@ def segment(annotations, drawing, *, seed_strength=0.95, coarse_to_fine=None, mi
                             f"on the background or on ink?)")
     warnings += _unscribbled_areas(_paper_areas(gray, memo), seeds, labels, names, frame,
                                    min_area)
-    return Segmentation(labels=labels.astype(np.int32), names=names, warnings=warnings)
+    return Segmentation(labels=labels.astype(np.int32, copy=False), names=names, warnings=warnings)
 
 
 def _with_boundary_cuts(gray, boundaries):
@@ -486,37 +490,62 @@ def _order(seeds):
     most pixels from the later cuts), then regions ascending."""
     # Labels run from UNSEEDED up (regions are 0..R-1 inside lazybrush): counting
     # them is a sort-free np.unique.
-    present = np.flatnonzero(np.bincount(seeds.ravel() - UNSEEDED)[1:]) + UNSEEDED + 1
+    present = np.flatnonzero(np.bincount(np.subtract(seeds.ravel(), UNSEEDED, dtype=np.intp))[1:])
+    present = present + UNSEEDED + 1
     return [int(v) for v in present]  # -1 sorts first
 
 
-def _edge_weights(cost, floor):
-    """Capacities of the right (H, W-1) and down (H-1, W) neighbour edges."""
-    right = _quantized(np.minimum(cost[:, :-1], cost[:, 1:]) + floor)
-    down = _quantized(np.minimum(cost[:-1, :], cost[1:, :]) + floor)
-    return right, down
+def _level(cost, fixed, floor):
+    """What the cuts of one level need of the pixels to label (``fixed`` UNSEEDED).
 
-
-def _neighbours(fixed, right, down, idx):
-    """For the 4 directions, at the pixels ``idx`` (flat indices): the fixed
-    label of the neighbour (UNSEEDED when none), the capacity of the edge to
-    it, and the flat-index offset of the neighbour."""
+    Returns a dict: ``idx`` their flat indices (ascending), ``rows`` and
+    ``cols``; ``right`` and ``down``, for the edge from each to that
+    neighbour, its capacity (0 where there is no neighbour) and the
+    neighbour's position in ``idx`` (``len(idx)`` where it is not to be
+    labelled); ``nbrs``, for the 4 directions where any neighbour is fixed,
+    the neighbour's fixed label (UNSEEDED when none or free), the capacity of
+    the edge to it (only where it is fixed) and its flat-index offset; and
+    ``placed`` the fixed labels. The capacities are ``min`` of the two ends'
+    ``cost`` plus ``floor``, quantized, computed at these pixels only (at 1
+    Mpx the band is a small part of the grid).
+    """
     h, w = fixed.shape
-    ys, xs = np.divmod(idx, w)
-    out = []
-    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        ny, nx = ys + dy, xs + dx
-        ok = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
-        lab = np.full(len(idx), UNSEEDED, np.int32)
-        lab[ok] = fixed[ny[ok], nx[ok]]
-        cap = np.zeros(len(idx))
-        if dx:
-            cx = np.minimum(xs, nx)[ok]
-            cap[ok] = right[ys[ok], cx]
+    flat_fixed = fixed.ravel()
+    free = flat_fixed == UNSEEDED
+    idx = np.flatnonzero(free)
+    n = len(idx)
+    rows, cols = np.divmod(idx, w)
+    out = {"idx": idx, "rows": rows, "cols": cols, "nbrs": [], "placed": _order(fixed)}
+    if n == h * w:  # the whole grid: capacities by slices, neighbours by offsets
+        for name, a, b in (("right", np.s_[:, :-1], np.s_[:, 1:]),
+                           ("down", np.s_[:-1, :], np.s_[1:, :])):
+            cap = np.zeros((h, w))
+            cap[a] = _quantized(np.minimum(cost[a], cost[b]) + floor)
+            pos = np.full((h, w), n, np.intp)
+            pos[a] = np.arange(n).reshape(h, w)[b]
+            out[name] = (cap.ravel(), pos.ravel())
+        return out
+    c = cost.ravel()
+    c_idx = c[idx]
+    for name, offset, ok in (("right", 1, cols < w - 1), ("left", -1, cols > 0),
+                             ("down", w, rows < h - 1), ("up", -w, rows > 0)):
+        at = np.flatnonzero(ok)
+        nb = idx[at] + offset
+        lab = np.full(n, UNSEEDED, np.int32)
+        lab[at] = flat_fixed[nb]
+        cap = np.zeros(n)
+        if name in ("right", "down"):
+            cap[at] = _quantized(np.minimum(c_idx[at], c[nb]) + floor)
+            inner = lab[at] == UNSEEDED
+            pos = np.full(n, n, np.intp)
+            # the next free pixel is the next position; the one below, found by
+            # bisection (the queries ascend: numpy narrows each search by the last)
+            pos[at[inner]] = at[inner] + 1 if offset == 1 else np.searchsorted(idx, nb[inner])
+            out[name] = (cap, pos)
         else:
-            cy = np.minimum(ys, ny)[ok]
-            cap[ok] = down[cy, xs[ok]]
-        out.append((lab, cap, dy * w + dx))
+            has = lab != UNSEEDED
+            cap[has] = _quantized(np.minimum(c_idx[has], c[idx[has] + offset]) + floor)
+        out["nbrs"].append((lab, cap, offset))
     return out
 
 
@@ -529,29 +558,41 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
     neighbours toward it through the edge between them, as a neighbour of
     that label would."""
     h, w = cost.shape
-    right, down = _kept(memo, ("edges", h, w), lambda: _edge_weights(cost, floor))
     if fixed is None:
         fixed = np.full((h, w), UNSEEDED, np.int32)
     labels = fixed.copy()
     kept = None if memo is None else memo.get(("free", h, w))
     if kept is not None and np.array_equal(kept[0], fixed):
-        _, idx, rows, cols, nbrs, placed = kept
+        level = kept[1]
     else:
-        idx = np.flatnonzero(fixed == UNSEEDED)  # the pixels to label
-        rows, cols = np.divmod(idx, w)
-        nbrs = _neighbours(fixed, right, down, idx) if len(idx) < h * w else []
-        placed = _order(fixed)
+        level = _level(cost, fixed, floor)
         if memo is not None:
-            memo[("free", h, w)] = (fixed.copy(), idx, rows, cols, nbrs, placed)
-    seed_idx = seeds.ravel()[idx]
+            memo[("free", h, w)] = (fixed.copy(), level)
+    idx, rows, cols, nbrs, placed = (level[k] for k in ("idx", "rows", "cols", "nbrs", "placed"))
+    seed_idx, strength_idx = seeds.ravel()[idx], strength.ravel()[idx]
     order = sorted(set(placed) | set(_order(seed_idx)))
     flat_labels = labels.ravel()
     alive = np.ones(len(idx), bool)  # which of ``idx`` are still unlabelled
+    # The 4-connected pieces of the unlabelled pixels, numbered from 1, by
+    # position in ``idx``. A cut splits only the pieces it ran on, and a piece
+    # that is assigned whole goes: only the rest of those is labelled again.
+    piece, count, again = np.zeros(len(idx), np.int32), 0, None
     for step, c in enumerate(order):
         pos = np.flatnonzero(alive)
         if not len(pos):
             break
-        ci, n = _pieces(labels, idx[pos], rows[pos], cols[pos], ("pieces", h, w, c), memo)
+        kept = None if memo is None else memo.get(("pieces", h, w, c))
+        if kept is not None and np.array_equal(kept[0], idx[pos]):
+            piece[pos], count = kept[1], kept[2]
+        else:
+            at = pos if again is None else again[alive[again]]
+            if len(at):
+                more, n = _pieces(rows[at], cols[at])
+                piece[at] = more + (0 if again is None else count)
+                count = n + (0 if again is None else count)
+            if memo is not None:
+                memo[("pieces", h, w, c)] = (idx[pos], piece[pos], count)
+        ci, n, again = piece[pos], count, pos[:0]
         si = seed_idx[pos]
         own = np.bincount(ci[si == c], minlength=n + 1)
         other = np.bincount(ci[si > c], minlength=n + 1)
@@ -571,14 +612,16 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
             # (directed capacities, so the graph stays the same size), enough
             # that following the outer edge of a thick outline around a
             # rounded end beats a chord through the ink.
-            pull = (_kept(memo, ("pull", h, w), lambda: _quantized(4.0 * floor * (1.0 - cost)))
-                    if c == BACKGROUND else None)
+            pull = (lambda p: _quantized(4.0 * floor * (1.0 - cost.ravel()[p]))) \
+                if c == BACKGROUND else None
             flat = idx[on]
             sub = [(lab[on], wt[on], off) for lab, wt, off in nbrs]
-            src, snk = _terminals(flat, seeds, c, strength, sub, pull)
-            won = on[_min_cut(flat, (h, w), c, right, down, src, snk, pull, memo)]
+            src, snk = _terminals(flat, seed_idx[on], strength_idx[on], c, sub, pull)
+            won = on[_min_cut(flat, (h, w), c, lambda: _cut_edges(level, on, pull), src, snk,
+                              memo)]
             flat_labels[idx[won]] = c
             alive[won] = False
+            again = on
         if progress is not None:
             progress.update(step + 1, len(order))
     free = labels == UNSEEDED
@@ -590,29 +633,53 @@ def _solve(cost, seeds, strength, floor, *, fixed=None, progress=None, memo=None
     return labels
 
 
-def _pieces(labels, flat, rows, cols, key, memo):
-    """The 4-connected piece of unlabelled pixels that each of the unlabelled
-    pixels ``flat`` (all of them; at ``(rows, cols)``) lies in, numbered from
-    1, and the count: labelled within their bounding box only, and kept in
-    ``memo`` under ``key`` for the same pixels."""
-    kept = None if memo is None else memo.get(key)
-    if kept is not None and np.array_equal(kept[0], flat):
-        return kept[1], kept[2]
+def _cut_edges(level, on, pull=None):
+    """The edges of a binary cut on the pixels ``level["idx"][on]`` (``on``
+    ascending positions), as :func:`_binary_cut` takes them: to the right,
+    then to the lower neighbour, in the raster order of the first end, both
+    ends among those pixels. ``pull(p)`` (or None) is the extra cost of a
+    cut edge whose source side is the pixel of flat index ``p``."""
+    n_level = len(level["idx"])
+    every = len(on) == n_level  # then a pixel's node is its position
+    if not every:
+        node = np.full(n_level + 1, -1, np.intp)  # the last: "no neighbour to label"
+        node[on] = np.arange(len(on))
+    pull_on = None if pull is None else pull(level["idx"][on])
+    out = []
+    for cap, pos in (level["right"], level["down"]):
+        if every:
+            both = np.flatnonzero(pos < n_level)
+            b = pos
+        else:
+            b = node[pos[on]]
+            both = np.flatnonzero(b >= 0)
+        if not len(both):
+            continue
+        fwd = rev = cap[both if every else on[both]]
+        if pull is not None:  # a -> b is cut when a takes c and b does not
+            fwd = fwd + pull_on[both]
+            rev = rev + pull_on[b[both]]
+        out.append((both, b[both], fwd, rev))
+    return out
+
+
+def _pieces(rows, cols):
+    """The 4-connected pieces of the pixels at ``(rows, cols)``: each one's,
+    numbered from 1, and their count; labelled within their bounding box only."""
     y0, x0 = rows.min(), cols.min()
-    box = labels[y0:rows.max() + 1, x0:cols.max() + 1] == UNSEEDED
+    width = cols.max() - x0 + 1
+    at = (rows - y0) * width + (cols - x0)
+    box = np.zeros((rows.max() - y0 + 1, width), bool)
+    box.ravel()[at] = True
     comp, n = ndimage.label(box)
-    pieces = comp[rows - y0, cols - x0]
-    if memo is not None:
-        memo[key] = (flat, pieces, n)
-    return pieces, n
+    return comp.ravel()[at], n
 
 
-def _terminals(flat, seeds, c, strength, nbrs, pull):
+def _terminals(flat, s, st, c, nbrs, pull):
     """Source (take ``c``) and sink (a greater label) capacities of the pixels
-    ``flat`` of a binary cut; ``nbrs`` are their fixed neighbours, ``pull``
-    (H, W) or None an extra cost of a cut edge whose ``c`` side is that pixel."""
-    s = seeds.ravel()[flat]
-    st = strength.ravel()[flat]
+    ``flat`` of a binary cut, whose seeds are ``s`` and seed strengths ``st``;
+    ``nbrs`` are their fixed neighbours, ``pull(p)`` (or None) the extra cost of
+    a cut edge whose ``c`` side is the pixel of flat index ``p``."""
     src = np.where(s == c, st, 0.0)
     snk = np.where(s > c, st, 0.0)
     for lab, wt, offset in nbrs:
@@ -622,13 +689,14 @@ def _terminals(flat, seeds, c, strength, nbrs, pull):
         src[to_c] += wt[to_c]
         snk[to_rest] += wt[to_rest]
         if pull is not None:
-            src[to_c] += pull.ravel()[flat[to_c] + offset]
-            snk[to_rest] += pull.ravel()[flat[to_rest]]
+            src[to_c] += pull(flat[to_c] + offset)
+            snk[to_rest] += pull(flat[to_rest])
     return src, snk
 
 
-def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
-    """Which of the pixels ``flat`` take ``c`` (a mask).
+def _min_cut(flat, shape, c, edges, src, snk, memo):
+    """Which of the pixels ``flat`` take ``c`` (a mask); ``edges()`` gives the
+    graph's edges (:func:`_cut_edges`) when it is to be built.
 
     With a ``memo``, the kept cut of ``c`` at this level answers when
     :func:`_unchanged_cut` or :func:`_grown_cut` shows it still does. The
@@ -663,7 +731,7 @@ def _min_cut(flat, shape, c, right, down, src, snk, pull, memo):
         graph.maxflow(reuse_trees=True)
         won = ~graph.get_grid_segments(np.arange(len(flat)))
     else:
-        graph, won = _binary_cut(flat, shape, right, down, src, snk, pull)
+        graph, won = _binary_cut(len(flat), edges(), src, snk)
     if memo is not None:
         memo[key] = (flat, src, snk, won, graph if c == BACKGROUND else None)
     return won
@@ -740,33 +808,17 @@ def _unchanged_cut(kept, src, snk):
                 or (more_snk[won] > 0).any())
 
 
-def _binary_cut(flat, shape, right, down, src, snk, pull):
-    """Min cut of one label against the greater labels on the pixels ``flat``
-    (flat indices, ascending) with terminal capacities ``src`` and ``snk``;
-    ``pull`` (H, W) or None an extra cost of a cut edge whose source side is
-    that pixel. Returns the solved graph and which of the pixels are on the
-    source side."""
+def _binary_cut(n, edges, src, snk):
+    """Min cut of one label against the greater labels on ``n`` pixels with
+    terminal capacities ``src`` and ``snk`` and the ``edges`` ``(a, b, fwd,
+    rev)`` of :func:`_cut_edges` (node indices, capacities a -> b and b -> a).
+    Returns the solved graph and which of the pixels are on the source side."""
     import maxflow
 
-    h, w = shape
-    n = len(flat)
-    node = np.full(h * w, -1, np.int64)
-    node[flat] = np.arange(n)
     g = maxflow.Graph[float](n, 2 * n)
     g.add_nodes(n)
-    # The edges from the pixels ``flat`` (ascending) to their right, then their
-    # lower neighbour among them: raster order of the first end, as a mask over
-    # the whole grid gives them, at the cost of the band alone.
-    for a, offset, cap in ((flat[flat % w < w - 1], 1, right), (flat[flat < (h - 1) * w], w, down)):
-        b = a + offset
-        both = node[b] >= 0
-        if both.any():
-            a, b = a[both], b[both]
-            fwd = rev = cap.ravel()[a - a // w if offset == 1 else a]
-            if pull is not None:  # a -> b is cut when a takes c and b does not
-                fwd = fwd + pull.ravel()[a]
-                rev = rev + pull.ravel()[b]
-            g.add_edges(node[a], node[b], fwd, rev)
+    for a, b, fwd, rev in edges:
+        g.add_edges(a, b, fwd, rev)
     ids = np.arange(n)
     g.add_grid_tedges(ids, src, snk)
     g.maxflow()
@@ -781,12 +833,9 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
     resolution, and so are whole paper areas (``cost >= paper``) that the
     pooling may have cut wrongly: see below."""
     h, w = cost.shape
-    hp, wp = h + h % 2, w + w % 2
-    small_cost = _kept(memo, ("pooled", h, w), lambda: _pool(
-        np.pad(cost, ((0, hp - h), (0, wp - w)), mode="edge"), np.minimum))
-    small_seeds = _pool(np.pad(seeds, ((0, hp - h), (0, wp - w)), constant_values=UNSEEDED),
-                        np.maximum)
-    small_strength = _pool(np.pad(strength, ((0, hp - h), (0, wp - w))), np.maximum)
+    small_cost = _kept(memo, ("pooled", h, w), lambda: _pool_min(cost))
+    small_seeds = _pool_max(seeds, UNSEEDED)
+    small_strength = _pool_max(strength, 0.0)
     sh, sw = small_cost.shape
     if sh * sw > 500_000 and min(sh, sw) >= 64:
         coarse = _coarse_to_fine(small_cost, small_seeds, small_strength, paper, None, band,
@@ -802,24 +851,32 @@ def _coarse_to_fine(cost, seeds, strength, paper, progress, band=4, small_area=5
         free = _near(_boundaries(up), band)
         if memo is not None:
             memo[("band", h, w, band)] = (coarse, free.copy())
-    wrong = (seeds != UNSEEDED) & (seeds != up)
+    seed_at = np.flatnonzero(seeds.ravel() != UNSEEDED)  # a few pixels
+    rows, cols = np.divmod(seed_at, w)
+    wrong_at = seed_at[seeds.ravel()[seed_at] != coarse[rows // 2, cols // 2]]
+    wrong = np.zeros((h, w), bool)
+    wrong.ravel()[wrong_at] = True
     free |= _near(wrong, band)
     # Pooling may close a thin neck of a small paper area and split it there:
     # a small area whose fixed pixels and seeds hold two labels, or any area
     # holding a wrongly labelled seed, is solved again as a whole. (Large
     # areas that hold several labels are gap closures the band refines.)
     comp, n = _kept(memo, ("paper", h, w), lambda: ndimage.label(cost >= paper))
-    seeded = seeds != UNSEEDED
-    inner = np.concatenate([comp[~free], comp[seeded]])
-    inner_up = np.concatenate([up[~free], seeds[seeded]])
+    flat_comp = comp.ravel()
+    small = np.bincount(flat_comp, minlength=n + 1) <= small_area
+    small[0] = False
+    fixed_at = np.flatnonzero(small[comp] & ~free)
+    rows, cols = np.divmod(fixed_at, w)
+    small_seed_at = seed_at[small[flat_comp[seed_at]]]
+    inner = flat_comp[np.concatenate([fixed_at, small_seed_at])]
+    inner_up = np.concatenate([coarse[rows // 2, cols // 2], seeds.ravel()[small_seed_at]])
     some = np.zeros(n + 1, np.int32)
-    some[inner] = inner_up  # one label of each area (the last written)
-    mixed = np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0
-    redo = mixed & (np.bincount(comp.ravel(), minlength=n + 1) <= small_area)
-    redo[comp[wrong]] = True
+    some[inner] = inner_up  # one label of each small area (the last written)
+    redo = small & (np.bincount(inner[inner_up != some[inner]], minlength=n + 1) > 0)
+    redo[flat_comp[wrong_at]] = True
     redo[0] = False
     free |= redo[comp]
-    fixed = np.where(free, UNSEEDED, up).astype(np.int32)
+    fixed = np.where(free, UNSEEDED, up).astype(np.int32, copy=False)
     return _solve(cost, seeds, strength, 1.0 / (2 * (h + w)), fixed=fixed, progress=progress,
                   memo=memo)
 
@@ -855,3 +912,35 @@ def _pool(a, op):
     """2x2 pooling of an even-sized array by ``op`` (np.minimum or np.maximum): the
     four strided quarters, a tenth of the time of a reduction over reshaped axes."""
     return op(op(a[0::2, 0::2], a[0::2, 1::2]), op(a[1::2, 0::2], a[1::2, 1::2]))
+
+
+def _pool_max(a, fill):
+    """2x2 maximum pooling of ``a`` padded with ``fill`` to an even size, by
+    :func:`_pool`; when every other value is above ``fill`` (seeds, their
+    strengths: a few pixels), from those pixels alone, the same values."""
+    h, w = a.shape
+    at = np.flatnonzero(a.ravel() != fill)
+    values = a.ravel()[at]
+    if len(values) and values.min() < fill:
+        return _pool(np.pad(a, ((0, h % 2), (0, w % 2)), constant_values=fill), np.maximum)
+    sw = (w + 1) // 2
+    out = np.full(((h + 1) // 2, sw), fill, a.dtype)
+    rows, cols = np.divmod(at, w)
+    np.maximum.at(out.ravel(), rows // 2 * sw + cols // 2, values)
+    return out
+
+
+def _pool_min(a):
+    """2x2 minimum pooling of ``a`` padded by repeating its last row and column
+    to an even size; the odd row and column pooled on their own (no padded copy)."""
+    h, w = a.shape
+    he, we = h - h % 2, w - w % 2
+    out = np.empty(((h + 1) // 2, (w + 1) // 2), a.dtype)
+    out[:he // 2, :we // 2] = _pool(a[:he, :we], np.minimum)
+    if w % 2:
+        out[:he // 2, -1] = np.minimum(a[0:he:2, -1], a[1:he:2, -1])
+    if h % 2:
+        out[-1, :we // 2] = np.minimum(a[-1, 0:we:2], a[-1, 1:we:2])
+    if h % 2 and w % 2:
+        out[-1, -1] = a[-1, -1]
+    return out

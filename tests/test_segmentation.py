@@ -483,11 +483,48 @@ def test_kept_memo_solves_only_the_cuts_a_scribble_changes(shared_drawings, monk
 
 
 def _random_grid(rng):
-    """A small grid's shape and its quantized edge capacities over random ink."""
-    from inkray.segmentation import _edge_weights
-
+    """A small grid's shape and random ink costs."""
     h, w = rng.integers(3, 14, size=2)
-    return (h, w) + _edge_weights(rng.random((h, w)) ** 3, 0.01)
+    return h, w, rng.random((h, w)) ** 3
+
+
+def _grid_edges(h, w, cost, flat, pull=None):
+    """The edges of a binary cut on the pixels ``flat`` of the grid (the others
+    fixed), floor 0.01; ``pull`` an (H, W) array or None."""
+    from inkray.segmentation import _cut_edges, _level
+
+    fixed = np.zeros((h, w), np.int32)
+    fixed.ravel()[flat] = -2
+    return _cut_edges(_level(cost, fixed, 0.01), np.arange(len(flat)),
+                      None if pull is None else (lambda p: pull.ravel()[p]))
+
+
+def test_cut_edges_are_the_grid_edges_among_the_pixels():
+    from inkray.segmentation import _cut_edges, _level, _quantized
+
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        h, w, cost = _random_grid(rng)
+        pull = _quantized(0.04 * rng.random((h, w)))
+        free = rng.random((h, w)) < rng.choice([0.5, 0.9, 1.0])
+        fixed = np.where(free, -2, 0).astype(np.int32)
+        level = _level(cost, fixed, 0.01)
+        idx = np.flatnonzero(free)
+        on = np.flatnonzero(rng.random(len(idx)) < 0.8)
+        flat = idx[on]
+        node = {p: k for k, p in enumerate(flat)}
+        expected = []  # right edges, then down edges, in raster order of the first end
+        for step, ok in ((1, lambda p: p % w < w - 1), (w, lambda p: p < (h - 1) * w)):
+            for p in flat:
+                if ok(p) and p + step in node:
+                    cap = _quantized(min(cost.flat[p], cost.flat[p + step]) + 0.01)
+                    expected.append((node[p], node[p + step], cap + pull.flat[p],
+                                     cap + pull.flat[p + step]))
+        got = [e for a, b, fwd, rev in _cut_edges(level, on, lambda p: pull.ravel()[p])
+               for e in zip(a, b, fwd, rev)]
+        assert [(int(a), int(b)) for a, b, _, _ in got] == [(a, b) for a, b, _, _ in expected]
+        np.testing.assert_array_equal(np.array([g[2:] for g in got]).reshape(-1, 2),
+                                      np.array([e[2:] for e in expected]).reshape(-1, 2))
 
 
 def _random_terminals(rng, n):
@@ -504,16 +541,17 @@ def test_unchanged_cut_is_the_fresh_cut_on_random_graphs():
     rng = np.random.default_rng(1)
     reused = 0
     for _ in range(200):
-        h, w, right, down = _random_grid(rng)
+        h, w, cost = _random_grid(rng)
         flat = np.flatnonzero(rng.random(h * w) < 0.9)
         n = len(flat)
+        edges = _grid_edges(h, w, cost, flat)
         src, snk = _random_terminals(rng, n)
-        won = _binary_cut(flat, (h, w), right, down, src, snk, None)[1]
+        won = _binary_cut(n, edges, src, snk)[1]
         more = _quantized(np.where(rng.random(n) < 0.2, rng.random(n), 0.0))
         # more capacity toward the side each pixel took, and now and then against it
         src2 = src + np.where(won | (rng.random(n) < 0.05), more, 0.0)
         snk2 = snk + np.where(~won | (rng.random(n) < 0.05), more[::-1], 0.0)
-        fresh = _binary_cut(flat, (h, w), right, down, src2, snk2, None)[1]
+        fresh = _binary_cut(n, edges, src2, snk2)[1]
         if _unchanged_cut((flat, src, snk, won), src2, snk2):
             reused += 1
             np.testing.assert_array_equal(fresh, won)
@@ -525,14 +563,15 @@ def test_resumed_background_cut_is_the_fresh_cut_on_random_graphs():
 
     rng = np.random.default_rng(2)
     for _ in range(100):
-        h, w, right, down = _random_grid(rng)
+        h, w, cost = _random_grid(rng)
         pull = _quantized(0.04 * rng.random((h, w)))
         flat = np.flatnonzero(rng.random(h * w) < 0.9)
+        edges = _grid_edges(h, w, cost, flat, pull)
         memo = {}
         for _ in range(3):  # any change of the terminals, more or less capacity
             src, snk = _random_terminals(rng, len(flat))
-            won = _min_cut(flat, (h, w), BACKGROUND, right, down, src, snk, pull, memo)
-            fresh = _binary_cut(flat, (h, w), right, down, src, snk, pull)[1]
+            won = _min_cut(flat, (h, w), BACKGROUND, lambda: edges, src, snk, memo)
+            fresh = _binary_cut(len(flat), edges, src, snk)[1]
             np.testing.assert_array_equal(won, fresh)
         assert memo[("cut", (h, w), BACKGROUND)][4] is not None
 
@@ -543,7 +582,7 @@ def test_grown_cut_is_the_fresh_cut_on_random_graphs():
     rng = np.random.default_rng(3)
     grown = 0
     for _ in range(300):
-        h, w, right, down = _random_grid(rng)
+        h, w, cost = _random_grid(rng)
         # some pixels join the cut: a block of the grid, without source capacity, now
         # and then walled off from the rest (then it costs nothing on either side)
         y, x, r = rng.integers(0, h), rng.integers(0, w), rng.integers(0, 3)
@@ -560,10 +599,30 @@ def test_grown_cut_is_the_fresh_cut_on_random_graphs():
         src[new] = 0.0
         snk[new] *= rng.random() < 0.5
         old = ~new
-        won0 = _binary_cut(flat[old], (h, w), right, down, src[old], snk[old], None)[1]
+        won0 = _binary_cut(int(old.sum()), _grid_edges(h, w, cost, flat[old]), src[old],
+                           snk[old])[1]
         won = _grown_cut((flat[old], src[old], snk[old], won0), flat, (h, w), src, snk)
         if won is not None:
             grown += 1
-            np.testing.assert_array_equal(won, _binary_cut(flat, (h, w), right, down, src, snk,
-                                                           None)[1])
+            fresh = _binary_cut(len(flat), _grid_edges(h, w, cost, flat), src, snk)[1]
+            np.testing.assert_array_equal(won, fresh)
     assert 20 < grown < 300
+
+
+def test_pooling_without_a_padded_copy_is_pooling_the_padded_image():
+    from inkray.segmentation import _pool, _pool_max, _pool_min
+
+    rng = np.random.default_rng(5)
+    for h, w in ((6, 8), (7, 8), (6, 9), (7, 9), (1, 1), (1, 4), (5, 1)):
+        a = rng.random((h, w))
+        padded = np.pad(a, ((0, h % 2), (0, w % 2)), mode="edge")
+        np.testing.assert_array_equal(_pool_min(a), _pool(padded, np.minimum))
+        # a few seeds on an unseeded image, their strengths on zeros; and values
+        # below the fill, where only the padded pooling is right
+        for fill, values in ((-2, rng.integers(-1, 5, (h, w)).astype(np.int32)),
+                             (0.0, rng.random((h, w))), (0.0, -rng.random((h, w)))):
+            sparse = np.where(rng.random((h, w)) < 0.3, values, fill).astype(values.dtype)
+            padded = np.pad(sparse, ((0, h % 2), (0, w % 2)), constant_values=fill)
+            pooled = _pool_max(sparse, fill)
+            assert pooled.dtype == sparse.dtype
+            np.testing.assert_array_equal(pooled, _pool(padded, np.maximum))
