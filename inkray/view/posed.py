@@ -37,7 +37,7 @@ __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
 _SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
-_GRID = 2.0 ** 16  # posed positions are drawn rounded to 1 / _GRID px
+_SNAP = 1e-6  # px: a posed vertex this close to its rest position is drawn at it
 
 
 class PosedDrawing:
@@ -516,6 +516,7 @@ class _PartSource:
         first, _, _, self.faces = front_mesh(part)
         self.vertex = first
         v = np.asarray(part.vertices, float)
+        self.home = v[first, :2]
         self.rest = (v[:, :2] if part.texcoords is None else
                      np.asarray(part.texcoords, float))[first]
         h, w = rgb.shape[:2]
@@ -552,13 +553,14 @@ class _PartSource:
         if not len(self.faces):
             return None
         xy, z = vertices[self.vertex, :2], vertices[self.vertex, 2]
+        # A vertex a solve brings back to rest within round-off is drawn at rest: a pixel
+        # centre on a triangle's edge there (a straight outline along a pixel row) must not
+        # flip to the next row and open a slit between two parts.
+        xy = np.where(np.all(np.abs(xy - self.home) <= _SNAP, axis=1)[:, None], self.home, xy)
         rest, faces = self.rest, self.faces
         if self.skirt is not None:
             xy, z, rest, faces = self.skirt.around(xy, z, rest, faces)
-        # On a grid of 2^-16 px: a pixel centre on a triangle's edge at rest (a part's
-        # straight outline along a pixel row) stays on it when a solve brings the vertex back
-        # within round-off, instead of flipping to the next row and opening a slit.
-        out = np.round(((xy + 0.5) * scale - 0.5) * _GRID) / _GRID
+        out = (xy + 0.5) * scale - 0.5
         lo = np.maximum(np.floor(out.min(axis=0)).astype(int), 0)
         hi = np.minimum(np.ceil(out.max(axis=0)).astype(int) + 1, [w, h])
         if (hi <= lo).any():
