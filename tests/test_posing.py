@@ -440,3 +440,13 @@ def test_identity_pose_draws_every_drawn_pixel_of_the_layers(name):
     posed = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
                          [start], boundaries=ann.boundaries)
     assert np.array_equal(posed.image(posed.rig.vertices), posed.cutout.flatten())
+
+
+def test_the_handles_at_rest_solved_cold_draw_the_rest_picture():
+    # The identity targets give the rest positions to round-off, and the picture of a pose
+    # that close to rest is the rest picture: the snowman's straight outline along a pixel
+    # row opened a 64 px slit when its vertices came back 1e-11 px off.
+    posed, pins, tip, _ = _fresh_pose("snowman", 0.0)
+    x = posed.positions(np.vstack([pins, tip]))
+    assert np.abs(x - posed.rig.vertices).max() < 1e-9
+    assert np.array_equal(posed.image(x), posed.image(posed.rig.vertices))
