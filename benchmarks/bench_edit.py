@@ -346,50 +346,53 @@ def _methods(name, megapixels, repeats, where=("in process", "process")):
     return times
 
 
+def _cases(names, sizes):
+    """Each drawing at each size, ``(name, megapixels)``, the sizes outermost."""
+    return [(name, mpx) for mpx in sizes for name in names]
+
+
 def _open_table(names, sizes, repeats, **_):
     previews = (DRAFT, "depth.png", "labels.png", "relations", "relief.glb")
     print("| drawing | size | depth draft s | depth s | labels s | relations s | relief s "
           "| relief - depth s | server CPU s by depth / relief | targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for mpx in sizes:
-        for name in names:
-            try:
-                r = _median([_open(name, mpx) for _ in range(repeats)],
-                            previews + ("cpu depth.png", "cpu relief.glb"))
-            except (RuntimeError, OSError, IndexError) as e:
-                print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
-                continue
-            row = r["rows"][0]
-            cells = [f"{row[p][0]:.3f}" if isinstance(row[p][0], float) else f"error: {row[p][0]}"
-                     for p in previews]
-            depth, relief = row["depth.png"][0], row["relief.glb"][0]
-            after = relief - depth if isinstance(depth, float) and isinstance(relief, float) else None
-            notes = []
-            if mpx and after is not None:
-                notes = [f"depth <= 2 {'ok' if depth <= 2 else 'MISSED'}",
-                         f"relief - depth <= 3 {'ok' if after <= 3 else 'MISSED'}"]
-            cpu = f"{row['cpu depth.png'][0]:.2f} / {row['cpu relief.glb'][0]:.2f}"
-            print(f"| {name} | {r['size'][0]}x{r['size'][1]} | {' | '.join(cells)} | "
-                  f"{'-' if after is None else f'{after:.3f}'} | {cpu} | {', '.join(notes)} |",
-                  flush=True)
+    for name, mpx in _cases(names, sizes):
+        try:
+            r = _median([_open(name, mpx) for _ in range(repeats)],
+                        previews + ("cpu depth.png", "cpu relief.glb"))
+        except (RuntimeError, OSError, IndexError) as e:
+            print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
+            continue
+        row = r["rows"][0]
+        cells = [f"{row[p][0]:.3f}" if isinstance(row[p][0], float) else f"error: {row[p][0]}"
+                 for p in previews]
+        depth, relief = row["depth.png"][0], row["relief.glb"][0]
+        after = relief - depth if isinstance(depth, float) and isinstance(relief, float) else None
+        notes = []
+        if mpx and after is not None:
+            notes = [f"depth <= 2 {'ok' if depth <= 2 else 'MISSED'}",
+                     f"relief - depth <= 3 {'ok' if after <= 3 else 'MISSED'}"]
+        cpu = f"{row['cpu depth.png'][0]:.2f} / {row['cpu relief.glb'][0]:.2f}"
+        print(f"| {name} | {r['size'][0]}x{r['size'][1]} | {' | '.join(cells)} | "
+              f"{'-' if after is None else f'{after:.3f}'} | {cpu} | {', '.join(notes)} |",
+              flush=True)
 
 
 def _methods_table(names, sizes, repeats, where=("in process", "process"), **_):
     print("| drawing | size | " + " | ".join(
         f"fast s, {w} | exact s, {w} | ratio" for w in where) + " |")
     print("| --- | --- |" + " --- | --- | --- |" * len(where))
-    for mpx in sizes:
-        for name in names:
-            size = _folder_size(name, mpx)
-            t = _methods(name, mpx, max(repeats, 3), where)
-            cells = []
-            for where_ in where:
-                fast, exact = (float(np.median(t[(where_, m)])) for m in ("fast", "exact"))
-                # the median of the pairwise ratios: pairs ran next to each other
-                ratio = float(np.median(np.array(t[(where_, "fast")]) /
-                                        np.array(t[(where_, "exact")])))
-                cells += [f"{fast:.3f}", f"{exact:.3f}", f"**{ratio:.2f}**"]
-            print(f"| {name} | {size} | {' | '.join(cells)} |", flush=True)
+    for name, mpx in _cases(names, sizes):
+        size = _folder_size(name, mpx)
+        t = _methods(name, mpx, max(repeats, 3), where)
+        cells = []
+        for where_ in where:
+            fast, exact = (float(np.median(t[(where_, m)])) for m in ("fast", "exact"))
+            # the median of the pairwise ratios: pairs ran next to each other
+            ratio = float(np.median(np.array(t[(where_, "fast")]) /
+                                    np.array(t[(where_, "exact")])))
+            cells += [f"{fast:.3f}", f"{exact:.3f}", f"**{ratio:.2f}**"]
+        print(f"| {name} | {size} | {' | '.join(cells)} |", flush=True)
 
 
 def _first(name, megapixels):
@@ -442,16 +445,15 @@ def _first_table(names, sizes, repeats, **_):
     print("| drawing | size | prepared | cold depth CPU s | prepare CPU s | +arrow depth CPU s "
           "(fronts) | +scribble depth CPU s (fronts) |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    for mpx in sizes:
-        for name in names:
-            size = _folder_size(name, mpx)
-            for prepared, rows in _first(name, mpx).items():
-                cell = {label: (f"{t:.2f}" if label in ("cold", "prepare") else
-                                f"{t:.2f} ({redone}/{fronts})")
-                        for label, t, redone, fronts in rows}
-                print(f"| {name} | {size} | {'yes' if prepared else 'no'} | "
-                      + " | ".join(cell.get(k, "-") for k in ("cold", "prepare", "+arrow",
-                                                              "+scribble")) + " |", flush=True)
+    for name, mpx in _cases(names, sizes):
+        size = _folder_size(name, mpx)
+        for prepared, rows in _first(name, mpx).items():
+            cell = {label: (f"{t:.2f}" if label in ("cold", "prepare") else
+                            f"{t:.2f} ({redone}/{fronts})")
+                    for label, t, redone, fronts in rows}
+            print(f"| {name} | {size} | {'yes' if prepared else 'no'} | "
+                  + " | ".join(cell.get(k, "-") for k in ("cold", "prepare", "+arrow",
+                                                          "+scribble")) + " |", flush=True)
 
 
 def _reduced(name, megapixels, repeats):
@@ -500,15 +502,14 @@ def _reduced_table(names, sizes, repeats, **_):
     print("| drawing | size | free px | in blocks | reduced CPU s | exact CPU s | reduced / exact "
           "| max diff, levels | mean diff, levels |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for mpx in sizes:
-        for name in names:
-            size = _folder_size(name, mpx)
-            times, r = _reduced(name, mpx, repeats)
-            reduced, exact = (float(np.median(times[k])) for k in ("reduced", "exact"))
-            ratio = float(np.median(np.array(times["reduced"]) / np.array(times["exact"])))
-            blocked = f"{r['blocked'] / r['free']:.0%}" if r["free"] else "-"
-            print(f"| {name} | {size} | {r['free']} | {blocked} | {reduced:.2f} | {exact:.2f} | "
-                  f"**{ratio:.2f}** | {r['max']:.4f} | {r['mean']:.5f} |", flush=True)
+    for name, mpx in _cases(names, sizes):
+        size = _folder_size(name, mpx)
+        times, r = _reduced(name, mpx, repeats)
+        reduced, exact = (float(np.median(times[k])) for k in ("reduced", "exact"))
+        ratio = float(np.median(np.array(times["reduced"]) / np.array(times["exact"])))
+        blocked = f"{r['blocked'] / r['free']:.0%}" if r["free"] else "-"
+        print(f"| {name} | {size} | {r['free']} | {blocked} | {reduced:.2f} | {exact:.2f} | "
+              f"**{ratio:.2f}** | {r['max']:.4f} | {r['mean']:.5f} |", flush=True)
 
 
 def _sched():
@@ -570,25 +571,24 @@ def _path_table(names, sizes, repeats, reserve=True, **_):
     print("| drawing | size | labels CPU s | draft CPU s | depth CPU s | idle estimate s "
           "| depth s | depth run-queue s | relief s | relief - depth s |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for mpx in sizes:
-        for name in names:
-            size = _folder_size(name, mpx)
-            runs = [_path(name, mpx, reserve) for _ in range(repeats)]
-            failed = [r[k][0] for r in runs for k in r if isinstance(r[k][0], str)]
-            if failed:
-                print(f"| {name} | {size} | failed: {failed[0]} |", flush=True)
-                continue
+    for name, mpx in _cases(names, sizes):
+        size = _folder_size(name, mpx)
+        runs = [_path(name, mpx, reserve) for _ in range(repeats)]
+        failed = [r[k][0] for r in runs for k in r if isinstance(r[k][0], str)]
+        if failed:
+            print(f"| {name} | {size} | failed: {failed[0]} |", flush=True)
+            continue
 
-            def med(key, k):
-                return float(np.median([r[key][k] for r in runs]))
+        def med(key, k):
+            return float(np.median([r[key][k] for r in runs]))
 
-            estimate = float(np.median([r["labels"][1] + r["draft"][1] + r["depth"][1]
-                                        for r in runs]))
-            after = float(np.median([r["relief"][0] - r["depth"][0] for r in runs]))
-            print(f"| {name} | {size} | {med('labels', 1):.2f} | {med('draft', 1):.2f} | "
-                  f"{med('depth', 1):.2f} | **{estimate:.2f}** | {med('depth', 0):.2f} | "
-                  f"{med('draft', 2) + med('depth', 2):.2f} | {med('relief', 0):.2f} | "
-                  f"{after:.2f} |", flush=True)
+        estimate = float(np.median([r["labels"][1] + r["draft"][1] + r["depth"][1]
+                                    for r in runs]))
+        after = float(np.median([r["relief"][0] - r["depth"][0] for r in runs]))
+        print(f"| {name} | {size} | {med('labels', 1):.2f} | {med('draft', 1):.2f} | "
+              f"{med('depth', 1):.2f} | **{estimate:.2f}** | {med('depth', 0):.2f} | "
+              f"{med('draft', 2) + med('depth', 2):.2f} | {med('relief', 0):.2f} | "
+              f"{after:.2f} |", flush=True)
 
 
 def _folder_size(name, megapixels):
@@ -601,37 +601,36 @@ def _edits_table(names, sizes, repeats, pause=0.0, **_):
     print("| drawing | size | edit | labels s (/ cold) | depth draft s (/ cold) | depth s (/ cold) "
           "| relief s (/ cold) | targets at ~1 Mpx |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for mpx in sizes:
-        for name in names:
-            try:
-                r = _median([_one(name, mpx, pause) for _ in range(repeats)])
-            except (RuntimeError, OSError, IndexError) as e:
-                print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
-                continue
-            cold = r["rows"][0]
-            size = f"{r['size'][0]}x{r['size'][1]}"
-            errors = []
-            for row in r["rows"]:
-                cells, notes = [], []
-                for preview in PREVIEWS:
-                    s, _ = row[preview]
-                    c, _ = cold[preview]
-                    if isinstance(s, str):
-                        if s not in errors:
-                            errors.append(s)
-                        cells.append(f"error {errors.index(s) + 1}")
-                        continue
-                    ratio = f" ({s / c:.0%})" if row is not cold and isinstance(c, float) else ""
-                    cells.append(f"{s:.3f}{ratio}")
-                    target = TARGETS.get((row["edit"], preview))
-                    if target is not None and mpx:
-                        what = "depth draft" if preview == DRAFT else preview.split(".")[0]
-                        notes.append(f"{what} <= {target:g} "
-                                     f"{'ok' if s <= target else 'MISSED'}")
-                print(f"| {name} | {size} | {row['edit']} | {' | '.join(cells)} | "
-                      f"{', '.join(notes)} |", flush=True)
-            for k, error in enumerate(errors):
-                print(f"| {name} | {size} | error {k + 1}: {error} |", flush=True)
+    for name, mpx in _cases(names, sizes):
+        try:
+            r = _median([_one(name, mpx, pause) for _ in range(repeats)])
+        except (RuntimeError, OSError, IndexError) as e:
+            print(f"| {name} | {'own' if not mpx else f'{mpx} Mpx'} | failed: {e} |")
+            continue
+        cold = r["rows"][0]
+        size = f"{r['size'][0]}x{r['size'][1]}"
+        errors = []
+        for row in r["rows"]:
+            cells, notes = [], []
+            for preview in PREVIEWS:
+                s, _ = row[preview]
+                c, _ = cold[preview]
+                if isinstance(s, str):
+                    if s not in errors:
+                        errors.append(s)
+                    cells.append(f"error {errors.index(s) + 1}")
+                    continue
+                ratio = f" ({s / c:.0%})" if row is not cold and isinstance(c, float) else ""
+                cells.append(f"{s:.3f}{ratio}")
+                target = TARGETS.get((row["edit"], preview))
+                if target is not None and mpx:
+                    what = "depth draft" if preview == DRAFT else preview.split(".")[0]
+                    notes.append(f"{what} <= {target:g} "
+                                 f"{'ok' if s <= target else 'MISSED'}")
+            print(f"| {name} | {size} | {row['edit']} | {' | '.join(cells)} | "
+                  f"{', '.join(notes)} |", flush=True)
+        for k, error in enumerate(errors):
+            print(f"| {name} | {size} | error {k + 1}: {error} |", flush=True)
 
 
 def main():
