@@ -311,13 +311,10 @@ def _inpaint(out, rows, cols):
     todo = np.zeros(c.shape[:2], bool)
     todo[rows - y0, cols - x0] = True
     known = (c[..., 3] > 0) & ~todo
+    ring = np.ones((3, 3, 1))
     while todo.any():
-        k = np.pad(known, 1).astype(float)
-        v = np.pad(c * known[..., None], ((1, 1), (1, 1), (0, 0)))
-        count = sum(k[1 + dy:k.shape[0] - 1 + dy, 1 + dx:k.shape[1] - 1 + dx]
-                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
-        total = sum(v[1 + dy:v.shape[0] - 1 + dy, 1 + dx:v.shape[1] - 1 + dx]
-                    for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+        count = ndimage.correlate(known.astype(float), ring[..., 0], mode="constant")
+        total = ndimage.correlate(c * known[..., None], ring, mode="constant")
         ready = todo & (count > 0)
         if not ready.any():
             break
