@@ -509,7 +509,7 @@ def _pushed_in(vertices, faces, edges, points, normal, reach):
         pushed = points[todo] + push * reach * normal[todo]
         n = len(v)
         v, f = _inserted(v, f, pushed, reach, clear=0.5 * reach, only=edges)
-        edges = edges[_among(edges, _boundary_edges(f), len(v))]
+        edges = edges[_among(edges, _boundary_edges(f))]
         if len(v) > n:
             same = (pushed[:, None, :] == v[None, n:, :2]).all(axis=2)
             found = same.any(axis=1)
@@ -527,13 +527,10 @@ def _pushed_in(vertices, faces, edges, points, normal, reach):
     return v, f, over
 
 
-def _among(edges, others, n):
-    """Which ``edges`` (vertex pairs, either way round, indices below ``n``) are among
-    ``others``."""
-    def key(e):
-        e = np.sort(np.asarray(e, np.int64), axis=1)
-        return e[:, 0] * n + e[:, 1]
-    return np.isin(key(edges), key(others))
+def _among(edges, others):
+    """Which ``edges`` (vertex pairs, either way round) are among ``others``."""
+    keys = _edge_keys(np.concatenate([np.reshape(edges, (-1, 2)), np.reshape(others, (-1, 2))]))
+    return np.isin(keys[:len(edges)], keys[len(edges):])
 
 
 def _outline_segments(vertices, faces):
@@ -633,7 +630,7 @@ def _inserted(vertices, faces, points, reach, *, clear, near=None, only=None):
     if near is not None:
         edges = edges[near[edges].any(axis=1)]
     if only is not None:
-        edges = edges[_among(edges, only, len(v))]
+        edges = edges[_among(edges, only)]
     if not len(edges):
         return v, faces
     s0, s1 = v[edges[:, 0], :2], v[edges[:, 1], :2]
