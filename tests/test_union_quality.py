@@ -18,13 +18,6 @@ from inkray.formats.mesh_report import check_file, failed_requirements
 from inkray.formats.meshes import export_relief
 from inkray.input.loading import load_input
 
-# Drawings whose solid keeps slivers (smallest angle in degrees) or faces crossing
-# another (how many, exact in double precision), measured on pickled parts. (The
-# donkey's column 0.5 px wide and 12 px tall at (150, 243), where its forelock and left
-# ear float over its head within a pixel, is now cut into a ladder.)
-SLIVERS = {}
-CROSSINGS = {}
-
 
 @lru_cache(maxsize=None)
 def _report(name, folder):
@@ -51,27 +44,21 @@ def test_union_is_one_watertight_manifold_solid(name, folder):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", shared_drawing_names())
-def test_a_solid_left_with_slivers_says_so(name, folder):
+def test_a_clean_solid_gives_no_repair_warning(name, folder):
     _, warnings = _report(name, folder)
     warned = any("a slicer may have to repair the solid" in w for w in warnings)
-    assert warned == (name in SLIVERS or name in CROSSINGS), warnings
-
-
-def _known(failing, what):
-    """Every drawing, those in ``failing`` (name -> figure) as strict expected failures."""
-    return [pytest.param(n, marks=pytest.mark.xfail(reason=what.format(failing[n]), strict=True))
-            if n in failing else n for n in shared_drawing_names()]
+    assert not warned, warnings
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", _known(SLIVERS, "smallest angle {} degrees"))
+@pytest.mark.parametrize("name", shared_drawing_names())
 def test_union_has_no_slivers(name, folder):
     report, _ = _report(name, folder)
     assert failed_requirements(report, "min-angle=10") == []
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", _known(CROSSINGS, "{} self-intersecting faces"))
+@pytest.mark.parametrize("name", shared_drawing_names())
 def test_union_has_no_self_intersections(name, folder):
     report, _ = _report(name, folder)
     assert failed_requirements(report, "no-self-intersections") == []
