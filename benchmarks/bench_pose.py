@@ -451,39 +451,51 @@ def joins_table():
               flush=True)
 
 
-def sweep_table(names, sizes, orders):
-    """Holes and folds at every step of a drag from rest to a 60 degree swing."""
+def sweep(name, megapixels, orders=()):
+    """The holes and folded faces at every step of a drag from rest to a 60 degree swing.
+
+    Returns ``(size, steps, holes, folds)``: the drawing's size, the angles (degrees) and per
+    step the holes and the folded faces; ``steps`` is None where no limb is joined to the
+    largest part.
+    """
     from inkray.chain import ReliefChain
     from inkray.relief.posing import rig_relief
     from inkray.view.posed import PosedDrawing
 
+    ann, drawing = _load(name, megapixels)
+    ann = _forced(ann, drawing, orders)
+    chain = ReliefChain(ann, drawing)
+    rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
+    pins, tip, join = _scenario(chain, rig)
+    if tip is None:
+        return ann.size, None, [], []
+    posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
+                         np.vstack([pins, tip]), boundaries=ann.boundaries)
+    rest = posed.image(posed.rig.vertices)
+    steps = np.arange(0.0, 60.0 + 1e-9, 2.5)
+    holes, folds = [], []
+    for angle in steps:
+        x = posed.positions(np.vstack([pins, _turn(tip, join, angle)]))
+        holes.append(_holes(posed, x, posed.image(x), rest))
+        folds.append(posed.rig.folds(x))
+    return ann.size, steps, holes, folds
+
+
+def sweep_table(names, sizes, orders):
+    """Holes and folds at every step of a drag from rest to a 60 degree swing."""
     print("| drawing | size | steps | worst holes (at degrees) | steps with holes (degrees: px) "
           "| folds |")
     print("| --- | --- | --- | --- | --- | --- |")
     for name in names:
         for mp in sizes:
-            ann, drawing = _load(name, mp)
-            ann = _forced(ann, drawing, orders)
-            chain = ReliefChain(ann, drawing)
-            rig = rig_relief(chain.relief, chain.completion, boundaries=ann.boundaries)
-            pins, tip, join = _scenario(chain, rig)
-            if tip is None:
+            (w, h), steps, holes, folds = sweep(name, mp, orders)
+            if steps is None:
                 print(f"| {name} | | | no limb joined to the largest part | | |")
                 continue
-            posed = PosedDrawing(chain.relief, chain.completion, chain.relations, drawing,
-                                 np.vstack([pins, tip]), boundaries=ann.boundaries)
-            rest = posed.image(rig.vertices)
-            steps = np.arange(0.0, 60.0 + 1e-9, 2.5)
-            holes, folds = [], 0
-            for angle in steps:
-                x = posed.positions(np.vstack([pins, _turn(tip, join, angle)]))
-                holes.append(_holes(posed, x, posed.image(x), rest))
-                folds += rig.folds(x)
             worst = int(np.argmax(holes))
-            bad = ", ".join(f"{a:g}: {h}" for a, h in zip(steps, holes) if h)
-            w, h = ann.size
+            bad = ", ".join(f"{a:g}: {n}" for a, n in zip(steps, holes) if n)
             print(f"| {name} | {w}x{h} | {len(steps)} | {holes[worst]} ({steps[worst]:g}) | "
-                  f"{bad or '-'} | {folds} |", flush=True)
+                  f"{bad or '-'} | {sum(folds)} |", flush=True)
 
 
 def main():

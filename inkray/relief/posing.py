@@ -32,7 +32,15 @@ them:
   the smaller part's vertices in an overlap do not grip, the larger part's
   vertices there are glued to it too. A root or a part on top that does not
   grip (an arm lying on the head over a few pixels) is taken the same way, as
-  a pin: only where nothing else joins its two pieces.
+  a pin: only where nothing else joins its two pieces;
+- *keeping its place*: a part the drawing shows no root of (no *rooted*
+  join, no seam) hangs where the overlaps guessed. It is glued over its other
+  overlaps that grip too, and where it lies across a larger part (its hidden
+  area crosses under the part along two cuts or more, and the part nowhere
+  under it), so that it keeps its place on every part it lies on: a drag that
+  bends the chain of joins between two of them (a fox's head pulling the body
+  away from the tail) slides it off neither. A rooted limb lying on the body
+  stays free to swing.
 
 A part's hidden area is both its hidden layers
 (:attr:`~inkray.relief.completion.Completion.beneath`): its second layer under
@@ -299,7 +307,8 @@ class Posing:
         stiffer, the system factored again and the rounds go on, at most
         ``_REPAIRS`` times; the last time the glue rows there are released
         too (released glue lets joined parts part, a crack in the picture,
-        so only when stiffness alone has not unfolded them). The next drag
+        so only when stiffness alone has not unfolded them, and not where
+        that would cut off a piece no handle holds). The next drag
         keeps the repaired system.
 
         Returns
@@ -324,7 +333,15 @@ class Posing:
             self._stiffness[np.any(near[self.rig.faces], axis=1)] *= _STIFFER
             if repair == _REPAIRS - 1 and self._glue.shape[0]:
                 touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
-                self._glue = self._glue[touches == 0]
+                released = self._glue[touches == 0]
+                # not where that cuts off a piece that no handle holds (it would have nothing
+                # to follow)
+                piece = pieces(len(x), self.rig.faces, released)
+                held = np.zeros(piece.max() + 1, bool)
+                held[piece[self._rows.tocoo().col]] = True
+                held[piece[self._fixed]] = True
+                if held.all():
+                    self._glue = released
             self.solver = self._arap()
             x = self.solve(t, iterations=iterations, initial=x)
             spent += iterations
@@ -399,7 +416,7 @@ def rig_relief(relief, completion, *, boundaries=()):
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
     # Row blocks: (glue rows, their join, whether they are the larger part's rows of an
     # overlap, reported within the smaller part's join to it).
-    blocks, overlaps = [], []
+    blocks, overlaps, crossed = [], [], []
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
@@ -409,19 +426,23 @@ def rig_relief(relief, completion, *, boundaries=()):
             near = ndimage.distance_transform_edt(~mask) <= reach
             got = _glue_rows(rig, pb, pa, lambda xy, m=near: _inside(m, xy), reach=reach)
             grips = _grips(rig, (got, rig.names[pb]))
-            if grips and kind != "overlap":
+            if grips and kind not in ("overlap", "across"):
                 blocks.append((got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]), False))
                 continue
             # Where the smaller part's vertices in an overlap do not grip, the larger part's
             # glue it too (both cover an overlap alike): whether the join holds does not hang
             # on which of the two triangulations happens to put vertices there.
             held = [(got, Join(rig.names[pb], rig.names[pa], kind, got.shape[0]), False)]
-            if not grips and kind == "overlap":
+            if not grips and kind in ("overlap", "across"):
                 back = _glue_rows(rig, pa, pb, lambda xy, m=mask: _inside(m, xy), reach=0.0)
                 held.append((back, Join(rig.names[pa], rig.names[pb], kind, back.shape[0]), True))
                 grips = _grips(rig, *((g, j.part) for g, j, _ in held))
             held = [block for block in held if block[0].shape[0]]
             if not held:
+                continue
+            if kind == "across":  # no join of its own: only where it keeps a part in place
+                if grips:
+                    crossed.append([(g, replace(j, kind="overlap"), back) for g, j, back in held])
                 continue
             # A root or a part on top glued at a vertex or two would pivot there: like an
             # overlap that only pins, it joins only what nothing else joins.
@@ -455,7 +476,8 @@ def rig_relief(relief, completion, *, boundaries=()):
     # Overlaps that grip (glue at least three vertices not on one line) go first: one that
     # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
     overlaps.sort(key=lambda o: not o[1])
-    for held, _ in overlaps:
+    spare = crossed
+    for held, grips in overlaps:
         cols = np.concatenate([got.tocoo().col for got, _, _ in held])
         touched = {find(int(k)) for k in np.unique(piece[cols])}
         if len(touched) > 1:
@@ -463,6 +485,13 @@ def rig_relief(relief, completion, *, boundaries=()):
             for k in others:
                 root[k] = first
             blocks += held
+        elif grips:
+            spare.append(held)
+    # A part the drawing shows no root of keeps its place on every part it lies on (module
+    # docstring): its spare overlaps and crossings that grip are glued too.
+    rooted = {join.part for _, join, _ in blocks if join.kind in ("rooted", "stitch", "graft")}
+    rooted |= {join.part for held, _ in overlaps for _, join, _ in held if join.kind == "rooted"}
+    blocks += [block for held in spare if held[0][1].part not in rooted for block in held]
     blocks = _once_per_vertex(rig, blocks)
     if blocks:
         rig.glue = sp.vstack([got for got, _, _ in blocks]).tocsr()
@@ -589,15 +618,17 @@ def _weld(xy, inverse):
 def _joined_areas(completion):
     """``(part, to, kind, mask)``: the areas where one region is glued to another.
 
-    ``overlap`` areas (a single cut that neither rule takes) come last, the
-    smallest against the smaller part's area first.
+    ``overlap`` areas (a single cut that neither rule takes) come next, the
+    smallest against the smaller part's area first, and last ``across``
+    areas: a part lying across another (its hidden area crosses under the
+    one in front, which nowhere crosses under it), the smaller on the larger.
     """
     labels, owner, beneath = completion.labels, completion.owner, completion.beneath
     area = np.bincount((labels[labels >= 0]).ravel(), minlength=completion.count)
     area = area + np.bincount(owner[owner >= 0].ravel(), minlength=completion.count)
     if beneath is not None:
         area = area + np.bincount(beneath[beneath >= 0].ravel(), minlength=completion.count)
-    out, overlaps = [], []
+    out, overlaps, crossings = [], [], []
     for b in range(completion.count):
         # both hidden layers: which of two parts hidden side by side holds a pixel in
         # ``owner`` and which beneath it does not change where either is hidden
@@ -616,8 +647,10 @@ def _joined_areas(completion):
             a = int(np.bincount(labels[grown][piece]).argmax())
             mask = np.zeros(labels.shape, bool)
             mask[grown] = piece
+            if cuts > 1:
+                crossings.append((b, a, mask))
             if cuts != 1:
-                continue  # crossing only (interlocking rings): not joined
+                continue
             if share < ROOT_CONTACT and area[b] < area[a]:
                 out.append((b, a, "rooted", mask))
             elif area[a] < area[b] and (share >= ON_TOP_CONTACT
@@ -627,7 +660,12 @@ def _joined_areas(completion):
                 small, large = (b, a) if area[b] < area[a] else (a, b)
                 overlaps.append((piece.sum() / area[small], small, large, mask))
     overlaps.sort(key=lambda o: o[0])
-    return out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
+    # interlocking rings cross under each other: not glued
+    under = {(b, a) for b, a, _ in crossings}
+    across = [(b, a, mask) if area[b] < area[a] else (a, b, mask)
+              for b, a, mask in crossings if (a, b) not in under]
+    return (out + [(small, large, "overlap", mask) for _, small, large, mask in overlaps]
+            + [(small, large, "across", mask) for small, large, mask in across])
 
 
 def _hidden_pieces(first, second, labels):
