@@ -494,3 +494,21 @@ def test_the_fox_at_1_mpx_dragged_step_by_step_opens_no_hole_and_folds_nothing(o
     # folded faces with the tail over the body)
     _, steps, holes, folds = _sweep("fox", 1.0, order)
     assert holes == [0] * len(steps) and folds == [0] * len(steps)
+
+
+def test_repairs_neither_compound_nor_cut_off_what_no_handle_holds():
+    # The body held by two handles, the second pushed through the first past the arm's root:
+    # faces fold there and each drag repairs them. The stiffness grew tenfold per repair and
+    # drag (to 1e10 here, 1e18 over the bird's drag at 1 Mpx, where the solve then folded
+    # thousands of faces), and a last repair could release the glue that holds the arm (no
+    # handle of its own) to the body.
+    from inkray.numerics.arap import pieces
+    from inkray.relief.posing import _REPAIRS, _STIFFER
+
+    _, rig = _two_part_character()
+    posing = Posing(rig, [[30.0, 60.0], [66.0, 53.0]])
+    for to in ([40.0, 53.0], [25.0, 53.0], [10.0, 58.0], [0.0, 60.0], [-20.0, 60.0]):
+        x, _ = posing.pose([[30.0, 60.0], to])
+        assert np.allclose(posing.solver.handles @ x, [[30.0, 60.0], to], atol=1e-6)
+        assert posing._stiffness.max() <= _STIFFER ** _REPAIRS
+        assert len(np.unique(pieces(len(x), rig.faces, posing._glue))) == 1

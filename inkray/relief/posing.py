@@ -330,7 +330,8 @@ class Posing:
                 break
             centres = x[self.rig.faces[folded]].mean(axis=1)
             near = _within(x, centres, _REPAIR_REACH)
-            self._stiffness[np.any(near[self.rig.faces], axis=1)] *= _STIFFER
+            grow = np.any(near[self.rig.faces], axis=1)
+            self._stiffness[grow] = np.minimum(self._stiffness[grow] * _STIFFER, _STIFFER ** _REPAIRS)
             if repair == _REPAIRS - 1 and self._glue.shape[0]:
                 touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
                 released = self._glue[touches == 0]
