@@ -176,6 +176,8 @@ class Arap:
         if k.shape != (len(f),) or not np.all(np.isfinite(k) & (k > 0)):
             raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
         self._weights = self._cot * k[:, None]
+        self._args = dict(handles=C, glue=G, glue_weight=glue_weight, exact_glue=exact_glue,
+                          fixed=mask, stiffness=k)
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
         self._edges = _edge_vectors(p, f)
         loose = _unheld(f, G, C, mask)
@@ -333,6 +335,74 @@ class Arap:
         self.pose = x
         return x
 
+    def solve_injective(self, targets, *, initial, iterations=40):
+        """Like :meth:`solve` from a pose that folds no face, never folding one.
+
+        Each round weights every face by how much it is compressed (the
+        isotropic part of the reweighting that turns local/global rounds into
+        a minimizer of the symmetric Dirichlet energy, which grows without
+        bound as a face flattens: Rabinovich, Poranne, Panozzo and
+        Sorkine-Hornung, "Scalable locally injective mappings", TOG 2017),
+        factors the global step again and moves along it only as far as no
+        face flips (Smith and Schaefer, "Bijective parameterization with free
+        boundaries", TOG 2015), 0.8 of the way to the first flip. The handles
+        approach their targets; they are met where the last steps are whole.
+
+        Parameters
+        ----------
+        targets : (k, 2) float array
+        initial : (n, 2) float array
+            A pose in which every face keeps its rest orientation (faces of
+            zero area at rest aside).
+        iterations : int, default 40
+            Rounds, each with its own factorization (the rounds stop early
+            once a whole step moves no vertex by more than 1e-6).
+
+        Returns
+        -------
+        (n, 2) float array
+
+        Examples
+        --------
+        A square held along its left side, its centre dragged to half a unit
+        from that side: the plain solve folds faces there, this one none, and
+        the centre reaches its target.
+
+        >>> x, y = np.meshgrid(np.arange(7.0), np.arange(7.0))
+        >>> v = np.column_stack([x.ravel(), y.ravel()])
+        >>> f = np.concatenate([[[a, a + 1, a + 8], [a, a + 8, a + 7]]
+        ...                     for a in [j * 7 + i for j in range(6) for i in range(6)]])
+        >>> handles = [0, 7, 14, 21, 28, 35, 42, 24]
+        >>> targets = np.vstack([v[handles[:-1]], [[0.5, 3.0]]])
+        >>> solver = Arap(v, f, handles=handles)
+        >>> int(np.sum(signed_areas(solver.solve(targets, iterations=40), f) <= 0))
+        2
+        >>> out = solver.solve_injective(targets, initial=v)
+        >>> int(np.sum(signed_areas(out, f) <= 0)), bool(np.abs(out[24] - [0.5, 3.0]).max() < 1e-4)
+        (0, True)
+        """
+        t = np.asarray(targets, float).reshape(-1, 2)
+        if t.shape[0] != self.handles.shape[0] or not np.all(np.isfinite(t)):
+            raise ValueError(f"targets: expected {self.handles.shape[0]} finite (x, y) points, "
+                             f"got shape {np.shape(targets)}")
+        x = np.asarray(initial, float).copy()
+        sign = np.sign(signed_areas(self.rest, self.faces))
+        if np.any(sign * signed_areas(x, self.faces) < 0) or np.any(
+                (sign != 0) & (signed_areas(x, self.faces) == 0)):
+            raise ValueError("initial: a face is flipped or flat")
+        x[self._fixed] = self.rest[self._fixed]
+        for _ in range(max(1, int(iterations))):
+            k = self._args["stiffness"] * _compression_weights(self.rest, self.faces, x)
+            solver = Arap(self.rest, self.faces, **{**self._args, "stiffness": k})
+            step = solver._global(solver.rotations(x), x, t) - x
+            a = min(1.0, 0.8 * _first_flip(x, self.faces, sign, step))
+            x = x + a * step
+            if a == 1.0 and np.abs(step).max() < 1e-6:
+                break
+        self.pose = x
+        self._cold = False
+        return x
+
     def energy(self, x):
         """The ARAP energy of ``x`` with its best-fitting rotations (0 for a rigid motion).
 
@@ -443,6 +513,55 @@ def best_rotations(rest, faces, x, *, weights=None):
     # S = sum_k w_k e_k d_k^T; the best rotation maximizes tr(R S) = c (S00 + S11) + s (S01 - S10).
     S = np.einsum("mki,mkj->mij", w[..., None] * e, d)
     return np.arctan2(S[:, 0, 1] - S[:, 1, 0], S[:, 0, 0] + S[:, 1, 1])
+
+
+def _compression_weights(rest, faces, x):
+    """Per face, ``(s + 1)(s^2 + 1) / (4 s^3)`` of its smaller singular value ``s`` (at least 1).
+
+    The weight the reweighting of the symmetric Dirichlet energy gives a face
+    compressed to ``s`` (1 at rest): it grows as ``s^-3`` as the face flattens.
+    """
+    e, d = _edge_vectors(rest, faces), _edge_vectors(x, faces)
+    # J maps rest edges 1, 2 to posed ones: J = D E^-1 with the edges as columns
+    E = np.stack([e[:, 1], e[:, 2]], axis=2)
+    D = np.stack([d[:, 1], d[:, 2]], axis=2)
+    det = np.linalg.det(E)
+    ok = np.abs(det) > 1e-12
+    J = np.zeros_like(E)
+    J[ok] = D[ok] @ np.linalg.inv(E[ok])
+    fro = np.einsum("mij,mij->m", J, J)
+    dj = np.abs(np.linalg.det(J))
+    s = np.sqrt(np.maximum(0.5 * (fro - np.sqrt(np.maximum(fro * fro - 4 * dj * dj, 0.0))), 0.0))
+    s = np.maximum(s, 1e-3)
+    w = (s + 1) * (s * s + 1) / (4 * s ** 3)
+    return np.where(ok, np.maximum(w, 1.0), 1.0)
+
+
+def _first_flip(x, faces, sign, step):
+    """The smallest ``a > 0`` at which a face of ``x + a step`` loses its orientation ``sign``."""
+    f = faces
+    p, q = x[f], step[f]
+    e1, e2, g1, g2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
+
+    def cross(u, v):
+        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+
+    # sign * area(a) = c0 + c1 a + c2 a^2 with c0 > 0
+    c0, c1, c2 = sign * cross(e1, e2), sign * (cross(e1, g2) + cross(g1, e2)), sign * cross(g1, g2)
+    live = sign != 0
+    c0, c1, c2 = c0[live], c1[live], c2[live]
+    first = np.full(len(c0), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tiny = np.abs(c2) <= 1e-12 * (np.abs(c1) + np.abs(c0))
+        lin = tiny & (c1 < 0)
+        first[lin] = -c0[lin] / c1[lin]
+        disc = c1 * c1 - 4 * c2 * c0
+        quad = ~tiny & (disc >= 0)
+        r = np.sqrt(np.where(quad, disc, 0.0))
+        roots = np.stack([(-c1 - r) / (2 * c2), (-c1 + r) / (2 * c2)])
+        roots = np.where(roots > 0, roots, np.inf).min(axis=0)
+        first[quad] = roots[quad]
+    return float(first.min(initial=np.inf))
 
 
 def _edge_vectors(v, f):

@@ -90,6 +90,8 @@ _GLUE_WEIGHT = 10.0
 _REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and glue released
 _STIFFER = 10.0
 _REPAIRS = 3
+_INJECTIVE_ROUNDS = 40  # reweighted rounds that never fold, from the last pose that folds nothing
+_HANDLE_TOL = 0.5  # px: how far the rounds that never fold may leave a handle from its target
 
 
 @dataclass
@@ -318,6 +320,7 @@ class Posing:
             Rounds spent.
         """
         t = np.asarray(targets, float).reshape(-1, 2)
+        start = self.solver.pose.copy()
         x = self.solve(t, iterations=iterations)
         spent = iterations
         for repair in range(_REPAIRS + 1):
@@ -325,6 +328,11 @@ class Posing:
             while self.rig.folds(x) and spent < budget:
                 x = self.solve(t, iterations=iterations)
                 spent += iterations
+            if repair == 0 and self.rig.folds(x) and not self.rig.folds(start):
+                y = self.solver.solve_injective(t, initial=start, iterations=_INJECTIVE_ROUNDS)
+                spent += _INJECTIVE_ROUNDS
+                if np.abs(self.solver.handles @ y - t).max() <= _HANDLE_TOL:
+                    return y, spent
             folded = self.rig.folded(x)
             if not folded.size or repair == _REPAIRS:
                 break
@@ -344,7 +352,7 @@ class Posing:
                 if held.all():
                     self._glue = released
             self.solver = self._arap()
-            x = self.solve(t, iterations=iterations, initial=x)
+            x = self.solve(t, iterations=iterations, initial=start)
             spent += iterations
         return x, spent
 
