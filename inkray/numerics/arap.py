@@ -31,6 +31,8 @@ on the handle positions: factored once in :class:`Arap`, reused for every
 drag). A drag warm-starts from the previous pose, so a few iterations suffice.
 """
 
+import copy
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
@@ -175,9 +177,6 @@ class Arap:
         k = np.ones(len(f)) if stiffness is None else np.asarray(stiffness, float).reshape(-1)
         if k.shape != (len(f),) or not np.all(np.isfinite(k) & (k > 0)):
             raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
-        self._weights = self._cot * k[:, None]
-        self._args = dict(handles=C, glue=G, glue_weight=glue_weight, exact_glue=exact_glue,
-                          fixed=mask, stiffness=k)
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
         self._edges = _edge_vectors(p, f)
         loose = _unheld(f, G, C, mask)
@@ -189,17 +188,25 @@ class Arap:
             sp.identity(n, format="csr"), np.arange(n), np.zeros(G.shape[0], bool))
         self.glue_held = held
         Gs = G[np.flatnonzero(~held)]
-        L = _cotmatrix(f, self._weights, n)
-        self._Q = (self._T.T @ (L + glue_weight * (Gs.T @ Gs)) @ self._T).tocsr()
+        self._glue_energy = glue_weight * (Gs.T @ Gs)
         self._fixed = np.flatnonzero(mask)
-        self._eliminate((C @ self._T).tocsr(), mask[self._keep])
+        self._held = ((C @ self._T).tocsr(), mask[self._keep])
+        self._tail = np.concatenate([f[:, (c + 1) % 3] for c in range(3)])
+        self._head = np.concatenate([f[:, (c + 2) % 3] for c in range(3)])
+        self._stiffness = k
+        self._assemble(k)
+
+    def _assemble(self, stiffness):
+        """The global step's factored matrix and right-hand side for these face stiffnesses."""
+        f, n, m = self.faces, len(self.rest), len(self.faces)
+        self._weights = self._cot * stiffness[:, None]
+        L = _cotmatrix(f, self._weights, n)
+        self._Q = (self._T.T @ (L + self._glue_energy) @ self._T).tocsr()
+        self._eliminate(*self._held)
         # The global step's right-hand side b = sum over face edges of R_t w e, into the
         # edge's head (+) and tail (-): b_x = M0 cos - M1 sin, b_y = M0 sin + M1 cos.
-        m = len(f)
-        self._tail = np.concatenate([f[:, (k + 1) % 3] for k in range(3)])
-        self._head = np.concatenate([f[:, (k + 2) % 3] for k in range(3)])
-        w = np.concatenate([self._weights[:, k] for k in range(3)])
-        edges = np.concatenate([self._edges[:, k] for k in range(3)])
+        w = np.concatenate([self._weights[:, c] for c in range(3)])
+        edges = np.concatenate([self._edges[:, c] for c in range(3)])
         self._we0 = w * edges[:, 0]  # edge k of every face, then k + 1, ...
         self._we1 = w * edges[:, 1]
         face = np.tile(np.arange(m), 3)
@@ -210,6 +217,12 @@ class Arap:
         if not self._kkt:
             M = [self._P.T @ Mi for Mi in M]
         self._M0, self._M1 = (Mi.tocsr() for Mi in M)
+
+    def _reweighted(self, stiffness):
+        """This solver with other face stiffnesses (the same handles, glue and held rows)."""
+        other = copy.copy(self)
+        other._assemble(stiffness)
+        return other
 
     def _eliminate(self, C, mask):
         """Factor the global step with the handle rows met exactly.
@@ -392,8 +405,8 @@ class Arap:
             raise ValueError("initial: a face is flipped or flat")
         x[self._fixed] = self.rest[self._fixed]
         for _ in range(max(1, int(iterations))):
-            k = self._args["stiffness"] * _compression_weights(self.rest, self.faces, x)
-            solver = Arap(self.rest, self.faces, **{**self._args, "stiffness": k})
+            solver = self._reweighted(
+                self._stiffness * _compression_weights(self.rest, self.faces, x))
             step = solver._global(solver.rotations(x), x, t) - x
             a = min(1.0, 0.8 * _first_flip(x, self.faces, sign, step))
             x = x + a * step

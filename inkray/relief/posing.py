@@ -91,7 +91,7 @@ _REPAIR_REACH = 6.0  # px: around a face that still folds, faces stiffened and g
 _STIFFER = 10.0
 _REPAIRS = 3
 _INJECTIVE_ROUNDS = 40  # reweighted rounds that never fold, from the last pose that folds nothing
-_HANDLE_TOL = 0.5  # px: how far the rounds that never fold may leave a handle from its target
+_HANDLE_TOL = 0.01  # px: how far the rounds that never fold may leave a handle from its target
 
 
 @dataclass
@@ -303,14 +303,20 @@ class Posing:
     def pose(self, targets, *, iterations=4, max_iterations=64):
         """Like :meth:`solve`, but iterates further until no face folds.
 
-        Where faces still fold after ``max_iterations`` rounds (a thin
-        protrusion dragged by its tip, a glued area meeting a free one), the
-        faces within ``_REPAIR_REACH`` of them are made ``_STIFFER`` times
-        stiffer, the system factored again and the rounds go on, at most
-        ``_REPAIRS`` times; the last time the glue rows there are released
-        too (released glue lets joined parts part, a crack in the picture,
-        so only when stiffness alone has not unfolded them, and not where
-        that would cut off a piece no handle holds). The next drag
+        Where faces still fold after ``max_iterations`` rounds (the energy's
+        minimum folds them: a limb glued over the body swung against a pin, a
+        thin protrusion dragged by its tip), the drag is solved again from the
+        last pose, if it folds nothing, by ``_INJECTIVE_ROUNDS`` rounds that
+        never flip a face (:meth:`inkray.numerics.arap.Arap.solve_injective`:
+        compressed faces weighted stiffer, each step cut before the first
+        flip), kept when they bring every handle within ``_HANDLE_TOL`` of its
+        target. Otherwise (a handle pushed through another) the faces within
+        ``_REPAIR_REACH`` of the folds are made ``_STIFFER`` times stiffer,
+        the system factored again and the rounds start again from the last
+        pose, at most ``_REPAIRS`` times; the last time the glue rows there
+        are released too (released glue lets joined parts part, a crack in
+        the picture, so only when stiffness alone has not unfolded them, and
+        not where that would cut off a piece no handle holds). The next drag
         keeps the repaired system.
 
         Returns
