@@ -153,3 +153,55 @@ def test_glue_rows_that_clash_stay_weighted():
     # the repeated row stays weighted, and vanishes all the same
     assert solver.glue_held.tolist() == [True, True, False]
     assert np.abs(G @ out).max() < 1e-9
+
+
+def _square_pushed():
+    v, f = grid(6, 6)
+    handles = [0, 7, 14, 21, 28, 35, 42, 24]  # the left side, and the centre
+    return v, f, handles, np.vstack([v[handles[:-1]], [[0.5, 3.0]]])
+
+
+def test_the_injective_solve_folds_no_face_where_the_plain_one_does_and_meets_the_handles():
+    v, f, handles, targets = _square_pushed()
+    solver = Arap(v, f, handles=handles)
+    assert np.sum(signed_areas(solver.solve(targets, iterations=60), f) <= 0) > 0
+    out = solver.solve_injective(targets, initial=v)
+    assert np.all(signed_areas(out, f) > 0)
+    assert np.allclose(out[handles], targets, atol=1e-4)
+    assert np.array_equal(solver.pose, out)
+    # the left side is held: the pushed centre compresses the square's left half
+    assert out[24, 0] == pytest.approx(0.5, abs=1e-4) and np.all(out[:, 0] > -1e-9)
+
+
+def test_the_injective_solve_keeps_a_pose_that_meets_its_handles_and_refuses_a_folded_start():
+    v, f = grid(8, 3)
+    solver = Arap(v, f, handles=[0, 8, 35])
+    assert np.allclose(solver.solve_injective(v[[0, 8, 35]], initial=v), v, atol=1e-10)
+    folded = v.copy()
+    folded[10] = [5.0, -3.0]  # an interior vertex pulled across the bottom edge
+    assert np.any(signed_areas(folded, f) < 0)
+    with pytest.raises(ValueError, match="initial"):
+        solver.solve_injective(v[[0, 8, 35]], initial=folded)
+
+
+def test_first_flip_is_where_a_corner_crosses_the_opposite_edge():
+    from inkray.numerics.arap import _first_flip
+
+    v = np.array([[0.0, 0], [2, 0], [0, 2]])
+    f = np.array([[0, 1, 2]])
+    step = np.zeros((3, 2))
+    step[2] = [0.0, -4.0]  # the apex reaches the base at a = 0.5
+    assert _first_flip(v, f, np.array([1.0]), step) == pytest.approx(0.5)
+    step[2] = [0.0, 4.0]  # away from it: never
+    assert _first_flip(v, f, np.array([1.0]), step) == np.inf
+
+
+def test_a_reweighted_solver_with_the_same_stiffness_solves_the_same():
+    v, f, handles, targets = _square_pushed()
+    solver = Arap(v, f, handles=handles, stiffness=np.linspace(1.0, 3.0, len(f)))
+    same = solver._reweighted(solver._stiffness)
+    moved = targets + 0.1 * targets[:, ::-1]
+    x = solver.solve(moved, iterations=3, initial=v)
+    assert np.array_equal(same.solve(moved, iterations=3, initial=v), x)
+    assert not np.allclose(solver._reweighted(2.0 * solver._stiffness[::-1]).solve(
+        moved, iterations=3, initial=v), x)

@@ -512,3 +512,18 @@ def test_repairs_neither_compound_nor_cut_off_what_no_handle_holds():
         assert np.allclose(posing.solver.handles @ x, [[30.0, 60.0], to], atol=1e-6)
         assert posing._stiffness.max() <= _STIFFER ** _REPAIRS
         assert len(np.unique(pieces(len(x), rig.faces, posing._glue))) == 1
+
+
+@pytest.mark.parametrize("to", [[120.0, 20.0], [90.0, 90.0]])
+def test_a_drag_whose_energy_folds_faces_is_posed_without_folds_and_meets_its_handles(to):
+    # The body held at two points, the one by the arm's root pulled far out: the
+    # as-rigid-as-possible minimum itself folds faces (more rounds do not unfold them)
+    _, rig = _two_part_character()
+    handles, targets = [[30.0, 60.0], [66.0, 53.0]], [[30.0, 60.0], to]
+    assert rig.folds(Posing(rig, handles).solve(targets, iterations=68)) > 0
+    posing = Posing(rig, handles)
+    x, _ = posing.pose(targets)
+    assert rig.folds(x) == 0
+    assert np.allclose(posing.solver.handles @ x, targets, atol=1e-6)
+    again, _ = Posing(rig, handles).pose(targets)
+    assert np.array_equal(again, x)
