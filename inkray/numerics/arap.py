@@ -360,6 +360,8 @@ class Arap:
         face flips (Smith and Schaefer, "Bijective parameterization with free
         boundaries", TOG 2015), 0.8 of the way to the first flip. The handles
         approach their targets; they are met where the last steps are whole.
+        As many rounds of the unweighted energy follow, cut the same way, back
+        towards its pose where that folds nothing.
 
         Parameters
         ----------
@@ -411,6 +413,14 @@ class Arap:
             a = min(1.0, 0.8 * _first_flip(x, self.faces, sign, step))
             x = x + a * step
             if a == 1.0 and np.abs(step).max() < 1e-6:
+                break
+        # back towards the unweighted energy's pose, steps still cut before a flip (handles
+        # once met stay met: each step ends where the global step meets them)
+        for _ in range(max(1, int(iterations))):
+            step = self._global(self.rotations(x), x, t) - x
+            a = min(1.0, 0.8 * _first_flip(x, self.faces, sign, step))
+            x = x + a * step
+            if np.abs(a * step).max() < 1e-6:
                 break
         self.pose = x
         self._cold = False
