@@ -279,6 +279,7 @@ class Posing:
                       if fixed[rig.offsets[i]:rig.offsets[i + 1]].all()]
         self._rows, self._fixed, self._glue = rows, np.flatnonzero(fixed), rig.glue.tocsc()
         self._stiffness = np.ones(len(rig.faces))
+        self._unfolded = None  # the last pose that folds nothing
         self.solver = self._arap()
 
     def solve(self, targets, *, iterations=4, initial=None):
@@ -310,10 +311,13 @@ class Posing:
         never flip a face (:meth:`inkray.numerics.arap.Arap.solve_injective`:
         compressed faces weighted stiffer, each step cut before the first
         flip), kept when they bring every handle within ``_HANDLE_TOL`` of its
-        target. Otherwise (a handle pushed through another) the faces within
+        target (the last pose: the solver's, or where that folds, the last
+        one this method returned that folds nothing). Otherwise (a handle
+        pushed through another) the faces within
         ``_REPAIR_REACH`` of the folds are made ``_STIFFER`` times stiffer,
         the system factored again and the rounds start again from the last
-        pose, at most ``_REPAIRS`` times; the last time the glue rows there
+        pose (if it folds nothing; else from the folded one), at most
+        ``_REPAIRS`` times; the last time the glue rows there
         are released too (released glue lets joined parts part, a crack in
         the picture, so only when stiffness alone has not unfolded them, and
         not where that would cut off a piece no handle holds). The next drag
@@ -327,6 +331,10 @@ class Posing:
         """
         t = np.asarray(targets, float).reshape(-1, 2)
         start = self.solver.pose.copy()
+        if self.rig.folds(start) and self._unfolded is not None:
+            # solves since the last pose folded faces (drags by :meth:`solve`)
+            start = self._unfolded
+        unfolded = not self.rig.folds(start)
         x = self.solve(t, iterations=iterations)
         spent = iterations
         for repair in range(_REPAIRS + 1):
@@ -334,10 +342,11 @@ class Posing:
             while self.rig.folds(x) and spent < budget:
                 x = self.solve(t, iterations=iterations)
                 spent += iterations
-            if repair == 0 and self.rig.folds(x) and not self.rig.folds(start):
+            if repair == 0 and unfolded and self.rig.folds(x):
                 y = self.solver.solve_injective(t, initial=start, iterations=_INJECTIVE_ROUNDS)
                 spent += _INJECTIVE_ROUNDS
                 if np.abs(self.solver.handles @ y - t).max() <= _HANDLE_TOL:
+                    self._unfolded = y
                     return y, spent
             folded = self.rig.folded(x)
             if not folded.size or repair == _REPAIRS:
@@ -358,8 +367,10 @@ class Posing:
                 if held.all():
                     self._glue = released
             self.solver = self._arap()
-            x = self.solve(t, iterations=iterations, initial=start)
+            x = self.solve(t, iterations=iterations, initial=start if unfolded else x)
             spent += iterations
+        if not self.rig.folds(x):
+            self._unfolded = x
         return x, spent
 
     def _arap(self):
