@@ -11,9 +11,10 @@ layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
 through the affine map of the triangle that covers it. Each part's front
 mesh is scan-converted on its own so that it covers every pixel centre in it
 exactly once (no cracks between its triangles; where a pose folds a strip of
-a part over the part itself, its highest triangle that shows), and a band of ``_SKIRT`` px
-around it carries the part's layer beyond its triangles (the triangles follow
-the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
+a part over the part itself, its highest triangle whose layer shows there),
+and a band of ``_SKIRT`` px around it carries the part's layer beyond its
+triangles (the triangles follow the outline, the layer the ink's
+anti-aliasing; where the band overlaps itself,
 its most opaque piece; the relief has no height there, so between parts of one
 drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
