@@ -135,11 +135,9 @@ def test_scan_conversion_covers_every_pixel_centre_of_a_mesh_exactly_once():
     assert np.all(np.stack(cross) * sign >= -1e-9)
 
 
-@pytest.mark.parametrize("low", [0, 1])
-def test_a_part_folded_over_itself_shows_its_highest_surface(low):
-    # one part of two squares apart at rest (the left one drawn 200, the right 50); posed,
-    # the right square lies on the left one: the higher of the two shows there, whichever
-    # of them comes first among the faces
+def _folded(low, layers, rgb):
+    # one part of two squares apart at rest, the square ``low`` lower; posed, the right
+    # square lies on the left one
     z = [2.0, 2.0]
     z[low] = 1.0
     a, _ = square(z=z[0])
@@ -148,11 +146,33 @@ def test_a_part_folded_over_itself_shows_its_highest_surface(low):
     faces = np.vstack([a.faces, b.faces + 4])
     posed = rest.copy()
     posed[4:, 0] -= 5.0
+    return posed_image(Relief([Part("p", posed, faces)], size=(9, 4)),
+                       Relief([Part("p", rest, faces)], size=(9, 4)), layers, rgb)
+
+
+@pytest.mark.parametrize("low", [0, 1])
+def test_a_part_folded_over_itself_shows_its_highest_surface(low):
+    # the left square drawn 200, the right 50: the higher of the two shows where they
+    # overlap, whichever of them comes first among the faces
     rgb = np.zeros((4, 9, 3), np.uint8)
     rgb[:, :4], rgb[:, 5:] = 200, 50
-    img, _ = posed_image(Relief([Part("p", posed, faces)], size=(9, 4)),
-                         Relief([Part("p", rest, faces)], size=(9, 4)), Cutout([], (9, 4)), rgb)
+    img, _ = _folded(low, Cutout([], (9, 4)), rgb)
     assert (img[:, :4, 0] == (50 if low == 0 else 200)).all()
+
+
+@pytest.mark.parametrize("low", [0, 1])
+def test_a_part_folded_over_itself_shows_the_piece_under_a_transparent_one(low):
+    # the higher square's layer is paper (an open mouth swung over the neck): the lower
+    # square shows through it, opaque, whichever of them is higher
+    from inkray.relief.cutout import CutoutLayer
+
+    rgba = np.zeros((4, 9, 4), np.uint8)
+    rgba[:, slice(0, 4) if low == 0 else slice(5, 9)] = [120, 120, 120, 255]
+    layer = CutoutLayer(name="p", region=0, top=0, left=0, rgba=rgba,
+                        hidden=np.zeros((4, 9), bool))
+    img, part = _folded(low, Cutout([layer], (9, 4)), np.zeros((4, 9, 3), np.uint8))
+    assert (img[:, :4, 3] == 255).all() and (img[:, :4, 0] == 120).all()
+    assert (part[:, :4] == 0).all()
 
 
 @pytest.mark.parametrize("inked", [0, 1])

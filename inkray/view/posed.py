@@ -11,9 +11,10 @@ layer (:mod:`inkray.relief.cutout`) at the pixel's rest position, found
 through the affine map of the triangle that covers it. Each part's front
 mesh is scan-converted on its own so that it covers every pixel centre in it
 exactly once (no cracks between its triangles; where a pose folds a strip of
-a part over the part itself, its highest triangle), and a band of ``_SKIRT`` px
-around it carries the part's layer beyond its triangles (the triangles follow
-the outline, the layer the ink's anti-aliasing; where the band overlaps itself,
+a part over the part itself, its highest triangle whose layer shows there),
+and a band of ``_SKIRT`` px around it carries the part's layer beyond its
+triangles (the triangles follow the outline, the layer the ink's
+anti-aliasing; where the band overlaps itself,
 its most opaque piece; the relief has no height there, so between parts of one
 drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
@@ -573,7 +574,7 @@ class _PartSource:
             frags[pix] = tri
             if chosen.start:
                 _most_opaque(frags, pix, tri, local, faces, rest, self.texture, bw)
-        _highest(frags, pix, tri, local, faces, z, bw)
+        _highest(frags, pix, tri, local, faces, z, rest, self.texture, bw)
         pix = np.flatnonzero(frags >= 0)
         if not pix.size:
             return None
@@ -593,22 +594,27 @@ class _PartSource:
                 (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
 
-def _highest(frags, pix, tri, points, faces, z, width):
-    """Where a part's posed triangles overlap each other, the highest one's: ``frags`` in place.
+def _highest(frags, pix, tri, points, faces, z, rest, texture, width):
+    """Where a part's posed triangles overlap each other, the highest one whose layer shows
+    there (alpha not rounding to 0; else the highest): ``frags`` in place.
 
     A pose can fold a strip of a mesh over its own interior with every
     triangle kept the right way round (a border held by its glue while the
     part turns); the strip, lower than the interior it slides over (an
     inflated part is lowest at its outline), goes under it, as a part under
-    another does, instead of whichever triangle was scanned last.
+    another does, instead of whichever triangle was scanned last. What does
+    not show is not there, as between parts: a piece of the part that
+    carries paper (an open mouth swung over the neck) or only the faint end
+    of its soft edge shows the piece under it.
     """
     many = np.bincount(pix, minlength=frags.size)[pix] > 1
     if not many.any():
         return
     pix, tri = pix[many], tri[many]
-    k = _affine(points, faces[tri], z[:, None])
-    row, col = np.divmod(pix, width)
-    _largest(frags, pix, tri, k[:, 0] * col + k[:, 1] * row + k[:, 2])
+    tx, ty, tex = texture
+    at = _at(points, faces[tri], np.column_stack([z, rest - [tx, ty]]), pix, width)
+    # shown: its alpha does not round to 0 in the picture
+    _largest(frags, pix, tri, at[:, 0], _bilinear(tex, at[:, 1:])[:, 3] > 0.5)
 
 
 def _most_opaque(frags, pix, tri, points, faces, rest, texture, width):
@@ -624,15 +630,23 @@ def _most_opaque(frags, pix, tri, points, faces, rest, texture, width):
         return
     pix, tri = pix[many], tri[many]
     tx, ty, tex = texture
-    k = _affine(points, faces[tri], rest - [tx, ty])
-    row, col = np.divmod(pix, width)
-    at = k[:, 0:2] * col[:, None] + k[:, 2:4] * row[:, None] + k[:, 4:6]
+    at = _at(points, faces[tri], rest - [tx, ty], pix, width)
     _largest(frags, pix, tri, _bilinear(tex, at)[:, 3])
 
 
-def _largest(frags, pix, tri, key):
-    """Per pixel of ``pix``, the triangle of ``tri`` with the largest ``key``: ``frags`` in place."""
-    order = np.lexsort((key, pix))
+def _at(points, triangles, values, pix, width):
+    """``values`` (n, c), affine over each of ``triangles`` (one per pixel), at the pixels
+    ``pix`` (flat, rows ``width`` long): (k, c)."""
+    k = _affine(points, triangles, values)
+    row, col = np.divmod(pix, width)
+    c = values.shape[1]
+    return k[:, :c] * col[:, None] + k[:, c:2 * c] * row[:, None] + k[:, 2 * c:]
+
+
+def _largest(frags, pix, tri, *keys):
+    """Per pixel of ``pix``, the triangle of ``tri`` with the largest ``keys`` (the last one
+    first, as in :func:`numpy.lexsort`): ``frags`` in place."""
+    order = np.lexsort((*keys, pix))
     pix, tri = pix[order], tri[order]
     top = np.r_[pix[1:] != pix[:-1], True]
     frags[pix[top]] = tri[top]
