@@ -143,10 +143,12 @@ def _turn(p, about, degrees):
     return about + r @ (p - about)
 
 
-def _home(rig, x, faces, points, shape, *, on_face=False):
+def _home(rig, x, faces, points, shape, *, on_face=False, rigid=False):
     """Squared distance from each point to the posed ``faces`` (rig positions ``x``) and the
     pixel (row, column) it comes from at rest through the nearest face's affine map (with
-    ``on_face``, the nearest point of the face's)."""
+    ``on_face``, the nearest point of the face's; with ``rigid``, that point's, plus the
+    offset to it turned by the face's rotation: beyond its triangles the picture's band
+    carries a part's layer rigidly, not stretched as a pinched face would stretch it)."""
     import igl
 
     flat = np.column_stack([x, np.zeros(len(x))])
@@ -159,6 +161,15 @@ def _home(rig, x, faces, points, shape, *, on_face=False):
     l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
     l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
     q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
+    if rigid:
+        _, q_near, _ = _home(rig, x, faces, points, None, on_face=True)
+        # the face's posed -> rest map, A = H P^-1, and its rotation (polar decomposition)
+        a = np.stack([home[:, 1] - home[:, 0], home[:, 2] - home[:, 0]], axis=2) @ np.linalg.inv(
+            np.stack([e1, e2], axis=2))
+        u, _, vt = np.linalg.svd(a)
+        q = q_near + np.einsum("kij,kj->ki", u @ vt, np.asarray(points, float) - near[:, :2])
+    if shape is None:
+        return d2, q, face
     h, w = shape
     return (d2, np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1),
             np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1))
@@ -170,7 +181,8 @@ def _holes(posed, x, img, rest, *, where=False):
 
     A pixel is taken back to the drawing by every part whose posed mesh comes within
     ``_REACH`` px of it (else by the nearest part), through that part's nearest triangle
-    (its affine map, extrapolated outside the triangle). If one of them takes it to paper,
+    (its affine map; outside the triangle, the offset from it turned as the triangle
+    turns, as the picture's band draws a layer there). If one of them takes it to paper,
     the pixel is paper the pose carried (a leg closing on the other, a notch between two
     parts closing): no hole.
     """
@@ -185,7 +197,7 @@ def _holes(posed, x, img, rest, *, where=False):
         faces = rig.faces[rig.part_of_face == i].astype(np.int64)
         if not len(faces):
             continue
-        d2, row, col = _home(rig, x, faces, p, rest.shape[:2])
+        d2, row, col = _home(rig, x, faces, p, rest.shape[:2], rigid=True)
         dist.append(np.sqrt(d2))
         paper.append(rest[row, col, 3] == 0)
     dist, paper = np.array(dist), np.array(paper)
