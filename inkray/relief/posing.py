@@ -304,24 +304,24 @@ class Posing:
     def pose(self, targets, *, iterations=4, max_iterations=64):
         """Like :meth:`solve`, but iterates further until no face folds.
 
-        Where faces still fold after ``max_iterations`` rounds (the energy's
-        minimum folds them: a limb glued over the body swung against a pin, a
-        thin protrusion dragged by its tip), the drag is solved again from the
-        last pose, if it folds nothing, by ``_INJECTIVE_ROUNDS`` rounds that
-        never flip a face (:meth:`inkray.numerics.arap.Arap.solve_injective`:
-        compressed faces weighted stiffer, each step cut before the first
-        flip), kept when they bring every handle within ``_HANDLE_TOL`` of its
-        target (the last pose: the solver's, or where that folds, the last
-        one this method returned that folds nothing). Otherwise (a handle
-        pushed through another) the faces within
-        ``_REPAIR_REACH`` of the folds are made ``_STIFFER`` times stiffer,
-        the system factored again and the rounds start again from the last
-        pose (if it folds nothing; else from the folded one), at most
-        ``_REPAIRS`` times; the last time the glue rows there
-        are released too (released glue lets joined parts part, a crack in
-        the picture, so only when stiffness alone has not unfolded them, and
-        not where that would cut off a piece no handle holds). The next drag
-        keeps the repaired system.
+        Where faces still fold after ``max_iterations`` rounds, the faces
+        within ``_REPAIR_REACH`` of the folds are made ``_STIFFER`` times
+        stiffer, the system factored again and the rounds start again from
+        the last pose (if it folds nothing; else from the folded one), at most
+        ``_REPAIRS`` times; the next drag keeps the repaired system, so a drag
+        on costs what it did. Where that has not unfolded them (the energy's
+        minimum folds them: a limb glued over the body swung against a pin),
+        before the last repair the drag is solved again from the last pose, if
+        it folds nothing, by ``_INJECTIVE_ROUNDS`` rounds that never flip a
+        face (:meth:`inkray.numerics.arap.Arap.solve_injective`: compressed
+        faces weighted stiffer, each step cut before the first flip), kept
+        when they bring every handle within ``_HANDLE_TOL`` of its target (the
+        last pose: the solver's, or where that folds, the last one this
+        method returned that folds nothing). Otherwise (a handle pushed
+        through another) the last repair releases the glue rows near the folds
+        too (released glue lets joined parts part, a crack in the picture, so
+        only when nothing else has unfolded them, and not where that would cut
+        off a piece no handle holds).
 
         Returns
         -------
@@ -342,15 +342,15 @@ class Posing:
             while self.rig.folds(x) and spent < budget:
                 x = self.solve(t, iterations=iterations)
                 spent += iterations
-            if repair == 0 and unfolded and self.rig.folds(x):
+            folded = self.rig.folded(x)
+            if not folded.size or repair == _REPAIRS:
+                break
+            if repair == _REPAIRS - 1 and unfolded:
                 y = self.solver.solve_injective(t, initial=start, iterations=_INJECTIVE_ROUNDS)
                 spent += _INJECTIVE_ROUNDS
                 if np.abs(self.solver.handles @ y - t).max() <= _HANDLE_TOL:
                     self._unfolded = y
                     return y, spent
-            folded = self.rig.folded(x)
-            if not folded.size or repair == _REPAIRS:
-                break
             centres = x[self.rig.faces[folded]].mean(axis=1)
             near = _within(x, centres, _REPAIR_REACH)
             grow = np.any(near[self.rig.faces], axis=1)
