@@ -251,7 +251,8 @@ def _seal(out, shown, size, clear, parts):
 
     Where posed parts meet, each one's layer fades out at its outline: a pose that slides
     them a pixel apart can leave pixels that they reach only with their transparent rims
-    (their skirts, or triangles where a layer is transparent), enclosed by the picture,
+    (their skirts, or triangles where a layer is transparent or so faint that the picture
+    rounds it to transparent), enclosed by the picture,
     where the drawing (the flattened layer stack) has ink or a soft edge at every rest
     position a part carries them from. Such a pixel is drawn from its neighbours
     (:func:`_inpaint`) and shows the highest of those parts; one that any part covering it
@@ -589,7 +590,8 @@ class _PartSource:
         # what is fully transparent is not there: the surface under it shows
         keep = rgba[:, 3] > 0
         flat = (row + lo[1]) * w + col + lo[0]
-        clear = ~keep
+        # what the picture rounds to transparent may leave a speck to seal
+        clear = rgba[:, 3] < 0.5
         return (flat[keep], at[keep, 0], rgba[keep], tri[keep] >= inner,
                 (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
