@@ -155,21 +155,14 @@ def _home(rig, x, faces, points, shape, *, on_face=False, rigid=False):
     query = np.column_stack([points, np.zeros(len(points))])
     d2, face, near = igl.point_mesh_squared_distance(query, flat, faces)
     t, home = x[faces[face]], rig.vertices[faces[face]]
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    r = (near[:, :2] if on_face else points) - t[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
-    l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-    q = home[:, 0] + l1[:, None] * (home[:, 1] - home[:, 0]) + l2[:, None] * (home[:, 2] - home[:, 0])
-    if rigid:
-        _, q_near, _ = _home(rig, x, faces, points, None, on_face=True)
-        # the face's posed -> rest map, A = H P^-1, and its rotation (polar decomposition)
-        a = np.stack([home[:, 1] - home[:, 0], home[:, 2] - home[:, 0]], axis=2) @ np.linalg.inv(
-            np.stack([e1, e2], axis=2))
+    # the face's posed -> rest affine map: A = H P^-1 on the edges from corner 0
+    a = np.stack([home[:, 1] - home[:, 0], home[:, 2] - home[:, 0]], axis=2) @ np.linalg.inv(
+        np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], axis=2))
+    near = near[:, :2]
+    q = home[:, 0] + np.einsum("kij,kj->ki", a, (near if on_face or rigid else points) - t[:, 0])
+    if rigid:  # the offset beyond the face turned by its rotation (A's polar part)
         u, _, vt = np.linalg.svd(a)
-        q = q_near + np.einsum("kij,kj->ki", u @ vt, np.asarray(points, float) - near[:, :2])
-    if shape is None:
-        return d2, q, face
+        q += np.einsum("kij,kj->ki", u @ vt, np.asarray(points, float) - near)
     h, w = shape
     return (d2, np.clip(np.rint(q[:, 1]).astype(int), 0, h - 1),
             np.clip(np.rint(q[:, 0]).astype(int), 0, w - 1))

@@ -442,7 +442,8 @@ def rig_relief(relief, completion, *, boundaries=()):
               index=index, glue=sp.csr_matrix((0, len(vertices))), relief=relief)
     # Row blocks: (glue rows, their join, whether they are the larger part's rows of an
     # overlap, reported within the smaller part's join to it).
-    blocks, overlaps, crossed = [], [], []
+    # spare: glue taken only where it keeps a part with no root in place (below)
+    blocks, overlaps, spare = [], [], []
     region_part = {names.index(n): i for i, n in enumerate(rig.names)}
     for b, a, kind, mask in _joined_areas(completion):
         if b in region_part and a in region_part:
@@ -468,7 +469,7 @@ def rig_relief(relief, completion, *, boundaries=()):
                 continue
             if kind == "across":  # no join of its own: only where it keeps a part in place
                 if grips:
-                    crossed.append([(g, replace(j, kind="overlap"), back) for g, j, back in held])
+                    spare.append([(g, replace(j, kind="overlap"), back) for g, j, back in held])
                 continue
             # A root or a part on top glued at a vertex or two would pivot there: like an
             # overlap that only pins, it joins only what nothing else joins.
@@ -502,7 +503,6 @@ def rig_relief(relief, completion, *, boundaries=()):
     # Overlaps that grip (glue at least three vertices not on one line) go first: one that
     # glues a vertex or two is a pin the part pivots about, taken only where nothing grips.
     overlaps.sort(key=lambda o: not o[1])
-    spare = crossed
     for held, grips in overlaps:
         cols = np.concatenate([got.tocoo().col for got, _, _ in held])
         touched = {find(int(k)) for k in np.unique(piece[cols])}
