@@ -269,8 +269,9 @@ class ReliefChain:
     def candidates(self):
         """:class:`~inkray.relief.completion.Completion` of every neighbouring pair, before the order."""
         seg = self.segmentation
+        grafts = [b.path for b in self.annotations.boundaries if b.type == "graft"]
         return self._stage("complete", ("complete", self._segment_key()), lambda: complete_regions(
-            seg.labels, names=seg.names, progress=self.progress))
+            seg.labels, names=seg.names, grafts=grafts, progress=self.progress))
 
     @property
     def relations(self):

@@ -539,3 +539,58 @@ def test_large_single_right_hand_sides_by_multigrid_match_the_factorization(monk
     assert (exact[1] >= 0).sum() > 3000
     for e, f in zip(exact, fast):
         np.testing.assert_array_equal(e, f)
+
+
+def _thigh_on_a_disk():
+    """A disk whose lower-left quadrant is a part of its own (a thigh folded against a
+    body), cut from the rest across the paper by a graft along y = 100."""
+    disk = (XX - 100.0) ** 2 + (YY - 100.0) ** 2 < 80 ** 2
+    labels = np.where(disk, 0, -1).astype(np.int32)
+    labels[disk & (YY >= 100) & (XX < 100)] = 1
+    graft = np.array([[20.0, 100.0], [100.0, 100.0]])
+    return labels, disk, graft
+
+
+def test_a_graft_shares_the_round_silhouette_at_its_end():
+    from inkray.relief.completion import shared_outlines
+
+    labels, disk, graft = _thigh_on_a_disk()
+    shared = shared_outlines(labels, [graft])
+    # The thigh's silhouette (the quarter arc beyond the graft's end on it) continues the
+    # body's outline to where the thigh ends; the body's continues the thigh's.
+    beside = (labels < 0) & ndimage.binary_dilation(labels == 1)
+    run = np.zeros(labels.shape, bool)
+    run[tuple(shared[(1, 0)].T)] = True
+    assert run.sum() >= 0.9 * beside.sum() and not (run & ~beside).any()
+    assert (0, 1) in shared
+    # A graft whose end lies off the silhouette shares nothing.
+    assert shared_outlines(labels, [np.array([[60.0, 100.0], [100.0, 100.0]])]) == {}
+
+
+def test_the_body_under_a_grafted_thigh_reaches_the_silhouette():
+    labels, disk, graft = _thigh_on_a_disk()
+    place = lambda c: next(p for p in c.places if (p.a, p.b) == (0, 1))  # noqa: E731
+    completed = {}
+    for grafts in ((), (graft,)):
+        c = complete_regions(labels, names=["body", "thigh"], grafts=grafts)
+        over = Relation(front=1, back=0, front_name="thigh", back_name="body",
+                        where=place(c).where, source="user", confidence=1.0,
+                        place=place(c).index, entry=0)
+        completed[len(grafts)] = c.ordered([over]).completed(0)
+    # The whole disk is the body's; without the graft the diffusion stops half-way across.
+    assert iou(completed[1], disk) > 0.98
+    assert iou(completed[0], disk) < 0.93
+
+
+def test_a_straight_limb_below_a_round_body_keeps_its_own_outline():
+    from inkray.relief.completion import shared_outlines
+
+    # A bar hanging from a disk, its outer side running on tangent to the disk: the disk's
+    # outline bends, the bar's runs straight, so the body does not follow it down.
+    disk = (XX - 100.0) ** 2 + (YY - 70.0) ** 2 < 50 ** 2
+    bar = (XX >= 50) & (XX < 90) & (YY >= 70) & (YY < 190)
+    labels = np.where(disk, 0, -1).astype(np.int32)
+    labels[bar] = 1
+    shared = shared_outlines(labels, [np.array([[50.0, 70.0], [90.0, 70.0]])])
+    run = shared.get((1, 0), np.zeros((0, 2), int))
+    assert len(run) == 0 or run[:, 0].max() < 100

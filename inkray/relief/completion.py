@@ -23,6 +23,14 @@ Where no value exceeds 0.5 a few pixels of ``A`` between two hidden parts
 belong to ``A`` alone; the ordered completion gives such narrow gaps to a
 part hidden beside them (:func:`close_gaps`), so that what a posed part
 uncovers is always some part's completed area.
+
+Where a graft cuts two parts apart across the paper (a thigh folded against
+a frog's body), the silhouette at the graft's end has no junction: it is the
+outline of either part as much as the other's. Along it, as far as it keeps
+bending outward as an outline does (:func:`shared_outlines`), it counts as the
+hidden part's own outline, both in the diffusion (value 1) and in the
+continued outline; the body under the thigh reaches the rump's silhouette
+instead of stopping half-way across the thigh.
 """
 
 from dataclasses import dataclass, field, replace
@@ -39,7 +47,7 @@ from inkray.numerics.threads import thread_imap, thread_map
 from inkray.relief.cutout import stack_order
 
 __all__ = ["Completion", "Place", "complete_regions", "continue_outline", "close_gaps",
-           "check_labels", "GAP"]
+           "shared_outlines", "check_labels", "GAP"]
 
 #: The widest strip of an occluder beside a part hidden under it that the ordered completion
 #: gives to that part (:func:`close_gaps`), as a share of the image's size ``sqrt(H W)``: the
@@ -52,6 +60,12 @@ GAP = 0.006
 #: The bundled drawings at their own size stay below it but for the four largest.
 COARSE_ABOVE = 60_000
 
+#: A silhouette shared at a graft's end is followed while it bends outward at least as much
+#: as a circle of radius ``SHARED_RADIUS`` times ``sqrt(H W)``: it stops where it straightens
+#: (a limb's own outline running on from a round shoulder) or bends inward.
+SHARED_RADIUS = 4.0
+_SHARED_SCALE = 0.01  # the silhouette's curvature is read at this scale (share of sqrt(H W))
+_SHARED_NEAR = 0.03   # a graft's end this close to the silhouette (share of sqrt(H W)) is on it
 _ROUNDING = 2.0  # px: width over which a continued outline turns into its closing offset
 _OUTSIDE = -2  # beyond the image frame: no neighbour (zero normal derivative there)
 _STEPS = ((0, 1), (1, 0), (0, -1), (-1, 0))
@@ -139,6 +153,11 @@ class Completion:
         the other's hidden part, the one lower in the layer stack, else ``-1``
         (see :meth:`ordered`). At rest ``owner`` covers it; when ``owner``'s
         part moves away in a pose, it shows. None before the order.
+    shared : dict
+        ``(front, back)``: the paper pixels along the silhouette of ``front``
+        that continue the outline of ``back`` grafted to it, a (k, 2) int
+        array of (row, column) (see :func:`shared_outlines`); empty without
+        grafts.
     """
 
     labels: np.ndarray
@@ -147,6 +166,7 @@ class Completion:
     neighbours: list
     places: list
     beneath: np.ndarray = None
+    shared: dict = field(default_factory=dict)
 
     @property
     def count(self):
@@ -230,8 +250,9 @@ class Completion:
                     for front, back, p, piece in kept
                     if piece.any() and (front, back, p.index) not in memo}
             # Each reshaping reads only the labels; applied below in the relations' order.
-            memo.update(zip(todo, thread_map(lambda args: _continuation(self.labels, *args),
-                                             list(todo.values()))))
+            memo.update(zip(todo, thread_map(
+                lambda args: _continuation(self._outlined(args[0], args[1]), *args),
+                list(todo.values()))))
             for front, back, p, piece in kept:
                 found = memo.get((front, back, p.index))
                 if piece.any() and found is not None:  # None: no outline of its own to continue
@@ -245,6 +266,17 @@ class Completion:
                          for front, back, p, piece in kept if piece.any()]
             _second_layers(self.labels, owner, beneath, continued, relations, self.count)
         return replace(self, owner=owner, beneath=beneath)
+
+
+    def _outlined(self, front, back):
+        """The labels with the silhouette of ``front`` that continues ``back``'s outline
+        given to ``back`` (the labels themselves when there is none)."""
+        run = self.shared.get((front, back))
+        if run is None:
+            return self.labels
+        labels = self.labels.copy()
+        labels[run[:, 0], run[:, 1]] = back
+        return labels
 
 
 def _second_layers(labels, owner, beneath, continued, relations, count):
@@ -578,7 +610,7 @@ def check_labels(labels, *, names=None):
 
 
 def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
-                     coarse_above=COARSE_ABOVE, progress=None):
+                     coarse_above=COARSE_ABOVE, grafts=(), progress=None):
     """Complete every region under each of its neighbours (illusory surfaces).
 
     For each region ``A`` the Laplace equation is solved on ``A``'s pixels,
@@ -616,14 +648,20 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
         neighbour's values are solved whole (by multigrid above the same
         size: the same owners). ``None`` solves every occluder at full
         resolution.
+    grafts : sequence of (k, 2) arrays, optional
+        Paths ``(x, y)`` in pixels that cut two parts apart across the paper
+        (the annotations' ``graft`` boundaries). Where one ends on the
+        silhouette, the silhouette it shares counts as either part's outline
+        under the other (:func:`shared_outlines`): value 1 for that part.
     progress : inkray.progress.Progress, optional
         Receives ``update(done, R)`` after each occluder.
 
     Returns
     -------
     Completion
-        Candidate completions of every pair in both directions, and the
-        places (overlap areas) of every neighbouring pair.
+        Candidate completions of every pair in both directions, the places
+        (overlap areas) of every neighbouring pair, and the ``shared``
+        outlines.
 
     Raises
     ------
@@ -654,9 +692,15 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
     # Each occluder writes only its own pixels of ``owner``: two at a time (SuperLU lets
     # go of the GIL while it factors); the result does not depend on it. An error of the
     # progress (a superseded edit) stops the regions not yet started.
+    shared = shared_outlines(labels, grafts) if len(grafts) else {}
+    seen = {}  # per occluder: its labels with the outlines it shares given to their parts
+    for (front, back), run in shared.items():
+        seen.setdefault(front, labels.copy())[run[:, 0], run[:, 1]] = back
+
     def complete_under(a):
         if boxes[a] is not None:
-            _complete_under(labels, a, boxes[a], owner, threshold, reach, coarse_above)
+            _complete_under(seen.get(a, labels), a, boxes[a], owner, threshold, reach,
+                            coarse_above)
 
     # The largest occluders first, so that the two workers end about together.
     pixels = np.bincount(labels.ravel() + 1, minlength=count + 1)[1:]
@@ -667,7 +711,131 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
     neighbours = _neighbours(labels, count)
     places = _places(labels, owner)
     return Completion(labels=labels, names=names, owner=owner, neighbours=neighbours,
-                      places=places)
+                      places=places, shared=shared)
+
+
+def shared_outlines(labels, grafts, *, radius=SHARED_RADIUS):
+    """The silhouettes that continue a grafted neighbour's outline.
+
+    A graft cuts two parts apart across the paper, with no stroke between
+    them (a thigh folded against a frog's body). Where its path ends on the
+    silhouette there is no junction: the silhouette is the outline of either
+    part as much as the other's. From that end it is followed along each
+    part while it bends outward, as the outline it continues does (a round
+    rump); it stops where it straightens or bends inward (a limb's
+    own outline running on from a round shoulder, the notch where a
+    donkey's leg leaves its rump, a foot's toes) and where the part ends.
+    The silhouette's curvature is that of the filled character smoothed by
+    a Gaussian of 1 % of ``sqrt(H W)`` (at least 4 px), read on the paper
+    beside the part and averaged along it over the same width.
+
+    Parameters
+    ----------
+    labels : (H, W) int array
+        ``-1`` background, ``0..R-1`` parts.
+    grafts : sequence of (k, 2) arrays
+        Graft paths ``(x, y)`` in pixels; a path whose middle does not lie
+        between two parts is skipped.
+    radius : float, default ``SHARED_RADIUS``
+        The silhouette stops at a curvature below ``1 / (radius sqrt(H W))``.
+
+    Returns
+    -------
+    dict
+        ``(front, back)``: (k, 2) int array of (row, column), the paper
+        pixels along the silhouette of ``front`` that continue the outline
+        of ``back``; pairs without such a stretch are left out.
+
+    Examples
+    --------
+    A disk cut in two across by a graft: the lower half's silhouette
+    continues the upper half's outline all round, the upper half's the
+    lower's:
+
+    >>> import numpy as np
+    >>> yy, xx = np.mgrid[:100, :100]
+    >>> labels = np.where(np.hypot(yy - 50, xx - 50) < 40, 0, -1).astype(np.int32)
+    >>> labels[(labels == 0) & (yy >= 50)] = 1
+    >>> shared = shared_outlines(labels, [np.array([[10.0, 50.0], [90.0, 50.0]])])
+    >>> sorted(shared), all(len(run) > 100 for run in shared.values())
+    ([(0, 1), (1, 0)], True)
+    """
+    labels = np.asarray(labels)
+    h, w = labels.shape
+    size = np.sqrt(labels.size)
+    # Below 4 px the smoothing leaves the pixels' stair-steps in the curvature.
+    scale, near = max(_SHARED_SCALE * size, 4.0), _SHARED_NEAR * size
+    out = {}
+    for path in grafts:
+        path = np.asarray(path, float).reshape(-1, 2)
+        pair = _grafted_pair(labels, path)
+        if pair is None:
+            continue
+        pad = int(np.ceil(4 * scale + near)) + 2
+        parts = np.isin(labels, pair)
+        rows, cols = np.flatnonzero(parts.any(axis=1)), np.flatnonzero(parts.any(axis=0))
+        y0, x0 = max(rows[0] - pad, 0), max(cols[0] - pad, 0)
+        y1, x1 = min(rows[-1] + pad + 1, h), min(cols[-1] + pad + 1, w)
+        lab = labels[y0:y1, x0:x1]
+        solid = ndimage.binary_fill_holes(lab >= 0)
+        curvature = _level_curvature(ndimage.gaussian_filter(solid.astype(float), scale))
+        outside = ~solid
+        to_outside = ndimage.distance_transform_edt(solid)
+        ends = [(x - x0, y - y0) for x, y in path[[0, -1]]
+                if 0 <= y - y0 < lab.shape[0] and 0 <= x - x0 < lab.shape[1]
+                and to_outside[int(round(y - y0)), int(round(x - x0))] <= near]
+        if not ends:
+            continue
+        for front, back in (pair, pair[::-1]):
+            beside = outside & ndimage.binary_dilation(lab == front)
+            # Averaged along the silhouette: the pixels' stair-steps are no bends.
+            weight = ndimage.gaussian_filter(beside.astype(float), scale)
+            along = ndimage.gaussian_filter(np.where(beside, curvature, 0.0), scale)
+            along /= np.maximum(weight, 1e-12)
+            follow = beside & (along >= 1.0 / (radius * size))
+            pieces, _ = ndimage.label(follow, np.ones((3, 3), bool))
+            py, px = np.nonzero(beside)
+            start = np.zeros(py.size, bool)
+            for x, y in ends:
+                start |= np.hypot(px - x, py - y) <= near
+            keep = np.unique(pieces[py[start], px[start]])
+            run = np.isin(pieces, keep[keep > 0])
+            if run.any():
+                ry, rx = np.nonzero(run)
+                found = np.column_stack([ry + y0, rx + x0])
+                old = out.get((front, back))
+                out[(front, back)] = found if old is None else np.unique(
+                    np.vstack([old, found]), axis=0)
+    return out
+
+
+def _grafted_pair(labels, path):
+    """The two parts (ascending) on either side of a graft path's middle, or None."""
+    h, w = labels.shape
+    seg = np.diff(path, axis=0)
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    if lengths.sum() == 0:
+        return None
+    # The point half-way along the path and the parts within a few pixels of it.
+    k = int(np.searchsorted(np.cumsum(lengths), lengths.sum() / 2))
+    k = min(k, len(seg) - 1)
+    before = np.cumsum(lengths)[k] - lengths[k]
+    t = (lengths.sum() / 2 - before) / max(lengths[k], 1e-12)
+    x, y = path[k] + t * seg[k]
+    r = 6
+    yi, xi = int(round(y)), int(round(x))
+    window = labels[max(yi - r, 0):min(yi + r + 1, h), max(xi - r, 0):min(xi + r + 1, w)]
+    pair = np.unique(window[window >= 0])
+    return (int(pair[0]), int(pair[1])) if pair.size == 2 else None
+
+
+def _level_curvature(u):
+    """Curvature (1/px, convex > 0) of the level sets of ``u``, which grows inward."""
+    gy, gx = np.gradient(u)
+    norm = np.hypot(gx, gy)
+    norm[norm == 0] = 1.0
+    ny, nx = gy / norm, gx / norm
+    return -(np.gradient(nx, axis=1) + np.gradient(ny, axis=0))
 
 
 def _complete_under(labels, a, box, owner, threshold, reach, coarse_above):
