@@ -682,6 +682,16 @@ def _outlines_given(labels, places, relations, strokes):
         take = np.isin(pieces, touching[touching > 0])
         if not take.any():
             continue
+        # The stroke's end past the contact (its cap), cut off from the part's other ink:
+        # no longer than the stroke is wide.
+        rest, _ = ndimage.label(mine & ~take, structure=eight)
+        reach = ndimage.distance_transform_edt(~take)
+        width = 2.0 * float(np.median(half[take]))
+        beside = np.unique(rest[ndimage.binary_dilation(take, structure=eight)])
+        beside = beside[beside > 0]
+        if beside.size:
+            far = ndimage.maximum(reach, rest, beside)
+            take |= np.isin(rest, beside[np.asarray(far) <= width])
         rim = (lab == back) & tinted[win] & ~k & ndimage.binary_dilation(take, structure=eight) & \
             (near <= mid + half + 2)
         # Not where the contact meets the paper: the part behind keeps its soft edge there, so

@@ -14,7 +14,9 @@ exactly once (no cracks between its triangles; where a pose folds a strip of
 a part over the part itself, its highest triangle whose layer shows there),
 and a band of ``_SKIRT`` px around it carries the part's layer beyond its
 triangles (the triangles follow the outline, the layer the ink's
-anti-aliasing; where the band overlaps itself,
+anti-aliasing; wider where the layer draws the part's outline over the part
+behind it, which the segmentation may have given to that part; where the
+band overlaps itself,
 its most opaque piece; the relief has no height there, so between parts of one
 drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
@@ -36,7 +38,10 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
-_SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
+# px: the widest skirt, for a layer whose strokes reach past its part's triangles (the outline
+# a part in front draws over the part behind, a stub): the widest stroke the cut-out measures
+# (32 px) and its soft edge
+_SKIRT_MOST = 34.0
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 _SNAP = 1e-6  # px: a posed vertex this close to its rest position is drawn at it
 
@@ -505,8 +510,9 @@ class _PartSource:
     Colours: the part's cut-out layer over its rest box, premultiplied RGBA
     (the drawing, opaque, for a part without a layer). A layer's soft edge
     reaches up to ``_SKIRT`` px beyond the part's triangles (they follow the
-    outline, the layer the ink's anti-aliasing), a stub of its strokes kept
-    past its outline further (``_skirt_width``): a band of that width along
+    outline, the layer the ink's anti-aliasing), its strokes drawn past them
+    further (its outline over a part behind it, a stub; ``_skirt_width``): a
+    band of that width along
     the mesh's border, carried by the border's posed normals, draws it.
     """
 
@@ -656,8 +662,9 @@ def _largest(frags, pix, tri, *keys):
 
 def _skirt_width(rest, faces, layer):
     """How far beyond the part's rest triangles its layer holds drawn pixels: ``_SKIRT`` px,
-    or up to ``_SKIRT_MOST`` px where the layer keeps a stub of the part's strokes past them
-    (what it fills in under the parts in front, ``_PAD`` px of it, is not counted)."""
+    or up to ``_SKIRT_MOST`` px where the layer draws the part's strokes past them (its
+    outline over the part behind it, a stub; the triangles follow the labels, the layer the
+    strokes); what it fills in under the parts in front, ``_PAD`` px of it, is not counted."""
     if layer is None:
         return _SKIRT
     top, bottom, left, right = layer.box
