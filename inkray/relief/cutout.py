@@ -15,7 +15,9 @@ into a stack of RGBA layers:
   silhouette in the colour and width of the part's own outline strokes,
   measured at the scale of the drawing's strokes; the stubs of a part's
   strokes that the segmentation left in the part over it (cut short of that
-  part's outline) belong to the part whose strokes they are;
+  part's outline) belong to the part whose strokes they are, and so does the
+  stroke along a part's outline over a part behind it, wherever the
+  segmentation cut across it (the part behind fills it in as hidden);
 - the layers are stacked back to front by the depth order; a region behind
   none comes first;
 - local order that no single stack can hold (two interlocking rings: A over
