@@ -401,9 +401,9 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
     # The stroke along a front part's outline is the front part's, wherever the
     # segmentation put it: moved with it, not left behind on the part it covers.
-    labels = _outlines_given(labels, completion.places, relations, strokes)
-    moved = labels != completion.labels
     rank = {region: k for k, region in enumerate(order)}
+    labels = _outlines_given(labels, completion.places, relations, strokes, rank)
+    moved = labels != completion.labels
     depth_rank = np.array([rank[r] for r in range(completion.count)] + [-1])  # -1: paper
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
     air = labels < 0
@@ -621,14 +621,16 @@ def _stubs_given(labels, pen):
     return out
 
 
-def _outlines_given(labels, places, relations, strokes):
+def _outlines_given(labels, places, relations, strokes, rank):
     """``labels`` with the stroke along a front part's outline given to it where it lies over
     the part behind.
 
     The segmentation cuts between two touching parts anywhere across the
     stroke between them, often wholly on the part behind. At each place where
     a relation puts a part ``F`` in front of a part ``B`` (the first of the
-    relations there, the user's first, then by confidence), ``B``'s ink
+    relations there, the user's first, then by confidence) and the stack does
+    too (``rank``: each part's place in it, back first; where it breaks the
+    relation the part behind is drawn over ``F`` there anyway), ``B``'s ink
     (darker than mid grey, in the colour of ink on this paper: not a dark
     colour of its own) goes to ``F`` where it is connected through that
     ink to their contact at the place, lies within its stroke's width of
@@ -637,7 +639,8 @@ def _outlines_given(labels, places, relations, strokes):
     strokes that end on it (a crease, a stub) beyond that width. The
     stroke's soft edge on ``B``'s side (the pixels beside it any darker than
     the paper) goes with it; where the contact meets the paper, ``B`` keeps
-    its pixels beside the paper (its soft edge there). ``strokes``: the
+    the pixels beside the paper and those of the stroke's soft edge that
+    fade into it (its layer's alpha below 1 there). ``strokes``: the
     drawing's :class:`_Strokes`; the stroke is looked for within two stroke
     scales of the place.
     """
@@ -655,6 +658,8 @@ def _outlines_given(labels, places, relations, strokes):
     eight = np.ones((3, 3), bool)
     for index in sorted(first):
         front, back, place = first[index].front, first[index].back, places[index]
+        if rank[front] < rank[back]:
+            continue
         y0, y1, x0, x1 = place.box
         win = (slice(max(y0 - margin, 0), min(y1 + margin, h)),
                slice(max(x0 - margin, 0), min(x1 + margin, w)))
@@ -694,12 +699,16 @@ def _outlines_given(labels, places, relations, strokes):
         if beside.size:
             far = ndimage.maximum(reach, rest, beside)
             take |= np.isin(rest, beside[np.asarray(far) <= width])
+        # Not where the contact meets the paper: the part behind keeps the stroke's soft edge
+        # that fades into the paper there (and the pixels beside the paper), so that its
+        # layer does not fill in an opaque edge under the one the front part draws.
+        air = lab < 0
+        fades = _drawn_alpha(~air, air, np.zeros_like(air), strokes.matte[win],
+                             strokes.cover[win], strokes.ink[win], strokes.width) < 1
+        take &= ~(fades | ndimage.binary_dilation(air, structure=eight))
         rim = (lab == back) & tinted[win] & ~k & ndimage.binary_dilation(take, structure=eight) & \
-            (near <= mid + half + 2)
-        # Not where the contact meets the paper: the part behind keeps its soft edge there, so
-        # that its layer does not add a filled edge under the one the front part draws.
-        air = ndimage.binary_dilation(lab < 0, structure=eight)
-        out[win][(take | rim) & ~air] = front
+            (near <= mid + half + 2) & ~fades
+        out[win][take | rim] = front
     return out
 
 
