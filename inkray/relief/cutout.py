@@ -637,8 +637,8 @@ def _outlines_given(labels, places, relations, strokes, rank):
     ``F``'s paper there, and its stroke (its nearest skeleton pixel) borders
     that paper: the stroke that draws ``F``'s outline, not ``B``'s own
     strokes that end on it (a crease, a stub) beyond that width. The
-    stroke's soft edge on ``B``'s side (the pixels beside it any darker than
-    the paper) goes with it; where the contact meets the paper, ``B`` keeps
+    stroke's soft edge on ``B``'s side (the pixels within two of it that are
+    any darker than the paper) goes with it; where the contact meets the paper, ``B`` keeps
     the pixels beside the paper and those of the stroke's soft edge that
     fade into it (its layer's alpha below 1 there). ``strokes``: the
     drawing's :class:`_Strokes`; the stroke is looked for within two stroke
@@ -706,8 +706,8 @@ def _outlines_given(labels, places, relations, strokes, rank):
         fades = _drawn_alpha(~air, air, np.zeros_like(air), strokes.matte[win],
                              strokes.cover[win], strokes.ink[win], strokes.width) < 1
         take &= ~(fades | ndimage.binary_dilation(air, structure=eight))
-        rim = (lab == back) & tinted[win] & ~k & ndimage.binary_dilation(take, structure=eight) & \
-            (near <= mid + half + 2) & ~fades
+        rim = (lab == back) & tinted[win] & ~k & (near <= mid + half + 3) & ~fades & \
+            ndimage.binary_dilation(take, structure=eight, iterations=2)
         out[win][take | rim] = front
     return out
 
