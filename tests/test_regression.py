@@ -50,7 +50,13 @@ relief surfaces were cleaned up on purpose:
   pixels with five neighbours, coarse to fine on two coarser grids; its
   hind leg, one neighbour, whole by multigrid instead of coarse to fine):
   its far leg's hidden part moved by a pixel (one vertex more), and every
-  part's height by 0.37 px with it (turtle and balls unchanged).
+  part's height by 0.37 px with it (turtle and balls unchanged);
+- where a graft ends on the silhouette, the silhouette that bends outward
+  beyond it is either part's outline in the completion: the frog's body,
+  hidden under its hind leg, reaches the rump's silhouette (its hidden area
+  150,669 -> 289,175 pixels), so its body's mesh and the heights the
+  stitching gives every part changed (turtle and balls unchanged: their
+  grafts end where the silhouette bends inward, or they have none).
 """
 
 from pathlib import Path
