@@ -15,7 +15,9 @@ into a stack of RGBA layers:
   silhouette in the colour and width of the part's own outline strokes,
   measured at the scale of the drawing's strokes; the stubs of a part's
   strokes that the segmentation left in the part over it (cut short of that
-  part's outline) belong to the part whose strokes they are;
+  part's outline) belong to the part whose strokes they are, and so does the
+  stroke along a part's outline over a part behind it, wherever the
+  segmentation cut across it (the part behind fills it in as hidden);
 - the layers are stacked back to front by the depth order; a region behind
   none comes first;
 - local order that no single stack can hold (two interlocking rings: A over
@@ -394,10 +396,15 @@ def cut_out(completion, relations, drawing, *, pad=0, split_local=False, backgro
     # A part's stroke that runs up to the outline of a part over it belongs to it to its end:
     # the segmentation may cut it off short of that outline.
     labels = _stubs_given(labels, strokes.pen)
-    moved = labels != completion.labels
-    rank = {region: k for k, region in enumerate(order)}
-    depth_rank = np.array([rank[r] for r in range(completion.count)] + [-1])  # -1: paper
+    # The contour ink beyond the labels goes to the part nearest it before the outlines move:
+    # they keep clear of the paper, and where they run up to it the part behind keeps its edge.
     silhouette = pad_ink_edge(grow_over_ink(labels, strokes.soft), strokes.soft)
+    # The stroke along a front part's outline is the front part's, wherever the
+    # segmentation put it: moved with it, not left behind on the part it covers.
+    rank = {region: k for k, region in enumerate(order)}
+    labels = _outlines_given(labels, completion.places, relations, strokes, rank)
+    moved = labels != completion.labels
+    depth_rank = np.array([rank[r] for r in range(completion.count)] + [-1])  # -1: paper
     fringe = (silhouette >= 0) & (labels < 0)  # a part's contour ink beyond its label
     air = labels < 0
     layers = []
@@ -611,6 +618,97 @@ def _stubs_given(labels, pen):
             if len(owners) == 1 and contact.sum() <= 2 * width and \
                     width / 2 + 1 < stick <= 1.5 * width:
                 out[win][pieces == piece] = owners[0]
+    return out
+
+
+def _outlines_given(labels, places, relations, strokes, rank):
+    """``labels`` with the stroke along a front part's outline given to it where it lies over
+    the part behind.
+
+    The segmentation cuts between two touching parts anywhere across the
+    stroke between them, often wholly on the part behind. At each place where
+    a relation puts a part ``F`` in front of a part ``B`` (the first of the
+    relations there, the user's first, then by confidence) and the stack does
+    too (``rank``: each part's place in it, back first; where it breaks the
+    relation the part behind is drawn over ``F`` there anyway), ``B``'s ink
+    (darker than mid grey, in the colour of ink on this paper: not a dark
+    colour of its own) goes to ``F`` where it is connected through that
+    ink to their contact at the place, lies within its stroke's width of
+    ``F``'s paper there, and its stroke (its nearest skeleton pixel) borders
+    that paper: the stroke that draws ``F``'s outline, not ``B``'s own
+    strokes that end on it (a crease, a stub) beyond that width. The
+    stroke's soft edge on ``B``'s side (the pixels within two of it that are
+    any darker than the paper) goes with it; where the contact meets the paper, ``B`` keeps
+    the pixels beside the paper and those of the stroke's soft edge that
+    fade into it (its layer's alpha below 1 there). ``strokes``: the
+    drawing's :class:`_Strokes`; the stroke is looked for within two stroke
+    scales of the place.
+    """
+    ink, depth, skeleton = strokes.pen
+    ink = ink & strokes.inky
+    tinted = strokes.cover > _CLEAR
+    margin = 2 * strokes.scale
+    ranked = sorted((r for r in relations if r.kind == "order" and r.place is not None
+                     and r.front != r.back), key=lambda r: (r.source != "user", -r.confidence))
+    first = {}
+    for r in ranked:
+        first.setdefault(r.place, r)
+    out = labels.copy()
+    h, w = labels.shape
+    eight = np.ones((3, 3), bool)
+    for index in sorted(first):
+        front, back, place = first[index].front, first[index].back, places[index]
+        if rank[front] < rank[back]:
+            continue
+        y0, y1, x0, x1 = place.box
+        win = (slice(max(y0 - margin, 0), min(y1 + margin, h)),
+               slice(max(x0 - margin, 0), min(x1 + margin, w)))
+        at = (slice(y0 - win[0].start, y1 - win[0].start),
+              slice(x0 - win[1].start, x1 - win[1].start))
+        lab, k = labels[win], ink[win]
+        here = np.zeros(lab.shape, bool)
+        here[at] = place.mask
+        contact = np.zeros(lab.shape, bool)
+        contact[at] = place.contact
+        paper = (lab == front) & ~k & ndimage.binary_dilation(here, iterations=2)
+        mine = (lab == back) & k
+        if not paper.any() or not (mine & contact).any():
+            continue
+        near, (py, px) = ndimage.distance_transform_edt(~paper, return_indices=True)
+        sk = skeleton[win] & k
+        if not sk.any():
+            continue
+        _, (sy, sx) = ndimage.distance_transform_edt(~sk, return_indices=True)
+        # Its stroke (at its nearest skeleton pixel, ``mid`` from the front part's paper,
+        # ``half`` its half width) reaches that paper, a quarter of its half width off
+        # centre at most (a thick stroke's skeleton wanders), and it lies within the stroke.
+        mid, half = near[sy, sx], depth[win][sy, sx]
+        candidates = mine & (mid <= 1.25 * half + 1.5) & (near <= mid + half + 1)
+        pieces, _ = ndimage.label(candidates, structure=eight)
+        touching = np.unique(pieces[contact & candidates])
+        take = np.isin(pieces, touching[touching > 0])
+        if not take.any():
+            continue
+        # The stroke's end past the contact (its cap), cut off from the part's other ink:
+        # no longer than the stroke is wide.
+        rest, _ = ndimage.label(mine & ~take, structure=eight)
+        reach = ndimage.distance_transform_edt(~take)
+        width = 2.0 * float(np.median(half[take]))
+        beside = np.unique(rest[ndimage.binary_dilation(take, structure=eight)])
+        beside = beside[beside > 0]
+        if beside.size:
+            far = ndimage.maximum(reach, rest, beside)
+            take |= np.isin(rest, beside[np.asarray(far) <= width])
+        # Not where the contact meets the paper: the part behind keeps the stroke's soft edge
+        # that fades into the paper there (and the pixels beside the paper), so that its
+        # layer does not fill in an opaque edge under the one the front part draws.
+        air = lab < 0
+        fades = _drawn_alpha(~air, air, np.zeros_like(air), strokes.matte[win],
+                             strokes.cover[win], strokes.ink[win], strokes.width) < 1
+        take &= ~(fades | ndimage.binary_dilation(air, structure=eight))
+        rim = (lab == back) & tinted[win] & ~k & (near <= mid + half + 3) & ~fades & \
+            ndimage.binary_dilation(take, structure=eight, iterations=2)
+        out[win][take | rim] = front
     return out
 
 

@@ -14,7 +14,9 @@ exactly once (no cracks between its triangles; where a pose folds a strip of
 a part over the part itself, its highest triangle whose layer shows there),
 and a band of ``_SKIRT`` px around it carries the part's layer beyond its
 triangles (the triangles follow the outline, the layer the ink's
-anti-aliasing; where the band overlaps itself,
+anti-aliasing; wider where the layer draws the part's outline over the part
+behind it, which the segmentation may have given to that part; where the
+band overlaps itself,
 its most opaque piece; the relief has no height there, so between parts of one
 drawing the layer stack orders the band against the others). The layers' soft edges are
 kept: per pixel the two highest surfaces that are not fully transparent are
@@ -27,8 +29,10 @@ its neighbours (paper the pose encloses stays transparent).
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from inkray.errors import InputError
+from inkray.numerics.threads import thread_map
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 from inkray.relief.model import Relief
 from inkray.relief.posing import Posing, front_mesh, rig_relief
@@ -36,7 +40,10 @@ from inkray.relief.posing import Posing, front_mesh, rig_relief
 __all__ = ["PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
-_SKIRT_MOST = 16.0  # px: the widest skirt, for a layer whose strokes' stubs reach past its part
+# px: the widest skirt, for a layer whose strokes reach past its part's triangles (the outline
+# a part in front draws over the part behind, a stub): the widest stroke the cut-out measures
+# (32 px) and its soft edge
+_SKIRT_MOST = 34.0
 _PAD = int(np.ceil(_SKIRT))  # px: how far the layers go on under the parts in front
 _SNAP = 1e-6  # px: a posed vertex this close to its rest position is drawn at it
 
@@ -195,8 +202,10 @@ def _draw(posed, sources, *, scale=1.0):
     g1, g2 = (np.full(h * w, -1, np.int64) for _ in range(2)) if many else (None, None)
     colours, owners, count = [], [], 0
     clear = []
-    for i in sources.order:
-        got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
+    # Each part's surface is its own (numpy lets go of the GIL on its arrays): two at a time.
+    surfaces = thread_map(lambda i: sources.parts[i].surface(
+        np.asarray(posed.parts[i].vertices, float), scale, (w, h)), sources.order)
+    for i, got in zip(sources.order, surfaces):
         if got is None:
             continue
         pix, z, rgba, skirt, gone = got
@@ -505,8 +514,9 @@ class _PartSource:
     Colours: the part's cut-out layer over its rest box, premultiplied RGBA
     (the drawing, opaque, for a part without a layer). A layer's soft edge
     reaches up to ``_SKIRT`` px beyond the part's triangles (they follow the
-    outline, the layer the ink's anti-aliasing), a stub of its strokes kept
-    past its outline further (``_skirt_width``): a band of that width along
+    outline, the layer the ink's anti-aliasing), its strokes drawn past them
+    further (its outline over a part behind it, a stub; ``_skirt_width``): a
+    band of that width along
     the mesh's border, carried by the border's posed normals, draws it.
     """
 
@@ -519,8 +529,9 @@ class _PartSource:
         self.rest = (v[:, :2] if part.texcoords is None else
                      np.asarray(part.texcoords, float))[first]
         h, w = rgb.shape[:2]
-        width = _skirt_width(self.rest, self.faces, layer) if len(self.faces) else _SKIRT
-        reach = width + 2 if layer is not None else 2
+        self.skirt = (None if layer is None or not len(self.faces)
+                      else _Skirt(self.faces, self.rest, layer))
+        reach = self.skirt.width.max() + 2 if self.skirt is not None else 2
         x0, y0 = (max(int(np.floor(c - reach)), 0) for c in self.rest.min(axis=0))
         x1, y1 = (int(np.ceil(c + reach)) + 1 for c in self.rest.max(axis=0))
         x1, y1 = min(max(x1, x0 + 1), w), min(max(y1, y0 + 1), h)
@@ -540,8 +551,6 @@ class _PartSource:
         tex = np.pad(tex, ((0, max(2 - tex.shape[0], 0)), (0, max(2 - tex.shape[1], 0)), (0, 0)),
                      mode="edge")
         self.texture = (x0, y0, tex)
-        self.skirt = (None if layer is None or not len(self.faces)
-                      else _Skirt(self.faces, self.rest, width))
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
@@ -654,32 +663,44 @@ def _largest(frags, pix, tri, *keys):
     frags[pix[top]] = tri[top]
 
 
-def _skirt_width(rest, faces, layer):
-    """How far beyond the part's rest triangles its layer holds drawn pixels: ``_SKIRT`` px,
-    or up to ``_SKIRT_MOST`` px where the layer keeps a stub of the part's strokes past them
-    (what it fills in under the parts in front, ``_PAD`` px of it, is not counted)."""
-    if layer is None:
-        return _SKIRT
+def _skirt_width(rest, faces, layer, ring, ends):
+    """How far beyond the part's rest triangles its layer holds drawn pixels, at each vertex of
+    the mesh's border ``ring`` (``ends``: each border edge's two ring vertices): ``_SKIRT``
+    px, or up to ``_SKIRT_MOST`` px where the layer draws the part's strokes past them (its
+    outline over a part behind it, a stub; the triangles follow the labels, the layer the
+    strokes). A drawn pixel counts at the border vertex nearest it and at that vertex's
+    neighbours along the border; what the layer fills in under the parts in front,
+    ``_PAD`` px of it, is not counted."""
+    width = np.full(len(ring), _SKIRT)
     top, bottom, left, right = layer.box
     opaque = (layer.rgba[..., 3] > 0) & ~layer.hidden
     pix, _ = _scan(rest - [left, top], faces, (right - left, bottom - top))
     covered = np.zeros(opaque.size, bool)
     covered[pix] = True
     if not covered.any() or not opaque.any():
-        return _SKIRT
-    far = ndimage.distance_transform_edt(~covered.reshape(opaque.shape))[opaque].max()
-    return float(np.clip(far + 0.5, _SKIRT, _SKIRT_MOST))
+        return width
+    far = ndimage.distance_transform_edt(~covered.reshape(opaque.shape))
+    ys, xs = np.nonzero(opaque & (far + 0.5 > _SKIRT))
+    if not ys.size:
+        return width
+    _, nearest = cKDTree(rest[ring] - [left, top]).query(np.column_stack([xs, ys]))
+    np.maximum.at(width, nearest, np.minimum(far[ys, xs] + 0.5, _SKIRT_MOST))
+    # a pixel beside a border edge may be nearer either of its ends
+    wider = width.copy()
+    np.maximum.at(wider, ends[:, 0], width[ends[:, 1]])
+    np.maximum.at(wider, ends[:, 1], width[ends[:, 0]])
+    return wider
 
 
 class _Skirt:
     """The band along a mesh's border: per border edge two triangles out to its offset copy.
 
-    Rest offsets are ``width`` px along the border's mitred normals; posed,
-    the same along the posed normals, times the border's stretch.
+    Rest offsets are as wide as the part's ``layer`` draws beyond its triangles there
+    (:func:`_skirt_width`) along the border's mitred normals; posed, the same along the
+    posed normals, times the border's stretch.
     """
 
-    def __init__(self, faces, rest, width=_SKIRT):
-        self.width = width
+    def __init__(self, faces, rest, layer):
         edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
         opposite = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])
         key = np.sort(edges, axis=1)
@@ -688,7 +709,8 @@ class _Skirt:
         self.edges, self.opposite = edges[border], opposite[border]
         self.ring, ends = np.unique(self.edges, return_inverse=True)
         self.ends = ends.reshape(-1, 2)
-        self.rest_offset = width * self._normals(rest)[0]
+        self.width = _skirt_width(rest, faces, layer, self.ring, self.ends)
+        self.rest_offset = self.width[:, None] * self._normals(rest)[0]
 
     def _normals(self, xy):
         """Mitred outward unit normals at the ring's vertices, and each border edge's length."""
@@ -720,7 +742,7 @@ class _Skirt:
         a, b = self.edges[:, 0], self.edges[:, 1]
         a2, b2 = self.ends[:, 0] + n, self.ends[:, 1] + n
         band = np.concatenate([np.column_stack([a, b, b2]), np.column_stack([a, b2, a2])])
-        return (np.concatenate([xy, xy[self.ring] + self.width * stretch[:, None] * normal]),
+        return (np.concatenate([xy, xy[self.ring] + (self.width * stretch)[:, None] * normal]),
                 np.concatenate([z, z[self.ring]]),
                 np.concatenate([rest, rest[self.ring] + self.rest_offset]),
                 np.concatenate([faces, band]))
