@@ -164,7 +164,9 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     # under it (28 of the 44 000 pixels)
     assert same[opaque].mean() > 0.999
     # the layers go on under the parts in front of them (so that a part moved a pixel or
-    # two shows the part behind), and no further than the skirt draws them
+    # two shows the part behind), filled in no further than _PAD px; what else a layer
+    # draws beyond its completed shape (its outline stroke over the part behind) the
+    # picture above draws through the skirt
     from inkray.view.posed import _PAD
 
     c = chain.completion
@@ -172,7 +174,7 @@ def test_identity_pose_reproduces_the_drawing_where_visible(man):
     for layer in posed.cutout.layers:
         y0, y1, x0, x1 = layer.box
         drawn = np.zeros(c.labels.shape, bool)
-        drawn[y0:y1, x0:x1] = layer.rgba[..., 3] > 0
+        drawn[y0:y1, x0:x1] = (layer.rgba[..., 3] > 0) & layer.hidden
         shape = c.completed(layer.region)
         beyond.append(drawn & ~shape & (c.labels >= 0) & (c.labels != layer.region))
         reach = ndimage.distance_transform_edt(~shape)
