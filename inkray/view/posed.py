@@ -32,7 +32,6 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from inkray.errors import InputError
-from inkray.numerics.threads import thread_map
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 from inkray.relief.model import Relief
 from inkray.relief.posing import Posing, front_mesh, rig_relief
@@ -202,10 +201,8 @@ def _draw(posed, sources, *, scale=1.0):
     g1, g2 = (np.full(h * w, -1, np.int64) for _ in range(2)) if many else (None, None)
     colours, owners, count = [], [], 0
     clear = []
-    # Each part's surface is its own (numpy lets go of the GIL on its arrays): two at a time.
-    surfaces = thread_map(lambda i: sources.parts[i].surface(
-        np.asarray(posed.parts[i].vertices, float), scale, (w, h)), sources.order)
-    for i, got in zip(sources.order, surfaces):
+    for i in sources.order:
+        got = sources.parts[i].surface(np.asarray(posed.parts[i].vertices, float), scale, (w, h))
         if got is None:
             continue
         pix, z, rgba, skirt, gone = got
