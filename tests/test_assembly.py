@@ -479,3 +479,19 @@ def test_position_ids_number_equal_positions_alike():
     assert len(np.unique(ids[:500])) == 500
     flat = _position_ids(np.concatenate([p[:, :2], p[:3, :2]]))  # any number of coordinates
     assert flat[500:].tolist() == flat[:3].tolist() and flat.max() + 1 == 500
+
+
+def test_a_solid_left_with_a_sliver_crossing_a_face_is_reported():
+    from inkray.relief.assembly import _left_bad
+
+    # A sliver (its smallest angle about 0.2 degrees) and a triangle standing across it.
+    v = np.array([[0, 0, 0], [10, 0, 0], [5, 0.02, 0],
+                  [5, -1, -1], [5, 1, -1], [5, 0, 1]], float)
+    sliver = trimesh.Trimesh(v, [[0, 1, 2], [3, 4, 5]], process=False)
+    (warning,) = _left_bad(sliver)
+    assert warning.startswith(f"union: 1 faces with an angle under {MIN_ANGLE:g} degrees and 2 "
+                              "crossing another")
+    # Two well-shaped triangles apart: nothing to report.
+    w = np.array([[0, 0, 0], [10, 0, 0], [5, 8, 0], [30, 0, 0], [40, 0, 0], [35, 8, 0]], float)
+    fine = trimesh.Trimesh(w, [[0, 1, 2], [3, 4, 5]], process=False)
+    assert _left_bad(fine) == []
