@@ -15,6 +15,7 @@ from inkray.relief.completion import complete_regions
 from inkray.relief.cutout import Cutout, CutoutLayer, cut_out, stack_order, stroke_style
 from inkray.relief.ordering import Relation
 
+from _bands import bar_outline_on_band, bar_over_band
 from conftest import EXAMPLES
 
 
@@ -299,14 +300,6 @@ def test_cli_reports_and_splits_interlocking_rings(tmp_path, capsys):
     assert psnr(split.flatten()[..., :3][character], drawing.rgb[character]) >= 35.0
 
 
-def _bar_over_band(labels, rgb):
-    """The layers of a drawing whose region 1 ("bar") lies over region 0 ("band")."""
-    c = complete_regions(labels, names=["band", "bar"])
-    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
-    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
-    return cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
-
-
 def _outlined_band():
     """A band drawn with a soft 3 px grey outline (core 60, a half-tone pixel each side),
     a bar across it in front: the band's outline is continued under the bar."""
@@ -325,7 +318,7 @@ def _outlined_band():
         gray[6:64, left + 1:left + 3] = 60 / 255
         gray[6:64, left + 3] = 0.6
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    return labels, gray, rgb, _bar_over_band(labels, rgb)
+    return labels, gray, rgb, bar_over_band(labels, rgb)
 
 
 def test_continued_outline_has_the_drawings_tone_and_width():
@@ -399,7 +392,7 @@ def _thick_grey_ink():
     paper = 236 + np.random.default_rng(1).normal(0, 2.0, (h, w))
     gray = paper + cover * (90 - paper)
     rgb = np.repeat(np.clip(np.rint(gray), 0, 255).astype(np.uint8)[..., None], 3, axis=2)
-    return labels, rgb, cover, _bar_over_band(labels, rgb)
+    return labels, rgb, cover, bar_over_band(labels, rgb)
 
 
 def test_a_hidden_part_next_to_thick_grey_ink_is_filled_with_its_paper():
@@ -457,7 +450,7 @@ def _thick_outlined_band():
         gray[4:126, left] = gray[4:126, left + 13] = 0.5
         gray[4:126, left + 1:left + 13] = 0.0
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    return gray, _bar_over_band(labels, rgb)
+    return gray, bar_over_band(labels, rgb)
 
 
 def test_a_continued_outline_is_as_wide_as_thick_drawn_strokes():
@@ -492,7 +485,7 @@ def _stubbed_band():
     for top in (20, 74):                       # the stubs: the band's ink, the bar's label
         labels[top:top + 6, 54:60] = labels[top:top + 6, 100:106] = 1
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    return labels, rgb, _bar_over_band(labels, rgb)
+    return labels, rgb, bar_over_band(labels, rgb)
 
 
 def test_the_stubs_of_a_parts_strokes_stay_with_it():
@@ -534,7 +527,7 @@ def _marker_band(scale):
         gray[4 * s:126 * s, x:x + s] = gray[4 * s:126 * s, x + 7 * s:x + 8 * s] = soft
         gray[4 * s:126 * s, x + s:x + 7 * s] = core
     rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    return gray, _bar_over_band(labels, rgb)
+    return gray, bar_over_band(labels, rgb)
 
 
 @pytest.mark.parametrize("scale", [1, 2, 3])
@@ -555,26 +548,8 @@ def test_a_continued_outline_scales_with_the_drawing(scale):
             assert abs(column[rows].min() - 0.35) < 0.1       # the marker's tone at its core
 
 
-def _bar_outline_on_band():
-    """A band behind a bar, drawn with 4 px black strokes; the bar's outline strokes, where
-    they cross the band, lie wholly in the band's label (a segmentation that cut at their
-    edge toward the bar). A crease of the band's own runs up to the bar's left stroke."""
-    h, w = 100, 160
-    gray = np.ones((h, w))
-    labels = np.full((h, w), -1, np.int32)
-    labels[20:80, 6:154] = 0
-    gray[20:24, 6:154] = gray[76:80, 6:154] = 0.0      # the band's long sides
-    gray[48:52, 20:56] = 0.0                            # its crease, ending on the bar
-    labels[4:96, 56:104] = 1
-    labels[20:80, 56:60] = labels[20:80, 100:104] = 0   # the bar's outline over the band
-    gray[4:96, 60:100] = 1.0
-    gray[4:96, 56:60] = gray[4:96, 100:104] = 0.0
-    rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    return labels, rgb, _bar_over_band(labels, rgb)
-
-
 def test_the_outline_of_a_part_in_front_is_its_own():
-    labels, rgb, stack = _bar_outline_on_band()
+    labels, rgb, stack = bar_outline_on_band()
     band, bar = stack.layers
     assert (band.name, bar.name) == ("band", "bar")
 

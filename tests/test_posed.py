@@ -5,15 +5,13 @@ from inkray.chain import ReliefChain
 from inkray.errors import InputError
 from inkray.formats.layer_files import read_layers, write_layers
 from inkray.formats.meshes import export_relief
-from inkray.input.drawing import drawing_from_array
 from inkray.input.loading import load_input
 from inkray.input.pose import parse_pose
-from inkray.relief.completion import complete_regions
-from inkray.relief.cutout import Cutout, cut_out
+from inkray.relief.cutout import Cutout
 from inkray.relief.model import Part, Relief
-from inkray.relief.ordering import Relation
 from inkray.view.posed import PosedDrawing, posed_image
 
+from _bands import bar_outline_on_band
 from conftest import EXAMPLES
 
 
@@ -260,19 +258,7 @@ def _quad(name, x0, x1, y0, y1, z):
 def test_a_part_moved_sideways_carries_its_outline_off_the_part_behind():
     # A bar over a band, outlined with 4 px black strokes; where the bar's outline crosses
     # the band the segmentation gave it to the band, and the bar's mesh ends inside it.
-    gray = np.ones((100, 160))
-    labels = np.full(gray.shape, -1, np.int32)
-    labels[20:80, 6:154] = 0
-    gray[20:24, 6:154] = gray[76:80, 6:154] = 0.0
-    labels[4:96, 56:104] = 1
-    labels[20:80, 56:60] = labels[20:80, 100:104] = 0
-    gray[4:96, 60:100] = 1.0
-    gray[4:96, 56:60] = gray[4:96, 100:104] = 0.0
-    rgb = np.repeat(np.rint(gray * 255).astype(np.uint8)[..., None], 3, axis=2)
-    c = complete_regions(labels, names=["band", "bar"])
-    place = next(p for p in c.places if (p.a, p.b) == (0, 1))
-    rel = [Relation(1, 0, "bar", "band", place.where, "user", 1.0, place=place.index)]
-    layers = cut_out(c.ordered(rel), rel, drawing_from_array(rgb))
+    _, rgb, layers = bar_outline_on_band()
     band = _quad("band", 6, 154, 20, 80, 1.0)
     rest = Relief([band, _quad("bar", 60, 100, 4, 96, 2.0)], size=(160, 100))
     img, _ = posed_image(rest, rest, layers, rgb)

@@ -402,8 +402,8 @@ class Arap:
                              f"got shape {np.shape(targets)}")
         x = np.asarray(initial, float).copy()
         sign = np.sign(signed_areas(self.rest, self.faces))
-        if np.any(sign * signed_areas(x, self.faces) < 0) or np.any(
-                (sign != 0) & (signed_areas(x, self.faces) == 0)):
+        area = signed_areas(x, self.faces)
+        if np.any(sign * area < 0) or np.any((sign != 0) & (area == 0)):
             raise ValueError("initial: a face is flipped or flat")
         x[self._fixed] = self.rest[self._fixed]
         for _ in range(max(1, int(iterations))):

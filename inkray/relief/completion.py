@@ -693,13 +693,14 @@ def complete_regions(labels, *, names=None, threshold=0.5, reach=4.0,
     # go of the GIL while it factors); the result does not depend on it. An error of the
     # progress (a superseded edit) stops the regions not yet started.
     shared = shared_outlines(labels, grafts) if len(grafts) else {}
-    seen = {}  # per occluder: its labels with the outlines it shares given to their parts
+    # per occluder: its labels with the silhouette it shares given to the part it continues
+    outlined = {}
     for (front, back), run in shared.items():
-        seen.setdefault(front, labels.copy())[run[:, 0], run[:, 1]] = back
+        outlined.setdefault(front, labels.copy())[run[:, 0], run[:, 1]] = back
 
     def complete_under(a):
         if boxes[a] is not None:
-            _complete_under(seen.get(a, labels), a, boxes[a], owner, threshold, reach,
+            _complete_under(outlined.get(a, labels), a, boxes[a], owner, threshold, reach,
                             coarse_above)
 
     # The largest occluders first, so that the two workers end about together.

@@ -674,7 +674,7 @@ def _outlines_given(labels, places, relations, strokes, rank):
         mine = (lab == back) & k
         if not paper.any() or not (mine & contact).any():
             continue
-        near, (py, px) = ndimage.distance_transform_edt(~paper, return_indices=True)
+        near = ndimage.distance_transform_edt(~paper)
         sk = skeleton[win] & k
         if not sk.any():
             continue

@@ -331,18 +331,17 @@ class Posing:
         """
         t = np.asarray(targets, float).reshape(-1, 2)
         start = self.solver.pose.copy()
-        if self.rig.folds(start) and self._unfolded is not None:
-            # solves since the last pose folded faces (drags by :meth:`solve`)
-            start = self._unfolded
         unfolded = not self.rig.folds(start)
+        if not unfolded and self._unfolded is not None:
+            # solves since the last pose folded faces (drags by :meth:`solve`)
+            start, unfolded = self._unfolded, True
         x = self.solve(t, iterations=iterations)
         spent = iterations
         for repair in range(_REPAIRS + 1):
             budget = spent + max_iterations
-            while self.rig.folds(x) and spent < budget:
+            while (folded := self.rig.folded(x)).size and spent < budget:
                 x = self.solve(t, iterations=iterations)
                 spent += iterations
-            folded = self.rig.folded(x)
             if not folded.size or repair == _REPAIRS:
                 break
             if repair == _REPAIRS - 1 and unfolded:
@@ -369,7 +368,7 @@ class Posing:
             self.solver = self._arap()
             x = self.solve(t, iterations=iterations, initial=start if unfolded else x)
             spent += iterations
-        if not self.rig.folds(x):
+        if not folded.size:
             self._unfolded = x
         return x, spent
 

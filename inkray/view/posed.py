@@ -572,6 +572,9 @@ class _PartSource:
             return None
         bw, bh = hi - lo
         local = out - lo
+        tx, ty, tex = self.texture
+        # per triangle: height and texture position, affine in the pixel's position
+        coef = _affine(local, faces, np.column_stack([z, rest - [tx, ty]]))
         # the skirt first: where the part's own triangles cover a pixel, they draw it
         frags = np.full(bw * bh, -1, np.int32)
         inner = len(self.faces)
@@ -580,18 +583,14 @@ class _PartSource:
             tri = tri + chosen.start
             frags[pix] = tri
             if chosen.start:
-                _most_opaque(frags, pix, tri, local, faces, rest, self.texture, bw)
-        _highest(frags, pix, tri, local, faces, z, rest, self.texture, bw)
+                _most_opaque(frags, pix, tri, coef, tex, bw)
+        _highest(frags, pix, tri, coef, tex, bw)
         pix = np.flatnonzero(frags >= 0)
         if not pix.size:
             return None
         tri = frags[pix]
         row, col = np.divmod(pix, bw)
-        tx, ty, tex = self.texture
-        # per fragment: height and texture position, affine in the pixel's position
-        k = np.take(_affine(local, faces, np.column_stack([z, rest - [tx, ty]])), tri, axis=0)
-        x, y = col.astype(float), row.astype(float)
-        at = k[:, :3] * x[:, None] + k[:, 3:6] * y[:, None] + k[:, 6:]
+        at = _at(coef, tri, row, col)
         rgba = _bilinear(tex, at[:, 1:])
         # what is fully transparent is not there: the surface under it shows
         keep = rgba[:, 3] > 0
@@ -602,7 +601,7 @@ class _PartSource:
                 (flat[clear], at[clear, 0], at[clear, 1:] + [tx, ty]))
 
 
-def _highest(frags, pix, tri, points, faces, z, rest, texture, width):
+def _highest(frags, pix, tri, coef, texture, width):
     """Where a part's posed triangles overlap each other, the highest one whose layer shows
     there (alpha not rounding to 0; else the highest): ``frags`` in place.
 
@@ -619,13 +618,12 @@ def _highest(frags, pix, tri, points, faces, z, rest, texture, width):
     if not many.any():
         return
     pix, tri = pix[many], tri[many]
-    tx, ty, tex = texture
-    at = _at(points, faces[tri], np.column_stack([z, rest - [tx, ty]]), pix, width)
+    at = _at(coef, tri, *np.divmod(pix, width))
     # shown: its alpha does not round to 0 in the picture
-    _largest(frags, pix, tri, at[:, 0], _bilinear(tex, at[:, 1:])[:, 3] > 0.5)
+    _largest(frags, pix, tri, at[:, 0], _bilinear(texture, at[:, 1:])[:, 3] > 0.5)
 
 
-def _most_opaque(frags, pix, tri, points, faces, rest, texture, width):
+def _most_opaque(frags, pix, tri, coef, texture, width):
     """Where a part's skirt overlaps itself, the piece whose layer is most opaque: ``frags`` in
     place.
 
@@ -637,18 +635,19 @@ def _most_opaque(frags, pix, tri, points, faces, rest, texture, width):
     if not many.any():
         return
     pix, tri = pix[many], tri[many]
-    tx, ty, tex = texture
-    at = _at(points, faces[tri], rest - [tx, ty], pix, width)
-    _largest(frags, pix, tri, _bilinear(tex, at)[:, 3])
+    at = _at(coef, tri, *np.divmod(pix, width), columns=slice(1, 3))
+    _largest(frags, pix, tri, _bilinear(texture, at)[:, 3])
 
 
-def _at(points, triangles, values, pix, width):
-    """``values`` (n, c), affine over each of ``triangles`` (one per pixel), at the pixels
-    ``pix`` (flat, rows ``width`` long): (k, c)."""
-    k = _affine(points, triangles, values)
-    row, col = np.divmod(pix, width)
-    c = values.shape[1]
-    return k[:, :c] * col[:, None] + k[:, c:2 * c] * row[:, None] + k[:, 2 * c:]
+def _at(coef, tri, row, col, *, columns=slice(None)):
+    """The affine values ``coef`` (per triangle, as :func:`_affine` gives them) of the
+    triangles ``tri`` at the pixels ``(row, col)``, one per pixel: (k, c), only the values'
+    ``columns`` when given."""
+    c = coef.shape[1] // 3
+    a, b, _ = columns.indices(c)
+    k = np.take(coef, tri, axis=0)
+    return (k[:, a:b] * col.astype(float)[:, None] + k[:, c + a:c + b] * row.astype(float)[:, None]
+            + k[:, 2 * c + a:2 * c + b])
 
 
 def _largest(frags, pix, tri, *keys):
