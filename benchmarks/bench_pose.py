@@ -291,40 +291,96 @@ def _visibility(posed, relief, part):
     return float(np.mean(np.argmax(depth, axis=0)[drawn] == part[drawn]))
 
 
-def _http_drags(name, megapixels, handles, targets):
-    """Median time of a drag through ``inkray edit``'s ``POST /api/pose`` (and its compute part)."""
+def _http_drags(name, megapixels, handles, targets, *, page=True):
+    """A drag through ``inkray edit`` as the Pose mode runs it: the times (s) of a drag
+    (``POST /api/pose/vertices``), of the same in Chromium (the request and the page's
+    WebGL drawing of the posed meshes; NaN without Chromium), of a drag's picture without
+    WebGL (``POST /api/pose`` at most a quarter megapixel) and of the full picture where a
+    handle stops (medians), the server's CPU time per drag, and the one-off time of the
+    meshes (``GET /api/pose/meshes``)."""
     import shutil
-
 
     ann, _ = _folder(name, megapixels)
     proc, address = _server(ann)
     try:
-        url = address + "/api/pose"
-
-        def post(to, scale=1.0):
-            body = json.dumps({"handles": handles.tolist(), "to": to.tolist(),
-                               "scale": scale}).encode()
+        def post(route, to, **more):
+            body = json.dumps({"handles": handles.tolist(), "to": to.tolist(), **more}).encode()
             start = time.perf_counter()
-            status, headers, data = _request(url, "POST", body)
+            status, _, data = _request(address + route, "POST", body)
             if status != 200:
-                raise RuntimeError(f"POST /api/pose: {status} {data[:200]!r}")
-            return time.perf_counter() - start, float(headers["X-Inkray-Compute-Ms"]) / 1000
+                raise RuntimeError(f"POST {route}: {status} {data[:200]!r}")
+            return time.perf_counter() - start
 
-        post(targets)  # builds the relief and the rig
-        # as pose.js asks while a handle moves: at most a quarter megapixel
+        def nudged(k):
+            return targets + [[0, 0], [0, 0], [2.0 * ((-1) ** k), 1.0]]
+
+        post("/api/pose", targets)  # builds the relief and the rig
+        _idle(proc.pid)  # the editor computes its other previews in the background at first
+        start = time.perf_counter()
+        status, _, data = _request(address + "/api/pose/meshes", "GET", None)
+        meshes = time.perf_counter() - start
+        if status != 200:
+            raise RuntimeError(f"GET /api/pose/meshes: {status} {data[:200]!r}")
+        before = _cpu(proc.pid)
+        drags = [post("/api/pose/vertices", nudged(k)) for k in range(_DRAGS)]
+        cpu = (_cpu(proc.pid) - before) / _DRAGS
+        # as pose.js asks without WebGL while a handle moves: at most a quarter megapixel
         w, h = json.loads(ann.read_text())["size"]
         scale = min(1.0, (250_000 / (w * h)) ** 0.5)
-        _idle(proc.pid)  # the editor computes its other previews in the background at first
-        before = _cpu(proc.pid)
-        runs = [post(targets + [[0, 0], [0, 0], [2.0 * ((-1) ** k), 1.0]], scale)
-                for k in range(_DRAGS)]
-        cpu = (_cpu(proc.pid) - before) / _DRAGS
-        full = statistics.median(post(targets + [[0, 0], [0, 0], [k, 0]])[0] for k in range(3))
+        pictures = [post("/api/pose", nudged(k), scale=scale) for k in range(_DRAGS)]
+        full = statistics.median(post("/api/pose", targets + [[0, 0], [0, 0], [k, 0]])
+                                 for k in range(3))
+        drawn = _page_drags(address, handles, [nudged(k) for k in range(_DRAGS)]) if page \
+            else float("nan")
     finally:
         proc.terminate()
         proc.wait(30)
         shutil.rmtree(ann.parent, ignore_errors=True)
-    return statistics.median(r[0] for r in runs), full, cpu
+    return dict(http=statistics.median(drags), page=drawn, http_picture=statistics.median(pictures),
+                http_full=full, http_cpu=cpu, meshes=meshes)
+
+
+def _page_drags(address, handles, targets):
+    """Median time (s) of a drag in the editor's page in Chromium (``INKRAY_CHROMIUM``, else
+    /usr/bin/chromium): the posed vertices asked for and drawn by the page's WebGL, until
+    the drawn pixels can be read; NaN without Chromium or Playwright. Headless Chromium
+    draws with its software rasterizer (SwiftShader) on the CPU: a GPU draws faster."""
+    import os
+
+    chromium = os.environ.get("INKRAY_CHROMIUM", "/usr/bin/chromium")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        return float("nan")
+    if not Path(chromium).is_file():
+        return float("nan")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=[
+            "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        try:
+            page = browser.new_page(viewport={"width": 1440, "height": 1000})
+            page.goto(address + "/")
+            page.wait_for_function("window.inkrayPose && window.inkray.size[0] > 1",
+                                   timeout=120_000)
+            page.click("#pose-mode")
+            page.wait_for_function("window.inkrayPose.gl && window.inkrayPose.gl.generation >= 0",
+                                   timeout=600_000)
+            times = page.evaluate("""async ([handles, targets]) => {
+                const gl = window.inkrayPose.gl, c = gl.renderer.getContext(), px = new Uint8Array(4);
+                const times = [];
+                for (const to of targets) {
+                  const start = performance.now();
+                  const r = await fetch("/api/pose/vertices", { method: "POST",
+                    headers: { "Content-Type": "application/json" }, body: JSON.stringify({ handles, to }) });
+                  gl.draw(new Float32Array(await r.arrayBuffer()));
+                  c.readPixels(0, 0, 1, 1, c.RGBA, c.UNSIGNED_BYTE, px);  // the drawing done
+                  times.push(performance.now() - start);
+                }
+                return times;
+            }""", [handles.tolist(), [t.tolist() for t in targets]])
+        finally:
+            browser.close()
+    return statistics.median(times) / 1000
 
 
 _DRAGS = 9
@@ -342,7 +398,7 @@ def _idle(pid, timeout=120.0):
         last = now
 
 
-def one(name, megapixels, http=True, orders=()):
+def one(name, megapixels, http=True, orders=(), page=True):
     from inkray.chain import ReliefChain
     from inkray.view.posed import PosedDrawing, posed_image
 
@@ -395,8 +451,10 @@ def one(name, megapixels, http=True, orders=()):
         posed.image(y)
     animation = time.perf_counter() - t0
     w, h = ann.size
-    web = _http_drags(name, megapixels, handles, target) if http else (float("nan"),) * 3
-    return dict(http=web[0], http_full=web[1], http_cpu=web[2], picture_cpu=statistics.median(cpu),
+    nan = float("nan")
+    web = _http_drags(name, megapixels, handles, target, page=page) if http else dict(
+        http=nan, page=nan, http_picture=nan, http_full=nan, http_cpu=nan, meshes=nan)
+    return dict(**web, picture_cpu=statistics.median(cpu),
                 name=name, size=f"{w}x{h}", vertices=len(rig.vertices), prepare=prepare,
                 drag=statistics.median(drags), worst=max(drags),
                 picture=statistics.median(pictures),
@@ -511,6 +569,8 @@ def main():
     parser.add_argument("--names", default="man,figure,turtle")
     parser.add_argument("--no-upscale", action="store_true")
     parser.add_argument("--no-http", action="store_true", help="skip the editor's route")
+    parser.add_argument("--no-page", action="store_true",
+                        help="skip the drag in the editor's page in Chromium")
     parser.add_argument("--joins", action="store_true", help="the joins table of every drawing")
     parser.add_argument("--sweep", action="store_true",
                         help="holes at every step of a drag from rest to a 60 degree swing")
@@ -524,22 +584,24 @@ def main():
     if args.sweep:
         return sweep_table(args.names.split(","), sizes, orders)
     print("| drawing | size | vertices | prepare s | drag ms (vs 30) | worst drag ms | picture ms (CPU) | HTTP drag "
-          "ms (vs 60) | HTTP drag CPU ms (vs 60) | HTTP full ms | 24 frames s | ARAP energy | "
-          "handle err px | folds | holes (fresh) | tears (at rest) | visibility |")
+          "ms | HTTP drag CPU ms | page drag ms (vs 60) | HTTP picture ms | HTTP full ms | meshes s "
+          "| 24 frames s | ARAP energy | handle err px | folds | holes (fresh) | tears (at rest) "
+          "| visibility |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
-          "| --- | --- | --- |")
+          "| --- | --- | --- | --- | --- | --- |")
     for name in args.names.split(","):
         for mp in sizes:
-            r = one(name, mp, http=not args.no_http, orders=orders)
+            r = one(name, mp, http=not args.no_http, orders=orders, page=not args.no_page)
             if r is None:
-                print(f"| {name} | | | no limb joined to the largest part | | | | | | | | | | | | | |")
+                print(f"| {name} | | | no limb joined to the largest part |" + " |" * 16)
                 continue
             print(f"| {r['name']} | {r['size']} | {r['vertices']} | {r['prepare']:.2f} | "
                   f"{1000 * r['drag']:.1f} ({r['drag'] / 0.03:.2f}x) | {1000 * r['worst']:.0f} | "
                   f"{1000 * r['picture']:.0f} "
-                  f"({1000 * r['picture_cpu']:.0f}) | {1000 * r['http']:.0f} ({r['http'] / 0.06:.2f}x) | "
-                  f"{1000 * r['http_cpu']:.0f} ({r['http_cpu'] / 0.06:.2f}x) | "
-                  f"{1000 * r['http_full']:.0f} | "
+                  f"({1000 * r['picture_cpu']:.0f}) | {1000 * r['http']:.0f} | "
+                  f"{1000 * r['http_cpu']:.0f} | {1000 * r['page']:.0f} ({r['page'] / 0.06:.2f}x) | "
+                  f"{1000 * r['http_picture']:.0f} | {1000 * r['http_full']:.0f} | "
+                  f"{r['meshes']:.2f} | "
                   f"{r['animation']:.1f} | {r['energy']:.2f} | {r['error']:.1e} | {r['folds']} | "
                   f"{r['holes']} ({r['fresh']}) | {r['tears']} ({r['tears_rest']}) | {100 * r['visibility']:.1f} % |", flush=True)
 

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from inkray.chain import ReliefChain
 from inkray.errors import InputError
@@ -107,6 +108,50 @@ def test_animation_frames_are_warm_started_and_single_frames_match(turtle):
     assert np.allclose(posed.at(pose, 3), frames[3][1])
     with pytest.raises(InputError, match="frame: 9 is not a frame of the pose"):
         posed.at(pose, 9)
+
+
+def test_drawn_meshes_carry_the_layers_and_move_with_the_pose(turtle):
+    chain, posed = turtle
+    meshes = posed.meshes()
+    names = [m.name for m in meshes]
+    assert sorted(names) == sorted(p.name for p in chain.relief.parts)
+    # back to front: the order the layer stack draws them in
+    stack = [layer.name for layer in posed.cutout.layers]
+    assert names == sorted(names, key=stack.index)
+    rest = posed.drawn_vertices(posed.rig.vertices)
+    layers = {layer.name: layer for layer in posed.cutout.layers}
+    for m, v in zip(meshes, rest):
+        assert v.shape == (len(m.texcoords), 3) and m.faces.max() < len(v)
+        assert 0 < m.inner < len(m.faces)  # front triangles, then the skirt
+        # at rest every vertex, the skirt's too, is drawn where its colour is taken from
+        assert np.allclose(v[:, :2], m.texcoords)
+        top, bottom, left, right = layers[m.name].box
+        x0, y0 = m.origin
+        y1, x1 = y0 + m.texture.shape[0], x0 + m.texture.shape[1]
+        inside = layers[m.name].rgba[max(y0 - top, 0):y1 - top, max(x0 - left, 0):x1 - left]
+        assert np.array_equal(m.texture[max(top - y0, 0):][:inside.shape[0],
+                                        max(left - x0, 0):][:, :inside.shape[1]], inside)
+    x, _ = posed.posing.pose([[250.0, 250.0], [345.0, 170.0]], iterations=8)
+    moved = posed.drawn_vertices(x)
+    parts = {p.name: np.asarray(p.vertices, float) for p in posed.relief(x).parts}
+    for m, v, r in zip(meshes, moved, rest):
+        # the front triangles' vertices are the posed relief's, heights kept
+        front = v[np.unique(m.faces[:m.inner])]
+        assert cKDTree(parts[m.name]).query(front)[0].max() < 1e-9
+        assert np.allclose(v[:, 2], r[:, 2])
+    assert not all(np.allclose(v, r) for v, r in zip(moved, rest))
+
+
+def test_other_handles_share_the_prepared_drawing(turtle):
+    chain, posed = turtle
+    other = posed.with_handles([[250.0, 250.0], [300.0, 180.0]])
+    assert other.rig is posed.rig and other.cutout is posed.cutout
+    assert other.posing is not posed.posing
+    fresh = PosedDrawing(chain.relief, chain.completion, chain.relations, chain.drawing,
+                         [[250.0, 250.0], [300.0, 180.0]])
+    to = [[250.0, 250.0], [310.0, 160.0]]
+    assert np.array_equal(other.positions(to), fresh.positions(to))
+    assert posed.posing.handles.tolist() == [[250.0, 250.0], [330.0, 200.0]]
 
 
 def test_scan_conversion_covers_every_pixel_centre_of_a_mesh_exactly_once():

@@ -31,6 +31,12 @@ Endpoints (a public contract, see ``docs/editor.md``):
   picture while dragging), with ``X-Inkray-Compute-Ms``; ``POST
   /api/pose/save`` a pose file's JSON: written as ``<name>.pose.json`` beside
   the annotation, ``{"path": ...}``.
+- ``GET /api/pose/meshes`` the parts as textured meshes, back to front (JSON,
+  see :meth:`inkray.editor.posing.PoseSession.meshes`); ``POST
+  /api/pose/vertices`` ``{"handles", "to"}`` their posed vertices, float32
+  ``x, y, height`` per vertex in that order: what the page draws while a
+  handle moves. Both carry ``X-Inkray-Generation``: vertices of another
+  generation than the meshes' call for the meshes again.
 """
 
 import io
@@ -203,11 +209,8 @@ def editor_app(session, *, allowed_hosts=None):
             value = await anyio.to_thread.run_sync(session.relations)
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
-        compute_ms = value.pop("compute_ms")
         value["plain"] = session.explain(value["error"]) if value["error"] else None
-        return JSONResponse(value, headers=dict(_NO_STORE, **{
-            "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
-            "X-Inkray-Generation": str(value["generation"])}))
+        return _computed(value)
 
     async def pose(request):
         body = await _json(request)
@@ -221,6 +224,25 @@ def editor_app(session, *, allowed_hosts=None):
         except Exception as e:  # noqa: BLE001 - every failure is one line for the page
             return _failure(e)
         return Response(png, media_type="image/png", headers=dict(_NO_STORE, **{
+            "X-Inkray-Compute-Ms": f"{ms:.1f}", "X-Inkray-Generation": str(generation)}))
+
+    async def pose_meshes(request):
+        try:
+            value = await anyio.to_thread.run_sync(posing.meshes)
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return _computed(value)
+
+    async def pose_vertices(request):
+        body = await _json(request)
+        if not isinstance(body, dict) or set(body) != {"handles", "to"}:
+            return _error(400, "expected {\"handles\": [[x, y], ...], \"to\": [[x, y], ...]}")
+        try:
+            data, ms, generation = await anyio.to_thread.run_sync(
+                lambda: posing.vertices(body["handles"], body["to"]))
+        except Exception as e:  # noqa: BLE001 - every failure is one line for the page
+            return _failure(e)
+        return Response(data, media_type="application/octet-stream", headers=dict(_NO_STORE, **{
             "X-Inkray-Compute-Ms": f"{ms:.1f}", "X-Inkray-Generation": str(generation)}))
 
     async def pose_save(request):
@@ -247,6 +269,8 @@ def editor_app(session, *, allowed_hosts=None):
         *_shot_routes(session),
         Route("/api/pose", pose, methods=["POST"]),
         Route("/api/pose/save", pose_save, methods=["POST"]),
+        Route("/api/pose/meshes", pose_meshes),
+        Route("/api/pose/vertices", pose_vertices, methods=["POST"]),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     middleware = []
@@ -290,6 +314,15 @@ def _error(status, message, session=None):
     plain = session.explain(message) if session is not None else None
     return JSONResponse({"error": message, "paths": entry_paths(message), "plain": plain},
                         status_code=status, headers=_NO_STORE)
+
+
+def _computed(value):
+    """A value the session computed for the newest document (``generation`` and
+    ``compute_ms`` among its keys) as JSON, its time and generation in headers."""
+    compute_ms = value.pop("compute_ms")
+    return JSONResponse(value, headers=dict(_NO_STORE, **{
+        "X-Inkray-Compute-Ms": f"{compute_ms:.1f}",
+        "X-Inkray-Generation": str(value["generation"])}))
 
 
 def _failure(e, session=None):

@@ -27,6 +27,9 @@ transparent rims reach, and the drawing has ink there, the speck is drawn from
 its neighbours (paper the pose encloses stays transparent).
 """
 
+import copy
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
@@ -36,7 +39,7 @@ from inkray.relief.cutout import Cutout, CutoutLayer, cut_out
 from inkray.relief.model import Relief
 from inkray.relief.posing import Posing, front_mesh, rig_relief
 
-__all__ = ["PosedDrawing", "posed_image", "posed_layers"]
+__all__ = ["DrawnMesh", "PosedDrawing", "posed_image", "posed_layers"]
 
 _SKIRT = 2.5  # px: how far a layer's soft edge may reach beyond its part's triangles
 # px: the widest skirt, for a layer whose strokes reach past its part's triangles (the outline
@@ -57,14 +60,15 @@ class PosedDrawing:
         The ordered completion of the relief.
     relations : list of inkray.relief.ordering.Relation
     drawing : inkray.input.drawing.Drawing
-    handles : (k, 2) float array
-        Points on the drawing.
+    handles : (k, 2) float array or None
+        Points on the drawing; None prepares the drawing without handles
+        (:meth:`with_handles` gives it some).
     boundaries : list of inkray.input.annotations.Boundary, optional
 
     Attributes
     ----------
     rig : inkray.relief.posing.Rig
-    posing : inkray.relief.posing.Posing
+    posing : inkray.relief.posing.Posing or None
     cutout : inkray.relief.cutout.Cutout
         The rest layers (their colours are what the posed parts carry), each
         continued ``_PAD`` px under the parts in front of it.
@@ -72,12 +76,18 @@ class PosedDrawing:
 
     def __init__(self, relief, completion, relations, drawing, handles, *, boundaries=()):
         self.rig = rig_relief(relief, completion, boundaries=boundaries)
-        self.posing = Posing(self.rig, handles)
+        self.posing = None if handles is None else Posing(self.rig, handles)
         # Each layer goes on under the parts in front of it as far as its skirt can draw it:
         # a pose that moves a part in front a pixel or two shows the part behind, not a crack.
         self.cutout = cut_out(completion, relations, drawing, pad=_PAD)
         self.drawing = drawing
         self._sources = _Sources(relief, self.cutout, drawing.rgb)
+
+    def with_handles(self, handles):
+        """The same drawing prepared for ``handles`` (its rig, layers and colours shared)."""
+        other = copy.copy(self)
+        other.posing = Posing(self.rig, handles)
+        return other
 
     def positions(self, targets, *, iterations=4):
         """Rig vertex positions with the handles at ``targets`` (warm-started, no folds)."""
@@ -135,6 +145,70 @@ class PosedDrawing:
         """The posed cut-out stack (see :func:`posed_layers`)."""
         return posed_layers(self.relief(positions), self.rig.relief, self.cutout,
                             self.drawing.rgb)
+
+    def meshes(self):
+        """What a renderer needs to draw the posed picture itself: one :class:`DrawnMesh` per
+        part, back to front by the layer stack (:meth:`drawn_vertices` moves them)."""
+        out = []
+        for i in self._sources.order:
+            source = self._sources.parts[i]
+            x0, y0, _ = source.texture
+            if len(source.faces):
+                _, _, rest, faces = source.posed(source.full)
+            else:
+                rest, faces = np.zeros((0, 2)), np.zeros((0, 3), np.int64)
+            out.append(DrawnMesh(name=self.rig.relief.parts[i].name, faces=faces,
+                                 inner=len(source.faces), texcoords=rest,
+                                 origin=(x0, y0), texture=source.image))
+        return out
+
+    def drawn_vertices(self, positions):
+        """Per mesh of :meth:`meshes`, its posed vertices ``(x, y, height)`` at the rig
+        positions ``positions``: the vertices the picture's triangles and skirts are drawn at."""
+        posed = self.relief(positions)
+        out = []
+        for i in self._sources.order:
+            source = self._sources.parts[i]
+            if not len(source.faces):
+                out.append(np.zeros((0, 3)))
+                continue
+            xy, z, _, _ = source.posed(np.asarray(posed.parts[i].vertices, float))
+            out.append(np.column_stack([xy, z]))
+        return out
+
+
+@dataclass(frozen=True)
+class DrawnMesh:
+    """One part of a posed picture as a textured mesh (:meth:`PosedDrawing.meshes`).
+
+    Drawn back to front, each pixel showing the highest front triangle (the
+    ``inner`` first faces), its premultiplied colour over the ones below;
+    the rest of the faces are the part's skirt, which carries its layer's soft
+    edge and strokes beyond its triangles and has no height of its own: it
+    goes over the parts drawn before it and under the ones drawn after.
+
+    Attributes
+    ----------
+    name : str
+    faces : (f, 3) int array
+    inner : int
+        How many of ``faces`` are the part's front triangles (the rest are its skirt).
+    texcoords : (n, 2) float array
+        Each vertex's rest position in drawing pixels (pixel ``(row i, column j)``
+        centred at ``(j, i)``).
+    origin : (int, int)
+        The drawing pixel ``(x, y)`` at the texture's first row and column.
+    texture : (h, w, 4) uint8 array
+        The part's cut-out layer over its box, RGBA not premultiplied (the
+        drawing, opaque, for a part without a layer).
+    """
+
+    name: str
+    faces: np.ndarray
+    inner: int
+    texcoords: np.ndarray
+    origin: tuple
+    texture: np.ndarray
 
 
 def posed_image(posed, rest, layers, drawing_rgb):
@@ -522,6 +596,7 @@ class _PartSource:
         first, _, _, self.faces = front_mesh(part)
         self.vertex = first
         v = np.asarray(part.vertices, float)
+        self.full = v
         self.home = v[first, :2]
         self.rest = (v[:, :2] if part.texcoords is None else
                      np.asarray(part.texcoords, float))[first]
@@ -542,12 +617,25 @@ class _PartSource:
             if cy0 < cy1 and cx0 < cx1:
                 tex[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = layer.rgba[
                     cy0 - ly0:cy1 - ly0, cx0 - lx0:cx1 - lx0]
-        # premultiplied, so that bilinear sampling does not bleed the colour of nothing
-        tex[..., :3] *= tex[..., 3:] / 255.0
         # two pixels at least each way, as bilinear sampling reads them
         tex = np.pad(tex, ((0, max(2 - tex.shape[0], 0)), (0, max(2 - tex.shape[1], 0)), (0, 0)),
                      mode="edge")
+        self.image = tex.astype(np.uint8)
+        # premultiplied, so that bilinear sampling does not bleed the colour of nothing
+        tex[..., :3] *= tex[..., 3:] / 255.0
         self.texture = (x0, y0, tex)
+
+    def posed(self, vertices):
+        """The mesh drawn at ``vertices`` (the posed part's): its vertices, heights, rest
+        positions and faces, with the skirt (its faces last)."""
+        xy, z = vertices[self.vertex, :2], vertices[self.vertex, 2]
+        # A vertex a solve brings back to rest within round-off is drawn at rest: a pixel
+        # centre on a triangle's edge there (a straight outline along a pixel row) must not
+        # flip to the next row and open a slit between two parts.
+        xy = np.where(np.all(np.abs(xy - self.home) <= _SNAP, axis=1)[:, None], self.home, xy)
+        if self.skirt is None:
+            return xy, z, self.rest, self.faces
+        return self.skirt.around(xy, z, self.rest, self.faces)
 
     def surface(self, vertices, scale, size):
         """Its covered pixels (flat, distinct), their heights and premultiplied RGBA, at
@@ -557,14 +645,7 @@ class _PartSource:
         w, h = size
         if not len(self.faces):
             return None
-        xy, z = vertices[self.vertex, :2], vertices[self.vertex, 2]
-        # A vertex a solve brings back to rest within round-off is drawn at rest: a pixel
-        # centre on a triangle's edge there (a straight outline along a pixel row) must not
-        # flip to the next row and open a slit between two parts.
-        xy = np.where(np.all(np.abs(xy - self.home) <= _SNAP, axis=1)[:, None], self.home, xy)
-        rest, faces = self.rest, self.faces
-        if self.skirt is not None:
-            xy, z, rest, faces = self.skirt.around(xy, z, rest, faces)
+        xy, z, rest, faces = self.posed(vertices)
         out = (xy + 0.5) * scale - 0.5
         lo = np.maximum(np.floor(out.min(axis=0)).astype(int), 0)
         hi = np.minimum(np.ceil(out.max(axis=0)).astype(int) + 1, [w, h])

@@ -1,11 +1,133 @@
 // inkray edit, Pose mode: click on the drawing to place a handle, drag a handle to pose the
-// drawing (the server answers each drag with the posed picture, POST /api/pose), keep keys on
-// a timeline, play them back, save the pose file (POST /api/pose/save). docs/editor.md.
+// drawing, keep keys on a timeline, play them back, save the pose file (POST /api/pose/save).
+// While a handle moves the page draws the posed parts itself (WebGL): the server sends the
+// parts' textured meshes once (GET /api/pose/meshes) and per drag only their posed vertices
+// (POST /api/pose/vertices); where a handle stops, the server's picture (POST /api/pose)
+// replaces the drawn one. docs/editor.md.
+import * as THREE from "three";
 
 const $ = (id) => document.getElementById(id);
 const P = { on: false, handles: [], to: [], keys: [], drag: -1, busy: false, queued: false,
-            updates: 0, url: null, playing: false };
+            updates: 0, url: null, playing: false, drawn: 0, gl: null };
 window.inkrayPose = P;  // for scripts and tests
+
+// The posed parts as WebGL meshes: each pixel shows the highest front triangle (a depth test
+// on the relief's height), its premultiplied colour over what is drawn under it; a part's
+// skirt (its layer's soft edge and strokes beyond its triangles) has no height: drawn before
+// the part's triangles, over the parts before it, and left for any part after it to cover.
+const VERTEX = `precision highp float;
+in vec3 position; in vec2 uv;
+uniform vec2 size; uniform vec2 texsize; uniform vec2 height; uniform float skirt;
+out vec2 at;
+void main() {
+  at = (uv + 0.5) / texsize;
+  float t = (position.z - height.x) / max(height.y - height.x, 1e-6);
+  gl_Position = vec4((position.x + 0.5) / size.x * 2.0 - 1.0, 1.0 - (position.y + 0.5) / size.y * 2.0,
+                     skirt > 0.5 ? 0.95 : 0.9 - 1.8 * t, 1.0);
+}`;
+const FRAGMENT = `precision highp float;
+uniform sampler2D map;
+in vec2 at; out vec4 colour;
+void main() {
+  vec4 c = texture(map, at);
+  if (c.a < 0.5 / 255.0) discard;  // what is transparent is not there: the part under it shows
+  colour = c;
+}`;
+
+class Drawn {
+  constructor(canvas) {
+    this.renderer = new THREE.WebGLRenderer({ canvas, alpha: true, premultipliedAlpha: true,
+                                              antialias: false, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(1);
+    this.renderer.setClearColor(0x000000, 0);
+    this.renderer.sortObjects = true;
+    this.camera = new THREE.Camera();  // the shader places vertices itself
+    this.scene = null;
+    this.generation = -1;
+    this.loading = null;
+  }
+
+  async load() {
+    if (!this.loading) this.loading = this._load().finally(() => { this.loading = null; });
+    return this.loading;
+  }
+
+  async _load() {
+    const r = await fetch("/api/pose/meshes");
+    if (!r.ok) throw new Error((await r.json()).error);
+    const m = await r.json();
+    const [w, h] = m.size;
+    this.renderer.setSize(w, h, false);
+    const scene = new THREE.Scene();
+    const buffers = [];
+    let order = 0;
+    for (const part of m.parts) {
+      const position = new THREE.BufferAttribute(new Float32Array(3 * part.vertices), 3);
+      position.setUsage(THREE.DynamicDrawUsage);
+      buffers.push(position);
+      if (!part.faces.length) continue;
+      const img = new Image();
+      img.src = `data:image/png;base64,${part.texture.png}`;
+      await img.decode();
+      const map = new THREE.Texture(img);
+      Object.assign(map, { flipY: false, premultiplyAlpha: true, generateMipmaps: false,
+                           minFilter: THREE.LinearFilter, magFilter: THREE.LinearFilter,
+                           wrapS: THREE.ClampToEdgeWrapping, wrapT: THREE.ClampToEdgeWrapping });
+      map.needsUpdate = true;
+      const uv = new THREE.BufferAttribute(new Float32Array(part.texcoords), 2);
+      const faces = new Uint32Array(part.faces);
+      // the skirt first: where the part's own triangles cover a pixel, they draw it
+      for (const [skirt, index] of [[1, faces.subarray(3 * part.inner)],
+                                    [0, faces.subarray(0, 3 * part.inner)]]) {
+        if (!index.length) continue;
+        const geometry = new THREE.BufferGeometry();
+        geometry.setAttribute("position", position);
+        geometry.setAttribute("uv", uv);
+        geometry.setIndex(new THREE.BufferAttribute(index, 1));
+        const material = new THREE.RawShaderMaterial({
+          glslVersion: THREE.GLSL3, vertexShader: VERTEX, fragmentShader: FRAGMENT,
+          uniforms: { map: { value: map }, size: { value: new THREE.Vector2(w, h) },
+                      texsize: { value: new THREE.Vector2(...part.texture.size) },
+                      height: { value: new THREE.Vector2(...m.height) }, skirt: { value: skirt } },
+          transparent: true, side: THREE.DoubleSide, depthTest: true, depthWrite: true,
+          depthFunc: skirt ? THREE.AlwaysDepth : THREE.LessEqualDepth,
+          blending: THREE.CustomBlending, blendEquation: THREE.AddEquation,
+          blendSrc: THREE.OneFactor, blendDst: THREE.OneMinusSrcAlphaFactor,
+          blendSrcAlpha: THREE.OneFactor, blendDstAlpha: THREE.OneMinusSrcAlphaFactor });
+        const mesh = new THREE.Mesh(geometry, material);
+        mesh.frustumCulled = false;
+        mesh.renderOrder = order++;
+        scene.add(mesh);
+      }
+    }
+    if (this.scene) this.scene.traverse((o) => { if (o.isMesh) { o.geometry.dispose(); o.material.dispose(); } });
+    Object.assign(this, { scene, buffers, generation: +r.headers.get("X-Inkray-Generation") });
+  }
+
+  // the posed vertices (float32 x, y, height per vertex, the parts one after the other)
+  draw(data) {
+    let k = 0;
+    for (const b of this.buffers) {
+      b.array.set(data.subarray(k, k + b.array.length));
+      b.needsUpdate = true;
+      k += b.array.length;
+    }
+    if (k !== data.length) throw new Error("the posed vertices do not fit the parts' meshes");
+    this.renderer.render(this.scene, this.camera);
+  }
+}
+
+function glOk() {
+  if (P.gl === null) {
+    try { P.gl = new Drawn($("posed-gl")); } catch (e) { P.gl = false; }  // no WebGL 2: pictures
+  }
+  return P.gl;
+}
+
+function show(drawn) {
+  $("posed-gl").hidden = !drawn;
+  $("posed").hidden = drawn;
+}
 
 function view() { return window.inkray.view; }
 
@@ -34,28 +156,65 @@ function dragScale() {
   return Math.min(1, Math.sqrt(250000 / (w * h)));
 }
 
+function failed(message) {
+  $("pose-error").textContent = message;
+  $("pose-error").hidden = false;
+}
+
+function updated(r) {
+  P.updates += 1;
+  $("posed").dataset.updates = String(P.updates);
+  $("pose-ms").textContent = `${r.headers.get("X-Inkray-Compute-Ms")} ms`;
+  $("pose-error").hidden = true;
+}
+
+// while a handle moves: the posed vertices, drawn by the page
+async function drawVertices() {
+  const gl = P.gl;
+  for (let attempt = 0; attempt < 2; attempt++) {
+    if (gl.generation < 0) await gl.load();
+    const r = await fetch("/api/pose/vertices", { method: "POST", headers: { "Content-Type": "application/json" },
+                                                  body: JSON.stringify({ handles: P.handles, to: P.to }) });
+    if (!r.ok) { failed((await r.json()).error); return; }
+    const data = new Float32Array(await r.arrayBuffer());
+    if (+r.headers.get("X-Inkray-Generation") !== gl.generation) {  // the document changed
+      gl.generation = -1;
+      continue;
+    }
+    gl.draw(data);
+    show(true);
+    P.drawn += 1;
+    updated(r);
+    return;
+  }
+}
+
+// the server's picture: where a handle stops, or while it moves without WebGL (smaller)
+async function picture() {
+  const scale = P.drag >= 0 ? dragScale() : 1;
+  const r = await fetch("/api/pose", { method: "POST", headers: { "Content-Type": "application/json" },
+                                       body: JSON.stringify({ handles: P.handles, to: P.to, scale }) });
+  if (!r.ok) { failed((await r.json()).error); return; }
+  const url = URL.createObjectURL(await r.blob());
+  const img = $("posed");
+  img.src = url;
+  await img.decode().catch(() => {});
+  if (P.url) URL.revokeObjectURL(P.url);
+  P.url = url;
+  if (P.drag < 0 || !P.gl) show(false);  // a drag begun meanwhile keeps drawing
+  updated(r);
+}
+
 async function request() {
   // one request in flight; a drag during it sends the newest targets when it returns
   if (P.busy) { P.queued = true; return; }
   if (!P.handles.length) return;
   P.busy = true;
-  const scale = P.drag >= 0 ? dragScale() : 1;
   try {
-    const r = await fetch("/api/pose", { method: "POST", headers: { "Content-Type": "application/json" },
-                                         body: JSON.stringify({ handles: P.handles, to: P.to, scale }) });
-    if (r.ok) {
-      if (P.url) URL.revokeObjectURL(P.url);
-      P.url = URL.createObjectURL(await r.blob());
-      $("posed").src = P.url;
-      P.updates += 1;
-      $("posed").dataset.updates = String(P.updates);
-      $("pose-ms").textContent = `${r.headers.get("X-Inkray-Compute-Ms")} ms`;
-      $("pose-error").hidden = true;
-    } else {
-      const e = await r.json();
-      $("pose-error").textContent = e.error;
-      $("pose-error").hidden = false;
-    }
+    if (P.drag >= 0 && glOk()) await drawVertices();
+    else await picture();
+  } catch (e) {
+    failed(String(e.message || e));
   } finally {
     P.busy = false;
     if (P.queued) { P.queued = false; request(); }
@@ -159,7 +318,10 @@ function toggle() {
   $("pose-mode").classList.toggle("active", P.on);
   $("pose-layer").hidden = !P.on;
   $("marks").style.visibility = P.on ? "hidden" : "";  // the annotation's marks are not posed
-  if (P.on) request();
+  if (P.on) {
+    request();
+    if (glOk()) P.gl.load().catch(() => {});  // ready before the first drag
+  }
   renderHandles();
 }
 
@@ -170,6 +332,11 @@ function start() {
   layer.style.height = `${h}px`;
   $("posed").style.width = `${w}px`;   // a smaller picture while dragging shows at full size
   $("posed").style.height = `${h}px`;
+  const canvas = $("posed-gl");
+  canvas.width = w;
+  canvas.height = h;
+  canvas.style.width = `${w}px`;
+  canvas.style.height = `${h}px`;
   $("pose-handles").setAttribute("width", w);
   $("pose-handles").setAttribute("height", h);
   layer.addEventListener("pointerdown", onDown);
@@ -182,6 +349,7 @@ function start() {
   $("pose-clear").addEventListener("click", () => {
     Object.assign(P, { handles: [], to: [], keys: [] });
     $("posed").removeAttribute("src");
+    show(false);
     renderHandles();
   });
 }
