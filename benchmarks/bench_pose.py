@@ -21,18 +21,23 @@ brackets, 0 when the measure is sound) and visibility agreement (pixels that two
 parts draw, a surface there and their layer not transparent, whose drawn part
 is the one highest in the relief).
 Through HTTP, as the editor's Pose mode sees it: ``inkray edit`` serves the
-same (rescaled) annotation and each drag is one ``POST /api/pose`` answered by
-the posed picture as PNG, at most a quarter megapixel while the handle moves
-(as pose.js asks) and in full when it stops (the first request, which builds
-the relief and the rig, is not counted). Targets: drag <= 30 ms in process and <= 60 ms through
-HTTP at 1 Mpx, handles within 0.5 px, 0 folds, 0 holes, visibility 100 %.
-Times are medians of 9 drags. On a machine shared with other
-work wall times grow with its load; beside them the CPU time of the picture
-and of the editor's server per drag (its process's CPU time over the drags)
-stand for what they cost on an idle machine.
+same (rescaled) annotation (the first request, which builds the relief and
+the rig, is not counted). While a handle moves the page asks for the posed
+meshes' vertices (``POST /api/pose/vertices``, the HTTP drag) and draws the
+parts' textured meshes itself with WebGL (the page drag: the request and the
+drawing, in headless Chromium, whose WebGL is a software rasterizer on the
+CPU); the meshes come once per document (``GET /api/pose/meshes``). Beside
+them: the drag as a picture (``POST /api/pose`` at most a quarter megapixel,
+what the page asks without WebGL 2) and the full picture where the handle
+stops. Targets: drag <= 30 ms in process and <= 60 ms through HTTP at 1 Mpx,
+handles within 0.5 px, 0 folds, 0 holes, visibility 100 %. Times are medians
+of 9 drags. On a machine shared with other work wall times grow with its
+load; beside them the CPU time of the picture and of the editor's server per
+drag (its process's CPU time over the drags, the folding first nudges' rounds
+and repairs included) stand for what they cost on an idle machine.
 
     python benchmarks/bench_pose.py [--names man,figure,turtle] [--no-upscale] [--no-http]
-        [--order FRONT/BACK,...]
+        [--no-page] [--order FRONT/BACK,...]
 
 ``--order tail/body`` adds an order entry (the region ``tail`` in front of ``body``,
 at the middle of their common outline) to the annotation in process, to check a

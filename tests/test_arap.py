@@ -196,12 +196,34 @@ def test_first_flip_is_where_a_corner_crosses_the_opposite_edge():
     assert _first_flip(v, f, np.array([1.0]), step) == np.inf
 
 
-def test_a_reweighted_solver_with_the_same_stiffness_solves_the_same():
-    v, f, handles, targets = _square_pushed()
-    solver = Arap(v, f, handles=handles, stiffness=np.linspace(1.0, 3.0, len(f)))
-    same = solver._reweighted(solver._stiffness)
-    moved = targets + 0.1 * targets[:, ::-1]
-    x = solver.solve(moved, iterations=3, initial=v)
-    assert np.array_equal(same.solve(moved, iterations=3, initial=v), x)
-    assert not np.allclose(solver._reweighted(2.0 * solver._stiffness[::-1]).solve(
-        moved, iterations=3, initial=v), x)
+def test_a_reweighted_solver_solves_as_one_built_with_those_stiffnesses():
+    # exact glue and a handle inside a face: both substituted in the reweighted system
+    v, f, at, handles, targets = _two_grids()
+    ia, ib, ja, jb = at(0, [3, 1]), at(1, [3, 1]), at(0, [4, 1]), at(1, [4, 1])
+    G = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [ib, ia, jb, ja])), shape=(2, len(v)))
+    corners = f[5]
+    H = sp.csr_matrix(([1.0, 0.2, 0.3, 0.5], ([0, 1, 1, 1], [handles[0], *corners])),
+                      shape=(2, len(v)))
+    to = np.vstack([targets[0], v[corners].T @ [0.2, 0.3, 0.5] + [1.0, 4.0]])
+    k = np.linspace(1.0, 3.0, len(f))
+    solver = Arap(v, f, handles=H, glue=G, stiffness=k)
+    x = solver.solve(to, iterations=3, initial=v)
+    for other in (k, 2.0 * k[::-1]):
+        fresh = Arap(v, f, handles=H, glue=G, stiffness=other)
+        got = solver._reweighted(other).solve(to, iterations=3, initial=v)
+        assert np.allclose(got, fresh.solve(to, iterations=3, initial=v), atol=1e-9)
+        assert np.abs(H @ got - to).max() < 1e-9 and np.abs(G @ got).max() < 1e-9
+    assert not np.allclose(got, x)
+    assert solver._stiffening is not None  # the maps, not the assembly
+
+
+def test_compression_weights_grow_as_a_face_flattens():
+    from inkray.numerics.arap import _compression_weights
+
+    v = np.array([[0.0, 0], [1, 0], [0, 1]])
+    f = np.array([[0, 1, 2]])
+    s = np.array([1.0, 0.5, 0.1])
+    # squashed along y to s: (s + 1)(s^2 + 1) / (4 s^3); stretched faces weigh 1
+    squashed = [_compression_weights(v, f, v * [1.0, si])[0] for si in s]
+    assert np.allclose(squashed, np.maximum((s + 1) * (s * s + 1) / (4 * s ** 3), 1.0))
+    assert _compression_weights(v, f, turn(v, 0.7) * 2.0)[0] == 1.0

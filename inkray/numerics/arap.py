@@ -193,22 +193,18 @@ class Arap:
         self._held = ((C @ self._T).tocsr(), mask[self._keep])
         self._tail = np.concatenate([f[:, (c + 1) % 3] for c in range(3)])
         self._head = np.concatenate([f[:, (c + 2) % 3] for c in range(3)])
-        self._stiffness = k
+        self._stiffening = None
         self._assemble(k)
 
     def _assemble(self, stiffness):
         """The global step's factored matrix and right-hand side for these face stiffnesses."""
         f, n, m = self.faces, len(self.rest), len(self.faces)
-        self._weights = self._cot * stiffness[:, None]
+        self._weigh(stiffness)
         L = _cotmatrix(f, self._weights, n)
         self._Q = (self._T.T @ (L + self._glue_energy) @ self._T).tocsr()
         self._eliminate(*self._held)
         # The global step's right-hand side b = sum over face edges of R_t w e, into the
         # edge's head (+) and tail (-): b_x = M0 cos - M1 sin, b_y = M0 sin + M1 cos.
-        w = np.concatenate([self._weights[:, c] for c in range(3)])
-        edges = np.concatenate([self._edges[:, c] for c in range(3)])
-        self._we0 = w * edges[:, 0]  # edge k of every face, then k + 1, ...
-        self._we1 = w * edges[:, 1]
         face = np.tile(np.arange(m), 3)
         rows = np.concatenate([self._head, self._tail])
         M = [sp.csr_matrix((np.concatenate([v, -v]), (rows, np.concatenate([face, face]))),
@@ -218,10 +214,29 @@ class Arap:
             M = [self._P.T @ Mi for Mi in M]
         self._M0, self._M1 = (Mi.tocsr() for Mi in M)
 
+    def _weigh(self, stiffness):
+        """The cotangent weights times ``stiffness``, per face and per edge (the local step's)."""
+        self._stiffness = stiffness
+        self._weights = self._cot * stiffness[:, None]
+        w = np.concatenate([self._weights[:, c] for c in range(3)])
+        edges = np.concatenate([self._edges[:, c] for c in range(3)])
+        self._we0 = w * edges[:, 0]  # edge k of every face, then k + 1, ...
+        self._we1 = w * edges[:, 1]
+
     def _reweighted(self, stiffness):
-        """This solver with other face stiffnesses (the same handles, glue and held rows)."""
+        """This solver with other face stiffnesses (the same handles, glue and held rows).
+
+        Its matrices are linear in the stiffnesses: the maps are built once
+        (:class:`_Stiffening`) and each reweighting evaluates them and factors
+        in the first factor's fill-reducing order.
+        """
         other = copy.copy(self)
-        other._assemble(stiffness)
+        if self._kkt or self._factor is None:
+            other._assemble(stiffness)
+            return other
+        if self._stiffening is None:
+            self._stiffening = other._stiffening = _Stiffening(self)
+        self._stiffening.apply(other, stiffness)
         return other
 
     def _eliminate(self, C, mask):
@@ -545,15 +560,16 @@ def _compression_weights(rest, faces, x):
     compressed to ``s`` (1 at rest): it grows as ``s^-3`` as the face flattens.
     """
     e, d = _edge_vectors(rest, faces), _edge_vectors(x, faces)
-    # J maps rest edges 1, 2 to posed ones: J = D E^-1 with the edges as columns
-    E = np.stack([e[:, 1], e[:, 2]], axis=2)
-    D = np.stack([d[:, 1], d[:, 2]], axis=2)
-    det = np.linalg.det(E)
+    # J maps rest edges 1, 2 to posed ones: J = D E^-1 with the edges as columns, in closed form
+    (a, c), (b, dd) = e[:, 1].T, e[:, 2].T  # E = [[a, b], [c, dd]]
+    (p, r), (q, t) = d[:, 1].T, d[:, 2].T  # D = [[p, q], [r, t]]
+    det = a * dd - b * c
     ok = np.abs(det) > 1e-12
-    J = np.zeros_like(E)
-    J[ok] = D[ok] @ np.linalg.inv(E[ok])
-    fro = np.einsum("mij,mij->m", J, J)
-    dj = np.abs(np.linalg.det(J))
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    j00, j01 = (p * dd - q * c) * inv, (q * a - p * b) * inv
+    j10, j11 = (r * dd - t * c) * inv, (t * a - r * b) * inv
+    fro = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11
+    dj = np.abs(j00 * j11 - j01 * j10)
     s = np.sqrt(np.maximum(0.5 * (fro - np.sqrt(np.maximum(fro * fro - 4 * dj * dj, 0.0))), 0.0))
     s = np.maximum(s, 1e-3)
     w = (s + 1) * (s * s + 1) / (4 * s ** 3)
@@ -585,6 +601,99 @@ def _first_flip(x, faces, sign, step):
         roots = np.where(roots > 0, roots, np.inf).min(axis=0)
         first[quad] = roots[quad]
     return float(first.min(initial=np.inf))
+
+
+class _Stiffening:
+    """A solver's global step as linear maps of its face stiffnesses, for solves that weight
+    the faces again every round.
+
+    The eliminated system ``A = R^T (L + G) R`` (``R = T P``: the glue's and the
+    handles' substitutions), its handle and fixed-vertex columns and the
+    right-hand side's operators are each a sum over faces of the face's
+    stiffness times a fixed matrix: evaluated by one sparse product per
+    reweighting instead of assembled, and factored in the fill-reducing order
+    of the solver's own factor (the pattern does not change).
+    """
+
+    def __init__(self, solver):
+        s = solver
+        f, m = s.faces, len(s.faces)
+        i, j = s._tail, s._head
+        w = np.concatenate([s._cot[:, c] for c in range(3)])
+        face = np.tile(np.arange(m), 3)
+        g = s._glue_energy.tocoo()
+        # L = sum over face edges of w (e_i - e_j)(e_i - e_j)^T, the glue a last "face" of 1
+        self._rows = np.concatenate([i, j, i, j, g.row])
+        self._cols = np.concatenate([i, j, j, i, g.col])
+        self._coef = np.concatenate([w, w, -w, -w, g.data])
+        self._face = np.concatenate([face, face, face, face, np.full(g.nnz, m)])
+        R = (s._T @ s._P).tocsr()
+        self._order = np.argsort(s._factor.perm_c)
+        rank = np.empty_like(self._order)
+        rank[self._order] = np.arange(len(rank))
+        self._A = self._map(R, R, m + 1, rank)
+        self._D = self._map(R, (s._T @ s._D).tocsr(), m + 1)
+        self._H = self._map(R, (s._T @ s._H).tocsr(), m + 1)
+        self._M = (s._M0, s._M1, s._stiffness)
+
+    def _map(self, X, Y, columns, rank=None):
+        """``X^T L(k) Y`` as ``(B, pattern)``: its entries are ``B @ k`` in CSR order of
+        ``pattern`` (``rank``: both indices renumbered so)."""
+        e, p, xv = _row_entries(X, self._rows)
+        e2, q, yv = _row_entries(Y, self._cols[e])
+        e, p, xv = e[e2], p[e2], xv[e2]
+        if rank is not None:
+            p, q = rank[p], rank[q]
+        width = Y.shape[1]
+        keys, slot = np.unique(p.astype(np.int64) * width + q, return_inverse=True)
+        B = sp.csr_matrix((self._coef[e] * xv * yv, (slot.ravel(), self._face[e])),
+                          shape=(len(keys), columns))
+        rows = keys // width
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=X.shape[1]))])
+        return B, (keys % width, indptr, (X.shape[1], width))
+
+    @staticmethod
+    def _evaluate(mapped, k):
+        B, (indices, indptr, shape) = mapped
+        return sp.csr_matrix((B @ k, indices, indptr), shape=shape)
+
+    def apply(self, solver, stiffness):
+        """Give ``solver`` (a copy of the one the maps were made from) these stiffnesses."""
+        k = np.append(stiffness, 1.0)
+        solver._weigh(stiffness)
+        M0, M1, k0 = self._M
+        scale = sp.diags(stiffness / k0)
+        solver._M0, solver._M1 = (M0 @ scale).tocsr(), (M1 @ scale).tocsr()
+        solver._PtQD = self._evaluate(self._D, k).toarray()
+        solver._PtQH = self._evaluate(self._H, k)
+        # symmetric: its CSR arrays read as CSC are the same matrix
+        A = self._evaluate(self._A, k)
+        solver._factor = _Ordered(sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape),
+                                  self._order)
+        solver._Q = None  # not assembled
+
+
+class _Ordered:
+    """A factor of a matrix given in a fill-reducing order ``order`` (row and column ``i`` of
+    the matrix are ``order[i]`` of the system): its ``solve`` takes the system's order."""
+
+    def __init__(self, A, order):
+        self._order = order
+        self._lu = spd_factor(A, ordered=True)
+
+    def solve(self, b):
+        out = np.empty_like(b)
+        out[self._order] = self._lu.solve(b[self._order])
+        return out
+
+
+def _row_entries(M, rows):
+    """The nonzeros of ``M`` (CSR) in each of ``rows``: the position in ``rows`` each belongs
+    to, its column and its value."""
+    counts = np.diff(M.indptr)[rows]
+    at = np.repeat(M.indptr[rows], counts) + (
+        np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts))
+    return np.repeat(np.arange(len(rows)), counts), M.indices[at], M.data[at]
 
 
 def _edge_vectors(v, f):

@@ -157,6 +157,7 @@ function dragScale() {
 }
 
 function failed(message) {
+  $("pose-ms").textContent = "";
   $("pose-error").textContent = message;
   $("pose-error").hidden = false;
 }
@@ -210,12 +211,15 @@ async function request() {
   if (P.busy) { P.queued = true; return; }
   if (!P.handles.length) return;
   P.busy = true;
+  // a drag that folds faces can take a second or more (the solve repairs them): say so
+  const slow = setTimeout(() => { $("pose-ms").textContent = "solving…"; }, 300);
   try {
     if (P.drag >= 0 && glOk()) await drawVertices();
     else await picture();
   } catch (e) {
     failed(String(e.message || e));
   } finally {
+    clearTimeout(slow);
     P.busy = false;
     if (P.queued) { P.queued = false; request(); }
   }
