@@ -174,7 +174,7 @@ class Arap:
         self.pose = p.copy()
         self._cold = True
         self._cot = cotangent_weights(p, f)
-        k = np.ones(len(f)) if stiffness is None else np.asarray(stiffness, float).reshape(-1)
+        k = np.ones(len(f)) if stiffness is None else np.array(stiffness, float).reshape(-1)
         if k.shape != (len(f),) or not np.all(np.isfinite(k) & (k > 0)):
             raise ValueError(f"stiffness: expected {len(f)} positive numbers, one per face")
         # Rest edges, edge k of face t runs corner k+1 -> k+2.
@@ -634,7 +634,7 @@ class _Stiffening:
         self._A = self._map(R, R, m + 1, rank)
         self._D = self._map(R, (s._T @ s._D).tocsr(), m + 1)
         self._H = self._map(R, (s._T @ s._H).tocsr(), m + 1)
-        self._M = (s._M0, s._M1, s._stiffness)
+        self._M = (s._M0, s._M1, s._stiffness.copy())
 
     def _map(self, X, Y, columns, rank=None):
         """``X^T L(k) Y`` as ``(B, pattern)``: its entries are ``B @ k`` in CSR order of

@@ -347,13 +347,16 @@ class Posing:
             if repair == _REPAIRS - 1 and unfolded:
                 y = self.solver.solve_injective(t, initial=start, iterations=_INJECTIVE_ROUNDS)
                 spent += _INJECTIVE_ROUNDS
-                if np.abs(self.solver.handles @ y - t).max() <= _HANDLE_TOL:
+                # its steps stop short of a flip, but a face left flat by round-off is folded
+                if (np.abs(self.solver.handles @ y - t).max() <= _HANDLE_TOL
+                        and not self.rig.folds(y)):
                     self._unfolded = y
                     return y, spent
             centres = x[self.rig.faces[folded]].mean(axis=1)
             near = _within(x, centres, _REPAIR_REACH)
             grow = np.any(near[self.rig.faces], axis=1)
             self._stiffness[grow] = np.minimum(self._stiffness[grow] * _STIFFER, _STIFFER ** _REPAIRS)
+            glue = self._glue
             if repair == _REPAIRS - 1 and self._glue.shape[0]:
                 touches = np.asarray(abs(self._glue[:, np.flatnonzero(near)]).sum(axis=1)).ravel()
                 released = self._glue[touches == 0]
@@ -365,7 +368,9 @@ class Posing:
                 held[piece[self._fixed]] = True
                 if held.all():
                     self._glue = released
-            self.solver = self._arap()
+            # stiffer faces alone: the same system reweighted, not built again
+            self.solver = (self._arap() if self._glue is not glue
+                           else self.solver._reweighted(self._stiffness.copy()))
             x = self.solve(t, iterations=iterations, initial=start if unfolded else x)
             spent += iterations
         if not folded.size:
