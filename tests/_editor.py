@@ -28,10 +28,9 @@ def running(session):
     import uvicorn
 
     from inkray.editor.app import LOOPBACK_HOSTS, editor_app
+    from inkray.editor.server import _listen
 
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    sock.listen(64)
+    sock = _listen("127.0.0.1", 0)  # as `inkray edit` listens
     server = uvicorn.Server(uvicorn.Config(editor_app(session, allowed_hosts=LOOPBACK_HOSTS),
                                            log_level="warning", lifespan="off"))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)

@@ -79,7 +79,10 @@ def serve(session, *, host="127.0.0.1", port=8765, open_browser=True, stream=Non
 
 def _listen(host, port):
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    # IPPROTO_TCP named: asyncio turns Nagle's algorithm off only on sockets that name it,
+    # and an answer's body held back until its headers are acknowledged waits 40 ms for
+    # the client's delayed ACK on every request of a kept-alive connection
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((host, port))

@@ -169,7 +169,7 @@ function updated(r) {
   $("pose-error").hidden = true;
 }
 
-// while a handle moves: the posed vertices, drawn by the page
+// while a handle moves or the keys play: the posed vertices, drawn by the page
 async function drawVertices() {
   const gl = P.gl;
   for (let attempt = 0; attempt < 2; attempt++) {
@@ -190,7 +190,8 @@ async function drawVertices() {
   }
 }
 
-// the server's picture: where a handle stops, or while it moves without WebGL (smaller)
+// the server's picture: where a handle stops, or while it moves (or the keys play) without
+// WebGL (smaller while it moves)
 async function picture() {
   const scale = P.drag >= 0 ? dragScale() : 1;
   const r = await fetch("/api/pose", { method: "POST", headers: { "Content-Type": "application/json" },
@@ -214,7 +215,7 @@ async function request() {
   // a drag that folds faces can take a second or more (the solve repairs them): say so
   const slow = setTimeout(() => { $("pose-ms").textContent = "solving…"; }, 300);
   try {
-    if (P.drag >= 0 && glOk()) await drawVertices();
+    if ((P.drag >= 0 || P.playing) && glOk()) await drawVertices();
     else await picture();
   } catch (e) {
     failed(String(e.message || e));
@@ -305,6 +306,7 @@ async function play() {
     while (P.busy) await new Promise((r) => setTimeout(r, 10));
   }
   P.playing = false;
+  if (P.gl) await request();  // the last frame as the server pictures it
 }
 
 async function savePose() {
