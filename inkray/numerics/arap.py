@@ -617,7 +617,7 @@ class _Stiffening:
 
     def __init__(self, solver):
         s = solver
-        f, m = s.faces, len(s.faces)
+        m = len(s.faces)
         i, j = s._tail, s._head
         w = np.concatenate([s._cot[:, c] for c in range(3)])
         face = np.tile(np.arange(m), 3)
