@@ -115,21 +115,10 @@ class PoseSession:
         return self.session.newest(compute, lock="relief", wrap=False)
 
     def vertices(self, handles, targets):
-        """The newest document's posed meshes' vertices with the handles at ``targets``.
-
-        Returns
-        -------
-        body : bytes
-            Per part of :meth:`meshes`, in its order, every vertex's ``x, y, height``:
-            little-endian float32.
-        compute_ms : float
-        generation : int
-
-        Raises
-        ------
-        InputError
-            Bad points, a handle on no part, or a document without regions.
-        """
+        """The newest document's posed meshes' vertices with the handles at ``targets``: as
+        :meth:`picture`, with the body per part of :meth:`meshes`, in its order, every
+        vertex's ``x, y, height`` as little-endian float32 (the same solve as the picture of
+        these targets)."""
         doc = self._targets(handles, targets)
 
         def compute(chain, digest):

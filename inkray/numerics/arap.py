@@ -627,16 +627,17 @@ class _Stiffening:
         self._cols = np.concatenate([i, j, j, i, g.col])
         self._coef = np.concatenate([w, w, -w, -w, g.data])
         self._face = np.concatenate([face, face, face, face, np.full(g.nnz, m)])
+        self._columns = m + 1  # the stiffnesses and the glue's 1
         R = (s._T @ s._P).tocsr()
         self._order = np.argsort(s._factor.perm_c)
         rank = np.empty_like(self._order)
         rank[self._order] = np.arange(len(rank))
-        self._A = self._map(R, R, m + 1, rank)
-        self._D = self._map(R, (s._T @ s._D).tocsr(), m + 1)
-        self._H = self._map(R, (s._T @ s._H).tocsr(), m + 1)
+        self._A = self._map(R, R, rank)
+        self._D = self._map(R, (s._T @ s._D).tocsr())
+        self._H = self._map(R, (s._T @ s._H).tocsr())
         self._M = (s._M0, s._M1, s._stiffness.copy())
 
-    def _map(self, X, Y, columns, rank=None):
+    def _map(self, X, Y, rank=None):
         """``X^T L(k) Y`` as ``(B, pattern)``: its entries are ``B @ k`` in CSR order of
         ``pattern`` (``rank``: both indices renumbered so)."""
         e, p, xv = _row_entries(X, self._rows)
@@ -647,7 +648,7 @@ class _Stiffening:
         width = Y.shape[1]
         keys, slot = np.unique(p.astype(np.int64) * width + q, return_inverse=True)
         B = sp.csr_matrix((self._coef[e] * xv * yv, (slot.ravel(), self._face[e])),
-                          shape=(len(keys), columns))
+                          shape=(len(keys), self._columns))
         rows = keys // width
         indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=X.shape[1]))])
         return B, (keys % width, indptr, (X.shape[1], width))

@@ -154,7 +154,8 @@ class PosedDrawing:
             source = self._sources.parts[i]
             x0, y0, _ = source.texture
             if len(source.faces):
-                _, _, rest, faces = source.posed(source.full)
+                at_rest = np.asarray(self.rig.relief.parts[i].vertices, float)
+                _, _, rest, faces = source.posed(at_rest)
             else:
                 rest, faces = np.zeros((0, 2)), np.zeros((0, 3), np.int64)
             out.append(DrawnMesh(name=self.rig.relief.parts[i].name, faces=faces,
@@ -596,7 +597,6 @@ class _PartSource:
         first, _, _, self.faces = front_mesh(part)
         self.vertex = first
         v = np.asarray(part.vertices, float)
-        self.full = v
         self.home = v[first, :2]
         self.rest = (v[:, :2] if part.texcoords is None else
                      np.asarray(part.texcoords, float))[first]
